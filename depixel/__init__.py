@@ -1,0 +1,28 @@
+"""depixel: turn pixel art into smooth, resolution-independent SVG.
+
+Implements Kopf & Lischinski, "Depixelizing Pixel Art" (SIGGRAPH 2011). The pipeline is
+in :mod:`depixel.pipeline`; each stage has its own module.
+"""
+from __future__ import annotations
+
+__version__ = "0.1.0"
+
+from .errors import DepixelError, InputError, OutputError, RenderError
+from .image import load_image
+from .params import Params
+from .pipeline import STAGES, Result, depixelize
+from .svg import to_svg
+
+__all__ = [
+    "__version__",
+    "DepixelError",
+    "InputError",
+    "OutputError",
+    "RenderError",
+    "Params",
+    "STAGES",
+    "Result",
+    "depixelize",
+    "load_image",
+    "to_svg",
+]

@@ -1,0 +1,141 @@
+"""Stage 3 — paper §3.2 (end) — planar similarity graph → reshaped cell graph.
+
+The simplified generalized Voronoi diagram of the resolved similarity graph, built directly
+from local templates (docs/cells.md has the drawings). Coordinates are integers in
+quarter-pixel units, ``(x, y)`` with y down: pixel ``(r, c)`` is the square
+``[4c, 4c+4] × [4r, 4r+4]`` and its centre is ``(4c+2, 4r+2)``.
+
+Every lattice point P (a corner shared by up to four pixels) has at most one diagonal link
+after crossing resolution, so its template is one of three:
+
+* no diagonal: one node at P, where the pixel edges meet;
+* "\\" link (top-left — bottom-right): two nodes, A = P + (-1, +1) towards the bottom-left
+  pixel and B = P + (+1, -1) towards the top-right one; A—B is the edge the two linked
+  pixels now share, and the unlinked pixels lose their corner to it;
+* "/" link (top-right — bottom-left): C = P + (-1, -1) and D = P + (+1, +1) likewise.
+
+Each pixel edge of the square lattice becomes one straight cell edge between the template
+nodes at its two ends (the exact Voronoi diagram's valence-2 nodes are collapsed by
+construction); the links' shared edges are added. No other valence-2 node arises except at
+the four image corners, which stay as the image's corners. Every edge knows the pixel on
+its left and on its right as seen on screen when walking from ``u`` to ``v`` (-1 outside).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .crossings import CrossingResolution
+from .loops import trace_loops
+from .similarity import SimilarityGraph
+
+# edge kinds
+HORIZONTAL, VERTICAL, DIAGONAL = 0, 1, 2
+
+
+@dataclass(frozen=True, eq=False)
+class CellGraph:
+    """Reshaped pixel cells: nodes, edges with the pixel on each side, and cell polygons."""
+
+    graph: SimilarityGraph  # the resolved (planar) similarity graph it was built from
+    nodes: np.ndarray  # (N, 2) int64, (x, y) in quarter pixels
+    edges: np.ndarray  # (E, 2) int64 node indices (u, v)
+    edge_pixels: np.ndarray  # (E, 2) int64 flat pixel index on the (left, right) of u→v; -1 outside
+    edge_kind: np.ndarray  # (E,) uint8: HORIZONTAL, VERTICAL or DIAGONAL
+    cell_ptr: np.ndarray  # (H*W + 1,) int64: cell p is cell_nodes[cell_ptr[p]:cell_ptr[p+1]]
+    cell_nodes: np.ndarray  # node indices of every cell polygon, clockwise on screen
+    cell_edges: np.ndarray  # matching edge indices: cell_edges[k] joins cell_nodes[k] to the next node
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.graph.shape
+
+    def cell_polygon(self, pixel: int) -> np.ndarray:
+        """``(k, 2)`` node coordinates (quarter pixels) of one cell, clockwise on screen."""
+        return self.nodes[self.cell_nodes[self.cell_ptr[pixel] : self.cell_ptr[pixel + 1]]]
+
+    def cell_areas(self) -> np.ndarray:
+        """Area of every cell in square pixels (shoelace on quarter units / 16)."""
+        pts = self.nodes[self.cell_nodes].astype(np.float64)
+        owner = np.repeat(np.arange(self.cell_ptr.size - 1), np.diff(self.cell_ptr))
+        nxt = np.arange(pts.shape[0]) + 1
+        ends = self.cell_ptr[1:] - 1
+        nxt[ends] = self.cell_ptr[:-1]
+        cross = pts[:, 0] * pts[nxt, 1] - pts[nxt, 0] * pts[:, 1]
+        return np.bincount(owner, weights=cross, minlength=self.cell_ptr.size - 1) / 32.0
+
+
+def build_cell_graph(resolved: CrossingResolution | SimilarityGraph) -> CellGraph:
+    """Build the reshaped cell graph of a planar similarity graph."""
+    graph = resolved.graph if isinstance(resolved, CrossingResolution) else resolved
+    if np.any(graph.diag_main & graph.diag_anti):
+        raise ValueError("similarity graph still has crossing diagonals; resolve them first")
+    h, w = graph.shape
+    n_lattice = (h + 1) * (w + 1)
+    lattice = np.arange(n_lattice).reshape(h + 1, w + 1)
+
+    split_main = np.zeros((h + 1, w + 1), dtype=bool)
+    split_anti = np.zeros((h + 1, w + 1), dtype=bool)
+    split_main[1:-1, 1:-1] = graph.diag_main
+    split_anti[1:-1, 1:-1] = graph.diag_anti
+    split = split_main | split_anti
+    second = np.full((h + 1, w + 1), -1, dtype=np.int64)
+    second[split] = n_lattice + np.arange(int(split.sum()))
+
+    # node positions: slot 0 at every lattice point, slot 1 only where a link splits it
+    ii, jj = np.mgrid[0 : h + 1, 0 : w + 1]
+    base = np.stack([4 * jj, 4 * ii], axis=-1).astype(np.int64)
+    offset0 = np.zeros_like(base)
+    offset0[split_main] = (-1, 1)  # A, towards the bottom-left pixel
+    offset0[split_anti] = (-1, -1)  # C, towards the top-left pixel
+    offset1 = np.where(split_main[..., None], np.array([1, -1]), np.array([1, 1]))  # B or D
+    nodes = np.concatenate([(base + offset0).reshape(-1, 2), (base + offset1)[split]], axis=0)
+
+    # which template node each pixel edge ends at, per direction leaving the lattice point
+    up_end = np.where(split_main, second, lattice)  # between TL and TR: B for "\\", C for "/"
+    right_end = np.where(split, second, lattice)  # between TR and BR: B or D
+    down_end = np.where(split_anti, second, lattice)  # between BL and BR: A for "\\", D for "/"
+    left_end = lattice  # between TL and BL: A or C, always slot 0
+
+    pixel = np.full((h + 2, w + 2), -1, dtype=np.int64)
+    pixel[1:-1, 1:-1] = np.arange(h * w).reshape(h, w)
+
+    # horizontal edges (i, j) → (i, j+1): pixel above on the left, pixel below on the right
+    h_uv = np.stack([right_end[:, :-1].ravel(), left_end[:, 1:].ravel()], axis=1)
+    h_lr = np.stack([pixel[:-1, 1:-1].ravel(), pixel[1:, 1:-1].ravel()], axis=1)
+    # vertical edges (i, j) → (i+1, j): pixel to the east on the left, west on the right
+    v_uv = np.stack([down_end[:-1, :].ravel(), up_end[1:, :].ravel()], axis=1)
+    v_lr = np.stack([pixel[1:-1, 1:].ravel(), pixel[1:-1, :-1].ravel()], axis=1)
+    # link edges: "\\" A → B with top-left on the left; "/" C → D with top-right on the left
+    d_uv = np.stack([lattice[split], second[split]], axis=1)
+    si, sj = np.nonzero(split)
+    is_main = split_main[si, sj]
+    d_left = np.where(is_main, pixel[si, sj], pixel[si, sj + 1])
+    d_right = np.where(is_main, pixel[si + 1, sj + 1], pixel[si + 1, sj])
+    d_lr = np.stack([d_left, d_right], axis=1)
+
+    edges = np.concatenate([h_uv, v_uv, d_uv], axis=0)
+    edge_pixels = np.concatenate([h_lr, v_lr, d_lr], axis=0)
+    edge_kind = np.concatenate([
+        np.full(len(h_uv), HORIZONTAL, np.uint8),
+        np.full(len(v_uv), VERTICAL, np.uint8),
+        np.full(len(d_uv), DIAGONAL, np.uint8),
+    ])
+    cell_ptr, cell_nodes, cell_edges = _cell_polygons(edges, edge_pixels, h * w)
+    return CellGraph(graph, nodes, edges, edge_pixels, edge_kind, cell_ptr, cell_nodes, cell_edges)
+
+
+def _cell_polygons(edges: np.ndarray, edge_pixels: np.ndarray, n_cells: int):
+    """Trace each cell's boundary with the cell on the right (clockwise on screen)."""
+    left, right = edge_pixels[:, 0], edge_pixels[:, 1]
+    e = np.arange(len(edges))
+    on_right, on_left = right >= 0, left >= 0
+    owner = np.concatenate([right[on_right], left[on_left]])
+    u = np.concatenate([edges[on_right, 0], edges[on_left, 1]])
+    v = np.concatenate([edges[on_right, 1], edges[on_left, 0]])
+    edge_of = np.concatenate([e[on_right], e[on_left]])
+    loops = trace_loops(owner, u, v)
+    if len(loops) != n_cells or not np.array_equal(loops.owner, np.arange(n_cells)):
+        raise AssertionError("every cell must have exactly one boundary loop")
+    return loops.ptr, u[loops.halfedges], edge_of[loops.halfedges]

@@ -1,0 +1,167 @@
+"""Stage 2 — paper §3.2 — similarity graph → planar similarity graph (crossings resolved).
+
+A 2×2 block whose two diagonals are both linked is a crossing. If the block is fully
+connected (all four sides too) it lies inside a flat region and both diagonals go. Every
+other crossing — including the non-transitive ones with some but not all sides — is decided
+by three votes, each signed towards the diagonal it supports:
+
+* curves: the diagonal on the longer curve (chain of valence-2 pixels) wins the difference
+  of the lengths;
+* sparse pixels: in an 8×8 window around the block, the diagonal whose connected component
+  is smaller wins the difference of the component sizes;
+* islands: a diagonal with a valence-1 end (cutting it would strand a pixel) gets 5.
+
+The diagonal with the larger total stays, a tie removes both. All votes are computed on the
+graph after the flat blocks are cleared and before any ambiguous crossing is decided, so the
+result does not depend on the order of the blocks.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from .params import Params
+from .similarity import SimilarityGraph
+
+
+@dataclass(frozen=True, eq=False)
+class CrossingResolution:
+    """The planar graph plus what was decided where (for tests and stage pictures)."""
+
+    graph: SimilarityGraph  # resolved: at most one diagonal per 2×2 block
+    flat: np.ndarray  # (H-1, W-1) bool: fully connected block, both diagonals removed
+    ambiguous: np.ndarray  # (H-1, W-1) bool: crossing decided by the heuristics
+    curve_vote: np.ndarray  # (H-1, W-1) float: + favours diag_main, - favours diag_anti
+    sparse_vote: np.ndarray  # (H-1, W-1) float, same sign convention
+    island_vote: np.ndarray  # (H-1, W-1) float, same sign convention
+
+    @property
+    def total_vote(self) -> np.ndarray:
+        return self.curve_vote + self.sparse_vote + self.island_vote
+
+
+def resolve_crossings(graph: SimilarityGraph, params: Params = Params()) -> CrossingResolution:
+    """Remove crossing diagonals so that the similarity graph becomes planar."""
+    h, w = graph.shape
+    crossing = graph.diag_main & graph.diag_anti
+    sides = graph.right[:-1, :] & graph.right[1:, :] & graph.down[:, :-1] & graph.down[:, 1:]
+    flat = crossing & sides
+    ambiguous = crossing & ~sides
+    cleared = graph.with_diagonals(graph.diag_main & ~flat, graph.diag_anti & ~flat)
+
+    zeros = np.zeros((max(h - 1, 0), max(w - 1, 0)), dtype=np.float64)
+    curve_vote, sparse_vote, island_vote = zeros.copy(), zeros.copy(), zeros.copy()
+    rows, cols = np.nonzero(ambiguous)
+    if rows.size:
+        degree = cleared.degree().ravel()
+        main_a, main_b = rows * w + cols, (rows + 1) * w + cols + 1
+        anti_a, anti_b = rows * w + cols + 1, (rows + 1) * w + cols
+
+        lengths = _curve_lengths(cleared, degree)
+        main_len = _curve_length_of_edge(main_a, main_b, degree, lengths)
+        anti_len = _curve_length_of_edge(anti_a, anti_b, degree, lengths)
+        curve_vote[rows, cols] = params.curve_weight * (main_len - anti_len)
+
+        main_size, anti_size = _window_component_sizes(cleared, rows, cols, params.sparse_window)
+        sparse_vote[rows, cols] = params.sparse_weight * (anti_size - main_size)
+
+        main_island = (degree[main_a] == 1) | (degree[main_b] == 1)
+        anti_island = (degree[anti_a] == 1) | (degree[anti_b] == 1)
+        island_vote[rows, cols] = params.island_weight * (
+            main_island.astype(np.float64) - anti_island.astype(np.float64)
+        )
+
+    total = curve_vote + sparse_vote + island_vote
+    keep_main = cleared.diag_main & ~(ambiguous & (total <= 0))
+    keep_anti = cleared.diag_anti & ~(ambiguous & (total >= 0))
+    return CrossingResolution(
+        graph=graph.with_diagonals(keep_main, keep_anti),
+        flat=flat,
+        ambiguous=ambiguous,
+        curve_vote=curve_vote,
+        sparse_vote=sparse_vote,
+        island_vote=island_vote,
+    )
+
+
+def _curve_lengths(graph: SimilarityGraph, degree: np.ndarray) -> np.ndarray:
+    """Per pixel of valence 2: the number of edges of the curve through it (else 0).
+
+    A curve is a maximal chain of valence-2 pixels plus the edges that leave it. For a
+    component of k valence-2 pixels with e_in edges among them, the curve has 2k - e_in
+    edges: k + 1 for an open chain, k for a closed loop.
+    """
+    n = degree.size
+    edges = graph.edge_list()
+    two = degree == 2
+    inner = edges[two[edges[:, 0]] & two[edges[:, 1]]]
+    adjacency = coo_matrix((np.ones(len(inner)), (inner[:, 0], inner[:, 1])), shape=(n, n))
+    _, label = connected_components(adjacency, directed=False)
+    k = np.bincount(label, weights=two.astype(np.float64), minlength=n)
+    e_in = np.bincount(label[inner[:, 0]], minlength=n).astype(np.float64)
+    return np.where(two, (2 * k - e_in)[label], 0.0)
+
+
+def _curve_length_of_edge(a: np.ndarray, b: np.ndarray, degree: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """Length of the curve the edge a—b lies on: 1 when neither end has valence 2."""
+    return np.maximum(np.maximum(lengths[a], lengths[b]), 1.0)
+
+
+def _window_component_sizes(graph: SimilarityGraph, rows: np.ndarray, cols: np.ndarray,
+                            window: int) -> tuple[np.ndarray, np.ndarray]:
+    """Sizes of the components holding each diagonal, within a window around each block.
+
+    All windows are labelled at once by min-label propagation on a ``(K, window, window)``
+    batch: each pass takes the smallest label over the linked neighbours, until stable.
+    """
+    h, w = graph.shape
+    before = window // 2 - 1  # window rows/cols before the block's top-left pixel (3 for 8)
+    pad = window
+    # Pad every link array so that window offsets never fall outside.
+    right = np.pad(graph.right, ((pad, pad), (pad, pad + 1)))
+    down = np.pad(graph.down, ((pad, pad + 1), (pad, pad)))
+    main = np.pad(graph.diag_main, ((pad, pad + 1), (pad, pad + 1)))
+    anti = np.pad(graph.diag_anti, ((pad, pad + 1), (pad, pad + 1)))
+    offs = np.arange(window) - before
+    wr = (rows[:, None] + offs[None, :] + pad)[:, :, None]  # (K, window, 1)
+    wc = (cols[:, None] + offs[None, :] + pad)[:, None, :]  # (K, 1, window)
+    inside_r = (rows[:, None] + offs[None, :] >= 0) & (rows[:, None] + offs[None, :] < h)
+    inside_c = (cols[:, None] + offs[None, :] >= 0) & (cols[:, None] + offs[None, :] < w)
+    inside = inside_r[:, :, None] & inside_c[:, None, :]
+
+    # links inside the window only (both ends within the window)
+    link_right = right[wr, wc][:, :, :-1]
+    link_down = down[wr, wc][:, :-1, :]
+    link_main = main[wr, wc][:, :-1, :-1]
+    link_anti = anti[wr, wc][:, :-1, :-1]
+
+    k = rows.size
+    big = window * window
+    label = np.where(inside, np.arange(big).reshape(1, window, window), big).astype(np.int64)
+    label = np.broadcast_to(label, (k, window, window)).copy()
+    for _ in range(big):
+        new = label.copy()
+        _pull(new, label, link_right, (slice(None), slice(None), slice(None, -1)), (slice(None), slice(None), slice(1, None)))
+        _pull(new, label, link_down, (slice(None), slice(None, -1), slice(None)), (slice(None), slice(1, None), slice(None)))
+        _pull(new, label, link_main, (slice(None), slice(None, -1), slice(None, -1)), (slice(None), slice(1, None), slice(1, None)))
+        _pull(new, label, link_anti, (slice(None), slice(None, -1), slice(1, None)), (slice(None), slice(1, None), slice(None, -1)))
+        if np.array_equal(new, label):
+            break
+        label = new
+    flat = label.reshape(k, big)
+    main_label = label[:, before, before]
+    anti_label = label[:, before, before + 1]
+    main_size = (flat == main_label[:, None]).sum(axis=1).astype(np.float64)
+    anti_size = (flat == anti_label[:, None]).sum(axis=1).astype(np.float64)
+    return main_size, anti_size
+
+
+def _pull(new: np.ndarray, label: np.ndarray, link: np.ndarray, sl_a: tuple, sl_b: tuple) -> None:
+    """For linked pairs (a, b), lower both labels to the minimum of the two, in place."""
+    a, b = label[sl_a], label[sl_b]
+    m = np.where(link, np.minimum(a, b), np.iinfo(np.int64).max)
+    np.minimum(new[sl_a], m, out=new[sl_a])
+    np.minimum(new[sl_b], m, out=new[sl_b])

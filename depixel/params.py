@@ -1,0 +1,47 @@
+"""The tuning parameters of the pipeline, named as in the paper.
+
+Every constant carries its source: "paper" (Kopf & Lischinski 2011, with the section),
+"hqx" (the YUV test the paper borrows), or "not in paper" with the reason it was chosen.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, fields, replace
+
+
+@dataclass(frozen=True)
+class Params:
+    """Constants of the depixelization pipeline (all colour values on a 0-255 scale)."""
+
+    # --- §3.2 similarity graph -------------------------------------------------------------
+    threshold_y: float = 48.0  # paper §3.2 / hqx: dissimilar when |ΔY| > 48/255
+    threshold_u: float = 7.0  # paper §3.2 / hqx: dissimilar when |ΔU| > 7/255
+    threshold_v: float = 6.0  # paper §3.2 / hqx: dissimilar when |ΔV| > 6/255
+    threshold_alpha: float = 48.0  # not in paper: two visible pixels whose alpha differs by more are dissimilar
+
+    # --- §3.2 crossing resolution heuristics ----------------------------------------------
+    curve_weight: float = 1.0  # paper §3.2 "curves": vote = difference of curve lengths (× this factor)
+    sparse_weight: float = 1.0  # paper §3.2 "sparse pixels": vote = difference of component sizes (× this)
+    sparse_window: int = 8  # paper §3.2: component sizes are measured in an 8×8 window around the block
+    island_weight: float = 5.0  # paper §3.2 "islands": fixed vote, empirically 5
+
+    # --- §3.3 spline extraction -----------------------------------------------------------
+    shading_distance: float = 100.0  # paper §3.3: a visible edge is a shading edge if YUV distance ≤ 100/255
+
+    # --- §3.4 optimization ----------------------------------------------------------------
+    optimize: bool = True  # paper §3.4: relax the spline nodes (False gives the splines stage)
+    iterations: int = 20  # not in paper ("at each iteration"): 20 sweeps reach a plateau on the corpus
+    candidates: int = 8  # not in paper ("several random offsets"): trial positions per node and sweep
+    radius: float = 0.125  # not in paper ("a small radius"): trial offsets within 1/8 pixel
+    seed: int = 0  # not in paper: all randomness comes from numpy's PCG64 seeded with this
+    corner_patterns: bool = True  # paper §3.4 / Figure 7: keep detected corners out of the smoothness term
+
+    # --- output ---------------------------------------------------------------------------
+    precision: int = 3  # not in paper: decimals of SVG coordinates, so the text is byte-stable
+
+    def replace(self, **changes: object) -> "Params":
+        """A copy with some fields changed (unknown names raise TypeError)."""
+        return replace(self, **changes)
+
+    @classmethod
+    def names(cls) -> list[str]:
+        return [f.name for f in fields(cls)]

@@ -1,0 +1,109 @@
+"""The vector image every drawing stage produces, and its faces.
+
+A :class:`VectorImage` is the reshaped cell graph's topology with final geometry: a display
+position per node and, per edge, either a straight segment or a curve written as two
+quadratic Béziers. All shapes that use an edge draw exactly this geometry, so abutting
+shapes never leave a geometric gap.
+
+Faces are what the SVG draws: maximal groups of cells of identical RGBA that are joined
+through shared edges of linked pixels. A region (paper §3.3) is a group of cells joined by
+invisible edges; it holds one or more faces (per-cell flat colours approximate the paper's
+smooth shading, as the design card says).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from .cells import DIAGONAL, CellGraph
+
+
+@dataclass(frozen=True, eq=False)
+class VectorImage:
+    """Final geometry of a depixelized image (coordinates in input pixels, y down)."""
+
+    cells: CellGraph  # topology: nodes, edges, pixels on each side, cell polygons
+    points: np.ndarray  # (N, 2) float64 display position of every node, in pixels
+    curved: np.ndarray  # (E,) bool: edge drawn as a curve rather than a straight segment
+    controls: np.ndarray  # (E, 3, 2) float64: points[u] Q c0 c1 Q c2 points[v], for curved edges
+    stage: str  # "cells", "splines" or "optimized"
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.cells.shape
+
+    @property
+    def rgba(self) -> np.ndarray:
+        return self.cells.graph.rgba
+
+
+def straight_image(cells: CellGraph, stage: str = "cells") -> VectorImage:
+    """The cell graph as drawn: every edge straight, nodes at their quarter-pixel places."""
+    n_edges = len(cells.edges)
+    return VectorImage(
+        cells=cells,
+        points=cells.nodes.astype(np.float64) / 4.0,
+        curved=np.zeros(n_edges, dtype=bool),
+        controls=np.zeros((n_edges, 3, 2), dtype=np.float64),
+        stage=stage,
+    )
+
+
+def linked_edges(cells: CellGraph) -> np.ndarray:
+    """(E,) bool: the edge lies between two pixels linked in the resolved similarity graph.
+
+    Diagonal edges exist only between linked pixels; a pixel edge is linked exactly when the
+    two 4-neighbours are similar. These are the invisible edges of paper §3.3.
+    """
+    g = cells.graph
+    h, w = g.shape
+    left, right = cells.edge_pixels[:, 0], cells.edge_pixels[:, 1]
+    inside = (left >= 0) & (right >= 0)
+    a, b = np.minimum(left, right), np.maximum(left, right)
+    linked = np.zeros(len(left), dtype=bool)
+    same_row = inside & (b - a == 1)
+    vertical_pair = inside & (b - a == w) & (cells.edge_kind != DIAGONAL)
+    ra, ca = np.divmod(np.where(inside, a, 0), w)
+    linked[same_row] = g.right[ra[same_row], ca[same_row]]
+    linked[vertical_pair] = g.down[ra[vertical_pair], ca[vertical_pair]]
+    linked[inside & (cells.edge_kind == DIAGONAL)] = True
+    return linked
+
+
+def label_components(n: int, pairs: np.ndarray) -> np.ndarray:
+    """Connected-component labels of n items joined by ``(M, 2)`` pairs, numbered in order
+    of each component's smallest item (so labels are stable, scanline order)."""
+    if n == 0:
+        return np.zeros(0, np.int64)
+    adjacency = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, raw = connected_components(adjacency, directed=False)
+    first = np.full(raw.max() + 1, n, dtype=np.int64)
+    np.minimum.at(first, raw, np.arange(n))
+    rank = np.empty_like(first)
+    rank[np.argsort(first, kind="stable")] = np.arange(first.size)
+    return rank[raw]
+
+
+def regions(cells: CellGraph) -> np.ndarray:
+    """(H*W,) region label per pixel: components of cells joined by invisible edges."""
+    linked = linked_edges(cells)
+    return label_components(cells.shape[0] * cells.shape[1], cells.edge_pixels[linked])
+
+
+def faces(cells: CellGraph, per_cell: bool = False) -> np.ndarray:
+    """(H*W,) face label per pixel: linked cells of identical RGBA (or one face per cell)."""
+    n = cells.shape[0] * cells.shape[1]
+    if per_cell:
+        return np.arange(n, dtype=np.int64)
+    key = _colour_key(cells.graph.rgba).ravel()
+    left, right = cells.edge_pixels[:, 0], cells.edge_pixels[:, 1]
+    same = linked_edges(cells) & (key[np.maximum(left, 0)] == key[np.maximum(right, 0)])
+    return label_components(n, cells.edge_pixels[same])
+
+
+def _colour_key(rgba: np.ndarray) -> np.ndarray:
+    q = rgba.astype(np.int64)
+    return (q[..., 0] << 24) | (q[..., 1] << 16) | (q[..., 2] << 8) | q[..., 3]
