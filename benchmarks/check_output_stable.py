@@ -1,0 +1,84 @@
+"""Guard for performance work: the SVG of every corpus image must stay byte-identical.
+
+Records (``--record``) or compares the SHA-256 of ``to_svg(depixelize(img, stage=S).vector)``
+for the bundled fixtures, the paper corpus, the game frames and a few crops of the frames
+(crops put dense content against the image border). Hashes live in
+``benchmarks/output_hashes.json``, one table per stage, so an optimization can be checked
+against the output it started from::
+
+    python benchmarks/check_output_stable.py --stage cells --record   # before optimizing
+    python benchmarks/check_output_stable.py --stage cells            # after: exit 1 on any change
+
+Images under ``../shared`` are skipped (with a note) when that folder is absent.
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+import depixel
+from depixel import Params, depixelize, load_image, to_svg
+
+ROOT = Path(__file__).resolve().parents[1]
+HASHES = ROOT / "benchmarks" / "output_hashes.json"
+DEFAULT_CORPUS = ROOT.parent / "shared" / "corpus"
+#: (top, left, height, width) crops of every frame: two corners and the middle
+CROPS = ((0, 0, 32, 32), (100, 60, 64, 64), (96, 128, 128, 128))
+
+
+def inputs(corpus: Path) -> dict[str, np.ndarray]:
+    """Name → RGBA array of every image the check covers, in a fixed order."""
+    images: dict[str, np.ndarray] = {}
+    for path in sorted((ROOT / "fixtures").glob("*.png")):
+        images[f"fixtures/{path.name}"] = load_image(path)
+    for path in sorted((corpus / "paper").glob("*.png")):
+        images[f"paper/{path.name}"] = load_image(path)
+    for path in sorted((corpus / "frames").glob("*.png")):
+        frame = load_image(path)
+        images[f"frames/{path.name}"] = frame
+        for top, left, h, w in CROPS:
+            images[f"frames/{path.name}[{top}:{top + h},{left}:{left + w}]"] = frame[top : top + h, left : left + w]
+    return images
+
+
+def svg_hash(rgba: np.ndarray, stage: str) -> str:
+    svg = to_svg(depixelize(rgba, Params(), stage=stage).vector)
+    return hashlib.sha256(svg.encode("utf-8")).hexdigest()
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--stage", choices=depixel.STAGES, default="cells")
+    parser.add_argument("--record", action="store_true", help="store the current hashes instead of comparing")
+    parser.add_argument("--corpus", type=Path, default=DEFAULT_CORPUS, help="folder with paper/ and frames/")
+    args = parser.parse_args(argv)
+    if not args.corpus.is_dir():
+        print(f"note: {args.corpus} not found; checking the fixtures only", file=sys.stderr)
+
+    current = {name: svg_hash(rgba, args.stage) for name, rgba in inputs(args.corpus).items()}
+    table = json.loads(HASHES.read_text()) if HASHES.exists() else {}
+    if args.record:
+        table[args.stage] = current
+        HASHES.write_text(json.dumps(table, indent=1, sort_keys=True) + "\n")
+        print(f"recorded {len(current)} hashes for stage {args.stage} in {HASHES.relative_to(ROOT)}")
+        return 0
+    stored = table.get(args.stage)
+    if stored is None:
+        print(f"no hashes stored for stage {args.stage}; run with --record first", file=sys.stderr)
+        return 2
+    changed = sorted(name for name in current if name in stored and stored[name] != current[name])
+    missing = sorted(set(stored) - set(current))
+    for name in changed:
+        print(f"CHANGED {name}")
+    print(f"{len(current) - len(changed)} of {len(current)} outputs unchanged at stage {args.stage}"
+          + (f" ({len(missing)} stored images not found)" if missing else ""))
+    return 1 if changed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
