@@ -180,8 +180,8 @@ def _face_paths(image: VectorImage, labels: np.ndarray, rank: np.ndarray, face_a
 
     point_text, half_text = _half_edge_strings(image, precision)
     code = np.choose(part, [
-        4 * edge_of + np.where(cells.edges[edge_of, 1] == hv, 1, 2),  # second half, forward / backward
-        4 * edge_of + np.where(cells.edges[edge_of, 0] == hu, 0, 3),  # first half, forward / backward
+        4 * edge_of + np.where(cells.edges[edge_of, 1] == hv, 1, 3),  # second half, forward / backward
+        4 * edge_of + np.where(cells.edges[edge_of, 0] == hu, 0, 2),  # first half, forward / backward
         -1, -1,
     ])
     code_list, hu_list, hv_list = code.tolist(), hu.tolist(), hv.tolist()

@@ -1,0 +1,286 @@
+"""Stage 4 — paper §3.3 — reshaped cell graph → quadratic B-spline curves.
+
+Visible edges separate dissimilar pixels (also a visible pixel from a fully transparent
+one); the image border is never visible and stays straight. At every node the visible
+edges are paired:
+
+* visible valence 2: the two edges continue each other;
+* valence 3 (T-junction): with exactly one shading edge (YUV distance ≤ 100) and two contour
+  edges, the contour edges continue each other; otherwise the pair whose angle is closest
+  to 180°; the third curve ends on the continuing one;
+* valence 1 or ≥ 4: every curve ends there.
+
+Chains of paired edges are curves: open (clamped, from end node to end node) or closed
+(periodic). A curve's control points are its node positions. It is drawn as TrueType-style
+quadratic segments: segment i has off-curve point C_i and on-curve ends at the midpoints of
+C_{i-1}C_i and C_iC_{i+1} (or at the clamped end points). Each cell-graph edge gets the
+part of the curve between the curve points of its two nodes — S_i, the middle (t = ½) of
+segment i — written as two quadratic Béziers, which is exact (de Casteljau split).
+
+A curve that ends at a T-junction gets that end's control point moved to the point S of
+the continuing curve, so the two meet exactly (§3.3, last paragraph). Because S itself
+depends on neighbouring control points, the snapping is iterated a fixed number of times.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .cells import CellGraph
+from .params import Params
+from .vector import VectorImage, linked_edges
+
+#: passes of T-junction snapping; each pass shrinks the residual gap at least 4×
+SNAP_PASSES = 6
+
+
+@dataclass(frozen=True, eq=False)
+class SplineSet:
+    """Curves over the cell graph and the initial control points (pixel units)."""
+
+    cells: CellGraph
+    visible: np.ndarray  # (E,) bool: edge separates dissimilar pixels
+    shading: np.ndarray  # (E,) bool: visible edge between colours within shading_distance
+    curve_ptr: np.ndarray  # (C+1,) int64: curve c owns positions curve_ptr[c]:curve_ptr[c+1]
+    curve_nodes: np.ndarray  # (P,) node at each position (an open curve lists both end nodes)
+    curve_closed: np.ndarray  # (C,) bool
+    seg_edges: np.ndarray  # (P,) edge from position j to j+1 (wrapping for closed); -1 after an open end
+    seg_forward: np.ndarray  # (P,) bool: that edge is stored u→v in the direction of the curve
+    positions: np.ndarray  # (N, 2) float64 initial node positions (quarter-pixel grid, in pixels)
+
+    # --- derived layout helpers (all (P,) arrays) -----------------------------------------
+    @property
+    def n_curves(self) -> int:
+        return int(self.curve_closed.size)
+
+    def position_curve(self) -> np.ndarray:
+        return np.repeat(np.arange(self.n_curves), np.diff(self.curve_ptr))
+
+    def neighbours(self) -> tuple[np.ndarray, np.ndarray]:
+        """Previous and next position of every position along its curve (-1 past an open end)."""
+        p = np.arange(self.curve_nodes.size)
+        curve = self.position_curve()
+        first, last = self.curve_ptr[:-1][curve], self.curve_ptr[1:][curve] - 1
+        closed = self.curve_closed[curve]
+        prev = np.where(p == first, np.where(closed, last, -1), p - 1)
+        nxt = np.where(p == last, np.where(closed, first, -1), p + 1)
+        return prev, nxt
+
+    def is_end(self) -> np.ndarray:
+        """(P,) bool: position is an open curve's end point (clamped, interpolated)."""
+        prev, nxt = self.neighbours()
+        return (prev < 0) | (nxt < 0)
+
+    def through_nodes(self) -> np.ndarray:
+        """(N,) bool: node lies inside a curve (the curve passes smoothly through it)."""
+        mask = np.zeros(len(self.positions), dtype=bool)
+        mask[self.curve_nodes[~self.is_end()]] = True
+        return mask
+
+    # --- geometry -------------------------------------------------------------------------
+    def controls_for(self, positions: np.ndarray) -> np.ndarray:
+        """(P, 2) control point of every position, with T-junction ends snapped."""
+        end = self.is_end()
+        through = self.through_nodes()
+        snapped = end & through[self.curve_nodes]
+        ctrl = positions[self.curve_nodes].copy()
+        if snapped.any():
+            for _ in range(SNAP_PASSES):
+                display = self._display(ctrl, positions)
+                ctrl[snapped] = display[self.curve_nodes[snapped]]
+        return ctrl
+
+    def _curve_points(self, ctrl: np.ndarray) -> np.ndarray:
+        """(P, 2) S_j: the point of the curve belonging to each position."""
+        prev, nxt = self.neighbours()
+        end = (prev < 0) | (nxt < 0)
+        p_prev, p_next = np.maximum(prev, 0), np.maximum(nxt, 0)
+        prev_end = end[p_prev]
+        next_end = end[p_next]
+        start = np.where(prev_end[:, None], ctrl[p_prev], (ctrl[p_prev] + ctrl) / 2.0)
+        stop = np.where(next_end[:, None], ctrl[p_next], (ctrl[p_next] + ctrl) / 2.0)
+        s = (start + 2.0 * ctrl + stop) / 4.0
+        return np.where(end[:, None], ctrl, s)
+
+    def _display(self, ctrl: np.ndarray, positions: np.ndarray) -> np.ndarray:
+        display = positions.copy()
+        s = self._curve_points(ctrl)
+        end = self.is_end()
+        display[self.curve_nodes[~end]] = s[~end]
+        return display
+
+    def geometry(self, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Display points (N, 2), curved flags (E,) and Bézier controls (E, 3, 2) for given
+        node positions — shared by the splines stage and the optimizer's result."""
+        ctrl = self.controls_for(positions)
+        display = self._display(ctrl, positions)
+        s = self._curve_points(ctrl)
+        n_edges = len(self.cells.edges)
+        curved = np.zeros(n_edges, dtype=bool)
+        controls = np.zeros((n_edges, 3, 2), dtype=np.float64)
+
+        _, nxt = self.neighbours()
+        end = self.is_end()
+        has = nxt >= 0
+        a = np.flatnonzero(has)
+        b = nxt[a]
+        a_end, b_end = end[a], end[b]
+        bend = ~(a_end & b_end)  # an edge between two end points is a straight segment
+        a, b, a_end, b_end = a[bend], b[bend], a_end[bend], b_end[bend]
+        ca, cb = ctrl[a], ctrl[b]
+        mid = (ca + cb) / 2.0
+        sa, sb = s[a], s[b]
+        # interior–interior: S_a, (C_a+m)/2, m, (m+C_b)/2, S_b; with an end, one Bézier
+        # (end, m, S) split at t = ½ into two
+        both = ~a_end & ~b_end
+        c0 = np.where(both[:, None], (ca + mid) / 2.0, 0.0)
+        c1 = np.where(both[:, None], mid, 0.0)
+        c2 = np.where(both[:, None], (mid + cb) / 2.0, 0.0)
+        one = ~both
+        start = np.where(a_end[:, None], ca, sa)
+        stop = np.where(b_end[:, None], cb, sb)
+        half0 = (start + mid) / 2.0
+        half_mid = (start + 2.0 * mid + stop) / 4.0
+        half1 = (mid + stop) / 2.0
+        c0 = np.where(one[:, None], half0, c0)
+        c1 = np.where(one[:, None], half_mid, c1)
+        c2 = np.where(one[:, None], half1, c2)
+        trio = np.stack([c0, c1, c2], axis=1)
+        edge = self.seg_edges[a]
+        forward = self.seg_forward[a]
+        trio = np.where(forward[:, None, None], trio, trio[:, ::-1])
+        curved[edge] = True
+        controls[edge] = trio
+        return display, curved, controls
+
+    def vector_image(self, positions: np.ndarray | None = None, stage: str = "splines") -> VectorImage:
+        points, curved, controls = self.geometry(self.positions if positions is None else positions)
+        return VectorImage(self.cells, points, curved, controls, stage)
+
+
+def visible_edges(cells: CellGraph) -> np.ndarray:
+    """(E,) bool: edges between two pixels that are not linked (dissimilar colours)."""
+    left, right = cells.edge_pixels[:, 0], cells.edge_pixels[:, 1]
+    return (left >= 0) & (right >= 0) & ~linked_edges(cells)
+
+
+def shading_edges(cells: CellGraph, visible: np.ndarray, params: Params) -> np.ndarray:
+    """(E,) bool: visible edges whose two colours are within ``shading_distance`` in YUV."""
+    g = cells.graph
+    yuv = g.yuv.reshape(-1, 3)
+    alpha = g.rgba.reshape(-1, 4)[:, 3]
+    left, right = np.maximum(cells.edge_pixels[:, 0], 0), np.maximum(cells.edge_pixels[:, 1], 0)
+    dist = np.linalg.norm(yuv[left] - yuv[right], axis=1)
+    clear_mismatch = (alpha[left] == 0) != (alpha[right] == 0)
+    return visible & (dist <= params.shading_distance) & ~clear_mismatch
+
+
+def extract_splines(cells: CellGraph, params: Params = Params()) -> SplineSet:
+    """Pair visible edges at nodes and chain them into curves."""
+    visible = visible_edges(cells)
+    shading = shading_edges(cells, visible, params)
+    vis = np.flatnonzero(visible)
+    # half-ends: 2k is the u-end of visible edge vis[k], 2k+1 its v-end
+    end_node = cells.edges[vis].ravel()
+    partner = _pair_ends(cells, vis, end_node, shading[vis])
+    curve_ptr, curve_nodes, closed, seg_edges, seg_forward = _chain(vis, end_node, partner)
+    return SplineSet(
+        cells=cells,
+        visible=visible,
+        shading=shading,
+        curve_ptr=curve_ptr,
+        curve_nodes=curve_nodes,
+        curve_closed=closed,
+        seg_edges=seg_edges,
+        seg_forward=seg_forward,
+        positions=cells.nodes.astype(np.float64) / 4.0,
+    )
+
+
+def _pair_ends(cells: CellGraph, vis: np.ndarray, end_node: np.ndarray, shading: np.ndarray) -> np.ndarray:
+    """partner[h]: the half-end continuing half-end h at its node, or -1 (curve ends)."""
+    n_half = end_node.size
+    partner = np.full(n_half, -1, dtype=np.int64)
+    order = np.argsort(end_node, kind="stable")
+    sorted_nodes = end_node[order]
+    starts = np.flatnonzero(np.r_[True, sorted_nodes[1:] != sorted_nodes[:-1]])
+    counts = np.diff(np.r_[starts, n_half])
+
+    two = starts[counts == 2]
+    partner[order[two]] = order[two + 1]
+    partner[order[two + 1]] = order[two]
+
+    three = starts[counts == 3]
+    if three.size:
+        h = np.stack([order[three], order[three + 1], order[three + 2]], axis=1)  # (T, 3)
+        node = end_node[h[:, 0]]
+        other = end_node[h ^ 1]  # the far node of each edge
+        direction = cells.nodes[other].astype(np.float64) - cells.nodes[node][:, None, :]
+        direction /= np.linalg.norm(direction, axis=2, keepdims=True)
+        pairs = np.array([(0, 1), (0, 2), (1, 2)])
+        cosine = np.einsum("tpk,tpk->tp", direction[:, pairs[:, 0]], direction[:, pairs[:, 1]])
+        is_shading = shading[h >> 1]  # (T, 3)
+        # contour-over-shading rule: exactly one shading edge → join the other two
+        one_shading = is_shading.sum(axis=1) == 1
+        lone = np.argmax(is_shading, axis=1)  # index of the shading edge
+        by_rule = 2 - lone  # the pair not containing `lone`: (1,2)→idx 2, (0,2)→1, (0,1)→0
+        straightest = np.argmin(cosine, axis=1)  # closest to 180° (first on ties)
+        choice = np.where(one_shading, by_rule, straightest)
+        i, j = pairs[choice, 0], pairs[choice, 1]
+        rows = np.arange(three.size)
+        a, b = h[rows, i], h[rows, j]
+        partner[a] = b
+        partner[b] = a
+    return partner
+
+
+def _chain(vis: np.ndarray, end_node: np.ndarray, partner: np.ndarray):
+    """Walk paired half-ends into curves (open ones first from their free ends, then loops)."""
+    n_vis = vis.size
+    used = np.zeros(n_vis, dtype=bool)
+    ptr = [0]
+    nodes: list[int] = []
+    edges: list[int] = []
+    forward: list[bool] = []
+    closed: list[bool] = []
+    partner_l = partner.tolist()
+    end_l = end_node.tolist()
+    vis_l = vis.tolist()
+
+    def walk(h: int) -> bool:
+        """Follow from half-end h (the start of an edge); return True if the walk closed."""
+        start_edge = h >> 1
+        while True:
+            k = h >> 1
+            used[k] = True
+            nodes.append(end_l[h])
+            edges.append(vis_l[k])
+            forward.append(h & 1 == 0)
+            far = h ^ 1
+            nxt = partner_l[far]
+            if nxt < 0:
+                nodes.append(end_l[far])
+                edges.append(-1)
+                forward.append(True)
+                return False
+            if nxt >> 1 == start_edge:
+                return True
+            h = nxt
+
+    free = [h for h in range(2 * n_vis) if partner_l[h] < 0]
+    for h in free:
+        if not used[h >> 1]:
+            closed.append(walk(h))
+            ptr.append(len(nodes))
+    for k in range(n_vis):
+        if not used[k]:
+            closed.append(walk(2 * k))
+            ptr.append(len(nodes))
+    return (
+        np.array(ptr, dtype=np.int64),
+        np.array(nodes, dtype=np.int64),
+        np.array(closed, dtype=bool),
+        np.array(edges, dtype=np.int64),
+        np.array(forward, dtype=bool),
+    )
