@@ -64,7 +64,7 @@ def linked_edges(cells: CellGraph) -> np.ndarray:
     inside = (left >= 0) & (right >= 0)
     a, b = np.minimum(left, right), np.maximum(left, right)
     linked = np.zeros(len(left), dtype=bool)
-    same_row = inside & (b - a == 1)
+    same_row = inside & (b - a == 1) & (b % w != 0) & (cells.edge_kind != DIAGONAL)  # not 1- or 2-wide wraps
     vertical_pair = inside & (b - a == w) & (cells.edge_kind != DIAGONAL)
     ra, ca = np.divmod(np.where(inside, a, 0), w)
     linked[same_row] = g.right[ra[same_row], ca[same_row]]
