@@ -5,6 +5,8 @@ it as is.
 """
 from __future__ import annotations
 
+import os
+
 
 class DepixelError(Exception):
     """Base class: a problem with the user's input or options, not a bug."""
@@ -20,3 +22,13 @@ class OutputError(DepixelError):
 
 class RenderError(DepixelError):
     """Rasterizing an SVG failed (cairo missing, SVG unreadable)."""
+
+
+def display_name(path: str | os.PathLike) -> str:
+    """A path as shown in a one-line message: control characters and undecodable bytes
+    (surrogate escapes) are written as Python escapes, so a hostile file name cannot break
+    the line or the terminal."""
+    text = os.fspath(path)
+    if isinstance(text, bytes):
+        text = os.fsdecode(text)
+    return text if text.isprintable() else ascii(text)[1:-1]

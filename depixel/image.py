@@ -11,16 +11,21 @@ from __future__ import annotations
 
 import io
 import os
+import stat
 import warnings
 from pathlib import Path
 from typing import BinaryIO, Union
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, display_name
 
 #: Default limit on width × height. Pixel art is small; a larger input is almost always a photo.
 DEFAULT_MAX_PIXELS = 1_048_576
+#: Files longer than this are refused before decoding (a 1024×1024 RGBA PNG is at most ~4 MiB).
+MAX_FILE_BYTES = 256 * 2**20
+#: Modes with more than 8 bits per grey sample, scaled by hand (Pillow's convert clips them).
+_WIDE_GREY = ("I;16", "I;16B", "I;16L", "I;16N", "I", "F")
 
 ImageSource = Union[str, os.PathLike, bytes, BinaryIO]
 
@@ -36,118 +41,171 @@ def rgb_to_yuv(rgb: np.ndarray) -> np.ndarray:
 
 def _describe(source: ImageSource) -> str:
     if isinstance(source, (str, os.PathLike)):
-        return str(source)
-    return "<stdin>" if not isinstance(source, bytes) else "<bytes>"
+        return display_name(source)
+    return "<bytes>" if isinstance(source, bytes) else "<stdin>"
 
 
 def load_image(source: ImageSource, max_pixels: int | None = DEFAULT_MAX_PIXELS, frame: int = 0) -> np.ndarray:
-    """Read an image into an ``(H, W, 4) uint8`` RGBA array, alpha kept.
+    """Read one frame of an image into an ``(H, W, 4) uint8`` RGBA array, alpha kept.
 
-    ``source`` is a path, raw file bytes or a binary file object. Palette, grayscale,
-    16-bit, CMYK and palette-with-transparency images are converted to RGBA. Raises
-    :class:`InputError` with a one-line message naming the file for anything unreadable.
+    ``source`` is a path, raw file bytes or a binary file object. Every Pillow mode is
+    accepted (docs/colour.md, "Input modes"): palette and grey images with a tRNS
+    transparency key keep it as alpha, 16-bit and 32-bit data are scaled to 8 bits.
+    The size is checked against ``max_pixels`` (``None``: only Pillow's decompression-bomb
+    guard) from the header, before any pixel is decoded. Anything unreadable raises
+    :class:`InputError` with a one-line message naming the file.
     """
-    from PIL import Image  # Pillow is imported lazily: `depixel --help` should stay fast
-
     name = _describe(source)
-    try:
-        if isinstance(source, (str, os.PathLike)):
-            path = Path(source)
-            if not path.exists():
-                raise InputError(f"{name}: no such file")
-            if path.is_dir():
-                raise InputError(f"{name}: is a directory, not an image")
-            try:
-                data = path.read_bytes()
-            except PermissionError:
-                raise InputError(f"{name}: permission denied") from None
-            except OSError as exc:
-                raise InputError(f"{name}: cannot read ({exc.strerror or exc})") from None
-        elif isinstance(source, bytes):
-            data = source
-        else:
-            data = source.read()
-        if not data:
-            raise InputError(f"{name}: empty file")
-        with warnings.catch_warnings():
-            warnings.simplefilter("error", Image.DecompressionBombWarning)
-            try:
-                img = Image.open(io.BytesIO(data))
-            except (Image.DecompressionBombError, Image.DecompressionBombWarning):
-                raise InputError(f"{name}: image is absurdly large (decompression bomb guard)") from None
-            except Exception:
-                raise InputError(f"{name}: not an image Pillow can read") from None
-            width, height = img.size
-            if width <= 0 or height <= 0:
-                raise InputError(f"{name}: image has zero size")
-            if max_pixels is not None and width * height > max_pixels:
-                raise InputError(
-                    f"{name}: {width}x{height} is {width * height} pixels, over the limit of "
-                    f"{max_pixels} (depixel is for pixel art; raise it with --max-pixels)"
-                )
-            try:
-                n_frames = getattr(img, "n_frames", 1)
-                if frame >= n_frames:
-                    raise InputError(f"{name}: has {n_frames} frame(s), no frame {frame}")
-                if frame:
-                    img.seek(frame)
-                img.load()
-                rgba = _to_rgba(img)
-            except InputError:
-                raise
-            except Exception:
-                raise InputError(f"{name}: truncated or corrupt image data") from None
-    except InputError:
-        raise
-    return rgba
+    if frame < 0:
+        raise InputError(f"{name}: frame must be 0 or more, not {frame}")
+    with _open(_read(source, name), name) as img:
+        width, height = img.size
+        if max_pixels is not None and width * height > max_pixels:
+            raise InputError(
+                f"{name}: {width}x{height} is {width * height} pixels, over the limit of "
+                f"{max_pixels} (depixel is for pixel art; raise it with --max-pixels)"
+            )
+        try:
+            n_frames = int(getattr(img, "n_frames", 1))
+            if frame >= n_frames:
+                raise InputError(f"{name}: has {n_frames} frame(s), no frame {frame}")
+            if frame:
+                img.seek(frame)
+            img.load()
+        except InputError:
+            raise
+        except MemoryError:
+            raise InputError(f"{name}: not enough memory to decode a {width}x{height} image") from None
+        except Exception:  # Pillow raises OSError, SyntaxError, ValueError, zlib.error, ...
+            raise InputError(f"{name}: truncated or corrupt image data") from None
+        return _to_rgba(img, name)
 
 
 def frame_count(source: ImageSource) -> int:
     """Number of frames in an (animated) image; 1 for still images."""
-    from PIL import Image
-
-    try:
-        data = Path(source).read_bytes() if isinstance(source, (str, os.PathLike)) else source
-        with Image.open(io.BytesIO(data)) as img:  # type: ignore[arg-type]
+    name = _describe(source)
+    with _open(_read(source, name), name) as img:
+        try:
             return int(getattr(img, "n_frames", 1))
-    except Exception:
-        raise InputError(f"{_describe(source)}: not an image Pillow can read") from None
+        except Exception:
+            raise InputError(f"{name}: truncated or corrupt image data") from None
 
 
-def _to_rgba(img) -> np.ndarray:
-    """Convert any Pillow mode to RGBA uint8, scaling 16-bit and 32-bit data to 8 bits."""
+def _read(source: ImageSource, name: str) -> bytes:
+    """All bytes of ``source``, refusing folders, devices and files over MAX_FILE_BYTES."""
+    try:
+        if isinstance(source, bytes):
+            data = source
+        elif isinstance(source, (str, os.PathLike)):
+            path = Path(source)
+            try:
+                mode = path.stat().st_mode
+            except FileNotFoundError:
+                raise InputError(f"{name}: no such file") from None
+            if stat.S_ISDIR(mode):
+                raise InputError(f"{name}: is a directory, not an image")
+            if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+                raise InputError(f"{name}: is a device, not an image file")
+            with path.open("rb") as fh:  # pipes (e.g. <(cat sprite.png)) are read like files
+                data = fh.read(MAX_FILE_BYTES + 1)
+        else:
+            data = source.read(MAX_FILE_BYTES + 1)
+    except InputError:
+        raise
+    except PermissionError:
+        raise InputError(f"{name}: permission denied") from None
+    except (OSError, ValueError) as exc:  # ValueError: a NUL byte in the path, a closed file
+        reason = getattr(exc, "strerror", None) or str(exc)
+        raise InputError(f"{name}: cannot read ({reason})") from None
+    if not isinstance(data, bytes):
+        raise InputError(f"{name}: not a binary file object")
+    if not data:
+        raise InputError(f"{name}: empty file")
+    if len(data) > MAX_FILE_BYTES:
+        raise InputError(f"{name}: file is over {MAX_FILE_BYTES // 2**20} MiB, too large for pixel art")
+    return data
+
+
+def _open(data: bytes, name: str):
+    """Pillow image over ``data`` (header read, pixels not yet decoded); use as a context."""
+    from PIL import Image  # Pillow is imported lazily: `depixel --help` should stay fast
+
+    with warnings.catch_warnings():
+        # Pillow warns above MAX_IMAGE_PIXELS and only raises at twice that; refuse both
+        warnings.simplefilter("error", Image.DecompressionBombWarning)
+        try:
+            img = Image.open(io.BytesIO(data))
+        except (Image.DecompressionBombError, Image.DecompressionBombWarning):
+            raise InputError(
+                f"{name}: header claims an absurd size, over {Image.MAX_IMAGE_PIXELS} pixels "
+                "(decompression bomb guard)"
+            ) from None
+        except Exception:  # UnidentifiedImageError, or a header Pillow chokes on
+            raise InputError(f"{name}: not an image (no format Pillow reads recognises it)") from None
+    width, height = img.size
+    if width <= 0 or height <= 0:
+        img.close()
+        raise InputError(f"{name}: image has zero size")
+    return img
+
+
+def _to_rgba(img, name: str = "<image>") -> np.ndarray:
+    """Convert any Pillow mode to RGBA uint8 (see docs/colour.md for the rules)."""
     mode = img.mode
-    if mode in ("I;16", "I;16B", "I;16L", "I;16N", "I"):
-        arr = np.asarray(img, dtype=np.float64)
-        top = 65535.0 if mode.startswith("I;16") or arr.max(initial=0) > 255 else 255.0
+    if mode in _WIDE_GREY:
+        raw = np.asarray(img)
+        arr = np.nan_to_num(raw.astype(np.float64), nan=0.0, posinf=0.0, neginf=0.0)
+        if mode == "F":
+            top = 1.0 if arr.max(initial=0) <= 1.0 else 255.0
+        else:
+            top = 65535.0 if mode.startswith("I;16") or arr.max(initial=0) > 255 else 255.0
         grey = np.clip(np.round(arr / top * 255.0), 0, 255).astype(np.uint8)
         alpha = np.full(grey.shape, 255, np.uint8)
-        return np.stack([grey, grey, grey, alpha], axis=-1)
-    if mode == "F":
-        arr = np.asarray(img, dtype=np.float64)
-        top = 1.0 if arr.max(initial=0) <= 1.0 else 255.0
-        grey = np.clip(np.round(arr / top * 255.0), 0, 255).astype(np.uint8)
-        alpha = np.full(grey.shape, 255, np.uint8)
+        key = img.info.get("transparency")
+        if isinstance(key, (int, float)) and not isinstance(key, bool):
+            alpha[raw == key] = 0  # a 16-bit grey PNG's tRNS key
         return np.stack([grey, grey, grey, alpha], axis=-1)
     if mode == "P" and "transparency" in img.info:
         img = img.convert("PA")
-    return np.ascontiguousarray(np.asarray(img.convert("RGBA"), dtype=np.uint8))
+    elif mode == "La":  # premultiplied; Pillow only converts it to LA
+        img = img.convert("LA")
+    try:
+        return np.ascontiguousarray(np.asarray(img.convert("RGBA"), dtype=np.uint8))
+    except ValueError:
+        raise InputError(f"{name}: image mode {mode} cannot be converted to RGBA") from None
 
 
 def as_rgba(image) -> np.ndarray:
-    """Accept an RGBA/RGB/grey numpy array or a PIL image; return ``(H, W, 4) uint8``."""
+    """Accept a numpy array or a PIL image; return ``(H, W, 4) uint8`` RGBA.
+
+    Arrays are ``(H, W)`` grey, ``(H, W, 2)`` grey + alpha, ``(H, W, 3)`` RGB or
+    ``(H, W, 4)`` RGBA. ``uint8`` is taken as is, ``uint16`` is scaled from 0-65535,
+    ``bool`` maps to 0/255, floats are on a 0-1 scale when none exceeds 1 (else 0-255, like
+    other integer types), and everything is clipped to 0-255 (NaN counts as 0).
+    """
     if hasattr(image, "mode") and hasattr(image, "size"):  # a PIL image
+        try:
+            image.load()
+        except Exception:
+            raise InputError("<image>: truncated or corrupt image data") from None
         return _to_rgba(image)
     arr = np.asarray(image)
     if arr.ndim == 2:
         arr = arr[..., None]
     if arr.ndim != 3 or arr.shape[2] not in (1, 2, 3, 4):
-        raise InputError(f"array of shape {arr.shape}: expected (H, W), (H, W, 3) or (H, W, 4)")
+        raise InputError(f"array of shape {arr.shape}: expected (H, W), (H, W, 2), (H, W, 3) or (H, W, 4)")
     if arr.shape[0] == 0 or arr.shape[1] == 0:
         raise InputError(f"array of shape {arr.shape}: image has zero size")
+    if arr.dtype.kind not in "biuf":
+        raise InputError(f"array of dtype {arr.dtype}: expected integer, float or bool pixels")
+    if arr.dtype == np.bool_:
+        arr = arr.astype(np.uint8) * 255
+    elif arr.dtype == np.uint16:
+        arr = np.round(arr / 257.0)
+    elif arr.dtype.kind == "f":
+        arr = np.nan_to_num(arr.astype(np.float64), nan=0.0, posinf=255.0, neginf=0.0)
+        arr = np.round(arr * 255.0) if arr.max() <= 1.0 else np.round(arr)
     if arr.dtype != np.uint8:
-        if np.issubdtype(arr.dtype, np.floating) and arr.size and float(np.nanmax(arr)) <= 1.0:
-            arr = np.round(np.nan_to_num(arr) * 255.0)
         arr = np.clip(arr, 0, 255).astype(np.uint8)
     channels = arr.shape[2]
     if channels == 1:

@@ -1,49 +1,96 @@
 """Writing files safely: a temporary file in the target folder, then an atomic rename.
 
 A failure at any point leaves no partial or empty output, and an existing file at the
-target is only replaced once the new content is complete.
+target is only replaced once the new content is complete (and flushed to disk). A symbolic
+link at the target keeps pointing where it did; the file it points to gets the content.
+Devices and pipes (``/dev/null``, ``/dev/stdout``) are written directly, never replaced.
 """
 from __future__ import annotations
 
 import os
+import stat
 import tempfile
 from pathlib import Path
 
-from .errors import OutputError
+from .errors import OutputError, display_name
 
 
 def write_atomic(path: str | os.PathLike, data: bytes | str, protect: tuple[Path, ...] = ()) -> None:
-    """Write ``data`` to ``path`` atomically; refuse to overwrite any path in ``protect``."""
-    target = Path(path)
+    """Write ``data`` (str is UTF-8 encoded) to ``path`` atomically.
+
+    Refuses, with a one-line :class:`OutputError`, to overwrite any file in ``protect``
+    (the inputs; symbolic and hard links to them included), a folder, or a read-only file,
+    and reports a missing or unwritable output folder.
+    """
+    name = display_name(path)
     if isinstance(data, str):
         data = data.encode("utf-8")
-    for p in protect:
-        try:
-            if target.exists() and p.exists() and os.path.samefile(target, p):
-                raise OutputError(f"{target}: refusing to overwrite the input file")
-        except OSError:
-            pass
-    folder = target.parent if str(target.parent) else Path(".")
-    if not folder.is_dir():
-        raise OutputError(f"{target}: output folder {folder} does not exist")
-    if target.is_dir():
-        raise OutputError(f"{target}: is a directory")
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
+        target = Path(os.path.realpath(path))
+        current = _stat(target, name)
+        if current is not None:
+            for p in protect:
+                if _same_file(target, p):
+                    raise OutputError(f"{name}: is the input file; refusing to overwrite it")
+            if stat.S_ISDIR(current.st_mode):
+                raise OutputError(f"{name}: is a directory")
+            if not stat.S_ISREG(current.st_mode):
+                _write_stream(target, data, name)
+                return
+            if not os.access(target, os.W_OK):
+                raise OutputError(f"{name}: file is read-only")
+        folder = target.parent
+        if not folder.exists():
+            raise OutputError(f"{name}: output folder {display_name(folder)} does not exist")
+        if not folder.is_dir():
+            raise OutputError(f"{name}: {display_name(folder)} is not a folder")
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name[:64]}.", suffix=".tmp", dir=folder)
+    except OutputError:
+        raise
     except PermissionError:
-        raise OutputError(f"{target}: permission denied (cannot write in {folder})") from None
-    except OSError as exc:
-        raise OutputError(f"{target}: cannot write ({exc.strerror or exc})") from None
+        raise OutputError(f"{name}: permission denied (cannot write in its folder)") from None
+    except (OSError, ValueError) as exc:  # ValueError: a NUL byte in the path
+        raise OutputError(f"{name}: cannot write ({getattr(exc, 'strerror', None) or exc})") from None
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
-        os.chmod(tmp, 0o644)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.chmod(tmp, stat.S_IMODE(current.st_mode) if current is not None else 0o644)
         os.replace(tmp, target)
-    except BaseException as exc:
+    except BaseException as exc:  # KeyboardInterrupt included: never leave the temporary file
         try:
             os.unlink(tmp)
         except OSError:
             pass
         if isinstance(exc, OSError):
-            raise OutputError(f"{target}: cannot write ({exc.strerror or exc})") from None
+            raise OutputError(f"{name}: cannot write ({exc.strerror or exc})") from None
         raise
+
+
+def _stat(target: Path, name: str) -> os.stat_result | None:
+    """``os.stat`` of the target, ``None`` when it does not exist yet."""
+    try:
+        return target.stat()
+    except FileNotFoundError:
+        return None
+    except NotADirectoryError:
+        raise OutputError(f"{name}: a parent of it is a file, not a folder") from None
+
+
+def _same_file(target: Path, other: Path) -> bool:
+    try:
+        return os.path.samefile(target, other)
+    except (OSError, ValueError):
+        return False
+
+
+def _write_stream(target: Path, data: bytes, name: str) -> None:
+    """Write to a device or pipe in place (there is no partial file to clean up)."""
+    try:
+        with open(target, "wb") as fh:
+            fh.write(data)
+    except PermissionError:
+        raise OutputError(f"{name}: permission denied") from None
+    except OSError as exc:
+        raise OutputError(f"{name}: cannot write ({exc.strerror or exc})") from None
