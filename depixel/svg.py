@@ -13,12 +13,17 @@ while each face still shows exactly its own cells.
 """
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 from .loops import trace_loops
 from .vector import VectorImage, faces as face_labels, regions as region_labels
 
 SVG_HEADER = '<?xml version="1.0" encoding="UTF-8"?>\n'
+#: Characters XML 1.0 forbids (control characters, lone surrogates from undecodable file
+#: names); a title has them replaced by U+FFFD so the SVG always parses and encodes.
+_NOT_XML = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
 
 
 def format_numbers(values: np.ndarray, precision: int) -> np.ndarray:
@@ -83,7 +88,7 @@ def to_svg(image: VectorImage, scale: float = 1.0, precision: int = 3, per_cell:
         f'viewBox="0 0 {w} {h}">\n'
     )
     if title:
-        parts.append(f"<title>{escape(title)}</title>\n")
+        parts.append(f"<title>{escape(_NOT_XML.sub(chr(0xFFFD), title))}</title>\n")
     face_region = np.zeros(n_faces, np.int64)
     face_region[labels] = region
     open_region = None
