@@ -1,73 +1,55 @@
-"""``depixel`` command: argument parsing, exit codes and one-line error messages."""
+"""``depixel`` command: subcommands, exit codes and one-line error messages.
+
+Every command builds its options, calls the library and maps a library error
+(:class:`depixel.DepixelError`) to a one-line message and an exit code (:class:`Exit`);
+``--debug`` shows the traceback instead.
+"""
 from __future__ import annotations
 
 import argparse
-import enum
 import sys
-from pathlib import Path
+from importlib import metadata
 
 import depixel
 from depixel.errors import DepixelError
-from depixel.params import Params
 
-
-class Exit(enum.IntEnum):
-    OK = 0
-    FAILED = 1  # a file could not be converted (or, for diff, the images differ)
-    USAGE = 2  # bad command line
-
-
-CONVERT_EXAMPLES = """examples:
-  depixel convert sprite.png -o sprite.svg            smooth vector art (the paper's result)
-  depixel convert sprite.png -o big.svg --scale 8     width/height 8x the pixel size
-  depixel convert sprite.png -o cells.svg --stage cells   the reshaped pixel cells only
-"""
+from . import convert, tools
+from .options import Exit, error_exit, say
 
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # one line, exit code 2
-        self.exit(Exit.USAGE, f"depixel: error: {message}\n")
+        self.exit(Exit.USAGE, f"{self.prog}: error: {message}\n")
+
+
+class _Version(argparse.Action):
+    """``--version``: depixel's version and its key dependencies' (cairo is not loaded)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None):
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        lines = [f"depixel {depixel.__version__}"]
+        for name in ("numpy", "scipy", "pillow", "cairosvg", "tqdm"):
+            try:
+                lines.append(f"  {name} {metadata.version(name)}")
+            except metadata.PackageNotFoundError:
+                lines.append(f"  {name} not installed")
+        lines.append(f"  python {sys.version.split()[0]}")
+        parser.exit(Exit.OK, "\n".join(lines) + "\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="depixel", description="Turn pixel art into smooth, resolution-independent SVG "
-                     "(Kopf & Lischinski, Depixelizing Pixel Art, 2011).")
-    parser.add_argument("--version", action="version", version=f"depixel {depixel.__version__}")
+                     "(Kopf & Lischinski, Depixelizing Pixel Art, 2011).",
+                     epilog="exit codes: 0 success, 1 a file failed (diff: images differ), 2 usage error "
+                     "(diff: could not compare). 'depixel COMMAND --help' shows examples.")
+    parser.add_argument("--version", action=_Version, help="show the versions of depixel and its dependencies")
     parser.add_argument("--debug", action="store_true", help="show the full traceback on errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
-    convert = sub.add_parser("convert", help="convert an image to SVG", epilog=CONVERT_EXAMPLES,
-                             formatter_class=argparse.RawDescriptionHelpFormatter,
-                             description="Convert a pixel-art image to SVG.")
-    convert.add_argument("input", help="input image (PNG, GIF, BMP, ...)")
-    convert.add_argument("-o", "--output", required=True, help="output SVG file")
-    convert.add_argument("--scale", type=_positive_float, default=1.0,
-                         help="SVG width/height as a multiple of the pixel size (default 1)")
-    convert.add_argument("--stage", choices=depixel.STAGES, default="optimized",
-                         help="stop at this pipeline stage (default: optimized, the final result)")
-    convert.add_argument("--max-pixels", type=int, default=1_048_576,
-                         help="refuse larger images (default 1048576; pixel art is small)")
-    convert.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
+    convert.add_parser(sub)
+    tools.add_parsers(sub)
     return parser
-
-
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not value > 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a positive number: {text!r}")
-    return value
-
-
-def run_convert(args: argparse.Namespace) -> int:
-    from depixel.output import write_atomic
-
-    rgba = depixel.load_image(args.input, max_pixels=args.max_pixels)
-    result = depixel.depixelize(rgba, Params(), stage=args.stage)
-    svg = depixel.to_svg(result.vector, scale=args.scale, title=Path(args.input).name)
-    write_atomic(args.output, svg, protect=(Path(args.input),))
-    return Exit.OK
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -77,15 +59,22 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return Exit.USAGE
     try:
-        return int(run_convert(args))
+        return int(args.run(args))
     except DepixelError as exc:
         if args.debug:
             raise
-        print(f"depixel: error: {exc}", file=sys.stderr)
-        return Exit.FAILED
+        say(f"error: {exc}")
+        return error_exit(args.command)
     except KeyboardInterrupt:
-        print("depixel: interrupted", file=sys.stderr)
-        return 130
+        say("interrupted")
+        return Exit.INTERRUPTED
+    except BrokenPipeError:  # e.g. `depixel convert - -o - | head`
+        return Exit.FAILED
+    except Exception as exc:  # a bug: one line unless --debug
+        if args.debug:
+            raise
+        say(f"internal error: {type(exc).__name__}: {exc} (--debug shows the traceback)")
+        return error_exit(args.command)
 
 
 if __name__ == "__main__":

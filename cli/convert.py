@@ -1,0 +1,185 @@
+"""``depixel convert``: one file (``-o FILE``, ``-`` for stdin/stdout) or many (``--out-dir DIR``)."""
+from __future__ import annotations
+
+import argparse
+import io
+import json
+import sys
+import time
+import traceback
+from dataclasses import replace
+from pathlib import Path
+
+from depixel import api
+from depixel.errors import DepixelError, OutputError, display_name
+from depixel.image import DEFAULT_MAX_PIXELS, frame_count
+from depixel.output import write_atomic
+from depixel.pipeline import STAGES
+
+from .batch import Job, Options, Outcome, Progress, default_jobs, expand_inputs, make_folders, plan, run, summary
+from .options import Exit, add_tuning, colour, int_range, params_from_args, positive_float, positive_int
+
+DESCRIPTION = """\
+examples:
+  depixel convert sprite.png -o sprite.svg              smooth vector art (the paper's result)
+  depixel convert sprite.png -o sprite.png --scale 8    rendered 8x as PNG (or .pdf)
+  depixel convert icons/ -r --out-dir svg/ -j 4         a whole folder tree, 4 files at a time
+  depixel convert 'art/*.gif' --out-dir out --frames all    every frame: name-000.svg, ...
+  cat sprite.png | depixel convert - -o - > sprite.svg  stdin to stdout
+  depixel convert sprite.png -o cells.svg --stage cells     only the reshaped pixel cells
+
+Convert pixel art to SVG, PNG or PDF (Kopf & Lischinski, Depixelizing Pixel Art, 2011).
+The format comes from the output's extension or --format. With --out-dir, outputs keep the
+inputs' relative folders, existing outputs are skipped (--force replaces them), a failed
+file is reported and the rest go on; the exit code is 1 if any file failed.
+"""
+
+
+def frames_option(text: str) -> str | int:
+    if text in ("first", "all"):
+        return text
+    try:
+        return int_range(0)(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"expected first, all or a frame number, not {text!r}") from None
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("convert", help="convert pixel art to SVG, PNG or PDF", description=DESCRIPTION,
+                       usage="%(prog)s INPUT... (-o FILE | --out-dir DIR) [options]",
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.set_defaults(run=run_convert, parser=p)
+    p.add_argument("inputs", nargs="+", metavar="INPUT",
+                   help="image files, folders or globs; - reads one image from stdin")
+    out = p.add_argument_group("output")
+    out.add_argument("-o", "--output", metavar="FILE", help="output file for a single input; - writes to stdout")
+    out.add_argument("--out-dir", metavar="DIR", type=Path, help="folder for the outputs of many inputs")
+    out.add_argument("--format", choices=api.FORMATS, help="output format (default: from -o's extension, else svg)")
+    out.add_argument("--scale", type=positive_float, default=1.0,
+                     help="size as a multiple of the pixel size: SVG width/height, PNG pixels, PDF size (default 1)")
+    out.add_argument("--background", type=colour, metavar="COLOR",
+                     help="flatten the image onto this colour first (#rgb, #rrggbb or a name like white)")
+    out.add_argument("--frames", type=frames_option, default="first", metavar="first|all|N",
+                     help="frames of an animated image: the first (default), all (name-000.svg, ...) or frame N")
+    out.add_argument("--stage", choices=STAGES, default="optimized",
+                     help="stop at this pipeline stage (default: optimized, the final result)")
+    out.add_argument("--max-pixels", type=positive_int, default=DEFAULT_MAX_PIXELS, metavar="N",
+                     help=f"refuse larger images (default {DEFAULT_MAX_PIXELS}; pixel art is small)")
+    batch = p.add_argument_group("many files")
+    batch.add_argument("-r", "--recursive", action="store_true", help="also convert the images in subfolders")
+    batch.add_argument("--force", action="store_true", help="replace existing outputs (default: skip them)")
+    batch.add_argument("-j", "--jobs", type=positive_int, default=default_jobs(), metavar="N",
+                       help=f"files converted in parallel (default: all {default_jobs()} cores)")
+    batch.add_argument("--json", action="store_true",
+                       help="print a JSON summary on stdout (files, ok, skipped, failed with reasons, seconds)")
+    add_tuning(p)
+    p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
+
+
+def run_convert(args: argparse.Namespace) -> int:
+    parser = args.parser
+    if args.output is not None and args.out_dir is not None:
+        parser.error("give either -o FILE (one input) or --out-dir DIR (many), not both")
+    if args.output is None and args.out_dir is None:
+        parser.error("say where to write: -o FILE (one input, - for stdout) or --out-dir DIR")
+    if "-" in args.inputs and (len(args.inputs) > 1 or args.out_dir is not None):
+        parser.error("- (stdin) must be the only input, with -o FILE or -o -")
+    if args.output == "-" and (args.frames == "all" or args.json):
+        parser.error("-o - writes one image to stdout: no --frames all or --json with it")
+    try:
+        fmt = args.format or (api.output_format(args.output) if args.output not in (None, "-") else "svg")
+    except OutputError as exc:
+        parser.error(f"{exc}; or use --format")
+    options = Options(params_from_args(args), fmt, args.stage, args.scale, args.frames, args.background,
+                      args.max_pixels, force=args.force)
+
+    start = time.perf_counter()
+    if args.inputs == ["-"] or args.output == "-":
+        outcome = _convert_stream(args.inputs[0], args.output, options)
+        _report(outcome, Progress(0), args)
+        outcomes = [outcome]
+    elif args.output is not None:
+        found, problems = expand_inputs(args.inputs, args.recursive)
+        if problems or len(found) != 1:
+            parser.error(problems[0][1] if problems else
+                         f"-o takes one input, not {len(found)}; use --out-dir DIR for several")
+        # an explicitly named output is always written
+        job = Job(found[0][0], Path(args.output), replace(options, force=True))
+        outcomes = run([job], 1, lambda o: _report(o, Progress(0), args))
+    else:
+        outcomes = _convert_batch(args, options)
+    if args.json:
+        print(json.dumps(summary(outcomes, time.perf_counter() - start), indent=2))
+    elif len(outcomes) >= 2:
+        _print_totals(outcomes, time.perf_counter() - start)
+    return Exit.FAILED if any(o.error for o in outcomes) else Exit.OK
+
+
+def _convert_batch(args: argparse.Namespace, options: Options) -> list[Outcome]:
+    """Every input under --out-dir: plan, make folders, run the pool with a progress bar."""
+    found, problems = expand_inputs(args.inputs, args.recursive, exclude=args.out_dir)
+    jobs, failed = plan(found, args.out_dir, options)
+    jobs, unmade = make_folders(jobs)
+    failed += unmade + [Outcome(Path(arg), error=text) for arg, text in problems]
+    progress = Progress(len(jobs))
+    try:
+        for outcome in failed:
+            _report(outcome, progress, args, step=False)
+        return failed + run(jobs, args.jobs, lambda o: _report(o, progress, args))
+    finally:
+        progress.close()
+
+
+def _convert_stream(source: str, output: str, options: Options) -> Outcome:
+    """Convert stdin and/or to stdout (all in this process); never raises."""
+    out = Outcome(Path(source))
+    try:
+        data = sys.stdin.buffer.read() if source == "-" else api.read_input(source)
+        name = "<stdin>" if source == "-" else display_name(source)
+        protect = () if source == "-" else (Path(source),)
+        if options.frames == "all":
+            n = frame_count(data)  # data was read, so only decoding can fail: name it below
+            targets = list(enumerate(api.frame_outputs(output, n)))
+        else:
+            targets = [(0 if options.frames == "first" else int(options.frames), output)]
+        for frame, target in targets:
+            # a file object so that load errors name "<stdin>"; a path so they name the file
+            rgba = api.load(io.BytesIO(data) if source == "-" else source, frame=frame,
+                            background=options.background, max_pixels=options.max_pixels)
+            svg = api.convert(rgba, options.params, stage=options.stage, scale=options.scale,
+                              title=None if source == "-" else Path(source).name)
+            blob = api.encode(svg, options.fmt, name=name)
+            if target == "-":
+                if options.fmt != "svg" and sys.stdout.isatty():
+                    raise OutputError(f"refusing to write binary {options.fmt.upper()} to a terminal")
+                sys.stdout.buffer.write(blob)
+                sys.stdout.buffer.flush()
+            else:
+                write_atomic(target, blob, protect=protect)
+                out.written.append(Path(target))
+        if options.frames == "first" and (n := frame_count(data)) > 1:
+            out.notes.append(f"{name}: has {n} frames, converted the first (--frames all converts each)")
+    except DepixelError as exc:
+        out.error, out.traceback = str(exc), traceback.format_exc()
+    return out
+
+
+def _report(outcome: Outcome, progress: Progress, args: argparse.Namespace, step: bool = True) -> None:
+    for note in outcome.notes:
+        progress.message(f"note: {note}")
+    if outcome.error:
+        progress.message(f"error: {outcome.error}")
+        if args.debug and outcome.traceback:
+            progress.message(outcome.traceback.rstrip())
+    if step:
+        progress.step()
+
+
+def _print_totals(outcomes: list[Outcome], seconds: float) -> None:
+    report = summary(outcomes, seconds)
+    parts = [f"{report['ok']} converted"]
+    if report["skipped"]:
+        parts.append(f"{report['skipped']} skipped (existing; --force replaces)")
+    if report["failed"]:
+        parts.append(f"{len(report['failed'])} failed")
+    print(f"depixel: {len(outcomes)} files: {', '.join(parts)} in {seconds:.1f} s", file=sys.stderr)

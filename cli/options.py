@@ -1,0 +1,124 @@
+"""What every command shares: exit codes, argument types, the tuning flags and messages."""
+from __future__ import annotations
+
+import argparse
+import enum
+import sys
+from dataclasses import fields
+
+from depixel.params import Params
+
+
+class Exit(enum.IntEnum):
+    """Exit codes of the ``depixel`` command, all in one place."""
+
+    OK = 0
+    FAILED = 1  # a file could not be converted/rendered; for diff: the images differ
+    USAGE = 2  # bad command line; for diff: the files could not be compared
+    INTERRUPTED = 130  # Ctrl-C
+
+
+def error_exit(command: str) -> Exit:
+    """Exit code of a library error (a DepixelError) in ``command``: diff keeps 1 for "differ"."""
+    return Exit.USAGE if command == "diff" else Exit.FAILED
+
+
+def say(message: str) -> None:
+    """One line on stderr, prefixed like every depixel message."""
+    print(f"depixel: {message}", file=sys.stderr, flush=True)
+
+
+# --- argument types -------------------------------------------------------------------------
+
+def _number(text: str, kind=float):
+    try:
+        value = kind(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a{'n integer' if kind is int else ' number'}: {text!r}") from None
+    if value != value or value in (float("inf"), float("-inf")):
+        raise argparse.ArgumentTypeError(f"not a finite number: {text!r}")
+    return value
+
+
+def positive_float(text: str) -> float:
+    value = _number(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be a positive number: {text!r}")
+    return value
+
+
+def non_negative_float(text: str) -> float:
+    value = _number(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be zero or more: {text!r}")
+    return value
+
+
+def int_range(low: int, high: int | None = None):
+    """Argument type: an integer in [low, high]."""
+    def parse(text: str) -> int:
+        value = _number(text, int)
+        if value < low or (high is not None and value > high):
+            bounds = f"at least {low}" if high is None else f"between {low} and {high}"
+            raise argparse.ArgumentTypeError(f"must be an integer {bounds}: {text!r}")
+        return value
+
+    parse.__name__ = "integer"
+    return parse
+
+
+positive_int = int_range(1)
+non_negative_int = int_range(0)
+
+
+def unit_float(text: str) -> float:
+    value = _number(text)
+    if not 0 <= value <= 1:
+        raise argparse.ArgumentTypeError(f"must be between 0 and 1: {text!r}")
+    return value
+
+
+def colour(text: str) -> tuple[int, int, int]:
+    from depixel.api import parse_colour  # noqa: PLC0415
+
+    try:
+        return parse_colour(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+# --- tuning flags: one per Params field a user may want to change -------------------------------
+
+_DEFAULTS = {f.name: f.default for f in fields(Params)}
+#: (flag, Params field, type, help) — the help shows the default from Params itself.
+TUNING = [
+    ("--threshold-y", "threshold_y", non_negative_float, "luma difference (0-255) above which neighbours are dissimilar"),
+    ("--threshold-u", "threshold_u", non_negative_float, "U chroma difference above which neighbours are dissimilar"),
+    ("--threshold-v", "threshold_v", non_negative_float, "V chroma difference above which neighbours are dissimilar"),
+    ("--threshold-alpha", "threshold_alpha", non_negative_float, "alpha difference above which neighbours are dissimilar"),
+    ("--curve-weight", "curve_weight", non_negative_float, "weight of the 'curves' heuristic for crossing diagonals"),
+    ("--sparse-weight", "sparse_weight", non_negative_float, "weight of the 'sparse pixels' heuristic"),
+    ("--sparse-window", "sparse_window", int_range(2), "side of the window the 'sparse pixels' heuristic looks at"),
+    ("--island-weight", "island_weight", non_negative_float, "vote of the 'islands' heuristic"),
+    ("--shading-distance", "shading_distance", non_negative_float, "YUV distance up to which an edge is a shading edge"),
+    ("--iterations", "iterations", non_negative_int, "sweeps of the spline optimization"),
+    ("--seed", "seed", non_negative_int, "seed of the optimization's random offsets"),
+    ("--precision", "precision", int_range(0, 12), "decimals of the numbers in the SVG"),
+]
+
+
+def add_tuning(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group("tuning (the paper's parameters; see depixel/params.py)")
+    for flag, name, kind, text in TUNING:
+        group.add_argument(flag, dest=name, type=kind, default=None, metavar="N",
+                           help=f"{text} (default {_DEFAULTS[name]:g})")
+    group.add_argument("--no-optimize", dest="optimize", action="store_false", default=None,
+                       help="skip the spline optimization (the splines stage)")
+
+
+def params_from_args(args: argparse.Namespace) -> Params:
+    """A Params with the flags the user gave; every other field keeps its default."""
+    given = {name: getattr(args, name) for _, name, _, _ in TUNING if getattr(args, name) is not None}
+    if args.optimize is not None:
+        given["optimize"] = args.optimize
+    return Params().replace(**given)

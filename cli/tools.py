@@ -1,0 +1,191 @@
+"""``depixel render``, ``depixel diff`` and ``depixel inspect``."""
+from __future__ import annotations
+
+import argparse
+import io
+import json
+import sys
+from pathlib import Path
+
+from depixel import api
+from depixel.errors import OutputError, display_name
+from depixel.image import DEFAULT_MAX_PIXELS
+from depixel.output import write_atomic
+from depixel.pipeline import STAGES
+
+from .options import Exit, add_tuning, colour, int_range, non_negative_int, params_from_args, positive_float, \
+    positive_int, unit_float
+
+RENDER_DESCRIPTION = """\
+examples:
+  depixel render sprite.svg -o sprite.png --scale 4     4x the SVG's width/height
+  depixel render sprite.svg -o sprite.png --width 512   512 pixels wide, height to match
+  depixel render sprite.svg -o sprite.pdf --background white
+
+Render an SVG (any SVG, not only depixel's) to PNG or PDF through cairosvg.
+"""
+
+DIFF_DESCRIPTION = """\
+examples:
+  depixel diff expected.svg actual.svg                 exit 0 same, 1 different, 2 error
+  depixel diff sprite.svg sprite.png --diff-out d.png  SVG rendered at the PNG's size
+  depixel diff a.svg b.svg --scale 4 --max-ratio 0.001 --json
+
+Compare two images (SVG or PNG) the way a person would. Both are rendered at the same
+size (an SVG at the PNG's size, or at its width/height x --scale), flattened over a
+background colour neither contains (default magenta, so seams and alpha leaks show) and
+compared pixel by pixel with pixelmatch's YIQ distance; anti-aliasing differences are ignored.
+"""
+
+INSPECT_DESCRIPTION = """\
+examples:
+  depixel inspect sprite.png -o stages.png             every stage in one picture
+  depixel inspect sprite.png --out-dir stages/ --zoom 16    one PNG per stage
+
+Draw every stage of the pipeline, like the paper's Figure 3: the input, the similarity
+graph (blue: diagonals in flat blocks, red: ambiguous crossings), the graph after the
+crossings are resolved (green: kept diagonal, dashed red: removed), the reshaped cells, the
+splines with their control points, the optimized splines and the final render.
+"""
+
+
+def add_parsers(sub) -> None:
+    _raw = argparse.RawDescriptionHelpFormatter
+    render = sub.add_parser("render", help="render an SVG to PNG or PDF", description=RENDER_DESCRIPTION,
+                            formatter_class=_raw)
+    render.set_defaults(run=run_render, parser=render)
+    render.add_argument("input", metavar="IN.svg", help="SVG file; - reads stdin")
+    render.add_argument("-o", "--output", required=True, metavar="OUT", help="PNG or PDF file; - writes to stdout")
+    render.add_argument("--format", choices=("png", "pdf"), help="output format (default: from the extension)")
+    size = render.add_mutually_exclusive_group()
+    size.add_argument("--scale", type=positive_float, help="multiple of the SVG's width/height (default 1)")
+    size.add_argument("--width", type=positive_int, metavar="W", help="width in pixels, height to match")
+    render.add_argument("--background", type=colour, metavar="COLOR", help="opaque background (default transparent)")
+    _debug(render)
+
+    diff = sub.add_parser("diff", help="compare two SVG/PNG images (for CI)", description=DIFF_DESCRIPTION,
+                          formatter_class=_raw)
+    diff.set_defaults(run=run_diff, parser=diff)
+    diff.add_argument("a", metavar="A", help="SVG or PNG")
+    diff.add_argument("b", metavar="B", help="SVG or PNG")
+    diff.add_argument("--scale", type=positive_float, default=1.0,
+                      help="render SVGs at their width/height times this when no PNG sets the size (default 1)")
+    diff.add_argument("--threshold", type=unit_float, default=0.1, metavar="T",
+                      help="colour distance (0-1) below which pixels count as equal (default 0.1, as pixelmatch)")
+    diff.add_argument("--max-pixels-diff", type=non_negative_int, default=0, metavar="N",
+                      help="tolerate up to N different pixels (default 0)")
+    diff.add_argument("--max-ratio", type=unit_float, default=0.0, metavar="R",
+                      help="tolerate up to this fraction of different pixels (default 0)")
+    diff.add_argument("--background", type=colour, metavar="COLOR",
+                      help="flatten both over this colour (default: magenta, or another colour neither image has)")
+    diff.add_argument("--include-aa", action="store_true", help="count anti-aliasing differences too")
+    diff.add_argument("--allow-size-mismatch", action="store_true",
+                      help="compare images of different sizes (the area only one covers counts)")
+    diff.add_argument("--diff-out", metavar="PNG", help="write a picture of the differences (red; yellow: anti-aliasing)")
+    diff.add_argument("--json", action="store_true", help="print the report as JSON on stdout")
+    _debug(diff)
+
+    inspect = sub.add_parser("inspect", help="draw every pipeline stage (like the paper's Figure 3)",
+                             description=INSPECT_DESCRIPTION, formatter_class=_raw)
+    inspect.set_defaults(run=run_inspect, parser=inspect)
+    inspect.add_argument("input", metavar="IN", help="pixel-art image")
+    inspect.add_argument("-o", "--output", metavar="PNG", help="one PNG with every stage")
+    inspect.add_argument("--out-dir", type=Path, metavar="DIR", help="also write each stage as its own PNG")
+    inspect.add_argument("--zoom", type=int_range(1, 64), metavar="N",
+                         help="magnification (default: panels about 400 pixels wide)")
+    inspect.add_argument("--stage", choices=STAGES, default="optimized", help="last stage to run (default optimized)")
+    inspect.add_argument("--frame", type=int_range(0), default=0, metavar="N", help="frame of an animated image")
+    inspect.add_argument("--background", type=colour, metavar="COLOR", help="flatten the image onto this colour first")
+    inspect.add_argument("--max-pixels", type=positive_int, default=DEFAULT_MAX_PIXELS, metavar="N",
+                         help=f"refuse larger images (default {DEFAULT_MAX_PIXELS})")
+    add_tuning(inspect)
+    _debug(inspect)
+
+
+def _debug(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
+
+
+def _write(target: str, data: bytes, protect: tuple[Path, ...] = ()) -> None:
+    """Write to a file atomically, or to stdout for "-" (never binary onto a terminal)."""
+    if target != "-":
+        write_atomic(target, data, protect=protect)
+        return
+    if sys.stdout.isatty() and not data.lstrip().startswith(b"<"):
+        raise OutputError("refusing to write binary data to a terminal")
+    sys.stdout.buffer.write(data)
+    sys.stdout.buffer.flush()
+
+
+def run_render(args: argparse.Namespace) -> int:
+    from depixel.raster import render  # noqa: PLC0415
+
+    fmt = args.format or ("png" if args.output == "-" else api.output_format(args.output))
+    if fmt == "svg":
+        args.parser.error("render writes PNG or PDF; give OUT a .png or .pdf name or use --format")
+    if args.input == "-":
+        svg, name, protect = sys.stdin.buffer.read(), "<stdin>", ()
+    else:
+        svg, name, protect = api.read_input(args.input), display_name(args.input), (Path(args.input),)
+    data = render(svg, fmt, scale=args.scale, width=args.width, background=args.background, name=name)
+    _write(args.output, data, protect)
+    return Exit.OK
+
+
+def run_diff(args: argparse.Namespace) -> int:
+    from depixel.diff import diff_files  # noqa: PLC0415
+
+    comparison, background = diff_files(args.a, args.b, scale=args.scale, threshold=args.threshold,
+                                        background=args.background, allow_size_mismatch=args.allow_size_mismatch,
+                                        include_antialiasing=args.include_aa)
+    count, ratio = comparison.different_pixels, comparison.ratio
+    same = count <= args.max_pixels_diff and ratio <= args.max_ratio
+    if args.diff_out:
+        _write(args.diff_out, _png(comparison.diff_image()), protect=(Path(args.a), Path(args.b)))
+    h, w = comparison.different.shape
+    if args.json:
+        print(json.dumps({
+            "a": args.a, "b": args.b, "same": same, "width": w, "height": h,
+            "different_pixels": count, "antialiased_pixels": int(comparison.antialiased.sum()),
+            "total_pixels": w * h, "ratio": ratio, "threshold": args.threshold,
+            "max_pixels_diff": args.max_pixels_diff, "max_ratio": args.max_ratio,
+            "background": "#{:02x}{:02x}{:02x}".format(*background), "diff_out": args.diff_out,
+        }, indent=2))
+    else:
+        verdict = "same" if same else "different"
+        print(f"{verdict}: {count} of {w * h} pixels differ ({100 * ratio:.3g}%) at {w}x{h}, threshold {args.threshold}")
+    return Exit.OK if same else Exit.FAILED
+
+
+def run_inspect(args: argparse.Namespace) -> int:
+    from depixel.figure import compose, stage_panels  # noqa: PLC0415
+    from depixel.pipeline import depixelize  # noqa: PLC0415
+
+    if args.output is None and args.out_dir is None:
+        args.parser.error("say where to write: -o PNG and/or --out-dir DIR")
+    rgba = api.load(args.input, frame=args.frame, background=args.background, max_pixels=args.max_pixels)
+    result = depixelize(rgba, params_from_args(args), stage=args.stage)
+    panels = stage_panels(result, args.zoom)
+    protect = (Path(args.input),)
+    if args.out_dir is not None:
+        try:
+            args.out_dir.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise OutputError(f"{args.out_dir}: cannot create folder ({exc.strerror or exc})") from None
+        for i, (title, panel) in enumerate(panels, start=1):
+            slug = title.replace(" ", "-")
+            write_atomic(args.out_dir / f"{i:02d}-{slug}.png", _png(panel), protect=protect)
+    if args.output is not None:
+        _write(args.output, _png(compose(panels)), protect=protect)
+    return Exit.OK
+
+
+def _png(image) -> bytes:
+    """PNG bytes of a PIL image or an ``(H, W, 4) uint8`` array."""
+    from PIL import Image  # noqa: PLC0415
+
+    if not hasattr(image, "save"):
+        image = Image.fromarray(image, "RGBA")
+    buffer = io.BytesIO()
+    image.save(buffer, "PNG")
+    return buffer.getvalue()

@@ -1,0 +1,162 @@
+"""Python API: convert pixel art in memory or file to file, without the command line.
+
+In memory, :func:`convert` takes an image (numpy array or PIL image) and returns SVG text;
+:func:`convert_bytes` returns the bytes of an SVG, PNG or PDF file. On disk,
+:func:`convert_file` and :func:`render_file` read one file and write another atomically
+(never a partial file, never over their input). PNG and PDF go through cairosvg, which is
+imported only when one of them is asked for (:mod:`depixel.raster`).
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError, OutputError, display_name
+from .image import DEFAULT_MAX_PIXELS, ImageSource, as_rgba, frame_count, load_image
+from .output import write_atomic
+from .params import Params
+from .pipeline import depixelize
+from .svg import to_svg
+
+#: Output formats, chosen from the file extension or given explicitly.
+FORMATS = ("svg", "png", "pdf")
+
+Colour = tuple[int, int, int]
+
+
+def parse_colour(text: str) -> Colour:
+    """``#rgb``, ``#rrggbb``, ``rgb(...)`` or a CSS name such as ``white`` → an RGB triple."""
+    from PIL import ImageColor  # noqa: PLC0415
+
+    try:
+        rgb = ImageColor.getrgb(text.strip())
+    except (ValueError, AttributeError):
+        raise ValueError(f"unknown colour {text!r} (use #rgb, #rrggbb or a name like white)") from None
+    return int(rgb[0]), int(rgb[1]), int(rgb[2])
+
+
+def flatten(image, colour: Colour | str) -> np.ndarray:
+    """Composite an image over an opaque colour → ``(H, W, 4) uint8`` with alpha 255.
+
+    Useful before converting art whose semi-transparent edges should blend into a known
+    background instead of becoming separate translucent shapes.
+    """
+    rgb = np.array(parse_colour(colour) if isinstance(colour, str) else colour, dtype=np.int64)
+    rgba = as_rgba(image).astype(np.int64)
+    alpha = rgba[..., 3:4]
+    out = np.empty(rgba.shape, np.uint8)
+    out[..., :3] = (rgba[..., :3] * alpha + rgb * (255 - alpha) + 127) // 255
+    out[..., 3] = 255
+    return out
+
+
+def load(source: ImageSource, *, frame: int = 0, background: Colour | str | None = None,
+         max_pixels: int | None = DEFAULT_MAX_PIXELS) -> np.ndarray:
+    """Read an image file (path, bytes or binary file) → ``(H, W, 4) uint8`` RGBA,
+    flattened over ``background`` when given."""
+    rgba = load_image(source, max_pixels=max_pixels, frame=frame)
+    return rgba if background is None else flatten(rgba, background)
+
+
+def convert(image, params: Params = Params(), *, stage: str = "optimized", scale: float = 1.0,
+            background: Colour | str | None = None, title: str | None = None) -> str:
+    """Depixelize an image (``(H, W[, C])`` array or PIL image) → SVG text.
+
+    ``scale`` sets the SVG's width/height as a multiple of the pixel size; the viewBox stays
+    in input pixels. ``stage`` stops the pipeline early ("cells", "splines").
+    """
+    rgba = as_rgba(image) if background is None else flatten(image, background)
+    result = depixelize(rgba, params, stage=stage)
+    return to_svg(result.vector, scale=scale, precision=params.precision, title=title)
+
+
+def encode(svg: str, fmt: str = "svg", *, name: str = "<svg>") -> bytes:
+    """SVG text → the bytes of an ``fmt`` file (SVG as UTF-8, PNG/PDF rendered at the SVG's size)."""
+    if fmt == "svg":
+        return svg.encode("utf-8")
+    from .raster import render  # noqa: PLC0415 (cairosvg only when PNG/PDF is asked for)
+
+    return render(svg, fmt, name=name)
+
+
+def convert_bytes(image, fmt: str = "svg", params: Params = Params(), **options) -> bytes:
+    """Like :func:`convert`, returning the bytes of an SVG, PNG or PDF file."""
+    _check_format(fmt)
+    return encode(convert(image, params, **options), fmt)
+
+
+def output_format(path: str | os.PathLike, fmt: str | None = None) -> str:
+    """The output format: ``fmt`` if given, else the file extension (svg, png or pdf)."""
+    if fmt is not None:
+        return _check_format(fmt)
+    suffix = Path(path).suffix.lower().lstrip(".")
+    if suffix not in FORMATS:
+        raise OutputError(f"{display_name(path)}: cannot tell the output format from the extension "
+                          f"(use .svg, .png or .pdf)")
+    return suffix
+
+
+def frame_outputs(output: str | os.PathLike, n_frames: int) -> list[Path]:
+    """Output names for every frame of an animation: ``name-000.svg``, ``name-001.svg``, …"""
+    out = Path(output)
+    digits = max(3, len(str(n_frames - 1)))
+    return [out.with_name(f"{out.stem}-{i:0{digits}d}{out.suffix}") for i in range(n_frames)]
+
+
+def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: Params = Params(), *,
+                 fmt: str | None = None, stage: str = "optimized", scale: float = 1.0, frame: int = 0,
+                 background: Colour | str | None = None,
+                 max_pixels: int | None = DEFAULT_MAX_PIXELS) -> Path:
+    """Convert one image file (one frame of it) to an SVG, PNG or PDF file; returns the output path.
+
+    The output is written atomically and never replaces ``source``.
+    """
+    fmt = output_format(output, fmt)
+    rgba = load(source, frame=frame, background=background, max_pixels=max_pixels)
+    svg = convert(rgba, params, stage=stage, scale=scale, title=Path(source).name)
+    write_atomic(output, encode(svg, fmt, name=display_name(source)), protect=(Path(source),))
+    return Path(output)
+
+
+def convert_animation(source: str | os.PathLike, output: str | os.PathLike, params: Params = Params(),
+                      **options) -> list[Path]:
+    """Convert every frame of an (animated) image to ``name-000.ext``, ``name-001.ext``, …"""
+    outputs = frame_outputs(output, frame_count(source))
+    return [convert_file(source, out, params, frame=i, **options) for i, out in enumerate(outputs)]
+
+
+def render_file(source: str | os.PathLike, output: str | os.PathLike, *, fmt: str | None = None,
+                scale: float | None = None, width: int | None = None,
+                background: Colour | str | None = None) -> Path:
+    """Render an SVG file to PNG or PDF (``scale`` × its size, or ``width`` pixels wide)."""
+    from .raster import render  # noqa: PLC0415
+
+    fmt = output_format(output, fmt)
+    if fmt == "svg":
+        raise OutputError(f"{display_name(output)}: render writes PNG or PDF, not SVG")
+    svg = read_input(source)
+    colour = parse_colour(background) if isinstance(background, str) else background
+    data = render(svg, fmt, scale=scale, width=width, background=colour, name=display_name(source))
+    write_atomic(output, data, protect=(Path(source),))
+    return Path(output)
+
+
+def read_input(path: str | os.PathLike) -> bytes:
+    """The bytes of an input file, or an :class:`InputError` naming it."""
+    name = display_name(path)
+    try:
+        return Path(path).read_bytes()
+    except FileNotFoundError:
+        raise InputError(f"{name}: no such file") from None
+    except IsADirectoryError:
+        raise InputError(f"{name}: is a directory, not a file") from None
+    except OSError as exc:
+        raise InputError(f"{name}: cannot read ({exc.strerror or exc})") from None
+
+
+def _check_format(fmt: str) -> str:
+    if fmt not in FORMATS:
+        raise ValueError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
+    return fmt
