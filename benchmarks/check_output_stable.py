@@ -73,8 +73,10 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     changed = sorted(name for name in current if name in stored and stored[name] != current[name])
     missing = sorted(set(stored) - set(current))
-    for name in changed:
+    for name in changed[:10]:
         print(f"CHANGED {name}")
+    if len(changed) > 10:
+        print(f"... and {len(changed) - 10} more")
     print(f"{len(current) - len(changed)} of {len(current)} outputs unchanged at stage {args.stage}"
           + (f" ({len(missing)} stored images not found)" if missing else ""))
     return 1 if changed else 0
