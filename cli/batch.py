@@ -107,7 +107,9 @@ def expand_inputs(args: list[str], recursive: bool,
     def wanted(path: Path, base: Path) -> bool:
         rel = path.relative_to(base)
         hidden = any(part.startswith(".") for part in rel.parts)
-        excluded = exclude is not None and exclude.resolve() in path.resolve().parents
+        # the output folder, when it lies inside an input folder, is not an input
+        excluded = exclude is not None and exclude.resolve() in path.resolve().parents and \
+            exclude.resolve() != base.resolve()
         return path.is_file() and path.suffix.lower() in IMAGE_SUFFIXES and not hidden and not excluded
 
     for arg in args:

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from depixel import api
 from depixel.errors import DepixelError, OutputError, display_name
-from depixel.image import DEFAULT_MAX_PIXELS, frame_count
+from depixel.image import DEFAULT_MAX_PIXELS, frame_count, read_source
 from depixel.output import write_atomic
 from depixel.pipeline import STAGES
 
@@ -134,7 +134,7 @@ def _convert_stream(source: str, output: str, options: Options) -> Outcome:
     """Convert stdin and/or to stdout (all in this process); never raises."""
     out = Outcome(Path(source))
     try:
-        data = sys.stdin.buffer.read() if source == "-" else api.read_input(source)
+        data = read_source(sys.stdin.buffer) if source == "-" else api.read_input(source)
         name = "<stdin>" if source == "-" else display_name(source)
         protect = () if source == "-" else (Path(source),)
         if options.frames == "all":

@@ -36,7 +36,8 @@ class _Version(argparse.Action):
             except metadata.PackageNotFoundError:
                 lines.append(f"  {name} not installed")
         lines.append(f"  python {sys.version.split()[0]}")
-        parser.exit(Exit.OK, "\n".join(lines) + "\n")
+        print("\n".join(lines))
+        parser.exit(Exit.OK)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -12,6 +12,7 @@ from .image import load_image
 from .params import Params
 from .pipeline import STAGES, Result, depixelize
 from .svg import to_svg
+from .api import convert, convert_bytes, convert_file, flatten, render_file  # noqa: E402 (uses the above)
 
 __all__ = [
     "__version__",
@@ -25,4 +26,9 @@ __all__ = [
     "depixelize",
     "load_image",
     "to_svg",
+    "convert",
+    "convert_bytes",
+    "convert_file",
+    "flatten",
+    "render_file",
 ]

@@ -1,0 +1,266 @@
+"""End-to-end tests of ``depixel convert`` through the real entry point (and the installed script)."""
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+from PIL import Image
+
+from depixel import api
+from depixel_cli.main import main
+from depixel_cli.options import Exit
+
+from conftest import FIXTURES
+
+SMALL = ["heart.png", "leaf.png", "potion_rgba.png", "leaf_la.png"]  # the quickest fixtures
+
+
+def svg_root(path: Path) -> ET.Element:
+    root = ET.parse(path).getroot()
+    assert root.tag == "{http://www.w3.org/2000/svg}svg"
+    return root
+
+
+def one_line(err: str) -> str:
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1, err
+    assert "Traceback" not in err
+    return lines[0]
+
+
+def test_folder_in_parallel_with_a_corrupt_file(tmp_path, capsys):
+    src = tmp_path / "in"
+    (src / "sub").mkdir(parents=True)
+    for name in SMALL[:3]:
+        shutil.copy(FIXTURES / name, src / name)
+    shutil.copy(FIXTURES / SMALL[3], src / "sub" / SMALL[3])
+    (src / "broken.png").write_bytes(b"\x89PNG\r\n\x1a\n" + b"not really" * 10)
+    (src / "notes.txt").write_text("not an image, not picked from a folder")
+    out = tmp_path / "out"
+
+    code = main(["convert", str(src), "-r", "--out-dir", str(out), "-j", "2", "--json"])
+    captured = capsys.readouterr()
+
+    assert code == Exit.FAILED
+    report = json.loads(captured.out)
+    assert report["files"] == 5 and report["ok"] == 4 and report["skipped"] == 0
+    assert [f["input"] for f in report["failed"]] == [str(src / "broken.png")]
+    assert "broken.png" in report["failed"][0]["error"]
+    expected = {out / "heart.svg", out / "leaf.svg", out / "potion_rgba.svg", out / "sub" / "leaf_la.svg"}
+    assert set(map(Path, report["outputs"])) == expected
+    assert {p for p in out.rglob("*") if p.is_file()} == expected  # nothing else, no temp files
+    for path in expected:
+        root = svg_root(path)
+        assert root.find("{http://www.w3.org/2000/svg}title").text == path.with_suffix(".png").name
+    error_lines = [line for line in captured.err.splitlines() if "error" in line]
+    assert len(error_lines) == 1 and "broken.png" in error_lines[0]
+    assert "Traceback" not in captured.err
+
+
+def test_output_does_not_depend_on_jobs(tmp_path, capsys):
+    names = ["ghost.png", "mushroom.png", "chip.png"]
+    results = {}
+    for jobs in ("1", "2"):
+        out = tmp_path / f"j{jobs}"
+        assert main(["convert", *[str(FIXTURES / n) for n in names], "--out-dir", str(out), "-j", jobs,
+                     "--stage", "cells"]) == Exit.OK
+        results[jobs] = {p.name: p.read_bytes() for p in out.iterdir()}
+    assert len(results["1"]) == 3 and results["1"] == results["2"]
+
+
+@pytest.mark.parametrize("fmt", ["png", "pdf"])
+def test_png_and_pdf_outputs_open(tmp_path, fmt):
+    out = tmp_path / f"heart.{fmt}"
+    assert main(["convert", str(FIXTURES / "heart.png"), "-o", str(out), "--scale", "4"]) == Exit.OK
+    if fmt == "png":
+        with Image.open(out) as img:
+            assert img.size == (40, 40)  # heart.png is 10×10
+    else:
+        assert out.read_bytes().startswith(b"%PDF-")
+
+
+def test_format_option_in_batch_mode(tmp_path):
+    out = tmp_path / "out"
+    assert main(["convert", str(FIXTURES / "heart.png"), str(FIXTURES / "leaf.png"), "--out-dir", str(out),
+                 "--format", "png", "--scale", "2", "--stage", "cells", "-j", "1"]) == Exit.OK
+    with Image.open(out / "leaf.png") as img:
+        assert img.size == (24, 24)
+
+
+def test_existing_outputs_are_skipped_unless_forced(tmp_path, capsys):
+    out = tmp_path / "out"
+    args = ["convert", str(FIXTURES / "heart.png"), str(FIXTURES / "leaf.png"), "--out-dir", str(out),
+            "--stage", "cells", "-j", "1", "--json"]
+    assert main(args) == Exit.OK
+    capsys.readouterr()
+    (out / "heart.svg").write_text("stale")
+    assert main(args) == Exit.OK
+    report = json.loads(capsys.readouterr().out)
+    assert report["ok"] == 0 and report["skipped"] == 2
+    assert (out / "heart.svg").read_text() == "stale"
+    assert main(args + ["--force"]) == Exit.OK
+    assert json.loads(capsys.readouterr().out)["ok"] == 2
+    svg_root(out / "heart.svg")
+
+
+def test_never_overwrites_an_input(tmp_path, capsys):
+    shutil.copy(FIXTURES / "heart.png", tmp_path / "heart.png")
+    before = (tmp_path / "heart.png").read_bytes()
+    code = main(["convert", str(tmp_path), "--out-dir", str(tmp_path), "--format", "png", "--stage", "cells"])
+    assert code == Exit.FAILED
+    assert "would overwrite an input" in capsys.readouterr().err
+    assert (tmp_path / "heart.png").read_bytes() == before
+    # a single explicit output onto the input is refused too
+    code = main(["convert", str(tmp_path / "heart.png"), "-o", str(tmp_path / "heart.png"), "--stage", "cells"])
+    assert code == Exit.FAILED
+    assert (tmp_path / "heart.png").read_bytes() == before
+
+
+def test_glob_keeps_relative_folders(tmp_path):
+    for sub in ("a", "b"):
+        (tmp_path / "art" / sub).mkdir(parents=True)
+        shutil.copy(FIXTURES / "heart.png", tmp_path / "art" / sub / "heart.png")
+    out = tmp_path / "out"
+    code = main(["convert", str(tmp_path / "art" / "**" / "*.png"), "--out-dir", str(out), "--stage", "cells",
+                 "-j", "1"])
+    assert code == Exit.OK
+    assert {p.relative_to(out).as_posix() for p in out.rglob("*.svg")} == {"a/heart.svg", "b/heart.svg"}
+
+
+def test_two_inputs_with_one_output_name_fail_cleanly(tmp_path, capsys):
+    for sub in ("a", "b"):
+        (tmp_path / sub).mkdir()
+        shutil.copy(FIXTURES / "heart.png", tmp_path / sub / "heart.png")
+    out = tmp_path / "out"
+    code = main(["convert", str(tmp_path / "a" / "heart.png"), str(tmp_path / "b" / "heart.png"),
+                 "--out-dir", str(out), "--stage", "cells", "-j", "1"])
+    assert code == Exit.FAILED
+    assert "already the output of" in capsys.readouterr().err
+    assert [p.name for p in out.iterdir()] == ["heart.svg"]
+
+
+def test_animated_gif_frames(tmp_path, capsys):
+    gif = FIXTURES / "heart_beat.gif"
+    assert main(["convert", str(gif), "-o", str(tmp_path / "beat.svg"), "--frames", "all"]) == Exit.OK
+    frames = sorted(tmp_path.glob("beat-*.svg"))
+    assert [p.name for p in frames] == ["beat-000.svg", "beat-001.svg"]
+    assert frames[0].read_bytes() != frames[1].read_bytes()
+    for path in frames:
+        svg_root(path)
+    assert capsys.readouterr().err == ""
+
+    assert main(["convert", str(gif), "-o", str(tmp_path / "first.svg")]) == Exit.OK
+    assert "2 frames" in one_line(capsys.readouterr().err)
+    assert (tmp_path / "first.svg").read_bytes() == frames[0].read_bytes()
+
+
+def test_background_flattens_before_converting(tmp_path):
+    out = tmp_path / "potion.svg"
+    assert main(["convert", str(FIXTURES / "potion_rgba.png"), "-o", str(out), "--background", "white",
+                 "--stage", "cells"]) == Exit.OK
+    assert "fill-opacity" not in out.read_text()  # every colour is opaque once flattened
+    plain = tmp_path / "plain.svg"
+    assert main(["convert", str(FIXTURES / "potion_rgba.png"), "-o", str(plain), "--stage", "cells"]) == Exit.OK
+    assert "fill-opacity" in plain.read_text()
+
+
+def test_tuning_flags_reach_the_pipeline(tmp_path):
+    default, tuned = tmp_path / "default.svg", tmp_path / "tuned.svg"
+    assert main(["convert", str(FIXTURES / "ghost.png"), "-o", str(default), "--stage", "cells"]) == Exit.OK
+    # with a huge luma threshold the dark outline merges with the light body
+    assert main(["convert", str(FIXTURES / "ghost.png"), "-o", str(tuned), "--stage", "cells",
+                 "--threshold-y", "255", "--threshold-u", "255", "--threshold-v", "255"]) == Exit.OK
+    assert default.read_bytes() != tuned.read_bytes()
+    coarse = tmp_path / "coarse.svg"
+    assert main(["convert", str(FIXTURES / "leaf.png"), "-o", str(coarse), "--precision", "0"]) == Exit.OK
+    assert "." not in "".join(p.get("d") for p in svg_root(coarse).iter("{http://www.w3.org/2000/svg}path"))
+
+
+@pytest.mark.parametrize("argv", [
+    ["convert", "x.png"],  # no -o / --out-dir
+    ["convert", "a.png", "b.png", "-o", "x.svg"],
+    ["convert", "a.png", "-o", "x.svg", "--out-dir", "d"],
+    ["convert", "a.png", "-o", "x.jpg"],
+    ["convert", "a.png", "-o", "x.svg", "--threshold-y", "-1"],
+    ["convert", "a.png", "-o", "x.svg", "--sparse-window", "1"],
+    ["convert", "a.png", "-o", "x.svg", "--background", "nocolour"],
+    ["convert", "-", "-o", "-", "--frames", "all"],
+    ["render", "a.svg", "-o", "x.png", "--scale", "2", "--width", "9"],
+])
+def test_usage_errors_are_one_line_exit_2(argv, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    shutil.copy(FIXTURES / "heart.png", tmp_path / "a.png")
+    shutil.copy(FIXTURES / "heart.png", tmp_path / "b.png")
+    with pytest.raises(SystemExit) as exit_info:
+        main(argv)
+    assert exit_info.value.code == Exit.USAGE
+    one_line(capsys.readouterr().err)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png", "b.png"]
+
+
+@pytest.mark.parametrize("content", [None, b"", b"hello", (FIXTURES / "heart.png").read_bytes()[:60]])
+def test_bad_input_is_one_line_exit_1_and_no_output(content, tmp_path, capsys):
+    source = tmp_path / "input.png"  # missing, empty, text, truncated
+    if content is not None:
+        source.write_bytes(content)
+    out = tmp_path / "out.svg"
+    assert main(["convert", str(source), "-o", str(out)]) == Exit.FAILED
+    assert source.name in one_line(capsys.readouterr().err)
+    assert not out.exists()
+
+
+def test_debug_shows_the_traceback(tmp_path, capsys):
+    assert main(["--debug", "convert", str(tmp_path / "missing.png"), "-o", str(tmp_path / "x.svg")]) == Exit.FAILED
+    assert "Traceback" in capsys.readouterr().err
+
+
+def test_version_lists_dependencies(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--version"])
+    assert exit_info.value.code == 0
+    out = capsys.readouterr().out
+    import depixel
+
+    assert out.startswith(f"depixel {depixel.__version__}\n")
+    for name in ("numpy", "scipy", "pillow", "cairosvg"):
+        assert f"  {name} " in out
+
+
+def test_help_shows_examples_first(capsys):
+    with pytest.raises(SystemExit):
+        main(["convert", "--help"])
+    text = capsys.readouterr().out
+    assert text.index("examples:") < text.index("--out-dir DIR ")
+    assert "--curve-weight" in text and "--no-optimize" in text
+
+
+def test_installed_script_stdin_to_stdout(tmp_path):
+    """Through the installed ``depixel`` script with real pipes: PNG on stdin, SVG on stdout."""
+    script = Path(sys.executable).with_name("depixel")
+    if not script.exists():
+        pytest.skip("depixel script not installed next to the interpreter")
+    png = (FIXTURES / "heart.png").read_bytes()
+    run = subprocess.run([str(script), "convert", "-", "-o", "-"], input=png, capture_output=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert run.stderr == b""
+    expected = api.convert(api.load(FIXTURES / "heart.png")).encode()  # no title: stdin has no name
+    assert run.stdout == expected
+
+    bad = subprocess.run([str(script), "convert", "-", "-o", "-"], input=b"junk", capture_output=True, timeout=120)
+    assert bad.returncode == 1 and bad.stdout == b""
+    assert bad.stderr.decode().startswith("depixel: error: <stdin>:")
+
+
+def test_svg_conversion_does_not_load_cairo(tmp_path):
+    code = (
+        "import sys; from depixel_cli.main import main; "
+        f"rc = main(['convert', {str(FIXTURES / 'heart.png')!r}, '-o', {str(tmp_path / 'h.svg')!r}]); "
+        "print(rc, 'cairosvg' in sys.modules, 'cairocffi' in sys.modules)"
+    )
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert run.stdout.split() == ["0", "False", "False"], run.stderr
