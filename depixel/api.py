@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError, OutputError, display_name
-from .image import DEFAULT_MAX_PIXELS, ImageSource, as_rgba, frame_count, load_image
+from .image import DEFAULT_MAX_PIXELS, ImageSource, as_rgba, frame_count, load_image, read_source
 from .output import write_atomic
 from .params import Params
 from .pipeline import depixelize
@@ -145,15 +145,7 @@ def render_file(source: str | os.PathLike, output: str | os.PathLike, *, fmt: st
 
 def read_input(path: str | os.PathLike) -> bytes:
     """The bytes of an input file, or an :class:`InputError` naming it."""
-    name = display_name(path)
-    try:
-        return Path(path).read_bytes()
-    except FileNotFoundError:
-        raise InputError(f"{name}: no such file") from None
-    except IsADirectoryError:
-        raise InputError(f"{name}: is a directory, not a file") from None
-    except OSError as exc:
-        raise InputError(f"{name}: cannot read ({exc.strerror or exc})") from None
+    return read_source(path)
 
 
 def _check_format(fmt: str) -> str:

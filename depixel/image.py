@@ -58,7 +58,7 @@ def load_image(source: ImageSource, max_pixels: int | None = DEFAULT_MAX_PIXELS,
     name = _describe(source)
     if frame < 0:
         raise InputError(f"{name}: frame must be 0 or more, not {frame}")
-    with _open(_read(source, name), name) as img:
+    with _open(read_source(source), name) as img:
         width, height = img.size
         if max_pixels is not None and width * height > max_pixels:
             raise InputError(
@@ -84,15 +84,18 @@ def load_image(source: ImageSource, max_pixels: int | None = DEFAULT_MAX_PIXELS,
 def frame_count(source: ImageSource) -> int:
     """Number of frames in an (animated) image; 1 for still images."""
     name = _describe(source)
-    with _open(_read(source, name), name) as img:
+    with _open(read_source(source), name) as img:
         try:
             return int(getattr(img, "n_frames", 1))
         except Exception:
             raise InputError(f"{name}: truncated or corrupt image data") from None
 
 
-def _read(source: ImageSource, name: str) -> bytes:
-    """All bytes of ``source``, refusing folders, devices and files over MAX_FILE_BYTES."""
+def read_source(source: ImageSource) -> bytes:
+    """All bytes of a path, bytes or binary file object; :class:`InputError` for a missing,
+    empty or unreadable file, a folder, a device, or more than MAX_FILE_BYTES (so an endless
+    stream such as ``cat /dev/zero |`` fails fast instead of filling the memory)."""
+    name = _describe(source)
     try:
         if isinstance(source, bytes):
             data = source
@@ -103,9 +106,9 @@ def _read(source: ImageSource, name: str) -> bytes:
             except FileNotFoundError:
                 raise InputError(f"{name}: no such file") from None
             if stat.S_ISDIR(mode):
-                raise InputError(f"{name}: is a directory, not an image")
+                raise InputError(f"{name}: is a directory, not a file")
             if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
-                raise InputError(f"{name}: is a device, not an image file")
+                raise InputError(f"{name}: is a device, not a file")
             with path.open("rb") as fh:  # pipes (e.g. <(cat sprite.png)) are read like files
                 data = fh.read(MAX_FILE_BYTES + 1)
         else:
