@@ -5,9 +5,10 @@ opaque background colour that neither image contains — so a seam or an alpha l
 as that colour — and compared pixel by pixel with the YIQ colour distance of pixelmatch
 (Kotsarenko & Ramos, "Measuring perceived color difference using YIQ NTSC transmission
 color space", 2010). A pixel differs when its distance exceeds ``35215 · threshold²``
-(35215 is the largest possible distance) unless it looks like anti-aliasing: a pixel whose
-neighbours contain both a darker and a brighter pixel, one of which sits in a flat area of
-both images, is an edge rendered slightly differently, not a change.
+(35215 is the largest distance there is, between cyan and red) unless it looks like
+anti-aliasing: a pixel whose neighbours contain both a darker and a brighter pixel, one of
+which sits in a flat area of both images, is an edge rendered slightly differently, not
+a change.
 """
 from __future__ import annotations
 
@@ -22,7 +23,7 @@ from .errors import InputError
 from .image import load_image
 
 DEFAULT_THRESHOLD = 0.1  # pixelmatch's default: about 1% of the largest YIQ distance
-MAX_YIQ_DELTA = 35215.0  # YIQ distance between black and white, the largest there is
+MAX_YIQ_DELTA = 35215.0  # the largest YIQ distance between two colours (cyan and red)
 #: Backgrounds tried in order when none is given: the first colour neither image contains.
 BACKGROUNDS: tuple[Colour, ...] = ((255, 0, 255), (0, 255, 255), (0, 255, 0), (255, 255, 0),
                                    (0, 0, 255), (255, 0, 0), (255, 128, 0), (128, 0, 255))
@@ -176,9 +177,8 @@ def load_pair(path_a: str | os.PathLike, path_b: str | os.PathLike, *, scale: fl
     for i, (d, p) in enumerate(zip(data, (path_a, path_b))):
         if not svg[i]:
             continue
-        other = images[1 - i]
-        if other is not None:
-            height, width = other.shape[:2]
+        if not svg[1 - i]:  # the other is a raster: its size rules
+            height, width = images[1 - i].shape[:2]
         else:
             w, h = svg_size(d, name=str(p))
             width, height = max(1, round(w * scale)), max(1, round(h * scale))

@@ -1,0 +1,200 @@
+"""The perceptual diff: YIQ distance, anti-aliasing detection, sizes, and ``depixel diff`` end to end."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from depixel.diff import (MAX_YIQ_DELTA, SizeMismatchError, compare, diff_files, luma, pick_background,
+                          yiq_distance)
+from depixel_cli.main import main
+from depixel_cli.options import Exit
+
+from conftest import FIXTURES, art
+
+
+def opaque(rgb_rows) -> np.ndarray:
+    rgb = np.asarray(rgb_rows, dtype=np.uint8)
+    return np.concatenate([rgb, np.full(rgb.shape[:2] + (1,), 255, np.uint8)], axis=2)
+
+
+def test_cyan_and_red_are_the_largest_distance():
+    assert yiq_distance(np.array([0, 255, 255]), np.array([255, 0, 0])) == pytest.approx(MAX_YIQ_DELTA, rel=1e-4)
+    assert yiq_distance(np.zeros(3), np.full(3, 255)) == pytest.approx(0.5053 * 255**2)  # luma only
+    rng = np.random.default_rng(0)
+    a, b = rng.integers(0, 256, (2, 1000, 3))
+    d = yiq_distance(a, b)
+    assert np.all(d >= 0) and np.all(d <= MAX_YIQ_DELTA * 1.0001)
+    assert np.allclose(d, yiq_distance(b, a))
+
+
+def test_identical_images_do_not_differ():
+    img = art("#.r\n.g.\nbyb")
+    result = compare(img, img.copy())
+    assert result.different_pixels == 0 and result.ratio == 0.0
+
+
+def test_small_change_below_threshold_is_equal_and_large_is_not():
+    base = np.full((6, 6, 4), 255, np.uint8)
+    base[..., :3] = 100
+    near, far = base.copy(), base.copy()
+    near[2, 3, :3] = 104  # a barely visible step
+    far[2, 3, :3] = 180
+    assert compare(base, near).different_pixels == 0
+    result = compare(base, far)
+    assert result.different_pixels == 1 and result.different[2, 3]
+    # the threshold is the knob: zero counts every change
+    assert compare(base, near, threshold=0.0).different_pixels == 1
+
+
+def test_edge_pixel_in_between_is_antialiasing_but_a_blob_is_not():
+    a = opaque([[(0, 0, 0)] * 4 + [(255, 255, 255)] * 4] * 8)  # sharp vertical edge
+    b = a.copy()
+    b[3, 4, :3] = 128  # a grey pixel on the edge: a renderer's anti-aliasing
+    result = compare(a, b)
+    assert result.different_pixels == 0 and result.antialiased[3, 4]
+    assert compare(a, b, include_antialiasing=True).different_pixels == 1
+    c = a.copy()
+    c[3, 1, :3] = 128  # grey inside the black area: every neighbour is darker, a real change
+    assert compare(a, c).different_pixels == 1
+
+
+def _reference_antialiased(img: np.ndarray, other: np.ndarray, x: int, y: int) -> bool:
+    """Slow, loop-by-loop statement of the anti-aliasing rule (scan order: x outer, y inner)."""
+    h, w = img.shape[:2]
+    ys = luma(img[..., :3])
+
+    def on_border(px, py):
+        return px in (0, w - 1) or py in (0, h - 1)
+
+    def many_siblings(im, px, py):
+        count = 1 if on_border(px, py) else 0
+        for nx in range(max(px - 1, 0), min(px + 1, w - 1) + 1):
+            for ny in range(max(py - 1, 0), min(py + 1, h - 1) + 1):
+                if (nx, ny) != (px, py) and np.array_equal(im[py, px], im[ny, nx]):
+                    count += 1
+        return count > 2
+
+    zeroes = 1 if on_border(x, y) else 0
+    low = high = 0.0
+    low_at = high_at = None
+    for nx in range(max(x - 1, 0), min(x + 1, w - 1) + 1):
+        for ny in range(max(y - 1, 0), min(y + 1, h - 1) + 1):
+            if (nx, ny) == (x, y):
+                continue
+            delta = ys[y, x] - ys[ny, nx]
+            if delta == 0:
+                zeroes += 1
+            elif delta < low:
+                low, low_at = delta, (nx, ny)
+            elif delta > high:
+                high, high_at = delta, (nx, ny)
+    if zeroes > 2 or low == 0 or high == 0:
+        return False
+    return any(many_siblings(img, *p) and many_siblings(other, *p) for p in (low_at, high_at))
+
+
+def test_vectorized_comparison_matches_the_reference_on_random_images():
+    rng = np.random.default_rng(7)
+    palette = np.array([[0, 0, 0], [255, 255, 255], [128, 128, 128], [200, 30, 30], [60, 60, 60]], np.uint8)
+    for _ in range(20):
+        h, w = rng.integers(1, 9, 2)
+        a = opaque(palette[rng.integers(0, 5, (h, w))])
+        b = opaque(palette[rng.integers(0, 5, (h, w))])
+        same = rng.random((h, w)) < 0.6  # shared areas give flat neighbourhoods
+        b[same] = a[same]
+        result = compare(a, b)
+        over = yiq_distance(a[..., :3], b[..., :3]) > MAX_YIQ_DELTA * 0.01
+        for y in range(h):
+            for x in range(w):
+                aa = over[y, x] and (_reference_antialiased(a, b, x, y) or _reference_antialiased(b, a, x, y))
+                assert result.antialiased[y, x] == aa
+                assert result.different[y, x] == (over[y, x] and not aa)
+
+
+def test_background_avoids_colours_in_the_images():
+    plain = art("#.\n.#")
+    assert pick_background([plain]) == (255, 0, 255)
+    magenta = art("m.\n.#", {"m": (255, 0, 255, 255)})
+    assert pick_background([plain, magenta]) == (0, 255, 255)
+    hidden = art("m.\n.#", {"m": (255, 0, 255, 0)})  # fully transparent: not a visible colour
+    assert pick_background([hidden]) == (255, 0, 255)
+
+
+def test_transparent_hole_shows_against_the_background(tmp_path):
+    a = art("rr\nrr")
+    b = a.copy()
+    b[0, 0, 3] = 0  # an alpha leak
+    for name, img in (("a.png", a), ("b.png", b)):
+        Image.fromarray(img, "RGBA").save(tmp_path / name)
+    result, background = diff_files(tmp_path / "a.png", tmp_path / "b.png")
+    assert background == (255, 0, 255)
+    assert result.different[0, 0] and result.different_pixels == 1
+
+
+def test_size_mismatch_is_an_error_unless_allowed(tmp_path):
+    Image.fromarray(art("rr\nrr"), "RGBA").save(tmp_path / "small.png")
+    Image.fromarray(art("rrr\nrrr"), "RGBA").save(tmp_path / "wide.png")
+    with pytest.raises(SizeMismatchError):
+        diff_files(tmp_path / "small.png", tmp_path / "wide.png")
+    result, _ = diff_files(tmp_path / "small.png", tmp_path / "wide.png", allow_size_mismatch=True)
+    assert result.different.shape == (2, 3)
+    assert result.different[:, 2].all() and not result.different[:, :2].any()
+
+
+# --- depixel diff, end to end ---------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def heart_svg(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("diff")
+    svg = folder / "heart.svg"
+    assert main(["convert", str(FIXTURES / "heart.png"), "-o", str(svg), "--scale", "4"]) == Exit.OK
+    return svg
+
+
+def test_cli_svg_against_its_own_render_is_same(heart_svg, tmp_path, capsys):
+    png = tmp_path / "heart.png"
+    assert main(["render", str(heart_svg), "-o", str(png)]) == Exit.OK
+    report_path = tmp_path / "diff.png"
+    code = main(["diff", str(heart_svg), str(png), "--diff-out", str(report_path), "--json"])
+    assert code == Exit.OK
+    report = json.loads(capsys.readouterr().out)
+    assert report["same"] is True and report["different_pixels"] == 0
+    assert (report["width"], report["height"]) == (40, 40)
+    with Image.open(report_path) as img:
+        assert img.size == (40, 40)
+
+
+def test_cli_changed_colour_is_different(heart_svg, tmp_path, capsys):
+    text = heart_svg.read_text()
+    fills = sorted(set(part.split('"')[0] for part in text.split('fill="#')[1:]))
+    changed = tmp_path / "changed.svg"
+    changed.write_text(text.replace(f'fill="#{fills[0]}"', 'fill="#00ff00"'))
+    diff_png = tmp_path / "diff.png"
+    code = main(["diff", str(heart_svg), str(changed), "--diff-out", str(diff_png), "--json"])
+    assert code == Exit.FAILED
+    report = json.loads(capsys.readouterr().out)
+    assert report["same"] is False and report["different_pixels"] > 0
+    with Image.open(diff_png) as img:
+        red = np.all(np.asarray(img.convert("RGB")) == (255, 0, 0), axis=2).sum()
+    assert red == report["different_pixels"]
+    # tolerances: enough absolute or relative slack makes it pass
+    n, ratio = report["different_pixels"], report["ratio"]
+    assert main(["diff", str(heart_svg), str(changed), "--max-pixels-diff", str(n), "--max-ratio", "1"]) == Exit.OK
+    assert main(["diff", str(heart_svg), str(changed), "--max-ratio", str(ratio / 2)]) == Exit.FAILED
+
+
+def test_cli_errors_exit_2(heart_svg, tmp_path, capsys):
+    assert main(["diff", str(heart_svg), str(tmp_path / "missing.svg")]) == Exit.USAGE
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "missing.svg: no such file" in err
+    big = tmp_path / "big.svg"
+    assert main(["convert", str(FIXTURES / "heart.png"), "-o", str(big), "--scale", "5"]) == Exit.OK
+    assert main(["diff", str(heart_svg), str(big)]) == Exit.USAGE  # 40×40 vs 50×50
+    assert "40x40" in capsys.readouterr().err
+    assert main(["diff", str(heart_svg), str(big), "--allow-size-mismatch"]) == Exit.FAILED
+    # the same SVG at a common scale compares equal
+    assert main(["diff", str(heart_svg), str(heart_svg), "--scale", "3"]) == Exit.OK
+
