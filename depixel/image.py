@@ -125,7 +125,7 @@ def read_source(source: ImageSource) -> bytes:
     if not data:
         raise InputError(f"{name}: empty file")
     if len(data) > MAX_FILE_BYTES:
-        raise InputError(f"{name}: file is over {MAX_FILE_BYTES // 2**20} MiB, too large for pixel art")
+        raise InputError(f"{name}: over {MAX_FILE_BYTES // 2**20} MiB, too large for pixel art")
     return data
 
 

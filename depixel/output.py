@@ -39,11 +39,11 @@ def write_atomic(path: str | os.PathLike, data: bytes | str, protect: tuple[Path
                 return
             if not os.access(target, os.W_OK):
                 raise OutputError(f"{name}: file is read-only")
-        folder = target.parent
+        folder, shown = target.parent, display_name(Path(path).parent)
         if not folder.exists():
-            raise OutputError(f"{name}: output folder {display_name(folder)} does not exist")
+            raise OutputError(f"{name}: output folder {shown} does not exist")
         if not folder.is_dir():
-            raise OutputError(f"{name}: {display_name(folder)} is not a folder")
+            raise OutputError(f"{name}: {shown} is not a folder")
         fd, tmp = tempfile.mkstemp(prefix=f".{target.name[:64]}.", suffix=".tmp", dir=folder)
     except OutputError:
         raise

@@ -164,3 +164,19 @@ def test_sprite_on_transparency_gets_the_same_curves_as_on_an_opaque_background(
     border = np.zeros(len(left), bool)
     border[inner] = (flat[left[inner], 3] == 0) != (flat[right[inner], 3] == 0)
     assert a.curved[border].mean() > 0.5
+
+
+def test_background_option_flattens_every_pixel(tmp_path, capsys):
+    from depixel_cli.main import main
+
+    out = tmp_path / "potion.svg"
+    code = main(["convert", str(FIXTURES / "potion_rgba.png"), "-o", str(out), "--background", "#ff00ff",
+                 "--stage", STAGE])
+    assert code == 0, capsys.readouterr().err
+    rgba = load_image(FIXTURES / "potion_rgba.png").astype(float)
+    a = rgba[..., 3:] / 255.0
+    flat = np.round(rgba[..., :3] * a + np.array([255, 0, 255]) * (1 - a))
+    want = np.concatenate([flat, np.full(a.shape, 255.0)], axis=2).astype(np.uint8)
+    svg = out.read_text()
+    assert "fill-opacity" not in svg
+    assert_centres_kept(want, svg)
