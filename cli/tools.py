@@ -9,7 +9,7 @@ from pathlib import Path
 
 from depixel import api
 from depixel.errors import OutputError, display_name
-from depixel.image import DEFAULT_MAX_PIXELS
+from depixel.image import DEFAULT_MAX_PIXELS, read_source
 from depixel.output import write_atomic
 from depixel.pipeline import STAGES
 
@@ -124,7 +124,7 @@ def run_render(args: argparse.Namespace) -> int:
     if fmt == "svg":
         args.parser.error("render writes PNG or PDF; give OUT a .png or .pdf name or use --format")
     if args.input == "-":
-        svg, name, protect = sys.stdin.buffer.read(), "<stdin>", ()
+        svg, name, protect = read_source(sys.stdin.buffer), "<stdin>", ()
     else:
         svg, name, protect = api.read_input(args.input), display_name(args.input), (Path(args.input),)
     data = render(svg, fmt, scale=args.scale, width=args.width, background=args.background, name=name)

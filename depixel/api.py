@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError, OutputError, display_name
+from .errors import OutputError, display_name
 from .image import DEFAULT_MAX_PIXELS, ImageSource, as_rgba, frame_count, load_image, read_source
 from .output import write_atomic
 from .params import Params

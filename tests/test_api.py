@@ -108,7 +108,7 @@ def test_frames_of_an_animation(tmp_path):
 
 def test_render_file_sizes(tmp_path):
     svg = tmp_path / "s.svg"
-    svg.write_text(depixel.convert(art(" ## \n#rr#\n#rr#\n ## "), stage="cells"))  # transparent corners
+    svg.write_text(depixel.convert(art("_##_\n#rr#\n#rr#\n_##_", {"_": (0, 0, 0, 0)}), stage="cells"))  # transparent corners
     depixel.render_file(svg, tmp_path / "w.png", width=40)
     depixel.render_file(svg, tmp_path / "s.png", scale=3, background="#ff0")
     with Image.open(tmp_path / "w.png") as w, Image.open(tmp_path / "s.png") as s:
