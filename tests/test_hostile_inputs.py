@@ -9,6 +9,7 @@ import errno
 import os
 import stat
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -22,8 +23,22 @@ from depixel.output import write_atomic
 from conftest import FIXTURES
 from robust import STAGE, convert, parse, png_bytes, png_chunk
 
-IS_ROOT = hasattr(os, "geteuid") and os.geteuid() == 0
-needs_non_root = pytest.mark.skipif(IS_ROOT, reason="root ignores file permissions")
+
+
+def _permissions_enforced() -> bool:
+    """False for root (or any process that may override file permissions)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        probe = Path(tmp) / "probe"
+        probe.write_bytes(b"x")
+        probe.chmod(0)
+        try:
+            probe.read_bytes()
+        except PermissionError:
+            return True
+        return False
+
+
+needs_non_root = pytest.mark.skipif(not _permissions_enforced(), reason="running as root: permissions not enforced")
 SPRITE = FIXTURES / "potion_rgba.png"
 
 
@@ -195,8 +210,6 @@ def test_read_only_output_file(tmp_path):
 
 def test_unwritable_folder_error_is_reported(tmp_path, monkeypatch):
     # what a read-only folder does for a normal user, also checked when running as root
-    import tempfile
-
     def refuse(*args, **kwargs):
         raise PermissionError(errno.EACCES, "Permission denied")
 
