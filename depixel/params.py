@@ -32,6 +32,8 @@ class Params:
     iterations: int = 20  # not in paper ("at each iteration"): 20 sweeps reach a plateau on the corpus
     candidates: int = 8  # not in paper ("several random offsets"): trial positions per node and sweep
     radius: float = 0.125  # not in paper ("a small radius"): trial offsets within 1/8 pixel
+    max_offset: float = 0.5  # not in paper: hard bound on a node's move from its initial place (pixels)
+    centre_clearance: float = 0.15  # not in paper: curves keep this far (pixels) from the centres of their pixels
     seed: int = 0  # not in paper: all randomness comes from numpy's PCG64 seeded with this
     corner_patterns: bool = True  # paper §3.4 / Figure 7: keep detected corners out of the smoothness term
 

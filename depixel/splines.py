@@ -176,14 +176,19 @@ def shading_edges(cells: CellGraph, visible: np.ndarray, params: Params) -> np.n
     return visible & (dist <= params.shading_distance) & ~clear_mismatch
 
 
-def extract_splines(cells: CellGraph, params: Params = Params()) -> SplineSet:
-    """Pair visible edges at nodes and chain them into curves."""
+def extract_splines(cells: CellGraph, params: Params = Params(), breaks: np.ndarray | None = None) -> SplineSet:
+    """Pair visible edges at nodes and chain them into curves.
+
+    ``breaks`` (N,) bool marks nodes where every curve must end (sharp corners).
+    """
     visible = visible_edges(cells)
     shading = shading_edges(cells, visible, params)
     vis = np.flatnonzero(visible)
     # half-ends: 2k is the u-end of visible edge vis[k], 2k+1 its v-end
     end_node = cells.edges[vis].ravel()
     partner = _pair_ends(cells, vis, end_node, shading[vis])
+    if breaks is not None:
+        partner[breaks[end_node]] = -1
     curve_ptr, curve_nodes, closed, seg_edges, seg_forward = _chain(vis, end_node, partner)
     return SplineSet(
         cells=cells,
