@@ -214,8 +214,8 @@ class _ShadingField:
         region = self.region.reshape(h, w)
         colour = self.premultiplied.reshape(h, w, 4)
         flat = np.ones((h, w), dtype=bool)
-        for dy in range(-radius, radius + 1):
-            for dx in range(-radius, radius + 1):
+        for dy in range(-min(radius, h - 1), min(radius, h - 1) + 1):
+            for dx in range(-min(radius, w - 1), min(radius, w - 1) + 1):
                 a = (slice(max(0, -dy), min(h, h - dy)), slice(max(0, -dx), min(w, w - dx)))
                 b = (slice(max(0, dy), min(h, h + dy)), slice(max(0, dx), min(w, w + dx)))
                 differs = (region[b] == region[a]) & (colour[b] != colour[a]).any(axis=-1)
