@@ -9,6 +9,7 @@ float64 on a 0-255 scale, with the hqx formula (documented in docs/colour.md)::
 """
 from __future__ import annotations
 
+import contextlib
 import io
 import os
 import stat
@@ -58,7 +59,8 @@ def load_image(source: ImageSource, max_pixels: int | None = DEFAULT_MAX_PIXELS,
     name = _describe(source)
     if frame < 0:
         raise InputError(f"{name}: frame must be 0 or more, not {frame}")
-    with _open(read_source(source), name) as img:
+    data = read_source(source)
+    with _quiet_pillow(), _open(data, name) as img:
         width, height = img.size
         if max_pixels is not None and width * height > max_pixels:
             raise InputError(
@@ -69,14 +71,17 @@ def load_image(source: ImageSource, max_pixels: int | None = DEFAULT_MAX_PIXELS,
             n_frames = int(getattr(img, "n_frames", 1))
             if frame >= n_frames:
                 raise InputError(f"{name}: has {n_frames} frame(s), no frame {frame}")
-            if frame:
-                img.seek(frame)
-            img.load()
+            with _mute_stderr_fd(img.format == "TIFF"):  # libtiff prints its complaints there
+                if frame:
+                    img.seek(frame)
+                img.load()
         except InputError:
             raise
         except MemoryError:
             raise InputError(f"{name}: not enough memory to decode a {width}x{height} image") from None
-        except Exception:  # Pillow raises OSError, SyntaxError, ValueError, zlib.error, ...
+        except Exception as exc:  # Pillow raises OSError, SyntaxError, ValueError, zlib.error, ...
+            if _is_bomb(exc):
+                raise _bomb_error(name) from None
             raise InputError(f"{name}: truncated or corrupt image data") from None
         return _to_rgba(img, name)
 
@@ -84,7 +89,8 @@ def load_image(source: ImageSource, max_pixels: int | None = DEFAULT_MAX_PIXELS,
 def frame_count(source: ImageSource) -> int:
     """Number of frames in an (animated) image; 1 for still images."""
     name = _describe(source)
-    with _open(read_source(source), name) as img:
+    data = read_source(source)
+    with _quiet_pillow(), _open(data, name) as img:
         try:
             return int(getattr(img, "n_frames", 1))
         except Exception:
@@ -129,22 +135,63 @@ def read_source(source: ImageSource) -> bytes:
     return data
 
 
-def _open(data: bytes, name: str):
-    """Pillow image over ``data`` (header read, pixels not yet decoded); use as a context."""
-    from PIL import Image  # Pillow is imported lazily: `depixel --help` should stay fast
+@contextlib.contextmanager
+def _quiet_pillow():
+    """Pillow's warnings (corrupt EXIF, odd chunks) are not shown: the file either loads or
+    fails with one line. Its decompression-bomb warning, given from MAX_IMAGE_PIXELS on (it
+    only raises at twice that), becomes an error."""
+    from PIL import Image
 
     with warnings.catch_warnings():
-        # Pillow warns above MAX_IMAGE_PIXELS and only raises at twice that; refuse both
+        warnings.simplefilter("ignore")
         warnings.simplefilter("error", Image.DecompressionBombWarning)
-        try:
-            img = Image.open(io.BytesIO(data))
-        except (Image.DecompressionBombError, Image.DecompressionBombWarning):
-            raise InputError(
-                f"{name}: header claims an absurd size, over {Image.MAX_IMAGE_PIXELS} pixels "
-                "(decompression bomb guard)"
-            ) from None
-        except Exception:  # UnidentifiedImageError, or a header Pillow chokes on
-            raise InputError(f"{name}: not an image (no format Pillow reads recognises it)") from None
+        yield
+
+
+@contextlib.contextmanager
+def _mute_stderr_fd(active: bool):
+    """Point file descriptor 2 at the null device for the duration (C libraries that print
+    directly there); a no-op when not ``active`` or when fd 2 cannot be duplicated."""
+    try:
+        saved = os.dup(2) if active else None
+    except OSError:
+        saved = None
+    if saved is None:
+        yield
+        return
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
+def _is_bomb(exc: BaseException) -> bool:
+    from PIL import Image
+
+    return isinstance(exc, (Image.DecompressionBombError, Image.DecompressionBombWarning))
+
+
+def _bomb_error(name: str) -> InputError:
+    from PIL import Image
+
+    return InputError(f"{name}: header claims an absurd size, over {Image.MAX_IMAGE_PIXELS} pixels "
+                      "(decompression bomb guard)")
+
+
+def _open(data: bytes, name: str):
+    """Pillow image over ``data`` (header read, pixels not yet decoded); use as a context,
+    inside :func:`_quiet_pillow`."""
+    from PIL import Image  # Pillow is imported lazily: `depixel --help` should stay fast
+
+    try:
+        img = Image.open(io.BytesIO(data))
+    except Exception as exc:  # UnidentifiedImageError, or a header Pillow chokes on
+        if _is_bomb(exc):
+            raise _bomb_error(name) from None
+        raise InputError(f"{name}: not an image (no format Pillow reads recognises it)") from None
     width, height = img.size
     if width <= 0 or height <= 0:
         img.close()

@@ -6,6 +6,7 @@ no output file (not even a partial or temporary one), and never touch the input.
 from __future__ import annotations
 
 import errno
+import io
 import os
 import stat
 import sys
@@ -48,11 +49,27 @@ def _corrupt_idat() -> bytes:
     return header[:at] + png_chunk(b"IDAT", b"this is not zlib data") + png_chunk(b"IEND", b"")
 
 
+def _tiff(corrupt: bool) -> bytes:
+    """An LZW TIFF, cut in half or with its compressed strip (right after the header) garbled:
+    libtiff prints to file descriptor 2 itself and Pillow warns, which must not show."""
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.open(SPRITE).save(buf, "TIFF", compression="tiff_lzw")
+    data = bytearray(buf.getvalue())
+    if not corrupt:
+        return bytes(data[: len(data) // 2])
+    data[20:60] = bytes(b ^ 0x55 for b in data[20:60])
+    return bytes(data)
+
+
 # name: (file content, or None for no file, or "dir"; the message fragment the user sees)
 BAD_INPUTS = {
     "text-named-png": (b"just some notes, not a picture\n", "not an image"),
     "truncated-png": (SPRITE.read_bytes()[:100], "truncated or corrupt image data"),
     "corrupt-idat": (_corrupt_idat(), "truncated or corrupt image data"),
+    "corrupt-tiff": (_tiff(corrupt=True), "truncated or corrupt image data"),
+    "truncated-tiff": (_tiff(corrupt=False), "not an image"),
     "empty-file": (b"", "empty file"),
     "random-bytes": (bytes(np.random.default_rng(5).integers(0, 256, 400, dtype=np.uint8)), "not an image"),
     "zero-width": (png_bytes(0, 5, 8, 2), "not an image"),
@@ -309,11 +326,12 @@ CLI_ANSWERS = {"directory": (2, "no images in this folder")}
 
 
 @pytest.mark.parametrize("case", sorted(BAD_INPUTS))
-def test_cli_bad_input(case, tmp_path, capsys):
+def test_cli_bad_input(case, tmp_path, capfd):
+    # capfd, not capsys: what C libraries print on file descriptor 2 counts too
     path = make_input(tmp_path, case)
     out = tmp_path / "out" / "result.svg"
     out.parent.mkdir()
-    code, stdout, err = run_cli(capsys, "convert", str(path), "-o", str(out), "--stage", STAGE)
+    code, stdout, err = run_cli(capfd, "convert", str(path), "-o", str(out), "--stage", STAGE)
     want_code, fragment = CLI_ANSWERS.get(case, (1, BAD_INPUTS[case][1]))
     assert code == want_code
     assert_one_clean_line(err, path.name, fragment)
