@@ -110,7 +110,7 @@ def run_convert(args: argparse.Namespace) -> int:
         outcomes = _convert_batch(args, options)
     if args.json:
         print(json.dumps(summary(outcomes, time.perf_counter() - start), indent=2))
-    elif len(outcomes) >= 2:
+    elif len(outcomes) >= 2 and sys.stderr.isatty():  # like the progress bar: quiet in logs
         _print_totals(outcomes, time.perf_counter() - start)
     return Exit.FAILED if any(o.error for o in outcomes) else Exit.OK
 
