@@ -31,23 +31,27 @@ def test_fixture_centres_keep_colour_and_opacity(name):
     assert drawn == visible_colours(rgba)
 
 
-@pytest.mark.parametrize("name", TRANSPARENT_FIXTURES)
-def test_judge_figures_on_transparent_fixtures(name, tmp_path):
+def test_judge_figures_on_transparent_fixtures(tmp_path):
     if not JUDGE.is_file():
         pytest.skip("../shared/tools/judge.py not present")
-    rgba = load_image(FIXTURES / name)
-    svg = tmp_path / "out.svg"
-    svg.write_text(convert(rgba, title=name))
-    run = subprocess.run([sys.executable, str(JUDGE), str(FIXTURES / name), str(svg)],
-                         capture_output=True, text=True, timeout=120, check=True)
-    figures = json.loads(run.stdout.splitlines()[-1])
-    # The judge scores a pixel with alpha >= 128 as opaque (rendered alpha must be >= 200)
-    # and one below as clear (<= 55): a faithful half-transparent pixel fails either way, so
-    # those pixels are taken out of the 0.98 bar.
-    a = rgba[..., 3].astype(int)
-    unscorable = float(((a > 55) & (a < 200)).mean())
-    assert figures["centre"] >= 0.98 - unscorable, figures
-    assert figures["diag"] >= 0.98 and figures["seam_px"] == 0, figures
+    pairs = []
+    for name in TRANSPARENT_FIXTURES:
+        svg = tmp_path / f"{name}.svg"
+        svg.write_text(convert(load_image(FIXTURES / name), title=name))
+        pairs.append(f"{FIXTURES / name}\t{svg}\n")
+    (tmp_path / "pairs.tsv").write_text("".join(pairs))
+    run = subprocess.run([sys.executable, str(JUDGE), "--pairs", str(tmp_path / "pairs.tsv")],
+                         capture_output=True, text=True, timeout=300, check=True)
+    results = [json.loads(line) for line in run.stdout.splitlines()]
+    assert len(results) == len(TRANSPARENT_FIXTURES)
+    for name, figures in zip(TRANSPARENT_FIXTURES, results):
+        # The judge scores a pixel with alpha >= 128 as opaque (rendered alpha must be >= 200)
+        # and one below as clear (<= 55): a faithful half-transparent pixel fails either way,
+        # so those pixels are taken out of the 0.98 bar.
+        a = load_image(FIXTURES / name)[..., 3].astype(int)
+        unscorable = float(((a > 55) & (a < 200)).mean())
+        assert figures["centre"] >= 0.98 - unscorable, figures
+        assert figures["diag"] >= 0.98 and figures["seam_px"] == 0, figures
 
 
 def test_transparent_pixels_render_clear_and_get_no_path():
