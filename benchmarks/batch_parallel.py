@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import argparse
 import hashlib
+import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -36,12 +38,16 @@ def sprite_32() -> np.ndarray:
     return canvas
 
 
-def run(folder: Path, out: Path, jobs: int, stage: str) -> float:
+def run(folder: Path, out: Path, jobs: int, stage: str) -> tuple[float, float]:
+    """Wall seconds and CPU seconds (user + system, all processes) of one batch."""
     script = Path(sys.executable).with_name("depixel")
     command = [str(script), "convert", str(folder), "--out-dir", str(out), "-j", str(jobs), "--stage", stage]
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
-    return time.perf_counter() - start
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
 def digest(folder: Path) -> str:
@@ -64,16 +70,21 @@ def main() -> None:
         data = sprite_32()
         for i in range(args.copies):
             Image.fromarray(data, "RGBA").save(folder / f"sprite{i:04d}.png")
+        print(f"load average before: {' '.join(f'{x:.2f}' for x in os.getloadavg())} on {os.cpu_count()} cores "
+              "(other work on the machine lowers the speed-up)")
         best, digests = {}, {}
         for jobs in (1, 2):
-            times = []
+            times, cpu = [], []
             for k in range(args.repeat):
                 out = Path(tmp) / f"out-j{jobs}-{k}"
-                times.append(run(folder, out, jobs, args.stage))
+                wall, used = run(folder, out, jobs, args.stage)
+                times.append(wall)
+                cpu.append(used)
                 digests.setdefault(jobs, digest(out))
             best[jobs] = min(times)
             print(f"-j {jobs}: {best[jobs]:.2f} s for {args.copies} files "
-                  f"({1000 * best[jobs] / args.copies:.1f} ms/file; runs: {', '.join(f'{t:.2f}' for t in times)})")
+                  f"({1000 * best[jobs] / args.copies:.1f} ms/file; runs: {', '.join(f'{t:.2f}' for t in times)}; "
+                  f"CPU {min(cpu):.1f} s)")
         assert digests[1] == digests[2], "outputs differ between -j 1 and -j 2"
         print(f"speed-up -j 2 vs -j 1: {best[1] / best[2]:.2f}x (stage {args.stage}, outputs identical)")
 
