@@ -90,6 +90,19 @@ def detect_corners(splines: SplineSet) -> np.ndarray:
     forward = same(a, leg_x) & same(b, leg_y) & same(a2, far_x) & same(b2, far_y)
     backward = same(a, leg_y) & same(b, leg_x) & same(a2, far_y) & same(b2, far_x)
     match = ok & cut & (forward | backward)
+    # The cut must come from a redundant link: the pixel opposite the corner is linked to
+    # both linked pixels, so restoring the corner cannot disconnect a thin diagonal line.
+    g = cells.graph
+    h, w = g.shape
+    r_k = lattice[:, 1] // 4 - (sy < 0)  # the pixel whose corner K is
+    c_k = lattice[:, 0] // 4 - (sx < 0)
+    r_o = lattice[:, 1] // 4 - (sy > 0)  # the opposite pixel of the 2×2 block
+    c_o = lattice[:, 0] // 4 - (sx > 0)
+    valid = match & (r_k >= 0) & (r_k < h) & (c_k >= 0) & (c_k < w) & (r_o >= 0) & (r_o < h) & (c_o >= 0) & (c_o < w)
+    rk, ck, ro, co = (np.where(valid, x, 0) for x in (r_k, c_k, r_o, c_o))
+    across = g.right[ro, np.minimum(co, ck).clip(0, max(w - 2, 0))] if w > 1 else np.zeros_like(valid)
+    along = g.down[np.minimum(ro, rk).clip(0, max(h - 2, 0)), co] if h > 1 else np.zeros_like(valid)
+    match = valid & across & along
     corners = np.zeros(len(q), dtype=bool)
     corners[node[match]] = True
     return corners
@@ -144,7 +157,7 @@ def optimize_splines(splines: SplineSet, params: Params = Params()) -> Optimized
     positions = start.copy()
     positions[splines.curve_nodes[movable]] = ctrl[movable]
     positions = _harmonic_map(splines, start, positions, corners)
-    positions = _keep_centres_inside(splines, start, positions)
+    positions = _keep_centres_inside(splines, start, positions, params.centre_clearance / 2)
     return OptimizedSplines(splines, corners, start, positions, energy_before, energy_after)
 
 
@@ -279,11 +292,13 @@ def _independent_classes(splines: SplineSet, movable: np.ndarray) -> list[np.nda
     return [np.flatnonzero(movable & (colour == c)) for c in range(5)]
 
 
-def centres_inside(image: VectorImage, samples: int = 8) -> np.ndarray:
-    """(H*W,) bool: each pixel centre lies inside its own drawn cell (curves flattened).
+def centre_clearance(image: VectorImage, samples: int = 8) -> np.ndarray:
+    """(H*W,) signed distance of each pixel centre to its own drawn cell's boundary.
 
-    Even-odd ray casting from every centre towards +x against the flattened boundary of its
-    own cell, all cells at once: each edge contributes its polyline to the cells on both sides.
+    Positive inside, negative outside (curves flattened into ``2 * samples`` pieces per
+    edge). Inside-ness is even-odd ray casting from every centre towards +x against the
+    flattened boundary of its own cell, all cells at once: each edge contributes its
+    polyline to the cells on both sides.
     """
     cells = image.cells
     h, w = cells.shape
@@ -299,6 +314,7 @@ def centres_inside(image: VectorImage, samples: int = 8) -> np.ndarray:
     poly = np.where(image.curved[:, None, None], curve, line)  # (E, S, 2)
     p0, p1 = poly[:, :-1], poly[:, 1:]
     count = np.zeros(h * w, dtype=np.int64)
+    nearest = np.full(h * w, np.inf)
     for side in (0, 1):
         pix = cells.edge_pixels[:, side]
         has = pix >= 0
@@ -310,19 +326,28 @@ def centres_inside(image: VectorImage, samples: int = 8) -> np.ndarray:
             x_at = q0[..., 0] + (cy - q0[..., 1]) * (q1[..., 0] - q0[..., 0]) / (q1[..., 1] - q0[..., 1])
         hits = (straddle & (x_at > cx)).sum(axis=1)
         np.add.at(count, pix[has], hits)
-    return count % 2 == 1
+        seg = q1 - q0
+        rel = np.stack([cx, cy], axis=-1) - q0
+        length2 = np.maximum((seg**2).sum(axis=-1), 1e-12)
+        along = np.clip((rel * seg).sum(axis=-1) / length2, 0.0, 1.0)
+        dist = np.sqrt(((rel - along[..., None] * seg) ** 2).sum(axis=-1)).min(axis=1)
+        np.minimum.at(nearest, pix[has], dist)
+    return np.where(count % 2 == 1, nearest, -nearest)
 
 
 def _keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
-                         rounds: int = 8) -> np.ndarray:
-    """Undo moves around any cell that lost its pixel centre, until every cell keeps it."""
+                         margin: float, rounds: int = 8) -> np.ndarray:
+    """Undo moves around any cell whose pixel centre came closer than ``margin`` to its
+    boundary (or left it), until none does. Moves made elsewhere on a curve (a T-junction
+    end follows the curve it ends on) can reach a cell the relaxation did not check."""
     cells = splines.cells
     positions = positions.copy()
+    floor = np.minimum(centre_clearance(splines.vector_image(start)), margin)
     for _ in range(rounds):
-        inside = centres_inside(splines.vector_image(positions))
-        if inside.all():
+        ok = centre_clearance(splines.vector_image(positions)) >= floor - 1e-9
+        if ok.all():
             break
-        bad = np.flatnonzero(~inside)
+        bad = np.flatnonzero(~ok)
         touched = np.isin(cells.edge_pixels, bad).any(axis=1)
         nodes = np.unique(cells.edges[touched])
         # widen to the whole neighbourhood on the curves through those nodes

@@ -23,6 +23,7 @@ class Params:
     sparse_weight: float = 1.0  # paper §3.2 "sparse pixels": vote = difference of component sizes (× this)
     sparse_window: int = 8  # paper §3.2: component sizes are measured in an 8×8 window around the block
     island_weight: float = 5.0  # paper §3.2 "islands": fixed vote, empirically 5
+    tie_break: bool = True  # not in paper: a tie goes to the diagonal of the rarer colour in the window
 
     # --- §3.3 spline extraction -----------------------------------------------------------
     shading_distance: float = 100.0  # paper §3.3: a visible edge is a shading edge if YUV distance ≤ 100/255
