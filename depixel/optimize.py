@@ -121,38 +121,39 @@ def optimize_splines(splines: SplineSet, params: Params = Params()) -> Optimized
     prev, nxt = splines.neighbours()
     end = (prev < 0) | (nxt < 0)
     movable = ~end & ~corners[splines.curve_nodes]
-    excluded = _excluded_halves(splines, corners)
-    layout = _Layout(splines, prev, nxt, end, excluded)
+    relax = _Relaxation(splines, prev, nxt, end, _excluded_halves(splines, corners))
 
     ctrl = splines.controls_for(start)  # T-junction ends snapped onto their curves
     anchor = ctrl.copy()
     snapped = end & splines.through_nodes()[splines.curve_nodes]
-    energy_before = layout.total_energy(ctrl, anchor)
+    energy_before = relax.total_energy(ctrl, anchor)
     rng = np.random.default_rng(params.seed)
-    classes = _independent_classes(splines, movable)
+    classes = [relax.prepare(m) for m in _independent_classes(splines, movable) if m.size]
     for _ in range(params.iterations):
         for c in rng.permutation(len(classes)):
-            members = classes[c]
-            if members.size == 0:
-                continue
-            angle = rng.uniform(0.0, 2.0 * np.pi, size=(members.size, params.candidates))
-            radius = params.radius * np.sqrt(rng.uniform(0.0, 1.0, size=(members.size, params.candidates)))
+            group = classes[c]
+            size = (group.members.size, params.candidates)
+            angle = rng.uniform(0.0, 2.0 * np.pi, size=size)
+            radius = params.radius * np.sqrt(rng.uniform(0.0, 1.0, size=size))
+            here = ctrl[group.members][:, None, :]
             offsets = np.stack([np.cos(angle), np.sin(angle)], axis=-1) * radius[..., None]
-            trial = np.concatenate([ctrl[members][:, None, :], ctrl[members][:, None, :] + offsets], axis=1)
-            energy = layout.node_energy(ctrl, anchor, members, trial)
-            too_far = np.linalg.norm(trial - anchor[members][:, None], axis=-1) > params.max_offset
-            clear = layout.clearance(ctrl, members, trial)
-            too_close = clear < np.minimum(params.centre_clearance, clear[:, :1])
-            reject = too_far | too_close
-            reject[:, 0] = False  # staying put is always allowed
-            energy = np.where(reject, np.inf, energy)
-            best = np.argmin(energy, axis=1)  # index 0 (stay) wins ties
-            ctrl[members] = trial[np.arange(members.size), best]
+            trial = np.concatenate([here, here + offsets], axis=1)  # (M, K+1, 2), 0 = stay
+            energy = relax.energy(ctrl, anchor, group, trial)
+            too_far = ((trial - anchor[group.members][:, None]) ** 2).sum(axis=-1) > params.max_offset**2
+            too_far[:, 0] = False
+            best = np.argmin(np.where(too_far, np.inf, energy), axis=1)  # ties keep the lower index
+            # the best trial must not bring a curve closer to a protected point than allowed
+            rows = np.arange(best.size)
+            pair = trial[rows[:, None], np.stack([np.zeros_like(best), best], axis=1)]  # (M, 2, 2)
+            clear = relax.clearance(ctrl, group, pair)
+            too_close = clear[:, 1] < np.minimum(params.centre_clearance, clear[:, 0])
+            best = np.where(too_close, 0, best)
+            ctrl[group.members] = trial[rows, best]
         if snapped.any():  # ends that sit on a moved curve follow it
             moved = start.copy()
             moved[splines.curve_nodes[movable]] = ctrl[movable]
             ctrl[snapped] = splines.controls_for(moved)[snapped]
-    energy_after = layout.total_energy(ctrl, anchor)
+    energy_after = relax.total_energy(ctrl, anchor)
 
     positions = start.copy()
     positions[splines.curve_nodes[movable]] = ctrl[movable]
@@ -161,110 +162,120 @@ def optimize_splines(splines: SplineSet, params: Params = Params()) -> Optimized
     return OptimizedSplines(splines, corners, start, positions, energy_before, energy_after)
 
 
-class _Layout:
-    """Index arithmetic for node energies over the flattened curve positions."""
+@dataclass(frozen=True, eq=False)
+class _Group:
+    """One class of independent nodes with every index its evaluation needs, precomputed."""
+
+    members: np.ndarray  # (M,) positions being moved
+    a: np.ndarray  # previous positions
+    b: np.ndarray  # next positions
+    a2: np.ndarray  # position before a (a itself when a is an end)
+    b2: np.ndarray  # position after b
+    has_a: np.ndarray  # (M,) bool: segment of a exists (a is interior)
+    has_b: np.ndarray
+    end_a: np.ndarray  # (M, 1) bool, broadcastable over candidates
+    end_b: np.ndarray
+    end_a2: np.ndarray
+    end_b2: np.ndarray
+    keep_own: np.ndarray  # (M, 1, 4) bool: quarters of each segment counted in E_s
+    keep_a: np.ndarray
+    keep_b: np.ndarray
+    protected: np.ndarray  # (M, 1, 1, Q, 2) points the segments must keep clear of
+
+
+class _Relaxation:
+    """Node energies and clearances over the flattened curve positions."""
 
     def __init__(self, splines: SplineSet, prev, nxt, end, excluded):
         self.prev, self.nxt, self.end = prev, nxt, end
-        self.excluded = excluded  # (P, 2) bool: first / second half of segment p left out
-        self.interior = ~end
-        # centres of the pixels on both sides of the edge leaving each position (NaN if none)
+        self.keep = np.repeat(~excluded, 2, axis=1)  # (P, 4) quarters counted in E_s
+        # protected points per position: centres of the pixels on both sides of the edge
+        # leaving it, and the lattice corner of a diagonal link at its node (a thin
+        # diagonal feature must stay connected there); far away where there is none
         cells = splines.cells
         w = cells.shape[1]
         edge = splines.seg_edges
         pix = np.where(edge[:, None] >= 0, cells.edge_pixels[np.maximum(edge, 0)], -1)
         rows, cols = np.divmod(np.maximum(pix, 0), w)
         centre = np.stack([cols + 0.5, rows + 0.5], axis=-1).astype(np.float64)
-        side = np.where((pix >= 0)[..., None], centre, np.nan)  # (P, 2, 2)
-        # the lattice corner of a diagonal link: a thin diagonal feature must stay connected there
+        side = np.where((pix >= 0)[..., None], centre, _FAR)  # (P, 2, 2)
         q = cells.nodes[splines.curve_nodes]
         lattice = 4 * np.round(q / 4.0)
         split = (np.abs(q - lattice) == 1).all(axis=1)
-        link = np.where(split[:, None], lattice / 4.0, np.nan)[:, None, :]
-        self.side_centres = np.concatenate([side, link], axis=1)  # (P, 3, 2) protected points
+        link = np.where(split[:, None], lattice / 4.0, _FAR)[:, None, :]
+        self.protected = np.concatenate([side, link], axis=1)  # (P, 3, 2)
 
-    def clearance(self, ctrl, members, trial) -> np.ndarray:
-        """(M, K) smallest distance from the three segments a node moves to the centres of
-        the pixels along them (so a curve never sweeps over a pixel centre)."""
-        m = members
-        a, b = self.prev[m], self.nxt[m]
-        a2 = np.where(~self.end[a], self.prev[a], a)
-        b2 = np.where(~self.end[b], self.nxt[b], b)
-        centres = np.concatenate([self.side_centres[a2], self.side_centres[a], self.side_centres[m],
-                                  self.side_centres[b]], axis=1)  # (M, 8, 2)
-        k = trial.shape[1]
-        t = np.linspace(0.0, 1.0, 9)[:, None]
+    def prepare(self, members: np.ndarray) -> _Group:
+        a, b = self.prev[members], self.nxt[members]
+        has_a, has_b = ~self.end[a], ~self.end[b]
+        a2 = np.where(has_a, self.prev[a], a)
+        b2 = np.where(has_b, self.nxt[b], b)
+        protected = np.concatenate([self.protected[x] for x in (a2, a, members, b)], axis=1)
+        col = lambda x: x[:, None]  # noqa: E731
+        return _Group(
+            members, a, b, a2, b2, has_a, has_b,
+            col(self.end[a]), col(self.end[b]), col(self.end[a2]), col(self.end[b2]),
+            col(self.keep[members]), col(self.keep[a]), col(self.keep[b]),
+            protected[:, None, None],
+        )
 
-        def points(c_prev, c, c_next, prev_end, next_end):
-            start, stop = self._segments(c_prev, c, c_next, prev_end, next_end)
-            return ((1 - t) ** 2 * start[..., None, :] + 2 * t * (1 - t) * c[..., None, :]
-                    + t**2 * stop[..., None, :])
+    def _segments(self, ctrl, g: _Group, trial):
+        """The three segments a member shapes: before (of a), own, after (of b)."""
+        c_a, c_b = ctrl[g.a][:, None], ctrl[g.b][:, None]
+        c_a2, c_b2 = ctrl[g.a2][:, None], ctrl[g.b2][:, None]
+        mid_a, mid_b = (c_a + trial) / 2.0, (trial + c_b) / 2.0
+        own = (np.where(g.end_a[..., None], c_a, mid_a), trial, np.where(g.end_b[..., None], c_b, mid_b))
+        before = (np.where(g.end_a2[..., None], c_a2, (c_a2 + c_a) / 2.0), c_a, mid_a)
+        after = (mid_b, c_b, np.where(g.end_b2[..., None], c_b2, (c_b + c_b2) / 2.0))
+        return before, own, after
 
-        rep = lambda x: np.repeat(x[:, None], k, axis=1)  # noqa: E731
-        own = points(rep(ctrl[a]), trial, rep(ctrl[b]), rep(self.end[a]), rep(self.end[b]))
-        prev_seg = points(rep(ctrl[a2]), rep(ctrl[a]), trial, rep(self.end[a2]), np.zeros((m.size, k), bool))
-        next_seg = points(trial, rep(ctrl[b]), rep(ctrl[b2]), np.zeros((m.size, k), bool), rep(self.end[b2]))
-        prev_seg = np.where(rep(~self.end[a])[..., None, None], prev_seg, own[..., :1, :])
-        next_seg = np.where(rep(~self.end[b])[..., None, None], next_seg, own[..., -1:, :])
-        samples = np.concatenate([prev_seg, own, next_seg], axis=2)  # (M, K, 27, 2)
-        diff = samples[:, :, :, None, :] - centres[:, None, None, :, :]
-        dist = np.sqrt((diff**2).sum(axis=-1))  # (M, K, 27, 8)
-        return np.nanmin(np.where(np.isnan(dist), np.inf, dist), axis=(2, 3))
+    def energy(self, ctrl, anchor, g: _Group, trial) -> np.ndarray:
+        """(M, K) energy of each member at each trial position."""
+        before, own, after = self._segments(ctrl, g, trial)
+        energy = _turning(*own, g.keep_own)
+        energy = energy + np.where(g.has_a[:, None], _turning(*before, g.keep_a), 0.0)
+        energy = energy + np.where(g.has_b[:, None], _turning(*after, g.keep_b), 0.0)
+        return energy + (((trial - anchor[g.members][:, None]) ** 2).sum(axis=-1)) ** 2
 
-    def _segments(self, c_prev, c, c_next, prev_end, next_end):
-        start = np.where(prev_end[..., None], c_prev, (c_prev + c) / 2.0)
-        stop = np.where(next_end[..., None], c_next, (c + c_next) / 2.0)
-        return start, stop
-
-    def _turning(self, start, c, stop, excluded):
-        """∫|κ| ds of segments (start, c, stop), sampled; excluded halves left out."""
-        t = _T.reshape((1,) * (c.ndim - 1) + (-1, 1))
-        d0 = (c - start)[..., None, :]
-        d1 = (stop - c)[..., None, :]
-        tangent = (1.0 - t) * d0 + t * d1
-        theta = np.arctan2(tangent[..., 1], tangent[..., 0])
-        step = np.abs((np.diff(theta, axis=-1) + np.pi) % (2.0 * np.pi) - np.pi)  # (..., 4)
-        keep = np.repeat(~excluded, 2, axis=-1)
-        return (step * keep).sum(axis=-1)
+    def clearance(self, ctrl, g: _Group, trial) -> np.ndarray:
+        """(M, K) smallest distance from a member's three segments to their protected points
+        (pixel centres beside them, diagonal-link corners), for each trial position."""
+        before, own, after = self._segments(ctrl, g, trial)
+        points = np.concatenate([
+            _points(*before)[..., :-1, :], _points(*own), _points(*after)[..., 1:, :],
+        ], axis=-2)  # (M, K, 13, 2)
+        gap = ((points[..., None, :] - g.protected) ** 2).sum(axis=-1).min(axis=(-1, -2))
+        return np.sqrt(gap)
 
     def total_energy(self, ctrl, anchor) -> float:
-        p = np.flatnonzero(self.interior)
+        p = np.flatnonzero(~self.end)
         a, b = self.prev[p], self.nxt[p]
-        start, stop = self._segments(ctrl[a], ctrl[p], ctrl[b], self.end[a], self.end[b])
-        smooth = self._turning(start, ctrl[p], stop, self.excluded[p]).sum()
-        positional = (np.linalg.norm(ctrl - anchor, axis=1) ** 4).sum()
+        start = np.where(self.end[a][:, None], ctrl[a], (ctrl[a] + ctrl[p]) / 2.0)
+        stop = np.where(self.end[b][:, None], ctrl[b], (ctrl[p] + ctrl[b]) / 2.0)
+        smooth = _turning(start, ctrl[p], stop, self.keep[p]).sum()
+        positional = ((((ctrl - anchor) ** 2).sum(axis=1)) ** 2).sum()
         return float(smooth + positional)
 
-    def node_energy(self, ctrl, anchor, members, trial) -> np.ndarray:
-        """(M, K) energy of each member node at each trial position."""
-        m = members
-        a, b = self.prev[m], self.nxt[m]  # both exist: members are interior
-        k = trial.shape[1]
-        c_a = np.repeat(ctrl[a][:, None], k, axis=1)
-        c_b = np.repeat(ctrl[b][:, None], k, axis=1)
-        end_a = np.repeat(self.end[a][:, None], k, axis=1)
-        end_b = np.repeat(self.end[b][:, None], k, axis=1)
-        # segment of the node itself
-        start, stop = self._segments(c_a, trial, c_b, end_a, end_b)
-        energy = self._turning(start, trial, stop, np.repeat(self.excluded[m][:, None], k, axis=1))
-        # segment of the previous position, if it is interior: (a2, a, trial)
-        has_a = ~self.end[a]
-        a2 = np.where(has_a, self.prev[np.maximum(a, 0)], m)
-        c_a2 = np.repeat(ctrl[np.maximum(a2, 0)][:, None], k, axis=1)
-        end_a2 = np.repeat(self.end[np.maximum(a2, 0)][:, None], k, axis=1)
-        start, stop = self._segments(c_a2, c_a, trial, end_a2, np.zeros_like(end_a2))
-        e_prev = self._turning(start, c_a, stop, np.repeat(self.excluded[a][:, None], k, axis=1))
-        energy += np.where(has_a[:, None], e_prev, 0.0)
-        # segment of the next position, if interior: (trial, b, b2)
-        has_b = ~self.end[b]
-        b2 = np.where(has_b, self.nxt[np.maximum(b, 0)], m)
-        c_b2 = np.repeat(ctrl[np.maximum(b2, 0)][:, None], k, axis=1)
-        end_b2 = np.repeat(self.end[np.maximum(b2, 0)][:, None], k, axis=1)
-        start, stop = self._segments(trial, c_b, c_b2, np.zeros_like(end_b2), end_b2)
-        e_next = self._turning(start, c_b, stop, np.repeat(self.excluded[b][:, None], k, axis=1))
-        energy += np.where(has_b[:, None], e_next, 0.0)
-        energy += np.linalg.norm(trial - anchor[m][:, None], axis=-1) ** 4
-        return energy
+
+_FAR = 1e6  # stands for "no protected point"
+_TS = np.linspace(0.0, 1.0, 5)[:, None]  # sample parameters: quarters of a segment
+
+
+def _turning(start, c, stop, keep) -> np.ndarray:
+    """∫|κ| ds of quadratic segments (start, c, stop) by sampling the tangent at quarters;
+    ``keep`` (..., 4) selects the quarters that count (corner parts are left out)."""
+    d0, d1 = c - start, stop - c
+    tangent = (1.0 - _TS) * d0[..., None, :] + _TS * d1[..., None, :]  # (..., 5, 2)
+    theta = np.arctan2(tangent[..., 1], tangent[..., 0])
+    step = np.abs((np.diff(theta, axis=-1) + np.pi) % (2.0 * np.pi) - np.pi)
+    return (step * keep).sum(axis=-1)
+
+
+def _points(start, c, stop) -> np.ndarray:
+    """Points of quadratic segments at the quarter parameters, (..., 5, 2)."""
+    t = _TS
+    return ((1 - t) ** 2 * start[..., None, :] + (2 * t * (1 - t)) * c[..., None, :]
+            + t**2 * stop[..., None, :])
 
 
 def _excluded_halves(splines: SplineSet, corners: np.ndarray) -> np.ndarray:
