@@ -28,7 +28,7 @@ MAX_FILE_BYTES = 256 * 2**20
 #: Modes with more than 8 bits per grey sample, scaled by hand (Pillow's convert clips them).
 _WIDE_GREY = ("I;16", "I;16B", "I;16L", "I;16N", "I", "F")
 
-ImageSource = Union[str, os.PathLike, bytes, BinaryIO]
+ImageSource = Union[str, os.PathLike, bytes, bytearray, memoryview, BinaryIO]
 
 _YUV_MATRIX = np.array(
     [[0.299, 0.587, 0.114], [-0.169, -0.331, 0.5], [0.5, -0.419, -0.081]], dtype=np.float64
@@ -43,7 +43,7 @@ def rgb_to_yuv(rgb: np.ndarray) -> np.ndarray:
 def _describe(source: ImageSource) -> str:
     if isinstance(source, (str, os.PathLike)):
         return display_name(source)
-    return "<bytes>" if isinstance(source, bytes) else "<stdin>"
+    return "<bytes>" if isinstance(source, (bytes, bytearray, memoryview)) else "<stdin>"
 
 
 def load_image(source: ImageSource, max_pixels: int | None = DEFAULT_MAX_PIXELS, frame: int = 0) -> np.ndarray:
@@ -103,8 +103,8 @@ def read_source(source: ImageSource) -> bytes:
     stream such as ``cat /dev/zero |`` fails fast instead of filling the memory)."""
     name = _describe(source)
     try:
-        if isinstance(source, bytes):
-            data = source
+        if isinstance(source, (bytes, bytearray, memoryview)):
+            data = bytes(source)
         elif isinstance(source, (str, os.PathLike)):
             path = Path(source)
             try:
@@ -117,8 +117,10 @@ def read_source(source: ImageSource) -> bytes:
                 raise InputError(f"{name}: is a device, not a file")
             with path.open("rb") as fh:  # pipes (e.g. <(cat sprite.png)) are read like files
                 data = fh.read(MAX_FILE_BYTES + 1)
-        else:
+        elif hasattr(source, "read"):
             data = source.read(MAX_FILE_BYTES + 1)
+        else:
+            raise TypeError(f"expected a path, bytes or a binary file object, not {type(source).__name__}")
     except InputError:
         raise
     except PermissionError:

@@ -86,7 +86,7 @@ def test_transparent_pixels_with_different_hidden_colours_are_one_background():
         ab##
         ba##
     """, colours={"a": (255, 0, 0, 0), "b": (0, 0, 255, 0)})
-    result = depixel.depixelize(rgba, stage=STAGE)
+    result = depixel.depixelize(rgba, stage="cells")
     sim = result.similarity
     assert sim.right[:, 0].all() and sim.down[0, :2].all()  # hidden colours do not split the background
     svg = convert(rgba)
@@ -112,7 +112,7 @@ def test_half_transparent_pixels_keep_their_opacity():
 
 def test_half_transparent_pixel_not_similar_to_opaque_one_of_same_colour():
     rgba = art("ww\nwh", colours={"w": (255, 255, 255, 255), "h": (255, 255, 255, 128)})
-    sim = depixel.depixelize(rgba, stage=STAGE).similarity
+    sim = depixel.depixelize(rgba, stage="cells").similarity
     assert not sim.right[1, 0] and not sim.down[0, 1] and not sim.diag_main[0, 0]
 
 
@@ -136,7 +136,7 @@ def test_sprite_diagonal_over_transparency_stays_connected():
 
 def test_edges_against_transparency_are_cell_edges_like_any_other():
     rgba = load_image(FIXTURES / "ghost_rgba.png")
-    cells = depixel.depixelize(rgba, stage=STAGE).cells
+    cells = depixel.depixelize(rgba, stage="cells").cells
     flat = rgba.reshape(-1, 4)
     left, right = cells.edge_pixels[:, 0], cells.edge_pixels[:, 1]
     inner = (left >= 0) & (right >= 0)
@@ -154,8 +154,8 @@ def test_sprite_on_transparency_gets_the_same_curves_as_on_an_opaque_background(
     # ghost.png is ghost_rgba.png over an opaque blue that is dissimilar to every sprite
     # colour, exactly like transparency is: the two must get the same similarity graph and
     # the same curves, i.e. transparency is a colour region like any other.
-    clear = depixel.depixelize(load_image(FIXTURES / "ghost_rgba.png"), stage="splines")
-    opaque = depixel.depixelize(load_image(FIXTURES / "ghost.png"), stage="splines")
+    clear = depixel.depixelize(load_image(FIXTURES / "ghost_rgba.png"), stage=STAGE)
+    opaque = depixel.depixelize(load_image(FIXTURES / "ghost.png"), stage=STAGE)
     for name in ("right", "down", "diag_main", "diag_anti"):
         assert (getattr(clear.resolution.graph, name) == getattr(opaque.resolution.graph, name)).all()
     a, b = clear.vector, opaque.vector
