@@ -10,6 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components, depth_first_order
 
 
 @dataclass(frozen=True, eq=False)
@@ -40,30 +42,38 @@ def trace_loops(owner: np.ndarray, u: np.ndarray, v: np.ndarray) -> Loops:
     if n == 0:
         empty = np.zeros(0, np.int64)
         return Loops(empty, np.zeros(1, np.int64), empty)
-    out_order = np.lexsort((np.arange(n), u, owner))
-    in_order = np.lexsort((np.arange(n), v, owner))
+    out_order = _argsort_pairs(owner, u)
+    in_order = _argsort_pairs(owner, v)
     if not (np.array_equal(owner[out_order], owner[in_order]) and np.array_equal(u[out_order], v[in_order])):
         raise ValueError("half-edges do not form closed loops")
     nxt = np.empty(n, np.int64)
     nxt[in_order] = out_order
+    prev = np.empty(n, np.int64)
+    prev[nxt] = np.arange(n)
 
-    # Leader of each cycle = its smallest index, by pointer doubling.
-    leader = np.arange(n)
-    jump = nxt.copy()
-    for _ in range(int(np.ceil(np.log2(n + 1))) + 1):
-        leader = np.minimum(leader, leader[jump])
-        jump = jump[jump]
-    # Steps from each half-edge back to its leader, walking forward: list ranking on the
-    # cycle broken just before the leader.
-    is_last = nxt == leader
-    succ = np.where(is_last, np.arange(n), nxt)
-    dist = np.where(is_last, 0, 1).astype(np.int64)
-    for _ in range(int(np.ceil(np.log2(n + 1))) + 1):
-        dist = dist + np.where(succ == np.arange(n), 0, dist[succ])
-        succ = succ[succ]
-    # order: by owner, leader, then decreasing distance to the end of the cycle
-    order = np.lexsort((-dist, leader, owner))
-    sorted_leader = leader[order]
-    starts = np.flatnonzero(np.r_[True, sorted_leader[1:] != sorted_leader[:-1]])
+    # Cycles of the successor permutation; the leader of each is its smallest index.
+    successor = csr_matrix((np.ones(n, np.int8), nxt, np.arange(n + 1)), shape=(n, n))
+    n_loops, label = connected_components(successor, directed=True, connection="strong")
+    leader = np.full(n_loops, n, np.int64)
+    np.minimum.at(leader, label, np.arange(n))
+    leader = leader[np.lexsort((leader, owner[leader]))]  # loops by owner, then leader
+    # Chain the loops into one path (each loop's last half-edge continues with the next
+    # loop's leader) and walk it in C.
+    chained = nxt.copy()
+    chained[prev[leader[:-1]]] = leader[1:]
+    keep = np.ones(n, bool)
+    keep[prev[leader[-1]]] = False
+    path = csr_matrix((np.ones(n - 1, np.int8), chained[keep], np.r_[0, np.cumsum(keep)]), shape=(n, n))
+    order = depth_first_order(path, int(leader[0]), directed=True, return_predecessors=False)
+    is_leader = np.zeros(n, bool)
+    is_leader[leader] = True
+    starts = np.flatnonzero(is_leader[order])
     ptr = np.r_[starts, n].astype(np.int64)
-    return Loops(owner=owner[order][starts], ptr=ptr, halfedges=order)
+    return Loops(owner=owner[leader], ptr=ptr, halfedges=order.astype(np.int64))
+
+
+def _argsort_pairs(major: np.ndarray, minor: np.ndarray) -> np.ndarray:
+    """Stable argsort by (major, minor), i.e. ``np.lexsort((arange, minor, major))``."""
+    if minor.min() >= 0 and major.min() >= 0 and int(major.max()) < (2**62) // (int(minor.max()) + 1):
+        return np.argsort(major * (int(minor.max()) + 1) + minor, kind="stable")
+    return np.lexsort((minor, major))

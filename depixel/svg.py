@@ -10,6 +10,9 @@ this, faces are drawn in a fixed order (larger regions first) and each opaque fa
 also covers the cells of the opaque faces drawn after it that share an edge with it — the
 "stacked" layout. Every boundary then has an opaque underlay beneath it, in every renderer,
 while each face still shows exactly its own cells.
+
+The text is assembled with whole-array operations (:mod:`depixel.svgtext`): a token table
+of every drawing command, and one index array that lists the tokens of the document.
 """
 from __future__ import annotations
 
@@ -17,32 +20,14 @@ import re
 
 import numpy as np
 
-from .loops import trace_loops
+from .loops import Loops, trace_loops
+from .svgtext import Texts, concat, numbers, stack
 from .vector import VectorImage, faces as face_labels, regions as region_labels
 
 SVG_HEADER = '<?xml version="1.0" encoding="UTF-8"?>\n'
 #: Characters XML 1.0 forbids (control characters, lone surrogates from undecodable file
 #: names); a title has them replaced by U+FFFD so the SVG always parses and encodes.
 _NOT_XML = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
-
-
-def format_numbers(values: np.ndarray, precision: int) -> np.ndarray:
-    """Fixed-precision decimal strings without trailing zeros (byte-stable, no "-0")."""
-    scaled = np.round(np.asarray(values, dtype=np.float64) * 10**precision).astype(np.int64)
-    uniq, inverse = np.unique(scaled, return_inverse=True)
-    texts = []
-    for q in uniq.tolist():
-        sign = "-" if q < 0 else ""
-        whole, frac = divmod(abs(q), 10**precision)
-        if frac and precision:
-            texts.append(f"{sign}{whole}.{frac:0{precision}d}".rstrip("0"))
-        else:
-            texts.append(f"{sign}{whole}")
-    return np.array(texts, dtype=object)[inverse.reshape(scaled.shape)]
-
-
-def hex_colour(rgb) -> str:
-    return "#{:02x}{:02x}{:02x}".format(*(int(c) for c in rgb[:3]))
 
 
 def draw_order(labels: np.ndarray, region: np.ndarray) -> np.ndarray:
@@ -62,8 +47,6 @@ def draw_order(labels: np.ndarray, region: np.ndarray) -> np.ndarray:
 def to_svg(image: VectorImage, scale: float = 1.0, precision: int = 3, per_cell: bool | None = None,
            title: str | None = None) -> str:
     """Write a VectorImage as SVG text; ``scale`` sets width/height, the viewBox stays W×H."""
-    from xml.sax.saxutils import escape, quoteattr
-
     h, w = image.shape
     rgba = image.rgba.reshape(-1, 4)
     if per_cell is None:
@@ -73,45 +56,29 @@ def to_svg(image: VectorImage, scale: float = 1.0, precision: int = 3, per_cell:
     n_faces = int(labels.max()) + 1
     face_pixel = np.zeros(n_faces, np.int64)
     face_pixel[labels[::-1]] = np.arange(labels.size)[::-1]  # first pixel of each face
-    face_alpha = rgba[face_pixel, 3]
+    face_region = np.zeros(n_faces, np.int64)
+    face_region[labels] = region
     rank = draw_order(labels, region)
 
-    paths = _face_paths(image, labels, rank, face_alpha, precision)
+    loops, tokens, token_of, start_row = _face_outlines(image, labels, rank, rgba[face_pixel, 3], precision)
     face_of_rank = np.empty(n_faces, np.int64)
     face_of_rank[rank] = np.arange(n_faces)
+    body = _path_elements(loops, tokens, token_of, start_row, face_of_rank, face_region, rgba[face_pixel])
 
-    parts = []
-    width, height = format_number(w * scale), format_number(h * scale)
-    parts.append(SVG_HEADER)
-    parts.append(
-        f'<svg xmlns="http://www.w3.org/2000/svg" version="1.1" width="{width}" height="{height}" '
+    width, height = numbers(np.array([w * scale, h * scale]), 3).tolist()
+    head = (
+        f'{SVG_HEADER}<svg xmlns="http://www.w3.org/2000/svg" version="1.1" width="{width}" height="{height}" '
         f'viewBox="0 0 {w} {h}">\n'
     )
     if title:
-        parts.append(f"<title>{escape(_NOT_XML.sub(chr(0xFFFD), title))}</title>\n")
-    face_region = np.zeros(n_faces, np.int64)
-    face_region[labels] = region
-    open_region = None
-    for r in sorted(paths):
-        f = int(face_of_rank[r])
-        reg = int(face_region[f])
-        if reg != open_region:
-            if open_region is not None:
-                parts.append("</g>\n")
-            parts.append(f'<g id="region-{reg}">\n')
-            open_region = reg
-        colour = rgba[face_pixel[f]]
-        opacity = "" if colour[3] == 255 else f' fill-opacity="{format_number(colour[3] / 255.0)}"'
-        parts.append(f'<path id="face-{f}" fill="{hex_colour(colour)}"{opacity} d={quoteattr(paths[r])}/>\n')
-    if open_region is not None:
-        parts.append("</g>\n")
-    parts.append("</svg>\n")
-    return "".join(parts)
+        text = _NOT_XML.sub(chr(0xFFFD), title).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+        head += f"<title>{text}</title>\n"
+    return head + body.decode("ascii") + "</svg>\n"
 
 
-def _face_paths(image: VectorImage, labels: np.ndarray, rank: np.ndarray, face_alpha: np.ndarray,
-                precision: int) -> dict[int, str]:
-    """Path data of every drawn face, keyed by drawing rank.
+def _face_outlines(image: VectorImage, labels: np.ndarray, rank: np.ndarray, face_alpha: np.ndarray,
+                   precision: int) -> tuple[Loops, Texts, np.ndarray, np.ndarray]:
+    """Outline loops of every drawn face (owner = drawing rank) and the text of each step.
 
     Each cell is cut into corner pieces, one per polygon node: piece k of a cell is bounded
     by the second half of the edge into node k, the first half of the edge out of it, and
@@ -119,6 +86,10 @@ def _face_paths(image: VectorImage, labels: np.ndarray, rank: np.ndarray, face_a
     as the stacked underlay, every piece of a later opaque cell at a node the face touches.
     So around every node and along every edge, the earliest face present lies fully beneath
     the later ones, and no renderer can leave a partly transparent seam.
+
+    Returns the loops over the boundary half-edges, the token table, and per half-edge the
+    row of its drawing command and the row of "L" + its start point (a loop's ``M`` uses
+    that row without the "L").
     """
     cells = image.cells
     n_px = labels.size
@@ -139,74 +110,81 @@ def _face_paths(image: VectorImage, labels: np.ndarray, rank: np.ndarray, face_a
     twin[by_edge[pair]] = by_edge[pair + 1]
     twin[by_edge[pair + 1]] = by_edge[pair]
 
-    # membership (face, piece): own pieces, plus underlay pieces of later opaque cells
+    # faces present at each node, once each: (n_nodes, width) table padded with -1
     own = labels[piece_cell]
     by_node = np.lexsort((own, node))
     node_sorted, face_sorted = node[by_node], own[by_node]
+    fresh = np.r_[True, (node_sorted[1:] != node_sorted[:-1]) | (face_sorted[1:] != face_sorted[:-1])]
+    node_sorted, face_sorted = node_sorted[fresh], face_sorted[fresh]
     group_start = np.flatnonzero(np.r_[True, node_sorted[1:] != node_sorted[:-1]])
-    group_of = np.repeat(np.arange(group_start.size), np.diff(np.r_[group_start, n_piece]))
-    slot = np.arange(n_piece) - group_start[group_of]
-    width = int(slot.max()) + 1
-    table = np.full((n_nodes, width), -1, np.int64)
+    group_of = np.repeat(np.arange(group_start.size), np.diff(np.r_[group_start, node_sorted.size]))
+    slot = np.arange(node_sorted.size) - group_start[group_of]
+    table = np.full((n_nodes, int(slot.max()) + 1), -1, np.int64)
     table[node_sorted, slot] = face_sorted
-    candidate = table[node]  # (n_piece, width) faces present at each piece's node
-    valid = candidate >= 0
+
+    # membership (face, piece): own pieces, plus underlay pieces of later opaque cells
+    drawn = face_alpha > 0
+    opaque_own = face_alpha[own] == 255
+    candidate = table[node]  # (n_piece, width)
     cand = np.maximum(candidate, 0)
-    under = valid & (cand != own[:, None]) & (rank[cand] < rank[own][:, None])
-    under &= (face_alpha[own] == 255)[:, None] & (face_alpha[cand] > 0)
-    member_face = np.concatenate([own, candidate[under]])
-    member_piece = np.concatenate([k, np.broadcast_to(k[:, None], under.shape)[under]])
-    drawn = face_alpha[member_face] > 0
-    member_key = np.unique(member_face[drawn] * n_piece + member_piece[drawn])
+    under = (candidate >= 0) & (rank[cand] < rank[own][:, None]) & opaque_own[:, None] & drawn[cand]
+    member_key = np.sort(np.concatenate([
+        own[drawn[own]] * n_piece + k[drawn[own]],
+        candidate[under] * n_piece + np.broadcast_to(k[:, None], under.shape)[under],
+    ]))
     member_face, member_piece = np.divmod(member_key, n_piece)
 
-    # four half-edges per member piece k of cell q (midpoint of edge e is node n_nodes + e,
-    # the centre of q is node n_nodes + n_edges + q):
-    #   0: mid(edge into k) -> node k      1: node k -> mid(edge out of k)
-    #   2: mid(edge out of k) -> centre    3: centre -> mid(edge into k)
+    def holds(face: np.ndarray, piece: np.ndarray) -> np.ndarray:
+        """Whether (face, piece) is a membership, for member faces and pieces (-1: none)."""
+        inside = piece >= 0
+        piece = np.maximum(piece, 0)
+        other = own[piece]
+        result = inside & (other == face)
+        maybe = np.flatnonzero(inside & ~result & opaque_own[piece] & (rank[face] < rank[other]))
+        result[maybe] = (table[node[piece[maybe]]] == face[maybe, None]).any(axis=1)
+        return result
+
+    # four half-edges per member piece k of cell q (midpoint of edge e is point n_nodes + e,
+    # the centre of q is point n_nodes + n_edges + q), with the piece across each:
+    #   0: mid(edge into k) -> node k      across: the other cell's piece at this node
+    #   1: node k -> mid(edge out of k)    across: the piece after the twin position
+    #   2: mid(edge out of k) -> centre    across: k_next
+    #   3: centre -> mid(edge into k)      across: k_prev
     edge_in, edge_out = cells.cell_edges[k_prev], cells.cell_edges
-    mf = np.repeat(member_face, 4)
-    mp = np.repeat(member_piece, 4)
-    part = np.tile(np.arange(4), member_piece.size)
-    mid_in, mid_out = n_nodes + edge_in[mp], n_nodes + edge_out[mp]
-    centre = n_nodes + n_edges + piece_cell[mp]
-    hu = np.choose(part, [mid_in, node[mp], mid_out, centre])
-    hv = np.choose(part, [node[mp], mid_out, centre, mid_in])
-    # the piece on the other side: across the edge into k it is the other cell's piece at
-    # the same node (the one after the twin position), across the edge out of k the twin
-    twin_in, twin_out = twin[k_prev[mp]], twin[mp]
-    across_in = np.where(twin_in >= 0, twin_in, -1)
-    across_out = np.where(twin_out >= 0, k_next[np.maximum(twin_out, 0)], -1)
-    neighbour = np.choose(part, [across_in, across_out, k_next[mp], k_prev[mp]])
-    edge_of = np.where(part == 0, edge_in[mp], edge_out[mp])
-    boundary = (neighbour < 0) | ~np.isin(mf * n_piece + neighbour, member_key)
-    mf, part, hu, hv, edge_of = mf[boundary], part[boundary], hu[boundary], hv[boundary], edge_of[boundary]
-    loops = trace_loops(rank[mf], hu, hv)
+    mid_in, mid_out = n_nodes + edge_in, n_nodes + edge_out
+    centre = n_nodes + n_edges + piece_cell
+    twin_out = twin[k]
+    across = np.stack([twin[k_prev], np.where(twin_out >= 0, k_next[np.maximum(twin_out, 0)], -1), k_next, k_prev],
+                      axis=1)
+    boundary = np.empty((member_key.size, 4), bool)
+    for part in range(4):
+        boundary[:, part] = ~holds(member_face, across[member_piece, part])
+    which, part = np.nonzero(boundary)  # in (member, part) order, as the loops expect
+    face_b, piece_b = member_face[which], member_piece[which]
+    hu = np.stack([mid_in, node, mid_out, centre], axis=1)[piece_b, part]
+    hv = np.stack([node, mid_out, centre, mid_in], axis=1)[piece_b, part]
+    loops = trace_loops(rank[face_b], hu, hv)
 
-    point_text, half_text = _half_edge_strings(image, precision)
-    code = np.choose(part, [
-        4 * edge_of + np.where(cells.edges[edge_of, 1] == hv, 1, 3),  # second half, forward / backward
-        4 * edge_of + np.where(cells.edges[edge_of, 0] == hu, 0, 2),  # first half, forward / backward
-        -1, -1,
-    ])
-    code_list, hu_list, hv_list = code.tolist(), hu.tolist(), hv.tolist()
-    order, loop_ptr = loops.halfedges.tolist(), loops.ptr.tolist()
-    paths: dict[int, list[str]] = {}
-    for li, r in enumerate(loops.owner.tolist()):
-        seg = order[loop_ptr[li] : loop_ptr[li + 1]]
-        text = ["M" + point_text[hu_list[seg[0]]]]
-        for x in seg:
-            c = code_list[x]
-            text.append(half_text[c] if c >= 0 else "L" + point_text[hv_list[x]])
-        text.append("Z")
-        paths.setdefault(r, []).append("".join(text))
-    return {r: "".join(parts) for r, parts in paths.items()}
+    # drawing command of each (piece, part): "L" + end point, or for a half of a curved
+    # edge the "Q" row of that half (see _edge_tokens); spokes are always straight
+    tokens, line_row, curve_row = _edge_tokens(image, precision)
+    ein, eout = edge_in[piece_b], edge_out[piece_b]
+    into = np.where(image.curved[ein], curve_row[ein] + np.where(cells.edges[ein, 1] == node[piece_b], 1, 3),
+                    line_row + node[piece_b])
+    out_of = np.where(image.curved[eout], curve_row[eout] + np.where(cells.edges[eout, 0] == node[piece_b], 0, 2),
+                      line_row + mid_out[piece_b])
+    token_of = np.choose(part, [into, out_of, line_row + centre[piece_b], line_row + mid_in[piece_b]])
+    return loops, tokens, token_of, line_row + hu
 
 
-def _half_edge_strings(image: VectorImage, precision: int) -> tuple[list[str], list[str]]:
-    """Text of every point (nodes, edge midpoints, pixel centres) and of every half edge.
+def _edge_tokens(image: VectorImage, precision: int) -> tuple[Texts, int, np.ndarray]:
+    """Token table: "L x y" of every point, then 4 "Q" rows per curved edge.
 
-    ``half_text[4e + j]``: j = 0 u → mid, 1 mid → v, 2 v → mid, 3 mid → u.
+    Points are the nodes, the edge midpoints (the curve's middle control point when curved)
+    and the pixel centres; "L" + point i is row ``line_row + i`` (and "x y" alone is that
+    row without its first character). Curved edge e (u → v, controls c0 c1 c2) has rows
+    ``curve_row[e] + j``: j = 0 "Q c0 mid" (u → mid), 1 "Q c2 v" (mid → v), 2 "Q c2 mid"
+    (v → mid), 3 "Q c0 u".
     """
     cells = image.cells
     h, w = image.shape
@@ -215,22 +193,80 @@ def _half_edge_strings(image: VectorImage, precision: int) -> tuple[list[str], l
     mids = np.where(image.curved[:, None], image.controls[:, 1], (pts[u] + pts[v]) / 2.0)
     rows, cols = np.divmod(np.arange(h * w), w)
     centres = np.stack([cols + 0.5, rows + 0.5], axis=1)
-    allpts = format_numbers(np.concatenate([pts, mids, centres]), precision)
-    point_text = [f"{x} {y}" for x, y in allpts.tolist()]
-    ctl = format_numbers(image.controls, precision).tolist()
-    n_nodes = len(pts)
-    half_text = []
-    for e, (a, b, curved) in enumerate(zip(u.tolist(), v.tolist(), image.curved.tolist())):
-        mid = point_text[n_nodes + e]
-        if curved:
-            (c0x, c0y), _, (c2x, c2y) = ctl[e]
-            half_text += [f"Q{c0x} {c0y} {mid}", f"Q{c2x} {c2y} {point_text[b]}",
-                          f"Q{c2x} {c2y} {mid}", f"Q{c0x} {c0y} {point_text[a]}"]
-        else:
-            half_text += ["L" + mid, "L" + point_text[b], "L" + mid, "L" + point_text[a]]
-    return point_text, half_text
+    lines = numbers(np.concatenate([pts, mids, centres]), precision, prefix="L")
+
+    curved = np.flatnonzero(image.curved)
+    c0, c2, mid = image.controls[curved, 0], image.controls[curved, 2], mids[curved]
+    quads = np.stack([  # (C, 4 rows, 4 numbers)
+        np.concatenate([c0, mid], axis=1), np.concatenate([c2, pts[v[curved]]], axis=1),
+        np.concatenate([c2, mid], axis=1), np.concatenate([c0, pts[u[curved]]], axis=1),
+    ], axis=1)
+    tokens, (line_row, quad_row) = stack([lines, numbers(quads.reshape(-1, 4), precision, prefix="Q")])
+    curve_row = np.full(len(cells.edges), -1, np.int64)
+    curve_row[curved] = quad_row + 4 * np.arange(curved.size)
+    return tokens, line_row, curve_row
 
 
-def format_number(value: float, precision: int = 3) -> str:
-    """One number formatted like :func:`format_numbers`."""
-    return str(format_numbers(np.array([value]), precision)[0])
+#: two hex digits of every byte value
+_HEX = Texts.of([f"{i:02x}" for i in range(256)])
+
+
+def _path_elements(loops: Loops, tokens: Texts, token_of: np.ndarray, start_row: np.ndarray,
+                   face_of_rank: np.ndarray, face_region: np.ndarray, face_rgba: np.ndarray) -> bytes:
+    """The ``<g>`` and ``<path>`` elements: every face with loops, in drawing order.
+
+    Each face is ``<path id="face-F" fill="#rrggbb" d="`` + per loop ``M x y`` + its steps
+    + ``Z`` + ``"/>``, inside ``<g id="region-R">`` groups of consecutive faces.
+    """
+    n_loops = len(loops)
+    if n_loops == 0:
+        return b""
+    loop_rank = loops.owner
+    new_face = np.r_[True, loop_rank[1:] != loop_rank[:-1]]
+    face_first_loop = np.flatnonzero(new_face)
+    face_end_loop = np.r_[face_first_loop[1:], n_loops]
+    loop_face = np.cumsum(new_face) - 1  # index among the drawn faces
+
+    face = face_of_rank[loop_rank[face_first_loop]]
+    region = face_region[face]
+    opens = np.r_[True, region[1:] != region[:-1]]
+    closes = np.r_[False, opens[1:]]
+    rgba = face_rgba[face]
+    region_text = _blank(numbers(region, 0), opens)
+    opacity = _blank(concat(' fill-opacity="', numbers(rgba[:, 3] / 255.0, 3), '"'), rgba[:, 3] != 255)
+    n = face.size
+    header = concat(
+        _blank(_repeat("</g>\n", n), closes), _blank(_repeat('<g id="region-', n), opens), region_text,
+        _blank(_repeat('">\n', n), opens),
+        '<path id="face-', numbers(face, 0), '" fill="#',
+        _HEX.take(rgba[:, 0]), _HEX.take(rgba[:, 1]), _HEX.take(rgba[:, 2]), '"', opacity, ' d="',
+    )
+    points = Texts(tokens.data, tokens.start + 1, tokens.length - 1)  # "L x y" rows without the "L"
+    table, (_, point_row, header_row, const_row) = stack([tokens, points, header, Texts.of(['"/>\n', "Z", "M"])])
+    closer, close_path, move = const_row, const_row + 1, const_row + 2
+
+    ptr = loops.ptr
+    n_steps = ptr[-1]
+    stream = np.empty(n_steps + 3 * n_loops + 2 * face.size, np.int64)
+    # positions: before step i of loop l of face f come i steps, 3 rows (M, point, Z) per
+    # earlier loop, M and point of this loop, and header + closer of each earlier face
+    step_loop = np.repeat(np.arange(n_loops), np.diff(ptr))
+    stream[np.arange(n_steps) + 3 * step_loop + 2 * loop_face[step_loop] + 3] = token_of[loops.halfedges]
+    loop_pos = ptr[:-1] + 3 * np.arange(n_loops) + 2 * loop_face
+    stream[loop_pos + 1] = move
+    stream[loop_pos + 2] = point_row + start_row[loops.halfedges[ptr[:-1]]]
+    stream[ptr[1:] + 3 * np.arange(n_loops) + 2 * loop_face + 3] = close_path
+    faces = np.arange(face.size)
+    stream[ptr[face_first_loop] + 3 * face_first_loop + 2 * faces] = header_row + faces
+    stream[ptr[face_end_loop] + 3 * face_end_loop + 2 * faces + 1] = closer
+    return table.take(stream).tobytes() + b"</g>\n"
+
+
+def _repeat(text: str, n: int) -> Texts:
+    """``n`` copies of one string."""
+    return Texts.of([text]).take(np.zeros(n, np.int64))
+
+
+def _blank(texts: Texts, keep: np.ndarray) -> Texts:
+    """The same strings, emptied where ``keep`` is False."""
+    return Texts(texts.data, texts.start, np.where(keep, texts.length, 0))

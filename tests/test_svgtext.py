@@ -1,0 +1,94 @@
+"""The vectorized text and loop kernels against slow, obviously-correct references."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from depixel.loops import trace_loops
+from depixel.svgtext import Texts, concat, numbers, stack
+
+
+def reference_number(value: float, precision: int) -> str:
+    q = int(np.round(value * 10**precision))
+    whole, frac = divmod(abs(q), 10**precision)
+    text = f"{whole}.{frac:0{precision}d}".rstrip("0") if frac else str(whole)
+    return ("-" if q < 0 else "") + text
+
+
+@pytest.mark.parametrize("precision", [0, 1, 3, 5])
+def test_numbers_match_python_formatting(precision):
+    rng = np.random.default_rng(precision)
+    values = np.concatenate([rng.normal(0, 300, 2000), rng.integers(-40, 40, 200) / 4,
+                             [0.0, -0.0, -0.0004, 0.0004, 1e9, -1e9, 0.5, -0.5]])
+    assert numbers(values, precision).tolist() == [reference_number(v, precision) for v in values]
+
+
+def test_numbers_rows_joined_with_spaces_and_prefix():
+    assert numbers(np.array([[1.5, -2.0], [0.125, 10.0]]), 3, prefix="L").tolist() == ["L1.5 -2", "L0.125 10"]
+    assert numbers(np.zeros((0, 4)), 3).tolist() == []
+
+
+def test_concat_stack_and_take():
+    a = Texts.of(["ab", "", "c"])
+    b = numbers(np.array([1, 2, 3]), 0)
+    assert concat("<", a, "|", b, ">").tolist() == ["<ab|1>", "<|2>", "<c|3>"]
+    table, first = stack([a, b, a.take(np.array([2, 0]))])
+    assert first == [0, 3, 6]
+    assert table.tolist() == ["ab", "", "c", "1", "2", "3", "c", "ab"]
+    assert table.take(np.array([7, 3, 7])).tobytes() == b"ab1ab"
+
+
+def reference_loops(owner, u, v):
+    """Walk each loop from its smallest unvisited half-edge; pair the i-th half-edge into a
+    node with the i-th out of it (index order), as trace_loops documents."""
+    n = len(owner)
+    out_of: dict = {}
+    for i in range(n):
+        out_of.setdefault((owner[i], u[i]), []).append(i)
+    into: dict = {}
+    for i in range(n):
+        into.setdefault((owner[i], v[i]), []).append(i)
+    nxt = {}
+    for key, ins in into.items():
+        for i, o in zip(ins, out_of[key]):
+            nxt[i] = o
+    seen, loops = set(), []
+    for start in range(n):
+        if start in seen:
+            continue
+        walk, i = [], start
+        while i not in seen:
+            seen.add(i)
+            walk.append(i)
+            i = nxt[i]
+        loops.append((owner[start], walk))
+    loops.sort(key=lambda item: (item[0], item[1][0]))
+    return loops
+
+
+def test_trace_loops_matches_reference_walk():
+    rng = np.random.default_rng(7)
+    for _ in range(30):
+        # random closed walks (with repeated nodes, so loops touch themselves) per owner
+        owner, u, v = [], [], []
+        for o in rng.integers(0, 5, rng.integers(1, 8)):
+            nodes = rng.integers(0, 6, rng.integers(2, 9))
+            nodes = nodes[np.r_[True, nodes[1:] != nodes[:-1]]]
+            if len(nodes) < 2 or nodes[0] == nodes[-1]:
+                continue
+            owner += [o] * len(nodes)
+            u += nodes.tolist()
+            v += np.roll(nodes, -1).tolist()
+        if not owner:
+            continue
+        perm = rng.permutation(len(owner))
+        owner, u, v = (np.array(a)[perm] for a in (owner, u, v))
+        loops = trace_loops(owner, u, v)
+        got = [(int(loops.owner[k]), loops.halfedges[loops.ptr[k] : loops.ptr[k + 1]].tolist())
+               for k in range(len(loops))]
+        assert got == reference_loops(owner.tolist(), u.tolist(), v.tolist())
+
+
+def test_trace_loops_rejects_open_chains():
+    with pytest.raises(ValueError):
+        trace_loops(np.zeros(2, np.int64), np.array([0, 1]), np.array([1, 2]))
