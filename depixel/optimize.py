@@ -56,7 +56,7 @@ class OptimizedSplines:
 
 
 def detect_corners(splines: SplineSet) -> np.ndarray:
-    """(N,) bool: interior curve nodes matching the right-angle corner pattern.
+    """(N,) bool: interior curve nodes matching the axis-aligned right-angle corner pattern.
 
     In quarter-pixel units: the node K = P + (sx, sy) sits one quarter off a lattice point P
     diagonally (a corner cut by a diagonal link), its curve neighbours are the lattice points
@@ -108,15 +108,68 @@ def detect_corners(splines: SplineSet) -> np.ndarray:
     return corners
 
 
+def detect_run_corners(splines: SplineSet, tolerance: float = 0.3, short: float = 1.4,
+                       long: float = 2.5, min_turn: float = np.radians(40.0)) -> np.ndarray:
+    """(N,) bool: nodes where two straight runs of the quantized curve meet at an angle.
+
+    From every curve node, the run behind and the run ahead are extended node by node as
+    long as every node in between stays within ``tolerance`` pixels of the chord. A node is
+    a corner when both chords are at least ``short`` long, one is at least ``long``, and they
+    turn by ``min_turn`` or more — e.g. where the 45° sides of the Windows 3.1 "386" chip meet.
+    Staircases do not match: a 45° or 2:1 staircase is one straight run (its quarter-pixel
+    nodes stay within the tolerance of a single chord), and smooth curves bend before their
+    chords get long.
+    """
+    q = splines.cells.nodes.astype(np.float64) / 4.0
+    prev, nxt = splines.neighbours()
+    node = splines.curve_nodes
+    here = q[node]
+    interior = (prev >= 0) & (nxt >= 0)
+
+    def run(step: np.ndarray) -> np.ndarray:
+        """(P, 2) vector from each node to the far end of its straight run along ``step``."""
+        chord = np.zeros_like(here)
+        alive = interior.copy()
+        walk = np.arange(node.size)
+        visited: list[np.ndarray] = []
+        for _ in range(12):
+            walk = np.where(alive, step[np.maximum(walk, 0)], -1)
+            alive &= walk >= 0
+            far = q[node[np.maximum(walk, 0)]]
+            candidate = far - here
+            length = np.linalg.norm(candidate, axis=1)
+            ok = alive.copy()
+            for mid in visited:  # every node passed must stay near the new chord
+                rel = mid - here
+                cross = np.abs(candidate[:, 0] * rel[:, 1] - candidate[:, 1] * rel[:, 0])
+                ok &= cross <= tolerance * np.maximum(length, 1e-9)
+            alive &= ok
+            chord = np.where(alive[:, None], candidate, chord)
+            alive &= length < 4.0
+            visited.append(far)
+        return chord
+
+    back, ahead = run(prev), run(nxt)
+    lb, la = np.linalg.norm(back, axis=1), np.linalg.norm(ahead, axis=1)
+    cosine = -(back * ahead).sum(axis=1) / np.maximum(lb * la, 1e-12)  # 1 = straight on
+    turn = np.arccos(np.clip(cosine, -1.0, 1.0))
+    match = interior & (np.minimum(lb, la) >= short) & (np.maximum(lb, la) >= long) & (turn >= min_turn)
+    corners = np.zeros(len(q), dtype=bool)
+    corners[node[match]] = True
+    return corners
+
+
 def optimize_splines(splines: SplineSet, params: Params = Params()) -> OptimizedSplines:
     """Relax the curve nodes (§3.4) and move the other nodes by a harmonic map."""
     cells = splines.cells
-    corners = detect_corners(splines) if params.corner_patterns else np.zeros(len(cells.nodes), bool)
+    square = detect_corners(splines) if params.corner_patterns else np.zeros(len(cells.nodes), bool)
+    diagonal = detect_run_corners(splines) if params.corner_patterns else square
+    corners = square | diagonal
     if corners.any():
         splines = extract_splines(cells, params, breaks=corners)
     start = splines.positions.copy()
-    q = cells.nodes[corners]
-    start[corners] = 4 * np.round(q / 4.0) / 4.0  # a sharp corner sits on its lattice point
+    q = cells.nodes[square]
+    start[square] = 4 * np.round(q / 4.0) / 4.0  # a right-angle corner sits on its lattice point
 
     prev, nxt = splines.neighbours()
     end = (prev < 0) | (nxt < 0)
