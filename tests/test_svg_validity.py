@@ -1,0 +1,42 @@
+"""The exported SVG is plain SVG 1.1 that editors open: every element, child and attribute
+value passes svgwrite's SVG 1.1 Full validator (which, e.g., refuses ``rgba()`` fills that
+Inkscape and Illustrator read as black), and nothing references an external resource."""
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+
+import pytest
+from svgwrite.validator2 import get_validator
+
+from depixel import Params, depixelize, load_image, to_svg
+
+from conftest import fixture_pngs
+
+SVG_NS = "{http://www.w3.org/2000/svg}"
+
+
+def local(tag: str) -> str:
+    return tag.replace(SVG_NS, "")
+
+
+@pytest.mark.parametrize("stage", ["cells", "splines", "optimized"])
+@pytest.mark.parametrize("path", [p for p in fixture_pngs() if p.name in ("ghost_rgba.png", "potion_rgba.png", "chip.png")],
+                         ids=lambda p: p.name)
+def test_svg_passes_the_svg11_full_validator(path, stage):
+    svg = to_svg(depixelize(load_image(path), Params(), stage=stage).vector, scale=4, title=path.name)
+    root = ET.fromstring(svg)
+    validator = get_validator("full", debug=True)
+    seen = set()
+    for element in root.iter():
+        name = local(element.tag)
+        seen.add(name)
+        for child in element:
+            assert validator.is_valid_children(name, local(child.tag)), (name, local(child.tag))
+        for attribute, value in element.attrib.items():
+            if attribute.startswith("{"):
+                continue
+            validator.check_svg_attribute_value(name, attribute, value)  # raises on a bad value
+            assert "url(" not in value and "rgba(" not in value
+        assert not any("href" in a for a in element.attrib)
+    assert seen <= {"svg", "title", "g", "path"}
+    assert root.get("viewBox") == "0 0 {} {}".format(*load_image(path).shape[1::-1])
