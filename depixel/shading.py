@@ -32,7 +32,7 @@ from .vector import VectorImage, regions
 SIGMA = 1.0  # paper §3.5: Gaussian influence with σ = 1 input pixel
 RADIUS = 2.0  # paper §3.5: truncated at 2 input pixels
 FLATTEN_TOLERANCE = 0.1  # not in paper: polyline error of flattened curves, in output pixels
-TILE_SAMPLES = 1 << 22  # not in paper: samples per tile, bounds memory (~100 MB peak)
+TILE_SAMPLES = 1 << 18  # not in paper: samples per tile; bounds memory (~40 MB) and fits caches
 MAX_OUTPUT_PIXELS = 1 << 28  # not in paper: the RGBA result alone is 1 GiB at this size
 
 
@@ -131,7 +131,8 @@ def cell_centroids(image: VectorImage, pieces: tuple | None = None) -> np.ndarra
 
 class _Segments:
     """The line pieces of every flattened edge that are not horizontal, oriented top to
-    bottom, each with the cell on its east side (the cell a scanline enters there)."""
+    bottom, each with the cell on its east side (the cell a scanline enters there), sorted
+    by their top so that a band of rows finds its pieces by bisection."""
 
     def __init__(self, image: VectorImage, pieces: tuple[np.ndarray, np.ndarray, np.ndarray]):
         a, b, edge = pieces
@@ -141,9 +142,18 @@ class _Segments:
         bottom = np.where(down[:, None], b, a)[keep]
         # walking down the screen, the left-hand side is east (cells.py edge_pixels)
         left, right = image.cells.edge_pixels[edge, 0], image.cells.edge_pixels[edge, 1]
-        self.east = np.where(down, left, right)[keep]
+        order = np.argsort(top[:, 1], kind="stable")
+        top, bottom = top[order], bottom[order]
+        self.east = np.where(down, left, right)[keep][order]
         self.x_top, self.y_top, self.y_bottom = top[:, 0], top[:, 1], bottom[:, 1]
         self.slope = (bottom[:, 0] - top[:, 0]) / (bottom[:, 1] - top[:, 1])  # dx/dy
+        self.tallest = float((self.y_bottom - self.y_top).max(initial=0.0))
+
+    def band(self, y0: float, y1: float) -> slice:
+        """The pieces that may cross a row with ``y0 ≤ y ≤ y1`` (a superset)."""
+        lo = np.searchsorted(self.y_top, y0 - self.tallest - 1e-9, side="left")
+        hi = np.searchsorted(self.y_top, y1 + 1e-9, side="right")
+        return slice(int(lo), int(hi))
 
 
 def _cell_labels(seg: _Segments, k0: int, k1: int, fy: float, fx: float, width: int) -> np.ndarray:
@@ -155,13 +165,14 @@ def _cell_labels(seg: _Segments, k0: int, k1: int, fy: float, fx: float, width: 
     and the segment turning most to the east is the one that borders the samples after it,
     so ties are broken by dx/dy.
     """
-    first = np.maximum(np.ceil(seg.y_top * fy - 0.5), k0).astype(np.int64)
-    stop = np.minimum(np.ceil(seg.y_bottom * fy - 0.5), k1).astype(np.int64)
+    band = seg.band((k0 + 0.5) / fy, (k1 - 0.5) / fy)
+    first = np.maximum(np.ceil(seg.y_top[band] * fy - 0.5), k0).astype(np.int64)
+    stop = np.minimum(np.ceil(seg.y_bottom[band] * fy - 0.5), k1).astype(np.int64)
     count = np.maximum(stop - first, 0)
     hit = np.flatnonzero(count)
-    count = count[hit]
-    which = np.repeat(hit, count)
-    row = np.repeat(first[hit] - np.cumsum(count) + count, count) + np.arange(count.sum())
+    count, first = count[hit], first[hit]
+    which = np.repeat(hit + band.start, count)  # one entry per (segment, row) crossing
+    row = np.repeat(first - np.cumsum(count) + count, count) + np.arange(count.sum())
     x = seg.x_top[which] + ((row + 0.5) / fy - seg.y_top[which]) * seg.slope[which]
     col = np.clip(np.ceil(x * fx - 0.5), 0, width).astype(np.int64)
     order = np.lexsort((seg.slope[which], x, row))
@@ -205,6 +216,15 @@ class _ShadingField:
         close = near[:, None] ** 2 + near[None, :] ** 2 < RADIUS**2
         self.offsets = np.stack([dy[close], dx[close]], axis=1)
         self.flat = self._flat_cells(reach + 1)
+        # the cells on a grid padded by `reach` (region -1, no colour), so that neighbour
+        # (dy, dx) of a padded index q is simply q + dy * padded_width + dx
+        self.reach = reach
+        pad = ((reach, reach), (reach, reach))
+        # (float32 halves the memory traffic of the hot loop; weights need no more precision)
+        self.pad_x = np.pad(self.centroid[:, 0].reshape(h, w), pad).ravel().astype(np.float32)
+        self.pad_y = np.pad(self.centroid[:, 1].reshape(h, w), pad).ravel().astype(np.float32)
+        self.pad_region = np.pad(self.region.reshape(h, w), pad, constant_values=-1).ravel()
+        self.pad_colour = np.pad(self.premultiplied.reshape(h, w, 4), pad + ((0, 0),)).reshape(-1, 4).astype(np.float32)
 
     def _flat_cells(self, radius: int) -> np.ndarray:
         """``(H*W,)`` bool: every cell of the same region within ``radius`` pixels (Chebyshev)
@@ -237,21 +257,22 @@ class _ShadingField:
         """The influence-weighted average at points, without the flat-cell shortcut."""
         h, w = self.shape
         region = self.region[cell]
+        stride = w + 2 * self.reach
         i0 = np.clip(np.floor(y).astype(np.int64), 0, h - 1)
         j0 = np.clip(np.floor(x).astype(np.int64), 0, w - 1)
-        total = np.zeros(x.size)
-        acc = np.zeros((x.size, 4))
-        floor = np.exp(-(RADIUS**2) / (2 * SIGMA**2))
+        base = (i0 + self.reach) * stride + (j0 + self.reach)
+        x32, y32 = x.astype(np.float32), y.astype(np.float32)
+        total = np.zeros(x.size, np.float32)
+        acc = np.zeros((x.size, 4), np.float32)
+        floor = np.float32(np.exp(-(RADIUS**2) / (2 * SIGMA**2)))
         for dy, dx in self.offsets.tolist():
-            i, j = i0 + dy, j0 + dx
-            inside = (i >= 0) & (i < h) & (j >= 0) & (j < w)
-            q = np.where(inside, i * w + j, 0)
-            c = self.centroid[q]
-            d2 = (c[:, 0] - x) ** 2 + (c[:, 1] - y) ** 2
-            weight = np.exp(-d2 / (2 * SIGMA**2)) - floor
-            weight = np.where(inside & (self.region[q] == region) & (weight > 0), weight, 0.0)
+            q = base + (dy * stride + dx)
+            d2 = (self.pad_x[q] - x32) ** 2 + (self.pad_y[q] - y32) ** 2
+            weight = np.exp(d2 * np.float32(-0.5 / SIGMA**2)) - floor
+            weight *= (self.pad_region[q] == region) & (weight > 0)
             total += weight
-            acc += weight[:, None] * self.premultiplied[q]
+            acc += weight[:, None] * self.pad_colour[q]
+        acc, total = acc.astype(np.float64), total.astype(np.float64)
         lonely = total <= 0  # no centroid of the region within reach: the cell's own colour
         acc[lonely] = self.premultiplied[cell[lonely]]
         total[lonely] = 1.0
