@@ -1,0 +1,87 @@
+"""Make the comparison figures of docs/rendering.md from the project's own images.
+
+    python docs/img/rendering_figures.py
+
+Each figure is one PNG: nearest neighbour | flat SVG render (cairosvg) | smooth render,
+all at the same magnification, over a light checkerboard where the image is transparent.
+The orb is drawn here (public domain, like the fixtures): a shaded ball whose neighbouring
+tones are similar, so the smooth renderer has something to shade.
+"""
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import numpy as np
+from PIL import Image, ImageDraw
+
+from depixel.image import load_image
+from depixel.pipeline import depixelize
+from depixel.shading import render_smooth
+from depixel.svg import to_svg
+
+HERE = Path(__file__).resolve().parent
+FIXTURES = HERE.parent.parent / "fixtures"
+GAP, TITLE = 8, 16
+TITLES = ("nearest neighbour", "flat (SVG, cairosvg)", "smooth (render_smooth)")
+
+
+def orb(size: int = 16) -> np.ndarray:
+    """A dark-outlined ball lit from the top left, in six tones of teal, each similar to the
+    next (|ΔY| = 22) though the darkest and lightest are not (|ΔY| = 110)."""
+    y, x = (np.mgrid[0:size, 0:size] + 0.5) / size * 2 - 1
+    r = np.hypot(x, y)
+    light = np.clip(1.2 - np.hypot(x + 0.45, y + 0.45), 0, 1)
+    tones = np.array([[30, 60, 75]]) + 22 * np.arange(6)[:, None]  # steps of equal R, G, B: only Y changes
+    rgb = tones[np.minimum((light * len(tones)).astype(int), len(tones) - 1)]
+    rgb[np.hypot(x + 0.4, y + 0.4) < 0.16] = (235, 250, 245)  # highlight
+    rgb[(r >= 0.88) & (r < 1.0)] = (5, 10, 20)  # outline
+    alpha = np.where(r < 1.0, 255, 0)
+    rgba = np.concatenate([rgb, alpha[..., None]], axis=-1).astype(np.uint8)
+    rgba[alpha == 0] = 0
+    return rgba
+
+
+def checkerboard(h: int, w: int, cell: int = 8) -> np.ndarray:
+    y, x = np.mgrid[0:h, 0:w]
+    board = np.where((y // cell + x // cell) % 2, 235, 250).astype(np.uint8)
+    return np.stack([board] * 3 + [np.full_like(board, 255)], axis=-1)
+
+
+def over_checkerboard(rgba: np.ndarray) -> Image.Image:
+    back = Image.fromarray(checkerboard(*rgba.shape[:2]))
+    return Image.alpha_composite(back, Image.fromarray(rgba)).convert("RGB")
+
+
+def figure(rgba: np.ndarray, scale: int) -> Image.Image:
+    import cairosvg  # noqa: PLC0415
+
+    vector = depixelize(rgba).vector
+    h, w = rgba.shape[:2]
+    nearest = np.repeat(np.repeat(rgba, scale, axis=0), scale, axis=1)
+    flat_png = cairosvg.svg2png(bytestring=to_svg(vector, scale=scale).encode())
+    flat = np.asarray(Image.open(io.BytesIO(flat_png)).convert("RGBA"))
+    smooth = render_smooth(vector, scale)
+    panels = [over_checkerboard(p) for p in (nearest, flat, smooth)]
+    sheet = Image.new("RGB", (3 * w * scale + 4 * GAP, h * scale + TITLE + 2 * GAP), "white")
+    draw = ImageDraw.Draw(sheet)
+    for k, (panel, title) in enumerate(zip(panels, TITLES)):
+        left = GAP + k * (w * scale + GAP)
+        draw.text((left, GAP // 2), title, fill=(40, 40, 40))
+        sheet.paste(panel, (left, TITLE + GAP))
+    return sheet
+
+
+def main() -> None:
+    sources = {
+        "ghost": (load_image(FIXTURES / "ghost.png"), 12),
+        "chip": (load_image(FIXTURES / "chip.png"), 12),
+        "heart": (load_image(FIXTURES / "heart.png"), 16),
+        "orb": (orb(), 12),
+    }
+    for name, (rgba, scale) in sources.items():
+        figure(rgba, scale).save(HERE / f"rendering_{name}.png", optimize=True)
+
+
+if __name__ == "__main__":
+    main()
