@@ -22,7 +22,7 @@ import numpy as np
 
 from .loops import Loops, trace_loops
 from .svgtext import Texts, concat, numbers, stack
-from .vector import VectorImage, faces as face_labels, regions as region_labels
+from .vector import VectorImage, faces_and_regions
 
 SVG_HEADER = '<?xml version="1.0" encoding="UTF-8"?>\n'
 #: Characters XML 1.0 forbids (control characters, lone surrogates from undecodable file
@@ -51,8 +51,7 @@ def to_svg(image: VectorImage, scale: float = 1.0, precision: int = 3, per_cell:
     rgba = image.rgba.reshape(-1, 4)
     if per_cell is None:
         per_cell = image.stage == "cells"
-    labels = face_labels(image.cells, per_cell=per_cell)
-    region = region_labels(image.cells)
+    labels, region = faces_and_regions(image.cells, per_cell)
     n_faces = int(labels.max()) + 1
     face_pixel = np.zeros(n_faces, np.int64)
     face_pixel[labels[::-1]] = np.arange(labels.size)[::-1]  # first pixel of each face
@@ -87,9 +86,9 @@ def _face_outlines(image: VectorImage, labels: np.ndarray, rank: np.ndarray, fac
     So around every node and along every edge, the earliest face present lies fully beneath
     the later ones, and no renderer can leave a partly transparent seam.
 
-    Returns the loops over the boundary half-edges, the token table, and per half-edge the
-    row of its drawing command and the row of "L" + its start point (a loop's ``M`` uses
-    that row without the "L").
+    Returns the loops over the boundary half-edges, a table of drawing commands, the row of
+    each half-edge's command in it, and per loop the row of "L" + its first point (the
+    loop's ``M`` uses that row without the "L").
     """
     cells = image.cells
     n_px = labels.size
@@ -165,46 +164,52 @@ def _face_outlines(image: VectorImage, labels: np.ndarray, rank: np.ndarray, fac
     hv = np.stack([node, mid_out, centre, mid_in], axis=1)[piece_b, part]
     loops = trace_loops(rank[face_b], hu, hv)
 
-    # drawing command of each (piece, part): "L" + end point, or for a half of a curved
-    # edge the "Q" row of that half (see _edge_tokens); spokes are always straight
-    tokens, line_row, curve_row = _edge_tokens(image, precision)
-    ein, eout = edge_in[piece_b], edge_out[piece_b]
-    into = np.where(image.curved[ein], curve_row[ein] + np.where(cells.edges[ein, 1] == node[piece_b], 1, 3),
-                    line_row + node[piece_b])
-    out_of = np.where(image.curved[eout], curve_row[eout] + np.where(cells.edges[eout, 0] == node[piece_b], 0, 2),
-                      line_row + mid_out[piece_b])
-    token_of = np.choose(part, [into, out_of, line_row + centre[piece_b], line_row + mid_in[piece_b]])
-    return loops, tokens, token_of, line_row + hu
+    # drawing command of each boundary half-edge, as a command id: "L" + point i is id i;
+    # half j of the c-th curved edge is id n_points + 4c + j (see _command_texts)
+    n_points = n_nodes + n_edges + n_px
+    curve_id = np.full(n_edges, -1, np.int64)
+    curve_id[image.curved] = n_points + 4 * np.arange(int(image.curved.sum()))
+    ein, eout, at = edge_in[piece_b], edge_out[piece_b], node[piece_b]
+    into = np.where(image.curved[ein], curve_id[ein] + np.where(cells.edges[ein, 1] == at, 1, 3), at)
+    out_of = np.where(image.curved[eout], curve_id[eout] + np.where(cells.edges[eout, 0] == at, 0, 2), mid_out[piece_b])
+    command = np.choose(part, [into, out_of, centre[piece_b], mid_in[piece_b]])
+    start = hu[loops.halfedges[loops.ptr[:-1]]]  # "L" + the first point of each loop, for its "M"
+    used, row = np.unique(np.concatenate([command, start]), return_inverse=True)  # format only these
+    return loops, _command_texts(image, used, precision), row[: command.size], row[command.size :]
 
 
-def _edge_tokens(image: VectorImage, precision: int) -> tuple[Texts, int, np.ndarray]:
-    """Token table: "L x y" of every point, then 4 "Q" rows per curved edge.
+def _command_texts(image: VectorImage, ids: np.ndarray, precision: int) -> Texts:
+    """Text of the drawing commands with the given (sorted) ids, in that order.
 
-    Points are the nodes, the edge midpoints (the curve's middle control point when curved)
-    and the pixel centres; "L" + point i is row ``line_row + i`` (and "x y" alone is that
-    row without its first character). Curved edge e (u → v, controls c0 c1 c2) has rows
-    ``curve_row[e] + j``: j = 0 "Q c0 mid" (u → mid), 1 "Q c2 v" (mid → v), 2 "Q c2 mid"
-    (v → mid), 3 "Q c0 u".
+    Points are the nodes, then the edge midpoints (the curve's middle control point when
+    curved), then the pixel centres; id i is "L" + point i. The c-th curved edge e
+    (u → v, controls c0 c1 c2) has ids ``n_points + 4c + j``: j = 0 "Q c0 mid" (u → mid),
+    1 "Q c2 v" (mid → v), 2 "Q c2 mid" (v → mid), 3 "Q c0 u".
     """
     cells = image.cells
     h, w = image.shape
     u, v = cells.edges[:, 0], cells.edges[:, 1]
     pts = image.points
-    mids = np.where(image.curved[:, None], image.controls[:, 1], (pts[u] + pts[v]) / 2.0)
-    rows, cols = np.divmod(np.arange(h * w), w)
-    centres = np.stack([cols + 0.5, rows + 0.5], axis=1)
-    lines = numbers(np.concatenate([pts, mids, centres]), precision, prefix="L")
+    n_points = len(pts) + len(u) + h * w
+    line, quad = ids[ids < n_points], ids[ids >= n_points] - n_points
+
+    def point(i: np.ndarray) -> np.ndarray:
+        """(len(i), 2) coordinates of points i."""
+        node = np.minimum(i, len(pts) - 1)
+        e = np.clip(i - len(pts), 0, len(u) - 1)
+        row, col = np.divmod(i - len(pts) - len(u), w)
+        mid = np.where(image.curved[e, None], image.controls[e, 1], (pts[u[e]] + pts[v[e]]) / 2.0)
+        centre = np.stack([col + 0.5, row + 0.5], axis=1)
+        return np.where((i < len(pts))[:, None], pts[node], np.where((i < len(pts) + len(u))[:, None], mid, centre))
 
     curved = np.flatnonzero(image.curved)
-    c0, c2, mid = image.controls[curved, 0], image.controls[curved, 2], mids[curved]
-    quads = np.stack([  # (C, 4 rows, 4 numbers)
-        np.concatenate([c0, mid], axis=1), np.concatenate([c2, pts[v[curved]]], axis=1),
-        np.concatenate([c2, mid], axis=1), np.concatenate([c0, pts[u[curved]]], axis=1),
-    ], axis=1)
-    tokens, (line_row, quad_row) = stack([lines, numbers(quads.reshape(-1, 4), precision, prefix="Q")])
-    curve_row = np.full(len(cells.edges), -1, np.int64)
-    curve_row[curved] = quad_row + 4 * np.arange(curved.size)
-    return tokens, line_row, curve_row
+    c, j = np.divmod(quad, 4)
+    e = curved[c]
+    control = np.where(((j == 0) | (j == 3))[:, None], image.controls[e, 0], image.controls[e, 2])
+    end = np.choose(j, [len(pts) + e, v[e], len(pts) + e, u[e]])
+    lines = numbers(point(line), precision, prefix="L")
+    quads = numbers(np.concatenate([control, point(end)], axis=1), precision, prefix="Q")
+    return stack([lines, quads])[0]
 
 
 #: two hex digits of every byte value
@@ -228,18 +233,19 @@ def _path_elements(loops: Loops, tokens: Texts, token_of: np.ndarray, start_row:
     loop_face = np.cumsum(new_face) - 1  # index among the drawn faces
 
     face = face_of_rank[loop_rank[face_first_loop]]
+    n = face.size
     region = face_region[face]
     opens = np.r_[True, region[1:] != region[:-1]]
     closes = np.r_[False, opens[1:]]
     rgba = face_rgba[face]
-    region_text = _blank(numbers(region, 0), opens)
-    opacity = _blank(concat(' fill-opacity="', numbers(rgba[:, 3] / 255.0, 3), '"'), rgba[:, 3] != 255)
-    n = face.size
+    translucent = rgba[:, 3] != 255
+    # one formatting pass; whole numbers print the same at any precision
+    formatted = numbers(np.concatenate([face, region, rgba[:, 3] / 255.0]), 3)
+    face_text, region_text, alpha_text = (formatted.take(np.arange(i * n, (i + 1) * n)) for i in range(3))
     header = concat(
-        _blank(_repeat("</g>\n", n), closes), _blank(_repeat('<g id="region-', n), opens), region_text,
-        _blank(_repeat('">\n', n), opens),
-        '<path id="face-', numbers(face, 0), '" fill="#',
-        _HEX.take(rgba[:, 0]), _HEX.take(rgba[:, 1]), _HEX.take(rgba[:, 2]), '"', opacity, ' d="',
+        _where(closes, "</g>\n"), _where(opens, '<g id="region-'), _blank(region_text, opens), _where(opens, '">\n'),
+        '<path id="face-', face_text, '" fill="#', _HEX.take(rgba[:, 0]), _HEX.take(rgba[:, 1]), _HEX.take(rgba[:, 2]),
+        '"', _where(translucent, ' fill-opacity="'), _blank(alpha_text, translucent), _where(translucent, '"'), ' d="',
     )
     points = Texts(tokens.data, tokens.start + 1, tokens.length - 1)  # "L x y" rows without the "L"
     table, (_, point_row, header_row, const_row) = stack([tokens, points, header, Texts.of(['"/>\n', "Z", "M"])])
@@ -254,7 +260,7 @@ def _path_elements(loops: Loops, tokens: Texts, token_of: np.ndarray, start_row:
     stream[np.arange(n_steps) + 3 * step_loop + 2 * loop_face[step_loop] + 3] = token_of[loops.halfedges]
     loop_pos = ptr[:-1] + 3 * np.arange(n_loops) + 2 * loop_face
     stream[loop_pos + 1] = move
-    stream[loop_pos + 2] = point_row + start_row[loops.halfedges[ptr[:-1]]]
+    stream[loop_pos + 2] = point_row + start_row
     stream[ptr[1:] + 3 * np.arange(n_loops) + 2 * loop_face + 3] = close_path
     faces = np.arange(face.size)
     stream[ptr[face_first_loop] + 3 * face_first_loop + 2 * faces] = header_row + faces
@@ -262,9 +268,10 @@ def _path_elements(loops: Loops, tokens: Texts, token_of: np.ndarray, start_row:
     return table.take(stream).tobytes() + b"</g>\n"
 
 
-def _repeat(text: str, n: int) -> Texts:
-    """``n`` copies of one string."""
-    return Texts.of([text]).take(np.zeros(n, np.int64))
+def _where(keep: np.ndarray, text: str) -> Texts:
+    """``text`` where ``keep`` is True, else the empty string."""
+    return Texts(np.frombuffer(text.encode("ascii"), np.uint8), np.zeros(keep.size, np.int64),
+                 np.where(keep, len(text), 0))
 
 
 def _blank(texts: Texts, keep: np.ndarray) -> Texts:

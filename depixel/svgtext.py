@@ -89,19 +89,19 @@ def numbers(values: np.ndarray, precision: int, prefix: str = "") -> Texts:
     numbers separated by spaces. Every string starts with ``prefix``.
     """
     values = np.asarray(values, dtype=np.float64)
-    rows = values.reshape(len(values), -1 if values.size else 1) if values.ndim > 1 else values[:, None]
-    chars = [np.frombuffer(prefix.encode("ascii"), np.uint8)[None, :].repeat(rows.shape[0], axis=0)]
-    keep = [np.ones(chars[0].shape, dtype=bool)]
-    for j in range(rows.shape[1]):
-        if j:
-            chars.append(np.full((rows.shape[0], 1), ord(" "), np.uint8))
-            keep.append(np.ones((rows.shape[0], 1), dtype=bool))
-        c, k = _decimal_columns(rows[:, j], precision)
-        chars.append(c)
-        keep.append(k)
-    chars_all, keep_all = np.concatenate(chars, axis=1), np.concatenate(keep, axis=1)
-    length = keep_all.sum(axis=1)
-    return Texts(chars_all[keep_all], np.cumsum(length) - length, length)
+    n = len(values)
+    k = int(np.prod(values.shape[1:], dtype=np.int64)) if values.ndim > 1 else 1
+    digits, digits_keep = _decimal_columns(values.ravel(), precision)  # (n*k, W)
+    lead, width = len(prefix), digits.shape[1] + 1  # each number: a space, then its digits
+    chars = np.empty((n, lead + k * width), dtype=np.uint8)
+    keep = np.empty(chars.shape, dtype=bool)
+    chars[:, :lead], keep[:, :lead] = np.frombuffer(prefix.encode("ascii"), np.uint8), True
+    body, body_keep = chars[:, lead:].reshape(n, k, width), keep[:, lead:].reshape(n, k, width)
+    body[..., 0], body_keep[..., 0] = ord(" "), True
+    body_keep[:, 0, 0] = False  # no space before the first number of a row
+    body[..., 1:], body_keep[..., 1:] = digits.reshape(n, k, width - 1), digits_keep.reshape(n, k, width - 1)
+    length = keep.sum(axis=1)
+    return Texts(chars[keep], np.cumsum(length) - length, length)
 
 
 def _decimal_columns(values: np.ndarray, precision: int) -> tuple[np.ndarray, np.ndarray]:

@@ -89,19 +89,28 @@ def label_components(n: int, pairs: np.ndarray) -> np.ndarray:
 
 def regions(cells: CellGraph) -> np.ndarray:
     """(H*W,) region label per pixel: components of cells joined by invisible edges."""
-    linked = linked_edges(cells)
-    return label_components(cells.shape[0] * cells.shape[1], cells.edge_pixels[linked])
+    return faces_and_regions(cells)[1]
 
 
 def faces(cells: CellGraph, per_cell: bool = False) -> np.ndarray:
     """(H*W,) face label per pixel: linked cells of identical RGBA (or one face per cell)."""
+    return faces_and_regions(cells, per_cell, with_regions=False)[0]
+
+
+def faces_and_regions(cells: CellGraph, per_cell: bool = False,
+                      with_regions: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+    """:func:`faces` and :func:`regions` together, finding the linked edges once."""
     n = cells.shape[0] * cells.shape[1]
+    linked = linked_edges(cells)
     if per_cell:
-        return np.arange(n, dtype=np.int64)
-    key = _colour_key(cells.graph.rgba).ravel()
-    left, right = cells.edge_pixels[:, 0], cells.edge_pixels[:, 1]
-    same = linked_edges(cells) & (key[np.maximum(left, 0)] == key[np.maximum(right, 0)])
-    return label_components(n, cells.edge_pixels[same])
+        face = np.arange(n, dtype=np.int64)
+    else:
+        key = _colour_key(cells.graph.rgba).ravel()
+        left, right = cells.edge_pixels[:, 0], cells.edge_pixels[:, 1]
+        same = linked & (key[np.maximum(left, 0)] == key[np.maximum(right, 0)])
+        face = label_components(n, cells.edge_pixels[same])
+    region = label_components(n, cells.edge_pixels[linked]) if with_regions else None
+    return face, region
 
 
 def _colour_key(rgba: np.ndarray) -> np.ndarray:
