@@ -152,8 +152,8 @@ def _window_component_sizes(graph: SimilarityGraph, rows: np.ndarray, cols: np.n
                             window: int) -> tuple[np.ndarray, np.ndarray]:
     """Sizes of the components holding each diagonal, within a window around each block.
 
-    All windows are labelled at once by min-label propagation on a ``(K, window, window)``
-    batch: each pass takes the smallest label over the linked neighbours, until stable.
+    The K windows are the disjoint parts of one graph of ``K * window²`` nodes (only links
+    with both ends in a window count), labelled by a single connected-components pass.
     """
     h, w = graph.shape
     before = window // 2 - 1  # window rows/cols before the block's top-left pixel (3 for 8)
@@ -166,40 +166,21 @@ def _window_component_sizes(graph: SimilarityGraph, rows: np.ndarray, cols: np.n
     offs = np.arange(window) - before
     wr = (rows[:, None] + offs[None, :] + pad)[:, :, None]  # (K, window, 1)
     wc = (cols[:, None] + offs[None, :] + pad)[:, None, :]  # (K, 1, window)
-    inside_r = (rows[:, None] + offs[None, :] >= 0) & (rows[:, None] + offs[None, :] < h)
-    inside_c = (cols[:, None] + offs[None, :] >= 0) & (cols[:, None] + offs[None, :] < w)
-    inside = inside_r[:, :, None] & inside_c[:, None, :]
 
-    # links inside the window only (both ends within the window)
+    # links inside the window only (both ends within the window); none reach outside the image
     link_right = right[wr, wc][:, :, :-1]
     link_down = down[wr, wc][:, :-1, :]
     link_main = main[wr, wc][:, :-1, :-1]
     link_anti = anti[wr, wc][:, :-1, :-1]
 
-    k = rows.size
-    big = window * window
-    label = np.where(inside, np.arange(big).reshape(1, window, window), big).astype(np.int64)
-    label = np.broadcast_to(label, (k, window, window)).copy()
-    for _ in range(big):
-        new = label.copy()
-        _pull(new, label, link_right, (slice(None), slice(None), slice(None, -1)), (slice(None), slice(None), slice(1, None)))
-        _pull(new, label, link_down, (slice(None), slice(None, -1), slice(None)), (slice(None), slice(1, None), slice(None)))
-        _pull(new, label, link_main, (slice(None), slice(None, -1), slice(None, -1)), (slice(None), slice(1, None), slice(1, None)))
-        _pull(new, label, link_anti, (slice(None), slice(None, -1), slice(1, None)), (slice(None), slice(1, None), slice(None, -1)))
-        if np.array_equal(new, label):
-            break
-        label = new
-    flat = label.reshape(k, big)
-    main_label = label[:, before, before]
-    anti_label = label[:, before, before + 1]
-    main_size = (flat == main_label[:, None]).sum(axis=1).astype(np.float64)
-    anti_size = (flat == anti_label[:, None]).sum(axis=1).astype(np.float64)
-    return main_size, anti_size
-
-
-def _pull(new: np.ndarray, label: np.ndarray, link: np.ndarray, sl_a: tuple, sl_b: tuple) -> None:
-    """For linked pairs (a, b), lower both labels to the minimum of the two, in place."""
-    a, b = label[sl_a], label[sl_b]
-    m = np.where(link, np.minimum(a, b), np.iinfo(np.int64).max)
-    np.minimum(new[sl_a], m, out=new[sl_a])
-    np.minimum(new[sl_b], m, out=new[sl_b])
+    node = np.arange(rows.size * window * window).reshape(rows.size, window, window)
+    pairs = np.concatenate([
+        np.stack([node[:, :, :-1][link_right], node[:, :, 1:][link_right]], axis=1),
+        np.stack([node[:, :-1, :][link_down], node[:, 1:, :][link_down]], axis=1),
+        np.stack([node[:, :-1, :-1][link_main], node[:, 1:, 1:][link_main]], axis=1),
+        np.stack([node[:, :-1, 1:][link_anti], node[:, 1:, :-1][link_anti]], axis=1),
+    ])
+    adjacency = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(node.size, node.size))
+    _, label = connected_components(adjacency, directed=False)
+    size = np.bincount(label).astype(np.float64)
+    return size[label[node[:, before, before]]], size[label[node[:, before, before + 1]]]
