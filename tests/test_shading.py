@@ -194,6 +194,19 @@ def test_shading_is_similar_to_the_cell_under_each_point(path):
     assert within_thresholds(out, rgba.reshape(-1, 4)[under]).all()
 
 
+@pytest.mark.parametrize("seed", range(3))
+@pytest.mark.parametrize("stage", STAGES)
+def test_random_shaded_images_stay_similar_to_the_cell_under_each_point(seed, stage):
+    # greys 30 apart chain into long regions that drift; a blue and transparency break them
+    palette = np.array([[g, g, g, 255] for g in range(40, 221, 30)] + [[30, 60, 220, 255], [0, 0, 0, 0]], np.uint8)
+    rgba = palette[np.random.default_rng(seed).integers(0, len(palette), size=(9, 10))]
+    image = vector(rgba, stage)
+    out = render_smooth(image, 2, supersample=1)
+    segments = shading._Segments(image, shading._flatten(image, shading._pieces_per_curve(image, 2)))
+    under = shading._cell_labels(segments, 0, 18, 2, 2, 20)
+    assert within_thresholds(out, rgba.reshape(-1, 4)[under]).all()
+
+
 @pytest.mark.parametrize("stage", STAGES)
 def test_region_chained_through_a_middle_grey_blends_only_similar_colours(stage):
     # 150 and 60 are dissimilar (|ΔY| = 90) yet one region, chained by the diagonal 105:
