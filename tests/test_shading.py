@@ -150,9 +150,9 @@ def test_curved_contour_stays_sharp():
     assert len(between) > 0
     centres = (between[:, ::-1] + 0.5) / scale
     assert distance_to_outlines(image, centres).max() <= 1.0 / scale
-    # and a line across the contour changes colour within one pixel (or two at 45°)
+    # a line through the middle crosses the contour twice, each time within two pixels
     for line in (out[40, :, 0], out[:, 40, 0]):
-        assert ((line > 0) & (line < 255)).sum() <= 2 * 2
+        assert ((line > 0) & (line < 255)).sum() <= 2 + 2
 
 
 @pytest.mark.parametrize("stage", STAGES)
@@ -167,10 +167,10 @@ def test_single_pixel_eye_keeps_its_exact_colour(stage):
     out = render_smooth(vector(rgba, stage), 8)
     assert out[1 * 8 + 4, 1 * 8 + 4].tolist() == [220, 30, 30, 255]
     assert out[2 * 8 + 4, 4 * 8 + 4].tolist() == [0, 0, 0, 255]
-    # the face around them is shaded but never tinted by the eyes
-    face = out[..., :3].astype(int)
-    greyish = (np.ptp(face, axis=-1) == 0) | (face.min(axis=-1) == 0) | (face[..., 0] == 220)
-    assert ((face[..., 0] - face[..., 1]) <= 0).sum() > 0 and greyish.mean() > 0.9
+    # the face around them is shaded but never tinted: colour only within a pixel of the red eye
+    tinted = np.ptp(out[..., :3].astype(int), axis=-1) > 0
+    assert not tinted[24:].any() and not tinted[:, 24:].any()
+    assert len(np.unique(out[24:, 24:, 0])) > 4 * 2  # shaded: many greys beyond the four
 
 
 @pytest.mark.parametrize("path", fixture_pngs(), ids=lambda p: p.name)
