@@ -6,8 +6,8 @@ Energy of a curve node i (equation 1-4 of the paper)::
                               E_p = ‖p_i − p̂_i‖⁴
 
 The smoothness integral of a quadratic segment is taken by sampling its tangent at fixed
-parameter steps (t = 0, ¼, ½, ¾, 1) and summing the absolute turning between samples;
-the tangent of a quadratic Bézier turns monotonically, so this equals the integral exactly.
+parameter steps (t = 0, ½, 1) and summing the absolute turning between samples; the
+tangent of a quadratic Bézier turns monotonically, so this equals the integral exactly.
 
 Corner patterns (paper Figure 7, docs/corners.md): a right-angle corner of a block whose
 legs run straight for at least two pixel edges on both sides. Such a node is moved to its
@@ -31,13 +31,12 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.sparse import coo_matrix, diags
-from scipy.sparse.linalg import spsolve
+from scipy.sparse.linalg import splu
 
 from .params import Params
 from .splines import SplineSet, extract_splines
 from .vector import VectorImage
 
-_T = np.linspace(0.0, 1.0, 5)  # tangent samples per segment: quarters, halves at index 2
 
 
 @dataclass(frozen=True, eq=False)
@@ -178,7 +177,6 @@ def optimize_splines(splines: SplineSet, params: Params = Params()) -> Optimized
 
     ctrl = splines.controls_for(start)  # T-junction ends snapped onto their curves
     anchor = ctrl.copy()
-    snapped = end & splines.through_nodes()[splines.curve_nodes]
     energy_before = relax.total_energy(ctrl, anchor)
     rng = np.random.default_rng(params.seed)
     classes = [relax.prepare(m) for m in _independent_classes(splines, movable) if m.size]
@@ -196,16 +194,19 @@ def optimize_splines(splines: SplineSet, params: Params = Params()) -> Optimized
             too_far[:, 0] = False
             best = np.argmin(np.where(too_far, np.inf, energy), axis=1)  # ties keep the lower index
             # the best trial must not bring a curve closer to a protected point than allowed
-            rows = np.arange(best.size)
-            pair = trial[rows[:, None], np.stack([np.zeros_like(best), best], axis=1)]  # (M, 2, 2)
-            clear = relax.clearance(ctrl, group, pair)
-            too_close = clear[:, 1] < np.minimum(params.centre_clearance, clear[:, 0])
-            best = np.where(too_close, 0, best)
-            ctrl[group.members] = trial[rows, best]
-        if snapped.any():  # ends that sit on a moved curve follow it
-            moved = start.copy()
-            moved[splines.curve_nodes[movable]] = ctrl[movable]
-            ctrl[snapped] = splines.controls_for(moved)[snapped]
+            # (unless it was closer already); only moving nodes need the check
+            rows = np.flatnonzero(best > 0)
+            chosen = trial[rows, best[rows]][:, None]
+            clear = relax.clearance(ctrl, group, chosen, rows)[:, 0]
+            near = clear < params.centre_clearance
+            if near.any():
+                stay = trial[rows[near], 0][:, None]
+                clear_stay = relax.clearance(ctrl, group, stay, rows[near])[:, 0]
+                refuse = np.zeros(rows.size, bool)
+                refuse[near] = clear[near] < clear_stay
+                best[rows[refuse]] = 0
+            ctrl[group.members] = trial[np.arange(best.size), best]
+        ctrl = splines.snap(ctrl)  # ends that sit on a moved curve follow it
     energy_after = relax.total_energy(ctrl, anchor)
 
     positions = start.copy()
@@ -230,7 +231,7 @@ class _Group:
     end_b: np.ndarray
     end_a2: np.ndarray
     end_b2: np.ndarray
-    keep_own: np.ndarray  # (M, 1, 4) bool: quarters of each segment counted in E_s
+    keep_own: np.ndarray  # (M, 1, 2) bool: halves of each segment counted in E_s
     keep_a: np.ndarray
     keep_b: np.ndarray
     protected: np.ndarray  # (M, 1, 1, Q, 2) points the segments must keep clear of
@@ -241,7 +242,7 @@ class _Relaxation:
 
     def __init__(self, splines: SplineSet, prev, nxt, end, excluded):
         self.prev, self.nxt, self.end = prev, nxt, end
-        self.keep = np.repeat(~excluded, 2, axis=1)  # (P, 4) quarters counted in E_s
+        self.keep = ~excluded  # (P, 2) halves counted in E_s
         # protected points per position: centres of the pixels on both sides of the edge
         # leaving it, and the lattice corner of a diagonal link at its node (a thin
         # diagonal feature must stay connected there); far away where there is none
@@ -263,7 +264,7 @@ class _Relaxation:
         has_a, has_b = ~self.end[a], ~self.end[b]
         a2 = np.where(has_a, self.prev[a], a)
         b2 = np.where(has_b, self.nxt[b], b)
-        protected = np.concatenate([self.protected[x] for x in (a2, a, members, b)], axis=1)
+        protected = _unique_rows(np.concatenate([self.protected[x] for x in (a2, a, members, b)], axis=1))
         col = lambda x: x[:, None]  # noqa: E731
         return _Group(
             members, a, b, a2, b2, has_a, has_b,
@@ -272,14 +273,16 @@ class _Relaxation:
             protected[:, None, None],
         )
 
-    def _segments(self, ctrl, g: _Group, trial):
+    def _segments(self, ctrl, g: _Group, trial, rows=slice(None)):
         """The three segments a member shapes: before (of a), own, after (of b)."""
-        c_a, c_b = ctrl[g.a][:, None], ctrl[g.b][:, None]
-        c_a2, c_b2 = ctrl[g.a2][:, None], ctrl[g.b2][:, None]
+        c_a, c_b = ctrl[g.a[rows]][:, None], ctrl[g.b[rows]][:, None]
+        c_a2, c_b2 = ctrl[g.a2[rows]][:, None], ctrl[g.b2[rows]][:, None]
+        end_a, end_b = g.end_a[rows][..., None], g.end_b[rows][..., None]
+        end_a2, end_b2 = g.end_a2[rows][..., None], g.end_b2[rows][..., None]
         mid_a, mid_b = (c_a + trial) / 2.0, (trial + c_b) / 2.0
-        own = (np.where(g.end_a[..., None], c_a, mid_a), trial, np.where(g.end_b[..., None], c_b, mid_b))
-        before = (np.where(g.end_a2[..., None], c_a2, (c_a2 + c_a) / 2.0), c_a, mid_a)
-        after = (mid_b, c_b, np.where(g.end_b2[..., None], c_b2, (c_b + c_b2) / 2.0))
+        own = (np.where(end_a, c_a, mid_a), trial, np.where(end_b, c_b, mid_b))
+        before = (np.where(end_a2, c_a2, (c_a2 + c_a) / 2.0), c_a, mid_a)
+        after = (mid_b, c_b, np.where(end_b2, c_b2, (c_b + c_b2) / 2.0))
         return before, own, after
 
     def energy(self, ctrl, anchor, g: _Group, trial) -> np.ndarray:
@@ -290,14 +293,14 @@ class _Relaxation:
         energy = energy + np.where(g.has_b[:, None], _turning(*after, g.keep_b), 0.0)
         return energy + (((trial - anchor[g.members][:, None]) ** 2).sum(axis=-1)) ** 2
 
-    def clearance(self, ctrl, g: _Group, trial) -> np.ndarray:
-        """(M, K) smallest distance from a member's three segments to their protected points
-        (pixel centres beside them, diagonal-link corners), for each trial position."""
-        before, own, after = self._segments(ctrl, g, trial)
+    def clearance(self, ctrl, g: _Group, trial, rows) -> np.ndarray:
+        """(R, K) smallest distance from the three segments of the members ``rows`` to their
+        protected points (pixel centres beside them, diagonal-link corners), per trial."""
+        before, own, after = self._segments(ctrl, g, trial, rows)
         points = np.concatenate([
             _points(*before)[..., :-1, :], _points(*own), _points(*after)[..., 1:, :],
         ], axis=-2)  # (M, K, 13, 2)
-        gap = ((points[..., None, :] - g.protected) ** 2).sum(axis=-1).min(axis=(-1, -2))
+        gap = ((points[..., None, :] - g.protected[rows]) ** 2).sum(axis=-1).min(axis=(-1, -2))
         return np.sqrt(gap)
 
     def total_energy(self, ctrl, anchor) -> float:
@@ -311,17 +314,38 @@ class _Relaxation:
 
 
 _FAR = 1e6  # stands for "no protected point"
+
+
+def _unique_rows(points: np.ndarray) -> np.ndarray:
+    """(M, Q, 2) → (M, Q', 2): each row's distinct points first, padded with _FAR."""
+    key = points[..., 0] * 4096.0 + points[..., 1]
+    order = np.argsort(key, axis=1)
+    key = np.take_along_axis(key, order, axis=1)
+    pts = np.take_along_axis(points, order[..., None], axis=1)
+    repeat = np.zeros(key.shape, bool)
+    repeat[:, 1:] = key[:, 1:] == key[:, :-1]
+    pts = np.where((repeat | (pts[..., 0] >= _FAR))[..., None], _FAR, pts)
+    keep = np.argsort(pts[..., 0] >= _FAR, axis=1, kind="stable")
+    pts = np.take_along_axis(pts, keep[..., None], axis=1)
+    width = max(int((pts[..., 0] < _FAR).sum(axis=1).max(initial=0)), 1)
+    return pts[:, :width]
 _TS = np.linspace(0.0, 1.0, 5)[:, None]  # sample parameters: quarters of a segment
 
 
 def _turning(start, c, stop, keep) -> np.ndarray:
-    """∫|κ| ds of quadratic segments (start, c, stop) by sampling the tangent at quarters;
-    ``keep`` (..., 4) selects the quarters that count (corner parts are left out)."""
+    """∫|κ| ds of quadratic segments (start, c, stop), sampled at t = 0, ½, 1: the tangent
+    of a quadratic Bézier turns monotonically (by less than π), so the angle between
+    consecutive tangent samples is exactly the integral over that half. ``keep`` (..., 2)
+    selects the halves that count (corner parts are left out)."""
     d0, d1 = c - start, stop - c
-    tangent = (1.0 - _TS) * d0[..., None, :] + _TS * d1[..., None, :]  # (..., 5, 2)
-    theta = np.arctan2(tangent[..., 1], tangent[..., 0])
-    step = np.abs((np.diff(theta, axis=-1) + np.pi) % (2.0 * np.pi) - np.pi)
-    return (step * keep).sum(axis=-1)
+    dm = d0 + d1  # the tangent at t = ½ (up to a factor that does not change its direction)
+
+    def angle(p, q):
+        cross = p[..., 0] * q[..., 1] - p[..., 1] * q[..., 0]
+        dot = (p * q).sum(axis=-1)
+        return np.abs(np.arctan2(cross, dot))
+
+    return angle(d0, dm) * keep[..., 0] + angle(dm, d1) * keep[..., 1]
 
 
 def _points(start, c, stop) -> np.ndarray:
@@ -356,77 +380,106 @@ def _independent_classes(splines: SplineSet, movable: np.ndarray) -> list[np.nda
     return [np.flatnonzero(movable & (colour == c)) for c in range(5)]
 
 
-def centre_clearance(image: VectorImage, samples: int = 8) -> np.ndarray:
+def centre_clearance(image: VectorImage, pixels: np.ndarray | None = None, samples: int = 3) -> np.ndarray:
     """(H*W,) signed distance of each pixel centre to its own drawn cell's boundary.
 
     Positive inside, negative outside (curves flattened into ``2 * samples`` pieces per
-    edge). Inside-ness is even-odd ray casting from every centre towards +x against the
-    flattened boundary of its own cell, all cells at once: each edge contributes its
-    polyline to the cells on both sides.
+    edge); +inf for pixels outside the optional ``pixels`` mask. Inside-ness is even-odd
+    ray casting from every centre towards +x against the flattened boundary of its own cell,
+    all cells at once: each edge contributes its polyline to the cells on both sides.
     """
     cells = image.cells
     h, w = cells.shape
-    u, v = cells.edges[:, 0], cells.edges[:, 1]
+    n_px = h * w
+    wanted = np.ones(n_px, bool) if pixels is None else pixels
+    sides = cells.edge_pixels
+    use = (wanted[np.maximum(sides, 0)] & (sides >= 0)).any(axis=1)
+    edge = np.flatnonzero(use)
+    u, v = cells.edges[edge, 0], cells.edges[edge, 1]
     a, b = image.points[u], image.points[v]
     t = np.linspace(0.0, 1.0, samples + 1)[None, :, None]
-    c0, c1, c2 = image.controls[:, 0], image.controls[:, 1], image.controls[:, 2]
+    c0, c1, c2 = (image.controls[edge, i][:, None] for i in range(3))
     # curved edge = Q(a, c0, c1) then Q(c1, c2, b); sample both halves
-    first = (1 - t) ** 2 * a[:, None] + 2 * t * (1 - t) * c0[:, None] + t**2 * c1[:, None]
-    second = (1 - t) ** 2 * c1[:, None] + 2 * t * (1 - t) * c2[:, None] + t**2 * b[:, None]
+    first = (1 - t) ** 2 * a[:, None] + 2 * t * (1 - t) * c0 + t**2 * c1
+    second = (1 - t) ** 2 * c1 + 2 * t * (1 - t) * c2 + t**2 * b[:, None]
     curve = np.concatenate([first, second[:, 1:]], axis=1)
     line = a[:, None] + np.linspace(0.0, 1.0, 2 * samples + 1)[None, :, None] * (b - a)[:, None]
-    poly = np.where(image.curved[:, None, None], curve, line)  # (E, S, 2)
+    poly = np.where(image.curved[edge, None, None], curve, line)  # (E', S, 2)
     p0, p1 = poly[:, :-1], poly[:, 1:]
-    count = np.zeros(h * w, dtype=np.int64)
-    nearest = np.full(h * w, np.inf)
+    pix_all, hits_all, dist_all = [], [], []
     for side in (0, 1):
-        pix = cells.edge_pixels[:, side]
-        has = pix >= 0
+        pix = sides[edge, side]
+        has = (pix >= 0) & wanted[np.maximum(pix, 0)]
         rows, cols = np.divmod(pix[has], w)
         cx, cy = (cols + 0.5)[:, None], (rows + 0.5)[:, None]
         q0, q1 = p0[has], p1[has]
         straddle = (q0[..., 1] > cy) != (q1[..., 1] > cy)
         with np.errstate(divide="ignore", invalid="ignore"):
             x_at = q0[..., 0] + (cy - q0[..., 1]) * (q1[..., 0] - q0[..., 0]) / (q1[..., 1] - q0[..., 1])
-        hits = (straddle & (x_at > cx)).sum(axis=1)
-        np.add.at(count, pix[has], hits)
+        hits_all.append((straddle & (x_at > cx)).sum(axis=1))
         seg = q1 - q0
-        rel = np.stack([cx, cy], axis=-1) - q0
+        rel = np.stack([np.broadcast_to(cx, q0.shape[:2]), np.broadcast_to(cy, q0.shape[:2])], axis=-1) - q0
         length2 = np.maximum((seg**2).sum(axis=-1), 1e-12)
         along = np.clip((rel * seg).sum(axis=-1) / length2, 0.0, 1.0)
-        dist = np.sqrt(((rel - along[..., None] * seg) ** 2).sum(axis=-1)).min(axis=1)
-        np.minimum.at(nearest, pix[has], dist)
-    return np.where(count % 2 == 1, nearest, -nearest)
+        dist_all.append(np.sqrt(((rel - along[..., None] * seg) ** 2).sum(axis=-1)).min(axis=1))
+        pix_all.append(pix[has])
+    pix = np.concatenate(pix_all)
+    count = np.bincount(pix, weights=np.concatenate(hits_all), minlength=n_px)
+    nearest = np.full(n_px, np.inf)
+    if pix.size:
+        order = np.argsort(pix, kind="stable")
+        sorted_pix = pix[order]
+        starts = np.flatnonzero(np.r_[True, sorted_pix[1:] != sorted_pix[:-1]])
+        nearest[sorted_pix[starts]] = np.minimum.reduceat(np.concatenate(dist_all)[order], starts)
+    inside = count.astype(np.int64) % 2 == 1
+    return np.where(wanted, np.where(inside, nearest, -nearest), np.inf)
 
 
 def _keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
                          margin: float, rounds: int = 8) -> np.ndarray:
     """Undo moves around any cell whose pixel centre came closer than ``margin`` to its
     boundary (or left it), until none does. Moves made elsewhere on a curve (a T-junction
-    end follows the curve it ends on) can reach a cell the relaxation did not check."""
+    end follows the curve it ends on) can reach a cell the relaxation did not check.
+    Only cells next to an edge whose geometry changed are measured."""
     cells = splines.cells
     positions = positions.copy()
-    floor = np.minimum(centre_clearance(splines.vector_image(start)), margin)
+    initial = splines.vector_image(start)
+    prev, nxt = splines.neighbours()
     for _ in range(rounds):
-        ok = centre_clearance(splines.vector_image(positions)) >= floor - 1e-9
+        current = splines.vector_image(positions)
+        changed = (
+            (np.abs(current.points - initial.points).max(axis=1)[cells.edges] > 1e-12).any(axis=1)
+            | (np.abs(current.controls - initial.controls).max(axis=(1, 2)) > 1e-12)
+        )
+        pixels = np.zeros(cells.shape[0] * cells.shape[1], bool)
+        sides = cells.edge_pixels[changed].ravel()
+        pixels[sides[sides >= 0]] = True
+        floor = np.minimum(centre_clearance(initial, pixels), margin)
+        ok = centre_clearance(current, pixels) >= floor - 1e-9
         if ok.all():
             break
         bad = np.flatnonzero(~ok)
         touched = np.isin(cells.edge_pixels, bad).any(axis=1)
         nodes = np.unique(cells.edges[touched])
         # widen to the whole neighbourhood on the curves through those nodes
-        prev, nxt = splines.neighbours()
         on = np.isin(splines.curve_nodes, nodes)
         for step in (prev, nxt):
-            on |= np.isin(np.arange(on.size), step[on & (step >= 0)])
+            near = step[on & (step >= 0)]
+            on[near] = True
         nodes = np.union1d(nodes, splines.curve_nodes[on])
         positions[nodes] = start[nodes]
     return positions
 
 
 def _harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
-                  corners: np.ndarray) -> np.ndarray:
-    """Move free nodes by the harmonic interpolation of the constrained displacements."""
+                  corners: np.ndarray, reach: int = 6) -> np.ndarray:
+    """Move free nodes by the harmonic interpolation of the constrained displacements.
+
+    Constrained: every curve node (displaced from its initial place to its display point),
+    the border and corners (not displaced). The system is solved for the free nodes within
+    ``reach`` edges of a displaced node; farther free nodes are held at their place (the
+    harmonic field has decayed to nothing there), which keeps full frames cheap.
+    """
     cells = splines.cells
     n = len(start)
     q = cells.nodes
@@ -434,23 +487,22 @@ def _harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
     border = (q[:, 0] == 0) | (q[:, 1] == 0) | (q[:, 0] == 4 * w) | (q[:, 1] == 4 * h)
     on_curve = np.zeros(n, dtype=bool)
     on_curve[splines.curve_nodes] = True
-    fixed = on_curve | border | corners
-    free = np.flatnonzero(~fixed)
-    if free.size == 0:
-        return positions
     display = splines.geometry(positions)[0]
     displacement = np.where(on_curve[:, None], display - start, 0.0)
     u, v = cells.edges[:, 0], cells.edges[:, 1]
-    rows = np.concatenate([u, v])
-    cols = np.concatenate([v, u])
-    adjacency = coo_matrix((np.ones(rows.size), (rows, cols)), shape=(n, n)).tocsr()
+    adjacency = coo_matrix((np.ones(2 * u.size), (np.r_[u, v], np.r_[v, u])), shape=(n, n)).tocsr()
+    near = np.abs(displacement).max(axis=1) > 1e-12
+    for _ in range(reach):
+        near = near | (adjacency @ near.astype(np.float64) > 0)
+    free_mask = ~(on_curve | border | corners) & near
+    free = np.flatnonzero(free_mask)
+    if free.size == 0:
+        return positions
     degree = np.asarray(adjacency.sum(axis=1)).ravel()
     sub = adjacency[free]
-    a_ff = sub[:, free]
-    a_fc = sub[:, np.flatnonzero(fixed)]
-    system = diags(degree[free]) - a_ff
-    rhs = a_fc @ displacement[fixed]
-    solved = np.column_stack([spsolve(system.tocsc(), rhs[:, i]) for i in range(2)])
+    system = (diags(degree[free]) - sub[:, free]).tocsc()
+    rhs = sub[:, ~free_mask] @ displacement[~free_mask]
+    solved = splu(system).solve(np.ascontiguousarray(rhs))
     out = positions.copy()
     out[free] = start[free] + solved
     return out

@@ -79,17 +79,35 @@ class SplineSet:
         return mask
 
     # --- geometry -------------------------------------------------------------------------
+    def snap_pairs(self) -> tuple[np.ndarray, np.ndarray]:
+        """Open-curve ends at T-junctions and the position of the curve passing through
+        their node: ``(ends, through)``, both (T,) position indices."""
+        end = self.is_end()
+        where = np.full(len(self.positions), -1, dtype=np.int64)
+        interior = np.flatnonzero(~end)
+        where[self.curve_nodes[interior]] = interior
+        ends = np.flatnonzero(end & (where[self.curve_nodes] >= 0))
+        return ends, where[self.curve_nodes[ends]]
+
+    def snap(self, ctrl: np.ndarray) -> np.ndarray:
+        """Move the T-junction end control points of ``ctrl`` (P, 2) onto the curve point of
+        the curve continuing through their node (iterated: those points may depend on
+        other snapped ends). Returns a new array."""
+        ctrl = ctrl.copy()
+        ends, through = self.snap_pairs()
+        if ends.size:
+            prev, nxt = self.neighbours()
+            end = (prev < 0) | (nxt < 0)
+            a, b = prev[through], nxt[through]
+            for _ in range(SNAP_PASSES):
+                start = np.where(end[a][:, None], ctrl[a], (ctrl[a] + ctrl[through]) / 2.0)
+                stop = np.where(end[b][:, None], ctrl[b], (ctrl[b] + ctrl[through]) / 2.0)
+                ctrl[ends] = (start + 2.0 * ctrl[through] + stop) / 4.0
+        return ctrl
+
     def controls_for(self, positions: np.ndarray) -> np.ndarray:
         """(P, 2) control point of every position, with T-junction ends snapped."""
-        end = self.is_end()
-        through = self.through_nodes()
-        snapped = end & through[self.curve_nodes]
-        ctrl = positions[self.curve_nodes].copy()
-        if snapped.any():
-            for _ in range(SNAP_PASSES):
-                display = self._display(ctrl, positions)
-                ctrl[snapped] = display[self.curve_nodes[snapped]]
-        return ctrl
+        return self.snap(positions[self.curve_nodes])
 
     def _curve_points(self, ctrl: np.ndarray) -> np.ndarray:
         """(P, 2) S_j: the point of the curve belonging to each position."""
