@@ -1,0 +1,50 @@
+"""The shared judge on corpus sprites, at every stage (skipped without ../shared).
+
+The issues' acceptance figures, on a spread of sprites chosen for their difficulty: thin
+diagonal lines (gaxe2_axbattler_01 crashes a peer implementation), dithering
+(mana_salamando), anti-aliasing (sbm4_02), sharp corners (win31_386), transparency-free
+icons. The whole corpus is measured the same way in the closing notes; CI keeps a sample.
+"""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from depixel import Params, depixelize, load_image, to_svg
+
+from conftest import CORPUS, JUDGE, needs_corpus
+
+SAMPLE = ["gaxe2_axbattler_01", "mana_salamando", "sbm4_02", "win31_386", "smw_boo", "smw2_yoshi_01",
+          "sma_toad", "invaders_01"]
+
+#: stage -> (min centre, min diag, min fg); seam_px must be 0 everywhere
+FLOORS = {"cells": (1.0, 1.0, 1.0), "splines": (0.99, 1.0, 0.9), "optimized": (0.98, 0.99, 0.9)}
+
+
+@needs_corpus
+@pytest.mark.skipif(not JUDGE.is_file(), reason="../shared/tools/judge.py not present")
+@pytest.mark.parametrize("stage", list(FLOORS))
+def test_judge_figures_on_corpus_sample(stage, tmp_path):
+    pairs = []
+    for name in SAMPLE:
+        src = CORPUS / f"{name}.png"
+        svg = tmp_path / f"{name}.svg"
+        svg.write_text(to_svg(depixelize(load_image(src), Params(), stage=stage).vector, scale=2.5))
+        pairs.append(f"{src}\t{svg}")
+    listing = tmp_path / "pairs.tsv"
+    listing.write_text("\n".join(pairs) + "\n")
+    out = subprocess.run([sys.executable, str(JUDGE), "--pairs", str(listing)], capture_output=True,
+                         text=True, timeout=600)
+    rows = [json.loads(line) for line in out.stdout.splitlines() if line.strip()]
+    assert len(rows) == len(SAMPLE), out.stderr
+    centre, diag, fg = FLOORS[stage]
+    for row in rows:
+        assert "error" not in row, row
+        name = row["input"].rsplit("/", 1)[-1]
+        assert row["centre"] >= centre, (name, row)
+        assert row["diag"] >= diag, (name, row)
+        assert row["fg"] >= fg, (name, row)
+        assert row["seam_px"] == 0, (name, row)
