@@ -108,16 +108,24 @@ def detect_corners(splines: SplineSet) -> np.ndarray:
 
 
 def detect_run_corners(splines: SplineSet, tolerance: float = 0.3, short: float = 1.4,
-                       long: float = 2.5, min_turn: float = np.radians(40.0)) -> np.ndarray:
-    """(N,) bool: nodes where two straight runs of the quantized curve meet at an angle.
+                       long: float = 2.5, min_turn: float = np.radians(80.0),
+                       min_bend: float = np.radians(25.0)) -> np.ndarray:
+    """(N,) bool: nodes where long straight runs of the quantized outline meet at an angle.
 
     From every curve node, the run behind and the run ahead are extended node by node as
-    long as every node in between stays within ``tolerance`` pixels of the chord. A node is
-    a corner when both chords are at least ``short`` long, one is at least ``long``, and they
-    turn by ``min_turn`` or more — e.g. where the 45° sides of the Windows 3.1 "386" chip meet.
-    Staircases do not match: a 45° or 2:1 staircase is one straight run (its quarter-pixel
-    nodes stay within the tolerance of a single chord), and smooth curves bend before their
-    chords get long.
+    long as every node in between stays within ``tolerance`` pixels of the chord (up to 4 px).
+    A staircase of any slope is one run (its quarter-pixel nodes stay within the tolerance
+    of a single chord); a smooth curve bends before its chords get long. Two patterns:
+
+    * a sharp corner: runs of at least ``long`` on both sides turning by ``min_turn`` (80°)
+      or more;
+    * a bevelled corner: a long run, a short one (``short`` ≤ length < ``long``) and a long
+      one, bending at both ends of the short run by ``min_bend`` or more and by ``min_turn``
+      or more in all — the apex pixels of a 45°-rotated rectangle, like the corners of the
+      Windows 3.1 "386" chip. Both ends of the short run are corners.
+
+    A pixel circle is an octagon of runs turning by 45° at a time, over runs longer than a
+    bevel: no node of it matches.
     """
     q = splines.cells.nodes.astype(np.float64) / 4.0
     prev, nxt = splines.neighbours()
@@ -125,9 +133,11 @@ def detect_run_corners(splines: SplineSet, tolerance: float = 0.3, short: float 
     here = q[node]
     interior = (prev >= 0) & (nxt >= 0)
 
-    def run(step: np.ndarray) -> np.ndarray:
-        """(P, 2) vector from each node to the far end of its straight run along ``step``."""
+    def run(step: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Vector from each node to the far end of its straight run along ``step``, and the
+        position of that far end (-1 for none)."""
         chord = np.zeros_like(here)
+        far_pos = np.full(node.size, -1, dtype=np.int64)
         alive = interior.copy()
         walk = np.arange(node.size)
         visited: list[np.ndarray] = []
@@ -144,17 +154,33 @@ def detect_run_corners(splines: SplineSet, tolerance: float = 0.3, short: float 
                 ok &= cross <= tolerance * np.maximum(length, 1e-9)
             alive &= ok
             chord = np.where(alive[:, None], candidate, chord)
+            far_pos = np.where(alive, walk, far_pos)
             alive &= length < 4.0
             visited.append(far)
-        return chord
+        return chord, far_pos
 
-    back, ahead = run(prev), run(nxt)
+    def turn(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """Angle between directions u and v (0 = straight on)."""
+        cos = (u * v).sum(axis=1) / np.maximum(np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1), 1e-12)
+        return np.arccos(np.clip(cos, -1.0, 1.0))
+
+    back, _ = run(prev)
+    ahead, ahead_end = run(nxt)
     lb, la = np.linalg.norm(back, axis=1), np.linalg.norm(ahead, axis=1)
-    cosine = -(back * ahead).sum(axis=1) / np.maximum(lb * la, 1e-12)  # 1 = straight on
-    turn = np.arccos(np.clip(cosine, -1.0, 1.0))
-    match = interior & (np.minimum(lb, la) >= short) & (np.maximum(lb, la) >= long) & (turn >= min_turn)
+    incoming = -back  # direction of travel arriving at the node
+    sharp = interior & (lb >= long) & (la >= long) & (turn(incoming, ahead) >= min_turn)
+
+    k = np.maximum(ahead_end, 0)
+    after = ahead[k]
+    bevel = (interior & (ahead_end >= 0) & (lb >= long) & (la >= short) & (la < long)
+             & (np.linalg.norm(after, axis=1) >= long)
+             & (turn(incoming, ahead) >= min_bend) & (turn(ahead, after) >= min_bend)
+             & (turn(incoming, after) >= min_turn))
+    # the same bevel found from its other end, walking the curve backwards
     corners = np.zeros(len(q), dtype=bool)
-    corners[node[match]] = True
+    corners[node[sharp]] = True
+    corners[node[bevel]] = True
+    corners[node[k[bevel]]] = True
     return corners
 
 
