@@ -56,16 +56,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--stage", choices=depixel.STAGES, default="cells")
     parser.add_argument("--record", action="store_true", help="store the current hashes instead of comparing")
     parser.add_argument("--corpus", type=Path, default=DEFAULT_CORPUS, help="folder with paper/ and frames/")
+    parser.add_argument("--hashes", type=Path, default=HASHES, help=f"hash file (default {HASHES.relative_to(ROOT)})")
     args = parser.parse_args(argv)
     if not args.corpus.is_dir():
         print(f"note: {args.corpus} not found; checking the fixtures only", file=sys.stderr)
 
     current = {name: svg_hash(rgba, args.stage) for name, rgba in inputs(args.corpus).items()}
-    table = json.loads(HASHES.read_text()) if HASHES.exists() else {}
+    table = json.loads(args.hashes.read_text()) if args.hashes.exists() else {}
     if args.record:
         table[args.stage] = current
-        HASHES.write_text(json.dumps(table, indent=1, sort_keys=True) + "\n")
-        print(f"recorded {len(current)} hashes for stage {args.stage} in {HASHES.relative_to(ROOT)}")
+        args.hashes.write_text(json.dumps(table, indent=1, sort_keys=True) + "\n")
+        print(f"recorded {len(current)} hashes for stage {args.stage} in {args.hashes}")
         return 0
     stored = table.get(args.stage)
     if stored is None:

@@ -22,9 +22,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
+from .graph import component_roots
 from .params import Params
 from .similarity import SimilarityGraph
 
@@ -136,8 +135,7 @@ def _curve_lengths(graph: SimilarityGraph, degree: np.ndarray) -> np.ndarray:
     edges = graph.edge_list()
     two = degree == 2
     inner = edges[two[edges[:, 0]] & two[edges[:, 1]]]
-    adjacency = coo_matrix((np.ones(len(inner)), (inner[:, 0], inner[:, 1])), shape=(n, n))
-    _, label = connected_components(adjacency, directed=False)
+    label = component_roots(n, inner[:, 0], inner[:, 1])
     k = np.bincount(label, weights=two.astype(np.float64), minlength=n)
     e_in = np.bincount(label[inner[:, 0]], minlength=n).astype(np.float64)
     return np.where(two, (2 * k - e_in)[label], 0.0)
@@ -153,7 +151,7 @@ def _window_component_sizes(graph: SimilarityGraph, rows: np.ndarray, cols: np.n
     """Sizes of the components holding each diagonal, within a window around each block.
 
     The K windows are the disjoint parts of one graph of ``K * window²`` nodes (only links
-    with both ends in a window count), labelled by a single connected-components pass.
+    with both ends in a window count), labelled in one pass.
     """
     h, w = graph.shape
     before = window // 2 - 1  # window rows/cols before the block's top-left pixel (3 for 8)
@@ -180,7 +178,6 @@ def _window_component_sizes(graph: SimilarityGraph, rows: np.ndarray, cols: np.n
         np.stack([node[:, :-1, :-1][link_main], node[:, 1:, 1:][link_main]], axis=1),
         np.stack([node[:, :-1, 1:][link_anti], node[:, 1:, :-1][link_anti]], axis=1),
     ])
-    adjacency = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(node.size, node.size))
-    _, label = connected_components(adjacency, directed=False)
-    size = np.bincount(label).astype(np.float64)
+    label = component_roots(node.size, pairs[:, 0], pairs[:, 1])
+    size = np.bincount(label, minlength=node.size).astype(np.float64)
     return size[label[node[:, before, before]]], size[label[node[:, before, before + 1]]]

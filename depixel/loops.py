@@ -10,8 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import connected_components, depth_first_order
+
+from .graph import cycle_leaders
 
 
 @dataclass(frozen=True, eq=False)
@@ -48,28 +48,11 @@ def trace_loops(owner: np.ndarray, u: np.ndarray, v: np.ndarray) -> Loops:
         raise ValueError("half-edges do not form closed loops")
     nxt = np.empty(n, np.int64)
     nxt[in_order] = out_order
-    prev = np.empty(n, np.int64)
-    prev[nxt] = np.arange(n)
-
-    # Cycles of the successor permutation; the leader of each is its smallest index.
-    successor = csr_matrix((np.ones(n, np.int8), nxt, np.arange(n + 1)), shape=(n, n))
-    n_loops, label = connected_components(successor, directed=True, connection="strong")
-    leader = np.full(n_loops, n, np.int64)
-    np.minimum.at(leader, label, np.arange(n))
-    leader = leader[np.lexsort((leader, owner[leader]))]  # loops by owner, then leader
-    # Chain the loops into one path (each loop's last half-edge continues with the next
-    # loop's leader) and walk it in C.
-    chained = nxt.copy()
-    chained[prev[leader[:-1]]] = leader[1:]
-    keep = np.ones(n, bool)
-    keep[prev[leader[-1]]] = False
-    path = csr_matrix((np.ones(n - 1, np.int8), chained[keep], np.r_[0, np.cumsum(keep)]), shape=(n, n))
-    order = depth_first_order(path, int(leader[0]), directed=True, return_predecessors=False)
-    is_leader = np.zeros(n, bool)
-    is_leader[leader] = True
-    starts = np.flatnonzero(is_leader[order])
+    leader, position = cycle_leaders(nxt)
+    order = _argsort_pairs(owner, leader * n + position)  # by owner, leader, then along the loop
+    starts = np.flatnonzero(position[order] == 0)
     ptr = np.r_[starts, n].astype(np.int64)
-    return Loops(owner=owner[leader], ptr=ptr, halfedges=order.astype(np.int64))
+    return Loops(owner=owner[order][starts], ptr=ptr, halfedges=order)
 
 
 def _argsort_pairs(major: np.ndarray, minor: np.ndarray) -> np.ndarray:

@@ -15,10 +15,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 from .cells import DIAGONAL, CellGraph
+from .graph import component_roots
 
 
 @dataclass(frozen=True, eq=False)
@@ -78,13 +77,9 @@ def label_components(n: int, pairs: np.ndarray) -> np.ndarray:
     of each component's smallest item (so labels are stable, scanline order)."""
     if n == 0:
         return np.zeros(0, np.int64)
-    adjacency = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
-    _, raw = connected_components(adjacency, directed=False)
-    first = np.full(raw.max() + 1, n, dtype=np.int64)
-    np.minimum.at(first, raw, np.arange(n))
-    rank = np.empty_like(first)
-    rank[np.argsort(first, kind="stable")] = np.arange(first.size)
-    return rank[raw]
+    root = component_roots(n, pairs[:, 0], pairs[:, 1])  # smallest item of each component
+    is_root = root == np.arange(n)
+    return (np.cumsum(is_root) - 1)[root]
 
 
 def regions(cells: CellGraph) -> np.ndarray:
