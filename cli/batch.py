@@ -37,6 +37,7 @@ class Options:
     background: tuple[int, int, int] | None
     max_pixels: int | None
     force: bool  # replace existing outputs
+    shading: str = "smooth"  # PNG: the paper's smooth renderer, or "flat" (the SVG rasterized)
 
 
 @dataclass(frozen=True)
@@ -71,7 +72,8 @@ def run_job(job: Job) -> Outcome:
                 out.skipped.append(target)
                 continue
             api.convert_file(job.source, target, opt.params, fmt=opt.fmt, stage=opt.stage, scale=opt.scale,
-                             frame=frame, background=opt.background, max_pixels=opt.max_pixels)
+                             frame=frame, background=opt.background, shading=opt.shading,
+                             max_pixels=opt.max_pixels)
             out.written.append(target)
         if opt.frames == "first" and out.written and (n := frame_count(job.source)) > 1:
             out.notes.append(f"{display_name(job.source)}: has {n} frames, converted the first (--frames all converts each)")

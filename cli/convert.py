@@ -59,6 +59,9 @@ def add_parser(sub) -> None:
                      help="size as a multiple of the pixel size: SVG width/height, PNG pixels, PDF size (default 1)")
     out.add_argument("--background", type=colour, metavar="COLOR",
                      help="flatten the image onto this colour first (#rgb, #rrggbb or a name like white)")
+    out.add_argument("--shading", choices=api.SHADINGS, default="smooth",
+                     help="PNG output: smooth, the paper's edge-aware smooth shading (default), or flat, "
+                          "the SVG's per-cell colours rasterized")
     out.add_argument("--frames", type=frames_option, default="first", metavar="first|all|N",
                      help="frames of an animated image: the first (default), all (name-000.svg, ...) or frame N")
     out.add_argument("--stage", choices=STAGES, default="optimized",
@@ -91,7 +94,7 @@ def run_convert(args: argparse.Namespace) -> int:
     except OutputError as exc:
         parser.error(f"{exc}; or use --format")
     options = Options(params_from_args(args), fmt, args.stage, args.scale, args.frames, args.background,
-                      args.max_pixels, force=args.force)
+                      args.max_pixels, force=args.force, shading=args.shading)
 
     start = time.perf_counter()
     if args.inputs == ["-"] or args.output == "-":
@@ -146,9 +149,9 @@ def _convert_stream(source: str, output: str, options: Options) -> Outcome:
             # a file object so that load errors name "<stdin>"; a path so they name the file
             rgba = api.load(io.BytesIO(data) if source == "-" else source, frame=frame,
                             background=options.background, max_pixels=options.max_pixels)
-            svg = api.convert(rgba, options.params, stage=options.stage, scale=options.scale,
-                              title=None if source == "-" else Path(source).name)
-            blob = api.encode(svg, options.fmt, name=name)
+            blob = api.convert_bytes(rgba, options.fmt, options.params, stage=options.stage,
+                                     scale=options.scale, shading=options.shading, name=name,
+                                     title=None if source == "-" else Path(source).name)
             if target == "-":
                 if options.fmt != "svg" and sys.stdout.isatty():
                     raise OutputError(f"refusing to write binary {options.fmt.upper()} to a terminal")

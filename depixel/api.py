@@ -22,6 +22,9 @@ from .svg import to_svg
 
 #: Output formats, chosen from the file extension or given explicitly.
 FORMATS = ("svg", "png", "pdf")
+#: how PNG output is shaded: "smooth" is the paper's renderer (§3.5, depixel.shading),
+#: "flat" rasterizes the SVG (per-cell flat fills) through cairosvg
+SHADINGS = ("smooth", "flat")
 
 Colour = tuple[int, int, int]
 
@@ -81,10 +84,31 @@ def encode(svg: str, fmt: str = "svg", *, name: str = "<svg>") -> bytes:
     return render(svg, fmt, name=name)
 
 
-def convert_bytes(image, fmt: str = "svg", params: Params = Params(), **options) -> bytes:
-    """Like :func:`convert`, returning the bytes of an SVG, PNG or PDF file."""
+def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: str = "optimized",
+                  scale: float = 1.0, background: Colour | str | None = None, title: str | None = None,
+                  shading: str = "smooth", name: str = "<image>") -> bytes:
+    """Like :func:`convert`, returning the bytes of an SVG, PNG or PDF file.
+
+    PNG output is rendered with the paper's smooth shading unless ``shading="flat"``, which
+    rasterizes the SVG instead (SVG and PDF are always the vector result).
+    """
     _check_format(fmt)
-    return encode(convert(image, params, **options), fmt)
+    if shading not in SHADINGS:
+        raise ValueError(f"unknown shading {shading!r}; choose one of {', '.join(SHADINGS)}")
+    if fmt == "png" and shading == "smooth":
+        import io  # noqa: PLC0415
+
+        from PIL import Image  # noqa: PLC0415
+
+        from .shading import render_smooth  # noqa: PLC0415
+
+        rgba = as_rgba(image) if background is None else flatten(image, background)
+        pixels = render_smooth(depixelize(rgba, params, stage=stage).vector, scale, params=params)
+        buffer = io.BytesIO()
+        Image.fromarray(pixels, "RGBA").save(buffer, format="PNG")
+        return buffer.getvalue()
+    svg = convert(image, params, stage=stage, scale=scale, background=background, title=title)
+    return encode(svg, fmt, name=name)
 
 
 def output_format(path: str | os.PathLike, fmt: str | None = None) -> str:
@@ -107,16 +131,18 @@ def frame_outputs(output: str | os.PathLike, n_frames: int) -> list[Path]:
 
 def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: Params = Params(), *,
                  fmt: str | None = None, stage: str = "optimized", scale: float = 1.0, frame: int = 0,
-                 background: Colour | str | None = None,
+                 background: Colour | str | None = None, shading: str = "smooth",
                  max_pixels: int | None = DEFAULT_MAX_PIXELS) -> Path:
     """Convert one image file (one frame of it) to an SVG, PNG or PDF file; returns the output path.
 
-    The output is written atomically and never replaces ``source``.
+    The output is written atomically and never replaces ``source``. PNG output uses the
+    smooth renderer unless ``shading="flat"``.
     """
     fmt = output_format(output, fmt)
     rgba = load(source, frame=frame, background=background, max_pixels=max_pixels)
-    svg = convert(rgba, params, stage=stage, scale=scale, title=Path(source).name)
-    write_atomic(output, encode(svg, fmt, name=display_name(source)), protect=(Path(source),))
+    blob = convert_bytes(rgba, fmt, params, stage=stage, scale=scale, title=Path(source).name,
+                         shading=shading, name=display_name(source))
+    write_atomic(output, blob, protect=(Path(source),))
     return Path(output)
 
 

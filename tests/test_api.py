@@ -139,8 +139,9 @@ def test_missing_cairo_library_is_a_render_error(tmp_path, monkeypatch):
     monkeypatch.syspath_prepend(str(fake))
     monkeypatch.delitem(sys.modules, "cairosvg", raising=False)
     with pytest.raises(RenderError, match="cairo library"):
-        depixel.convert_bytes(SPRITE, "png")
+        depixel.convert_bytes(SPRITE, "png", shading="flat")
     assert depixel.convert_bytes(SPRITE, "svg").startswith(b"<?xml")  # SVG never needs cairo
+    assert depixel.convert_bytes(SPRITE, "png").startswith(b"\x89PNG")  # nor smooth-shaded PNG
     monkeypatch.setitem(sys.modules, "cairosvg", None)
     with pytest.raises(RenderError, match="pip install cairosvg"):
         raster.render("<svg/>", "pdf")
