@@ -94,16 +94,25 @@ class SplineSet:
         the curve continuing through their node (iterated: those points may depend on
         other snapped ends). Returns a new array."""
         ctrl = ctrl.copy()
-        ends, through = self.snap_pairs()
+        ends, through, a, b, end_a, end_b = self._snap_plan()
         if ends.size:
+            for _ in range(SNAP_PASSES):
+                start = np.where(end_a, ctrl[a], (ctrl[a] + ctrl[through]) / 2.0)
+                stop = np.where(end_b, ctrl[b], (ctrl[b] + ctrl[through]) / 2.0)
+                ctrl[ends] = (start + 2.0 * ctrl[through] + stop) / 4.0
+        return ctrl
+
+    def _snap_plan(self):
+        """Indices :meth:`snap` needs, computed once per SplineSet."""
+        plan = self.__dict__.get("_snap_cache")
+        if plan is None:
+            ends, through = self.snap_pairs()
             prev, nxt = self.neighbours()
             end = (prev < 0) | (nxt < 0)
             a, b = prev[through], nxt[through]
-            for _ in range(SNAP_PASSES):
-                start = np.where(end[a][:, None], ctrl[a], (ctrl[a] + ctrl[through]) / 2.0)
-                stop = np.where(end[b][:, None], ctrl[b], (ctrl[b] + ctrl[through]) / 2.0)
-                ctrl[ends] = (start + 2.0 * ctrl[through] + stop) / 4.0
-        return ctrl
+            plan = (ends, through, a, b, end[a][:, None], end[b][:, None])
+            object.__setattr__(self, "_snap_cache", plan)
+        return plan
 
     def controls_for(self, positions: np.ndarray) -> np.ndarray:
         """(P, 2) control point of every position, with T-junction ends snapped."""
