@@ -471,17 +471,25 @@ def _keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nd
     positions = positions.copy()
     initial = splines.vector_image(start)
     prev, nxt = splines.neighbours()
+    n_px = cells.shape[0] * cells.shape[1]
+    floor = np.full(n_px, np.nan)  # min(margin, initial clearance), filled in on demand
+    reference = initial  # geometry already verified (or initial), to find what changed since
     for _ in range(rounds):
         current = splines.vector_image(positions)
         changed = (
-            (np.abs(current.points - initial.points).max(axis=1)[cells.edges] > 1e-12).any(axis=1)
-            | (np.abs(current.controls - initial.controls).max(axis=(1, 2)) > 1e-12)
+            (np.abs(current.points - reference.points).max(axis=1)[cells.edges] > 1e-12).any(axis=1)
+            | (np.abs(current.controls - reference.controls).max(axis=(1, 2)) > 1e-12)
         )
-        pixels = np.zeros(cells.shape[0] * cells.shape[1], bool)
+        pixels = np.zeros(n_px, bool)
         sides = cells.edge_pixels[changed].ravel()
         pixels[sides[sides >= 0]] = True
-        floor = np.minimum(centre_clearance(initial, pixels), margin)
-        ok = centre_clearance(current, pixels) >= floor - 1e-9
+        if not pixels.any():
+            break
+        missing = pixels & np.isnan(floor)
+        if missing.any():
+            floor[missing] = np.minimum(centre_clearance(initial, missing)[missing], margin)
+        ok = ~pixels | (centre_clearance(current, pixels) >= floor - 1e-9)
+        reference = current
         if ok.all():
             break
         bad = np.flatnonzero(~ok)
