@@ -16,8 +16,6 @@ of every drawing command, and one index array that lists the tokens of the docum
 """
 from __future__ import annotations
 
-import re
-
 import numpy as np
 
 from .loops import Loops, trace_loops
@@ -25,9 +23,16 @@ from .svgtext import Texts, concat, numbers, stack
 from .vector import VectorImage, faces_and_regions
 
 SVG_HEADER = '<?xml version="1.0" encoding="UTF-8"?>\n'
-#: Characters XML 1.0 forbids (control characters, lone surrogates from undecodable file
-#: names); a title has them replaced by U+FFFD so the SVG always parses and encodes.
-_NOT_XML = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
+
+
+def _xml_text(text: str) -> str:
+    """``text`` with every character XML 1.0 forbids (control characters, lone surrogates
+    from undecodable file names) replaced by U+FFFD, so the SVG always parses and encodes.
+    A character loop, not a regex: compiling that character class costs ~8 ms per process."""
+    def allowed(o: int) -> bool:
+        return o in (9, 10, 13) or 0x20 <= o <= 0xD7FF or 0xE000 <= o <= 0xFFFD or 0x10000 <= o <= 0x10FFFF
+
+    return "".join(c if allowed(ord(c)) else "\ufffd" for c in text)
 
 
 def draw_order(labels: np.ndarray, region: np.ndarray) -> np.ndarray:
@@ -70,7 +75,7 @@ def to_svg(image: VectorImage, scale: float = 1.0, precision: int = 3, per_cell:
         f'viewBox="0 0 {w} {h}">\n'
     )
     if title:
-        text = _NOT_XML.sub(chr(0xFFFD), title).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+        text = _xml_text(title).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
         head += f"<title>{text}</title>\n"
     return head + body.decode("ascii") + "</svg>\n"
 
