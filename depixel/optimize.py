@@ -420,35 +420,36 @@ def centre_clearance(image: VectorImage, pixels: np.ndarray | None = None, sampl
     wanted = np.ones(n_px, bool) if pixels is None else pixels
     sides = cells.edge_pixels
     use = (wanted[np.maximum(sides, 0)] & (sides >= 0)).any(axis=1)
-    edge = np.flatnonzero(use)
-    u, v = cells.edges[edge, 0], cells.edges[edge, 1]
-    a, b = image.points[u], image.points[v]
-    t = np.linspace(0.0, 1.0, samples + 1)[None, :, None]
-    c0, c1, c2 = (image.controls[edge, i][:, None] for i in range(3))
-    # curved edge = Q(a, c0, c1) then Q(c1, c2, b); sample both halves
-    first = (1 - t) ** 2 * a[:, None] + 2 * t * (1 - t) * c0 + t**2 * c1
-    second = (1 - t) ** 2 * c1 + 2 * t * (1 - t) * c2 + t**2 * b[:, None]
-    curve = np.concatenate([first, second[:, 1:]], axis=1)
-    line = a[:, None] + np.linspace(0.0, 1.0, 2 * samples + 1)[None, :, None] * (b - a)[:, None]
-    poly = np.where(image.curved[edge, None, None], curve, line)  # (E', S, 2)
-    p0, p1 = poly[:, :-1], poly[:, 1:]
     pix_all, hits_all, dist_all = [], [], []
-    for side in (0, 1):
-        pix = sides[edge, side]
-        has = (pix >= 0) & wanted[np.maximum(pix, 0)]
-        rows, cols = np.divmod(pix[has], w)
-        cx, cy = (cols + 0.5)[:, None], (rows + 0.5)[:, None]
-        q0, q1 = p0[has], p1[has]
-        straddle = (q0[..., 1] > cy) != (q1[..., 1] > cy)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            x_at = q0[..., 0] + (cy - q0[..., 1]) * (q1[..., 0] - q0[..., 0]) / (q1[..., 1] - q0[..., 1])
-        hits_all.append((straddle & (x_at > cx)).sum(axis=1))
-        seg = q1 - q0
-        rel = np.stack([np.broadcast_to(cx, q0.shape[:2]), np.broadcast_to(cy, q0.shape[:2])], axis=-1) - q0
-        length2 = np.maximum((seg**2).sum(axis=-1), 1e-12)
-        along = np.clip((rel * seg).sum(axis=-1) / length2, 0.0, 1.0)
-        dist_all.append(np.sqrt(((rel - along[..., None] * seg) ** 2).sum(axis=-1)).min(axis=1))
-        pix_all.append(pix[has])
+    for curved in (False, True):  # a straight edge is one segment, a curve 2 * samples
+        edge = np.flatnonzero(use & (image.curved == curved))
+        a, b = image.points[cells.edges[edge, 0]], image.points[cells.edges[edge, 1]]
+        if curved:
+            t = np.linspace(0.0, 1.0, samples + 1)[None, :, None]
+            c0, c1, c2 = (image.controls[edge, i][:, None] for i in range(3))
+            first = (1 - t) ** 2 * a[:, None] + 2 * t * (1 - t) * c0 + t**2 * c1
+            second = (1 - t) ** 2 * c1 + 2 * t * (1 - t) * c2 + t**2 * b[:, None]
+            poly = np.concatenate([first, second[:, 1:]], axis=1)  # (E', 2 * samples + 1, 2)
+        else:
+            poly = np.stack([a, b], axis=1)
+        p0, p1 = poly[:, :-1], poly[:, 1:]
+        for side in (0, 1):
+            pix = sides[edge, side]
+            has = (pix >= 0) & wanted[np.maximum(pix, 0)]
+            rows, cols = np.divmod(pix[has], w)
+            cx, cy = (cols + 0.5)[:, None], (rows + 0.5)[:, None]
+            q0, q1 = p0[has], p1[has]
+            straddle = (q0[..., 1] > cy) != (q1[..., 1] > cy)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                x_at = q0[..., 0] + (cy - q0[..., 1]) * (q1[..., 0] - q0[..., 0]) / (q1[..., 1] - q0[..., 1])
+            hits_all.append((straddle & (x_at > cx)).sum(axis=1))
+            seg = q1 - q0
+            rel_x, rel_y = cx - q0[..., 0], cy - q0[..., 1]
+            length2 = np.maximum(seg[..., 0] ** 2 + seg[..., 1] ** 2, 1e-12)
+            along = np.clip((rel_x * seg[..., 0] + rel_y * seg[..., 1]) / length2, 0.0, 1.0)
+            dx, dy = rel_x - along * seg[..., 0], rel_y - along * seg[..., 1]
+            dist_all.append(np.sqrt((dx * dx + dy * dy).min(axis=1)))
+            pix_all.append(pix[has])
     pix = np.concatenate(pix_all)
     count = np.bincount(pix, weights=np.concatenate(hits_all), minlength=n_px)
     nearest = np.full(n_px, np.inf)
