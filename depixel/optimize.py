@@ -30,8 +30,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse import coo_matrix, diags
-from scipy.sparse.linalg import splu
 
 from .params import Params
 from .splines import SplineSet, extract_splines
@@ -511,9 +509,12 @@ def _harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
     """Move free nodes by the harmonic interpolation of the constrained displacements.
 
     Constrained: every curve node (displaced from its initial place to its display point),
-    the border and corners (not displaced). The system is solved for the free nodes within
+    the border and corners (not displaced). The system — each free node's displacement is
+    the mean of its neighbours' (uniform weights) — is solved for the free nodes within
     ``reach`` edges of a displaced node; farther free nodes are held at their place (the
-    harmonic field has decayed to nothing there), which keeps full frames cheap.
+    harmonic field has decayed to nothing there), which keeps full frames cheap. The
+    solver is conjugate gradients in numpy (the system is symmetric positive definite),
+    run to far below the output precision.
     """
     cells = splines.cells
     n = len(start)
@@ -525,19 +526,50 @@ def _harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
     display = splines.geometry(positions)[0]
     displacement = np.where(on_curve[:, None], display - start, 0.0)
     u, v = cells.edges[:, 0], cells.edges[:, 1]
-    adjacency = coo_matrix((np.ones(2 * u.size), (np.r_[u, v], np.r_[v, u])), shape=(n, n)).tocsr()
     near = np.abs(displacement).max(axis=1) > 1e-12
     for _ in range(reach):
-        near = near | (adjacency @ near.astype(np.float64) > 0)
-    free_mask = ~(on_curve | border | corners) & near
-    free = np.flatnonzero(free_mask)
-    if free.size == 0:
+        grown = near.copy()
+        grown[u[near[v]]] = True
+        grown[v[near[u]]] = True
+        near = grown
+    free = ~(on_curve | border | corners) & near
+    if not free.any():
         return positions
-    degree = np.asarray(adjacency.sum(axis=1)).ravel()
-    sub = adjacency[free]
-    system = (diags(degree[free]) - sub[:, free]).tocsc()
-    rhs = sub[:, ~free_mask] @ displacement[~free_mask]
-    solved = splu(system).solve(np.ascontiguousarray(rhs))
+    degree = np.bincount(u, minlength=n) + np.bincount(v, minlength=n)
+    # the system on the free nodes only: compact indices, free–free edges for the operator,
+    # free–fixed edges for the right-hand side
+    index = np.cumsum(free) - 1
+    m = int(free.sum())
+    inner = free[u] & free[v]
+    fu, fv = index[u[inner]], index[v[inner]]
+    rhs = np.zeros((m, 2))
+    for a, b in ((u, v), (v, u)):  # a free, b fixed
+        edge = free[a] & ~free[b]
+        for i in range(2):
+            rhs[:, i] += np.bincount(index[a[edge]], displacement[b[edge], i], minlength=m)
+    diagonal = degree[free][:, None].astype(np.float64)
+
+    def apply(x: np.ndarray) -> np.ndarray:
+        out = diagonal * x
+        for i in range(2):
+            out[:, i] -= np.bincount(fu, x[fv, i], minlength=m) + np.bincount(fv, x[fu, i], minlength=m)
+        return out
+
+    x = np.zeros((m, 2))
+    r = rhs.copy()
+    p = r.copy()
+    rr = (r * r).sum(axis=0)
+    target = 1e-18 * max(float(rr.max()), 1e-30)
+    for _ in range(4 * m + 10):
+        if rr.max() <= target:
+            break
+        ap = apply(p)
+        step = rr / np.maximum((p * ap).sum(axis=0), 1e-300)
+        x += step * p
+        r -= step * ap
+        rr_new = (r * r).sum(axis=0)
+        p = r + (rr_new / np.maximum(rr, 1e-300)) * p
+        rr = rr_new
     out = positions.copy()
-    out[free] = start[free] + solved
+    out[free] = start[free] + x
     return out
