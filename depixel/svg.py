@@ -126,15 +126,34 @@ def _face_outlines(image: VectorImage, labels: np.ndarray, rank: np.ndarray, fac
     table = np.full((n_nodes, int(slot.max()) + 1), -1, np.int64)
     table[node_sorted, slot] = face_sorted
 
+    # four half-edges per piece k of cell q (midpoint of edge e is point n_nodes + e, the
+    # centre of q is point n_nodes + n_edges + q), with the piece across each:
+    #   0: mid(edge into k) -> node k      across: the other cell's piece at this node
+    #   1: node k -> mid(edge out of k)    across: the piece after the twin position
+    #   2: mid(edge out of k) -> centre    across: k_next
+    #   3: centre -> mid(edge into k)      across: k_prev
+    edge_in, edge_out = cells.cell_edges[k_prev], cells.cell_edges
+    mid_in, mid_out = n_nodes + edge_in, n_nodes + edge_out
+    centre = n_nodes + n_edges + piece_cell
+    twin_out = twin[k]
+    across = np.stack([twin[k_prev], np.where(twin_out >= 0, k_next[np.maximum(twin_out, 0)], -1), k_next, k_prev],
+                      axis=1)
+    # Only a piece at a node shared by several faces, or on the image border, can have a
+    # boundary half-edge: elsewhere the pieces across all four sides (at the same node or
+    # in the same cell) belong to its own face, and no other face can use it as underlay.
+    shared = table[:, 1] >= 0 if table.shape[1] > 1 else np.zeros(n_nodes, bool)
+    ks = np.flatnonzero(shared[node] | (across < 0).any(axis=1))
+
     # membership (face, piece): own pieces, plus underlay pieces of later opaque cells
     drawn = face_alpha > 0
     opaque_own = face_alpha[own] == 255
-    candidate = table[node]  # (n_piece, width)
+    own_s = own[ks]
+    candidate = table[node[ks]]  # (len(ks), width)
     cand = np.maximum(candidate, 0)
-    under = (candidate >= 0) & (rank[cand] < rank[own][:, None]) & opaque_own[:, None] & drawn[cand]
+    under = (candidate >= 0) & (rank[cand] < rank[own_s][:, None]) & opaque_own[ks][:, None] & drawn[cand]
     member_key = np.sort(np.concatenate([
-        own[drawn[own]] * n_piece + k[drawn[own]],
-        candidate[under] * n_piece + np.broadcast_to(k[:, None], under.shape)[under],
+        own_s[drawn[own_s]] * n_piece + ks[drawn[own_s]],
+        candidate[under] * n_piece + np.broadcast_to(ks[:, None], under.shape)[under],
     ]))
     member_face, member_piece = np.divmod(member_key, n_piece)
 
@@ -148,18 +167,6 @@ def _face_outlines(image: VectorImage, labels: np.ndarray, rank: np.ndarray, fac
         result[maybe] = (table[node[piece[maybe]]] == face[maybe, None]).any(axis=1)
         return result
 
-    # four half-edges per member piece k of cell q (midpoint of edge e is point n_nodes + e,
-    # the centre of q is point n_nodes + n_edges + q), with the piece across each:
-    #   0: mid(edge into k) -> node k      across: the other cell's piece at this node
-    #   1: node k -> mid(edge out of k)    across: the piece after the twin position
-    #   2: mid(edge out of k) -> centre    across: k_next
-    #   3: centre -> mid(edge into k)      across: k_prev
-    edge_in, edge_out = cells.cell_edges[k_prev], cells.cell_edges
-    mid_in, mid_out = n_nodes + edge_in, n_nodes + edge_out
-    centre = n_nodes + n_edges + piece_cell
-    twin_out = twin[k]
-    across = np.stack([twin[k_prev], np.where(twin_out >= 0, k_next[np.maximum(twin_out, 0)], -1), k_next, k_prev],
-                      axis=1)
     boundary = np.empty((member_key.size, 4), bool)
     for part in range(4):
         boundary[:, part] = ~holds(member_face, across[member_piece, part])
