@@ -30,7 +30,7 @@ class _Version(argparse.Action):
 
     def __call__(self, parser, namespace, values, option_string=None):
         lines = [f"depixel {depixel.__version__}"]
-        for name in ("numpy", "scipy", "pillow", "cairosvg", "tqdm"):
+        for name in ("numpy", "pillow", "cairosvg", "tqdm"):
             try:
                 lines.append(f"  {name} {metadata.version(name)}")
             except metadata.PackageNotFoundError:
