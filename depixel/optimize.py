@@ -353,7 +353,7 @@ def _unique_rows(points: np.ndarray) -> np.ndarray:
     pts = np.take_along_axis(pts, keep[..., None], axis=1)
     width = max(int((pts[..., 0] < _FAR).sum(axis=1).max(initial=0)), 1)
     return pts[:, :width]
-_TS = np.linspace(0.0, 1.0, 5)[:, None]  # sample parameters: quarters of a segment
+_TS = np.linspace(0.0, 1.0, 5)[:, None]  # clearance samples: quarters of a segment
 
 
 def _turning(start, c, stop, keep) -> np.ndarray:
