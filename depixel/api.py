@@ -146,13 +146,6 @@ def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: P
     return Path(output)
 
 
-def convert_animation(source: str | os.PathLike, output: str | os.PathLike, params: Params = Params(),
-                      **options) -> list[Path]:
-    """Convert every frame of an (animated) image to ``name-000.ext``, ``name-001.ext``, …"""
-    outputs = frame_outputs(output, frame_count(source))
-    return [convert_file(source, out, params, frame=i, **options) for i, out in enumerate(outputs)]
-
-
 def render_file(source: str | os.PathLike, output: str | os.PathLike, *, fmt: str | None = None,
                 scale: float | None = None, width: int | None = None,
                 background: Colour | str | None = None) -> Path:
