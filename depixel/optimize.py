@@ -10,10 +10,16 @@ parameter steps (t = 0, ½, 1) and summing the absolute turning between samples;
 tangent of a quadratic Bézier turns monotonically, so this equals the integral exactly.
 
 Corner patterns (paper Figure 7, docs/corners.md): a right-angle corner of a block whose
-legs run straight for at least two pixel edges on both sides. Such a node is moved to its
-lattice corner, fixed, and made a break point of its curve (beyond the paper: its §4.1
-suggests knot multiplicity for sharp features), and the curve parts next to it are left out
-of the smoothness integral.
+legs run straight for at least two pixel edges on both sides (moved onto its lattice
+corner), and long straight runs of the quantized outline meeting at 80° or more or across a
+short bevel. Corner nodes are fixed and made break points of their curves (beyond the
+paper: its §4.1 suggests knot multiplicity for sharp features), and the curve parts next to
+them are left out of the smoothness integral.
+
+Fidelity constraints (not in the paper): a move is refused if it brings one of the node's
+segments closer than ``centre_clearance`` to a pixel centre beside it or to the lattice
+corner of a diagonal link, or takes the node farther than ``max_offset`` from its start;
+afterwards, cells whose centre came too near their boundary get their nodes reverted.
 
 Relaxation: ``iterations`` sweeps; in each sweep the nodes are visited class by class in a
 random order of classes (nodes of one class are three or more positions apart along their
@@ -22,8 +28,9 @@ tries ``candidates`` random offsets within ``radius`` of its current place and k
 (or stays). All randomness comes from ``numpy.random.default_rng(seed)``.
 
 Harmonic map: the nodes off the curves (and off the image border) then move by the
-harmonic interpolation of the curve nodes' displacements (uniform weights, a sparse linear
-solve), so cells next to moved curves follow them instead of folding.
+harmonic interpolation of the curve nodes' displacements (uniform weights, conjugate
+gradients on the nodes near a displacement), so cells next to moved curves follow them
+instead of folding.
 """
 from __future__ import annotations
 
@@ -34,7 +41,6 @@ import numpy as np
 from .params import Params
 from .splines import SplineSet, extract_splines
 from .vector import VectorImage
-
 
 
 @dataclass(frozen=True, eq=False)
