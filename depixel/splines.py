@@ -24,6 +24,7 @@ depends on neighbouring control points, the snapping is iterated a fixed number 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -58,7 +59,13 @@ class SplineSet:
         return np.repeat(np.arange(self.n_curves), np.diff(self.curve_ptr))
 
     def neighbours(self) -> tuple[np.ndarray, np.ndarray]:
-        """Previous and next position of every position along its curve (-1 past an open end)."""
+        """Previous and next position of every position along its curve (-1 past an open end).
+
+        Computed once per SplineSet (the arrays are shared: do not modify them)."""
+        return self._links
+
+    @cached_property
+    def _links(self) -> tuple[np.ndarray, np.ndarray]:
         p = np.arange(self.curve_nodes.size)
         curve = self.position_curve()
         first, last = self.curve_ptr[:-1][curve], self.curve_ptr[1:][curve] - 1
@@ -94,7 +101,7 @@ class SplineSet:
         the curve continuing through their node (iterated: those points may depend on
         other snapped ends). Returns a new array."""
         ctrl = ctrl.copy()
-        ends, through, a, b, end_a, end_b = self._snap_plan()
+        ends, through, a, b, end_a, end_b = self._snap_plan
         if ends.size:
             for _ in range(SNAP_PASSES):
                 start = np.where(end_a, ctrl[a], (ctrl[a] + ctrl[through]) / 2.0)
@@ -102,17 +109,14 @@ class SplineSet:
                 ctrl[ends] = (start + 2.0 * ctrl[through] + stop) / 4.0
         return ctrl
 
+    @cached_property
     def _snap_plan(self):
         """Indices :meth:`snap` needs, computed once per SplineSet."""
-        plan = self.__dict__.get("_snap_cache")
-        if plan is None:
-            ends, through = self.snap_pairs()
-            prev, nxt = self.neighbours()
-            end = (prev < 0) | (nxt < 0)
-            a, b = prev[through], nxt[through]
-            plan = (ends, through, a, b, end[a][:, None], end[b][:, None])
-            object.__setattr__(self, "_snap_cache", plan)
-        return plan
+        ends, through = self.snap_pairs()
+        prev, nxt = self.neighbours()
+        end = (prev < 0) | (nxt < 0)
+        a, b = prev[through], nxt[through]
+        return ends, through, a, b, end[a][:, None], end[b][:, None]
 
     def controls_for(self, positions: np.ndarray) -> np.ndarray:
         """(P, 2) control point of every position, with T-junction ends snapped."""
