@@ -20,6 +20,8 @@ from depixel.errors import DepixelError, display_name
 from depixel.image import frame_count
 from depixel.params import Params
 
+from .options import error_message
+
 #: File extensions taken from folders and globs (explicitly named files are always tried).
 IMAGE_SUFFIXES = frozenset({".png", ".gif", ".bmp", ".webp", ".tga", ".tif", ".tiff", ".ppm", ".pgm",
                             ".pbm", ".pcx", ".ico", ".jpg", ".jpeg", ".qoi"})
@@ -38,6 +40,7 @@ class Options:
     max_pixels: int | None
     force: bool  # replace existing outputs
     shading: str = "smooth"  # PNG: the paper's smooth renderer, or "flat" (the SVG rasterized)
+    precision: int = 3  # decimals of SVG coordinates
 
 
 @dataclass(frozen=True)
@@ -73,12 +76,12 @@ def run_job(job: Job) -> Outcome:
                 continue
             api.convert_file(job.source, target, opt.params, fmt=opt.fmt, stage=opt.stage, scale=opt.scale,
                              frame=frame, background=opt.background, shading=opt.shading,
-                             max_pixels=opt.max_pixels)
+                             max_pixels=opt.max_pixels, precision=opt.precision)
             out.written.append(target)
         if opt.frames == "first" and out.written and (n := frame_count(job.source)) > 1:
             out.notes.append(f"{display_name(job.source)}: has {n} frames, converted the first (--frames all converts each)")
     except DepixelError as exc:
-        out.error, out.traceback = str(exc), traceback.format_exc()
+        out.error, out.traceback = error_message(exc), traceback.format_exc()
     except Exception as exc:  # a bug: still one line, the traceback with --debug
         out.error = f"{display_name(job.source)}: internal error ({type(exc).__name__}: {exc})"
         out.traceback = traceback.format_exc()

@@ -17,7 +17,7 @@ from depixel.output import write_atomic
 from depixel.pipeline import STAGES
 
 from .batch import Job, Options, Outcome, Progress, default_jobs, expand_inputs, make_folders, plan, run, summary
-from .options import Exit, add_tuning, colour, int_range, params_from_args, positive_float, positive_int
+from .options import Exit, add_tuning, error_message, colour, int_range, params_from_args, positive_float, positive_int
 
 DESCRIPTION = """\
 examples:
@@ -66,6 +66,8 @@ def add_parser(sub) -> None:
                      help="frames of an animated image: the first (default), all (name-000.svg, ...) or frame N")
     out.add_argument("--stage", choices=STAGES, default="optimized",
                      help="stop at this pipeline stage (default: optimized, the final result)")
+    out.add_argument("--precision", type=int_range(0, 12), default=3, metavar="N",
+                     help="decimals of the numbers in the SVG (default 3)")
     out.add_argument("--max-pixels", type=positive_int, default=DEFAULT_MAX_PIXELS, metavar="N",
                      help=f"refuse larger images (default {DEFAULT_MAX_PIXELS}; pixel art is small)")
     batch = p.add_argument_group("many files")
@@ -94,7 +96,7 @@ def run_convert(args: argparse.Namespace) -> int:
     except OutputError as exc:
         parser.error(f"{exc}; or use --format")
     options = Options(params_from_args(args), fmt, args.stage, args.scale, args.frames, args.background,
-                      args.max_pixels, force=args.force, shading=args.shading)
+                      args.max_pixels, force=args.force, shading=args.shading, precision=args.precision)
 
     start = time.perf_counter()
     if args.inputs == ["-"] or args.output == "-":
@@ -151,7 +153,8 @@ def _convert_stream(source: str, output: str, options: Options) -> Outcome:
                             background=options.background, max_pixels=options.max_pixels)
             blob = api.convert_bytes(rgba, options.fmt, options.params, stage=options.stage,
                                      scale=options.scale, shading=options.shading, name=name,
-                                     title=None if source == "-" else Path(source).name)
+                                     title=None if source == "-" else Path(source).name,
+                                     precision=options.precision)
             if target == "-":
                 if options.fmt != "svg" and sys.stdout.isatty():
                     raise OutputError(f"refusing to write binary {options.fmt.upper()} to a terminal")
@@ -163,7 +166,7 @@ def _convert_stream(source: str, output: str, options: Options) -> Outcome:
         if options.frames == "first" and (n := frame_count(data)) > 1:
             out.notes.append(f"{name}: has {n} frames, converted the first (--frames all converts each)")
     except DepixelError as exc:
-        out.error, out.traceback = str(exc), traceback.format_exc()
+        out.error, out.traceback = error_message(exc), traceback.format_exc()
     return out
 
 

@@ -14,7 +14,7 @@ import depixel
 from depixel.errors import DepixelError
 
 from . import convert, tools
-from .options import Exit, error_exit, say
+from .options import Exit, error_exit, error_message, say
 
 
 class _Parser(argparse.ArgumentParser):
@@ -64,7 +64,7 @@ def main(argv: list[str] | None = None) -> int:
     except DepixelError as exc:
         if args.debug:
             raise
-        say(f"error: {exc}")
+        say(f"error: {error_message(exc)}")
         return error_exit(args.command)
     except KeyboardInterrupt:
         say("interrupted")

@@ -103,7 +103,6 @@ TUNING = [
     ("--shading-distance", "shading_distance", non_negative_float, "YUV distance up to which an edge is a shading edge"),
     ("--iterations", "iterations", non_negative_int, "sweeps of the spline optimization"),
     ("--seed", "seed", non_negative_int, "seed of the optimization's random offsets"),
-    ("--precision", "precision", int_range(0, 12), "decimals of the numbers in the SVG"),
 ]
 
 
@@ -112,13 +111,25 @@ def add_tuning(parser: argparse.ArgumentParser) -> None:
     for flag, name, kind, text in TUNING:
         group.add_argument(flag, dest=name, type=kind, default=None, metavar="N",
                            help=f"{text} (default {_DEFAULTS[name]:g})")
-    group.add_argument("--no-optimize", dest="optimize", action="store_false", default=None,
-                       help="skip the spline optimization (the splines stage)")
+    group.add_argument("--no-optimize", dest="stage", action="store_const", const="splines",
+                       help="skip the spline optimization (the same as --stage splines)")
 
 
 def params_from_args(args: argparse.Namespace) -> Params:
     """A Params with the flags the user gave; every other field keeps its default."""
     given = {name: getattr(args, name) for _, name, _, _ in TUNING if getattr(args, name) is not None}
-    if args.optimize is not None:
-        given["optimize"] = args.optimize
     return Params().replace(**given)
+
+
+#: The CLI's name of each library parameter that error messages may name.
+FLAG_OF_PARAMETER = {
+    "max_pixels": "--max-pixels",
+    **{name: flag for flag, name, _, _ in TUNING},
+}
+
+
+def error_message(exc: BaseException) -> str:
+    """A library error's one-line message, with library parameter names given as CLI flags."""
+    from depixel.errors import DepixelError  # noqa: PLC0415
+
+    return exc.message_for(FLAG_OF_PARAMETER) if isinstance(exc, DepixelError) else str(exc)

@@ -64,15 +64,17 @@ def load(source: ImageSource, *, frame: int = 0, background: Colour | str | None
 
 
 def convert(image, params: Params = Params(), *, stage: str = "optimized", scale: float = 1.0,
-            background: Colour | str | None = None, title: str | None = None) -> str:
+            background: Colour | str | None = None, title: str | None = None, precision: int = 3) -> str:
     """Depixelize an image (``(H, W[, C])`` array or PIL image) → SVG text.
 
     ``scale`` sets the SVG's width/height as a multiple of the pixel size; the viewBox stays
-    in input pixels. ``stage`` stops the pipeline early ("cells", "splines").
+    in input pixels. ``stage`` stops the pipeline early ("cells", "splines"; "splines" is
+    the result without the §3.4 optimization). ``precision`` is the number of decimals of
+    the SVG's coordinates.
     """
     rgba = as_rgba(image) if background is None else flatten(image, background)
     result = depixelize(rgba, params, stage=stage)
-    return to_svg(result.vector, scale=scale, precision=params.precision, title=title)
+    return to_svg(result.vector, scale=scale, precision=precision, title=title)
 
 
 def encode(svg: str, fmt: str = "svg", *, name: str = "<svg>") -> bytes:
@@ -86,7 +88,7 @@ def encode(svg: str, fmt: str = "svg", *, name: str = "<svg>") -> bytes:
 
 def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: str = "optimized",
                   scale: float = 1.0, background: Colour | str | None = None, title: str | None = None,
-                  shading: str = "smooth", name: str = "<image>") -> bytes:
+                  shading: str = "smooth", name: str = "<image>", precision: int = 3) -> bytes:
     """Like :func:`convert`, returning the bytes of an SVG, PNG or PDF file.
 
     PNG output is rendered with the paper's smooth shading unless ``shading="flat"``, which
@@ -107,7 +109,8 @@ def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: 
         buffer = io.BytesIO()
         Image.fromarray(pixels, "RGBA").save(buffer, format="PNG")
         return buffer.getvalue()
-    svg = convert(image, params, stage=stage, scale=scale, background=background, title=title)
+    svg = convert(image, params, stage=stage, scale=scale, background=background, title=title,
+                  precision=precision)
     return encode(svg, fmt, name=name)
 
 
@@ -132,7 +135,7 @@ def frame_outputs(output: str | os.PathLike, n_frames: int) -> list[Path]:
 def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: Params = Params(), *,
                  fmt: str | None = None, stage: str = "optimized", scale: float = 1.0, frame: int = 0,
                  background: Colour | str | None = None, shading: str = "smooth",
-                 max_pixels: int | None = DEFAULT_MAX_PIXELS) -> Path:
+                 max_pixels: int | None = DEFAULT_MAX_PIXELS, precision: int = 3) -> Path:
     """Convert one image file (one frame of it) to an SVG, PNG or PDF file; returns the output path.
 
     The output is written atomically and never replaces ``source``. PNG output uses the
@@ -141,7 +144,7 @@ def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: P
     fmt = output_format(output, fmt)
     rgba = load(source, frame=frame, background=background, max_pixels=max_pixels)
     blob = convert_bytes(rgba, fmt, params, stage=stage, scale=scale, title=Path(source).name,
-                         shading=shading, name=display_name(source))
+                         shading=shading, name=display_name(source), precision=precision)
     write_atomic(output, blob, protect=(Path(source),))
     return Path(output)
 

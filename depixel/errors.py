@@ -1,15 +1,37 @@
 """Exceptions the library raises for problems a user can fix (bad input, bad options).
 
 Each message is one line and names the file or option concerned, so a front end can print
-it as is.
+it as is. An error caused by a limit or a parameter names the library parameter
+(``max_pixels``) in its message and in :attr:`DepixelError.parameter`; a front end that
+calls the parameter something else (the CLI's ``--max-pixels``) rewrites that name with
+:meth:`DepixelError.message_for`.
 """
 from __future__ import annotations
 
 import os
+from typing import Mapping
 
 
 class DepixelError(Exception):
-    """Base class: a problem with the user's input or options, not a bug."""
+    """Base class: a problem with the user's input or options, not a bug.
+
+    ``parameter`` is the library parameter that raises the limit or holds the bad value,
+    when there is one; the message names it.
+    """
+
+    def __init__(self, message: str, *, parameter: str | None = None) -> None:
+        super().__init__(message)
+        self.parameter = parameter
+
+    def message_for(self, names: Mapping[str, str]) -> str:
+        """The message with the parameter's name replaced by what ``names`` calls it
+        (e.g. ``{"max_pixels": "--max-pixels"}``); unchanged when it has no such name."""
+        text = str(self)
+        alias = names.get(self.parameter or "")
+        if not alias or self.parameter not in text:
+            return text
+        head, _, tail = text.rpartition(self.parameter)
+        return head + alias + tail
 
 
 class InputError(DepixelError):
@@ -22,6 +44,10 @@ class OutputError(DepixelError):
 
 class RenderError(DepixelError):
     """Rasterizing an SVG failed (cairo missing, SVG unreadable)."""
+
+
+class ParameterError(DepixelError, ValueError):
+    """A parameter or option has a value the library cannot use (also a ValueError)."""
 
 
 def display_name(path: str | os.PathLike) -> str:

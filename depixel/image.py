@@ -65,7 +65,8 @@ def load_image(source: ImageSource, max_pixels: int | None = DEFAULT_MAX_PIXELS,
         if max_pixels is not None and width * height > max_pixels:
             raise InputError(
                 f"{name}: {width}x{height} is {width * height} pixels, over the limit of "
-                f"{max_pixels} (depixel is for pixel art; raise it with --max-pixels)"
+                f"{max_pixels} (depixel is for pixel art; raise it with max_pixels)",
+                parameter="max_pixels",
             )
         try:
             n_frames = int(getattr(img, "n_frames", 1))

@@ -10,7 +10,11 @@ from dataclasses import dataclass, fields, replace
 
 @dataclass(frozen=True)
 class Params:
-    """Constants of the depixelization pipeline (all colour values on a 0-255 scale)."""
+    """Constants of the depixelization pipeline (all colour values on a 0-255 scale).
+
+    Only what changes the geometry lives here; output settings (SVG precision, scale) are
+    arguments of the writers, and the last stage to run is an argument of
+    :func:`depixel.depixelize`."""
 
     # --- §3.2 similarity graph -------------------------------------------------------------
     threshold_y: float = 48.0  # paper §3.2 / hqx: dissimilar when |ΔY| > 48/255
@@ -29,7 +33,6 @@ class Params:
     shading_distance: float = 100.0  # paper §3.3: a visible edge is a shading edge if YUV distance ≤ 100/255
 
     # --- §3.4 optimization ----------------------------------------------------------------
-    optimize: bool = True  # paper §3.4: relax the spline nodes (False gives the splines stage)
     iterations: int = 10  # not in paper ("at each iteration"): 10 sweeps at radius 0.2 give 90% of the energy drop of 40 sweeps at 0.125
     candidates: int = 8  # not in paper ("several random offsets"): trial positions per node and sweep
     radius: float = 0.2  # not in paper ("a small radius"): trial offsets within 1/5 pixel
@@ -37,9 +40,6 @@ class Params:
     centre_clearance: float = 0.15  # not in paper: curves keep this far (pixels) from the centres of their pixels
     seed: int = 0  # not in paper: all randomness comes from numpy's PCG64 seeded with this
     corner_patterns: bool = True  # paper §3.4 / Figure 7: keep detected corners out of the smoothness term
-
-    # --- output ---------------------------------------------------------------------------
-    precision: int = 3  # not in paper: decimals of SVG coordinates, so the text is byte-stable
 
     def replace(self, **changes: object) -> "Params":
         """A copy with some fields changed (unknown names raise TypeError)."""

@@ -37,8 +37,6 @@ def depixelize(image, params: Params = Params(), stage: str = "optimized") -> Re
     """Run the pipeline on an RGBA image (array or PIL image) up to ``stage``."""
     if stage not in STAGES:
         raise ValueError(f"unknown stage {stage!r}; choose one of {', '.join(STAGES)}")
-    if stage == "optimized" and not params.optimize:
-        stage = "splines"
     timings: dict[str, float] = {}
     clock = time.perf_counter
 

@@ -178,13 +178,11 @@ def test_random_images_keep_every_pixel_centre(rgba):
 
 # --- switching it off ---------------------------------------------------------------------------
 
-def test_no_optimize_gives_the_splines_stage():
+def test_depixelize_stops_at_the_requested_stage():
     rgba = load_image(FIXTURES / "heart.png")
-    off = depixelize(rgba, Params(optimize=False))
-    assert off.optimized is None and off.vector.stage == "splines"
-    splines = to_svg(depixelize(rgba, stage="splines").vector)
-    assert to_svg(off.vector) == splines
-    assert to_svg(fixture_run("heart.png").vector) != splines
+    splines = depixelize(rgba, stage="splines")
+    assert splines.optimized is None and splines.vector.stage == "splines"
+    assert to_svg(fixture_run("heart.png").vector) != to_svg(splines.vector)
 
 
 def test_cli_no_optimize_gives_the_splines_stage(tmp_path):
