@@ -13,7 +13,7 @@ from importlib import metadata
 import depixel
 from depixel.errors import DepixelError
 
-from . import convert, tools
+from . import convert, inkscape, tools
 from .options import Exit, error_exit, error_message, say
 
 
@@ -50,6 +50,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     convert.add_parser(sub)
     tools.add_parsers(sub)
+    inkscape.add_parser(sub)
     return parser
 
 
