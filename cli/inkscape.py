@@ -21,7 +21,8 @@ from .options import Exit
 #: The extension's own files, shipped in the package.
 SOURCE = Path(__file__).resolve().parent / "inkscape_extension"
 SHIPPED = ("depixel_inkscape.inx", "depixel_inkscape.py")
-#: Written at install: {"command": [...]} runs the depixel that installed the extension.
+#: Written at install: {"command": [...]} runs the depixel that installed the extension (the
+#: script reads it under the same name, depixel_inkscape.py: RECORDED_COMMAND).
 RECORDED_COMMAND = "depixel_inkscape.json"
 INSTALLED = (*SHIPPED, RECORDED_COMMAND)
 MENU = "Extensions > Raster > Depixelize (depixel)"
@@ -32,10 +33,11 @@ examples:
   depixel inkscape install --dir DIR       into DIR (e.g. a portable Inkscape's)
   depixel inkscape uninstall               remove exactly the files install wrote
 
-Install the Inkscape 1.x extension that replaces the selected bitmaps of a drawing by
-depixel's shapes ({MENU}). The folder is the one 'inkscape --user-data-directory' prints,
-plus extensions/ (Inkscape: Edit > Preferences > System > User extensions). The extension
-runs this depixel; restart Inkscape after installing.
+Install the Inkscape 1.x extension that replaces the selected bitmaps of a drawing
+by depixel's shapes: {MENU}. The folder is the one
+'inkscape --user-data-directory' prints, plus extensions/ (Inkscape shows it in
+Edit > Preferences > System > User extensions). The extension runs this depixel;
+restart Inkscape after installing.
 """
 
 
@@ -44,7 +46,7 @@ def add_parser(sub) -> None:
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     actions = p.add_subparsers(dest="action", metavar="ACTION", parser_class=type(p), required=True)
     for name, run, text in (("install", run_install, "copy the extension into Inkscape's extensions folder"),
-                            ("uninstall", run_uninstall, "remove the extension's files")):
+                            ("uninstall", run_uninstall, "remove the files install wrote")):
         action = actions.add_parser(name, help=text, description=f"{text[0].upper()}{text[1:]}.")
         action.set_defaults(run=run, parser=action)
         action.add_argument("--dir", type=Path, metavar="DIR",

@@ -125,7 +125,8 @@ def data_uri(name: str) -> str:
 OTHER_CONTENT = f"""
 <sodipodi:namedview id="namedview1" pagecolor="#ffffff" inkscape:zoom="2"/>
 <metadata id="metadata1"><title>kept</title></metadata>
-<defs id="defs1"><linearGradient id="grad1"><stop offset="0" stop-color="#f00"/><stop offset="1" stop-color="#00f"/></linearGradient></defs>
+<defs id="defs1"><linearGradient id="grad1">
+  <stop offset="0" stop-color="#f00"/><stop offset="1" stop-color="#00f"/></linearGradient></defs>
 <g id="others" inkscape:label="Others" inkscape:groupmode="layer">
   <rect id="rect1" x="330" y="240" width="30" height="20" fill="url(#grad1)"/>
   <path id="path1" d="M370 240 l20 0 l-10 20 z" style="fill:#0a0;stroke:#000"/>
@@ -334,7 +335,7 @@ def test_preserve_aspect_ratio(tmp_path, depixel_program, aspect, to_page):
 
 def test_image_clip_path_stays_in_the_image_space(tmp_path, depixel_program):
     """A clip on a transformed bitmap clips the shapes in the same place."""
-    body = (f'<defs><clipPath id="clip1" clipPathUnits="userSpaceOnUse"><rect x="0" y="0" width="60" height="200"/>'
+    body = ('<defs><clipPath id="clip1" clipPathUnits="userSpaceOnUse"><rect x="0" y="0" width="60" height="200"/>'
             '</clipPath></defs>'
             + image("heart", data_uri("heart.png"), 0, 0, 120, 120,
                     'transform="translate(30,20)" clip-path="url(#clip1)"'))
@@ -371,7 +372,7 @@ if {fail!r}:
     sys.exit(2)
 out = argv[argv.index("-o") + 1]
 with open(out, "w") as svg:
-    svg.write('<svg xmlns="http://www.w3.org/2000/svg" width="4" height="2" viewBox="0 0 4 2"><title>t</title>'
+    svg.write('<svg xmlns="http://www.w3.org/2000/svg" width="8" height="4" viewBox="0 0 4 2"><title>t</title>'
               '<rect id="r" width="4" height="2" fill="#123456"/></svg>')
 """
 
@@ -400,7 +401,8 @@ def test_dialog_options_become_flags(tmp_path, options, flags):
     argv = json.loads(log.read_text())
     assert argv[0] == "convert" and argv[2] == "-o" and argv[3].endswith(".svg") and argv[4:] == flags
     group = by_id(tree(out), "heart")
-    assert group.get("transform") == "translate(10,10) scale(10,10)"  # 4×2 viewBox onto 40×20
+    # the 4×2 viewBox onto the SVG's 8×4 size (an upscaled input), that onto the 40×20 image
+    assert group.get("transform") == "translate(10,10) scale(10,10)"
     assert [e.get("id") for e in group] == ["r"]  # the <title> is left out
 
 
@@ -511,7 +513,7 @@ def test_inx_describes_the_script_and_its_options():
     assert inx.findtext("i:name", namespaces=ns) == "Depixelize (depixel)"
     assert inx.find("i:effect/i:effects-menu/i:submenu", ns).get("name") == "Raster"
     assert inx.findtext("i:script/i:command", namespaces=ns) == SCRIPT.name
-    params = {p.get("name"): p for p in inx.iter("{%s}param" % ns["i"])}
+    params = {p.get("name"): p for p in inx.iter(f"{{{ns['i']}}}param")}
     script = SCRIPT.read_text()
     for name in params:
         assert f'"--{name}"' in script, name

@@ -22,7 +22,6 @@ import os
 import re
 import shutil
 import subprocess
-import sys
 import tempfile
 import urllib.parse
 import urllib.request
@@ -122,17 +121,17 @@ def selected_images(selection: list) -> list:
             "with File > Import or pasted), then run Extensions > Raster > Depixelize (depixel) again.")
     found = []
     for element in selection:
-        candidates = [element] if local_name(element) == "image" else element.iter("{%s}image" % SVG_NS)
+        candidates = [element] if local_name(element) == "image" else element.iter(f"{{{SVG_NS}}}image")
         for image in candidates:
             if image not in found and not _hidden_in_definitions(image, element):
                 found.append(image)
     if not found:
         kinds = sorted({local_name(e) or "?" for e in selection})
         raise inkex.AbortExtension(
-            "Depixelize: the selection holds no bitmap (it has: {}). Select an image: "
-            "Inkscape's status bar says 'Image' for one.".format(", ".join(kinds)))
-    order = {id(e): i for i, e in enumerate(found[0].getroottree().iter())}
-    return sorted(found, key=lambda e: order.get(id(e), 0))
+            f"Depixelize: the selection holds no bitmap (it has: {', '.join(kinds)}). Select an image: "
+            "Inkscape's status bar says 'Image' for one.")
+    wanted = set(found)
+    return [e for e in found[0].getroottree().iter(f"{{{SVG_NS}}}image") if e in wanted]
 
 
 def _hidden_in_definitions(image, top) -> bool:
@@ -146,14 +145,14 @@ def _hidden_in_definitions(image, top) -> bool:
 
 
 def describe(image) -> str:
-    return "image '{}'".format(image.get("id") or image.get(INKSCAPE_LABEL) or "?")
+    return f"image '{image.get('id') or image.get(INKSCAPE_LABEL) or '?'}'"
 
 
 def read_bitmap(image, folders: list[str], scratch: str, index: int) -> str:
     """Write the image's bitmap into ``scratch`` and return its path."""
     href = (image.get(XLINK_HREF) or image.get("href") or "").strip()
     if not href:
-        raise inkex.AbortExtension("Depixelize: {} has no bitmap (no href).".format(describe(image)))
+        raise inkex.AbortExtension(f"Depixelize: {describe(image)} has no bitmap (no href).")
     if href.startswith("data:"):
         data, suffix = decode_data_uri(href, describe(image))
     else:
@@ -161,7 +160,7 @@ def read_bitmap(image, folders: list[str], scratch: str, index: int) -> str:
         with open(path, "rb") as handle:
             data = handle.read()
         suffix = os.path.splitext(path)[1].lower() or ".png"
-    target = os.path.join(scratch, "image-{}{}".format(index, suffix))
+    target = os.path.join(scratch, f"image-{index}{suffix}")
     with open(target, "wb") as handle:
         handle.write(data)
     return target
@@ -171,20 +170,19 @@ def decode_data_uri(href: str, name: str):
     """``data:[type][;base64],payload`` → (bytes, file suffix)."""
     header, comma, payload = href[5:].partition(",")
     if not comma:
-        raise inkex.AbortExtension("Depixelize: {} has a malformed data: URI.".format(name))
+        raise inkex.AbortExtension(f"Depixelize: {name} has a malformed data: URI.")
     parts = [p.strip().lower() for p in header.split(";")]
     media = parts[0] or "text/plain"
     if media == "image/svg+xml" or not media.startswith("image/"):
         raise inkex.AbortExtension(
-            "Depixelize: {} holds {}, not a bitmap: depixel converts PNG, GIF, BMP, ... pixel art."
-            .format(name, media))
+            f"Depixelize: {name} holds {media}, not a bitmap: depixel converts PNG, GIF, BMP, ... pixel art.")
     try:
         if "base64" in parts[1:]:
             data = base64.b64decode(re.sub(r"\s+", "", urllib.parse.unquote(payload)), validate=True)
         else:
             data = urllib.parse.unquote_to_bytes(payload)
     except ValueError:
-        raise inkex.AbortExtension("Depixelize: {} has corrupt base64 image data.".format(name)) from None
+        raise inkex.AbortExtension(f"Depixelize: {name} has corrupt base64 image data.") from None
     return data, SUFFIXES.get(media, ".png")
 
 
@@ -196,8 +194,8 @@ def find_linked_file(href: str, absref, folders: list[str], name: str) -> str:
         path = urllib.request.url2pathname(parsed.path)
     elif parsed.scheme and len(parsed.scheme) > 1:  # one letter: a Windows drive, C:\...
         raise inkex.AbortExtension(
-            "Depixelize: {} links to {}; only embedded bitmaps and local files can be converted "
-            "(download it first).".format(name, href))
+            f"Depixelize: {name} links to {href}; only embedded bitmaps and local files can be "
+            "converted (download it first).")
     else:
         path = urllib.parse.unquote(href)
     path = os.path.expanduser(path)
@@ -209,8 +207,8 @@ def find_linked_file(href: str, absref, folders: list[str], name: str) -> str:
             return candidate
     looked = ", ".join(candidates) if candidates else path
     raise inkex.AbortExtension(
-        "Depixelize: {} links to a file that was not found: {} (looked for {}). Save the document "
-        "next to the image or embed it (Extensions > Images > Embed Images).".format(name, href, looked))
+        f"Depixelize: {name} links to a file that was not found: {href} (looked for {looked}). Save the "
+        "document next to the image or embed it (Extensions > Images > Embed Images).")
 
 
 # --- running depixel ------------------------------------------------------------------------------
@@ -227,8 +225,9 @@ def convert_flags(options) -> list[str]:
     }
     flags = []
     for option, flag, default, _ in FLAGS:
-        if values[option] != default:
-            flags += [flag, "{:g}".format(values[option]) if isinstance(values[option], float) else str(values[option])]
+        value = values[option]
+        if value != default:
+            flags += [flag, f"{value:g}" if isinstance(value, float) else str(value)]
     return flags
 
 
@@ -236,15 +235,15 @@ def find_depixel(setting: str) -> list[str]:
     """The command that runs depixel: the dialog's path, ``$DEPIXEL``, the command recorded
     by ``depixel inkscape install``, or ``depixel`` on PATH, the first that is set."""
     for origin, path in (("the dialog's 'depixel program'", setting.strip()),
-                         ("the {} environment variable".format(ENVIRONMENT_VARIABLE),
+                         (f"the {ENVIRONMENT_VARIABLE} environment variable",
                           os.environ.get(ENVIRONMENT_VARIABLE, "").strip())):
         if path:
             program = _program(path)
             if program is None:
                 raise inkex.AbortExtension(
-                    "Depixelize: {} is set to {}, which is not the depixel program. Give the path "
-                    "of 'depixel' (run 'which depixel', or 'where depixel' on Windows, where "
-                    "depixel is installed), or leave it empty.".format(origin, path))
+                    f"Depixelize: {origin} is set to {path}, which is not the depixel program. Give "
+                    "the path of 'depixel' (run 'which depixel', or 'where depixel' on Windows, where "
+                    "depixel is installed), or leave it empty.")
             return [program]
     recorded = _recorded_command()
     if recorded:
@@ -255,8 +254,8 @@ def find_depixel(setting: str) -> list[str]:
     raise inkex.AbortExtension(
         "Depixelize: the depixel program was not found. Install it (pip install depixel) and run "
         "'depixel inkscape install' from that environment, or give the path of the depixel program "
-        "in the dialog's 'depixel program' tab (or in the {} environment variable), then try again."
-        .format(ENVIRONMENT_VARIABLE))
+        f"in the dialog's 'depixel program' tab (or in the {ENVIRONMENT_VARIABLE} environment variable), "
+        "then try again.")
 
 
 def _program(path: str):
@@ -287,17 +286,17 @@ def run_depixel(command: list[str], bitmap: str, flags: list[str], scratch: str,
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONHOME", "PYTHONPATH")}  # Inkscape's own
     try:
         done = subprocess.run(command + ["convert", bitmap, "-o", output] + flags, cwd=scratch, env=env,
-                              stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              stdin=subprocess.DEVNULL, capture_output=True,
                               creationflags=getattr(subprocess, "CREATE_NO_WINDOW", 0))
     except OSError as exc:
-        raise inkex.AbortExtension("Depixelize: cannot run {}: {}".format(" ".join(command), exc)) from None
+        raise inkex.AbortExtension(f"Depixelize: cannot run {' '.join(command)}: {exc}") from None
     if done.returncode != 0 or not os.path.isfile(output):
-        raise inkex.AbortExtension("Depixelize: depixel could not convert {}: {}".format(
-            name, _explain(done.stderr.decode("utf-8", "replace"), bitmap)))
+        reason = _explain(done.stderr.decode("utf-8", "replace"), bitmap)
+        raise inkex.AbortExtension(f"Depixelize: depixel could not convert {name}: {reason}")
     try:
         return inkex.load_svg(output).getroot()
     except Exception as exc:  # lxml's XMLSyntaxError and friends: report, never a traceback
-        raise inkex.AbortExtension("Depixelize: depixel wrote an unreadable SVG for {}: {}".format(name, exc)) from None
+        raise inkex.AbortExtension(f"Depixelize: depixel wrote an unreadable SVG for {name}: {exc}") from None
 
 
 def _explain(stderr: str, bitmap: str) -> str:
@@ -308,9 +307,10 @@ def _explain(stderr: str, bitmap: str) -> str:
     unknown = re.search(r"unrecognized arguments: (--[\w-]+)", text)
     if unknown:
         fields = {flag: field for _, flag, _, field in FLAGS}
-        field = fields.get(unknown.group(1), unknown.group(1))
-        return ("this depixel is too old for the '{}' setting ({}): upgrade depixel, or set '{}' back "
-                "to its default.".format(field, unknown.group(1), field))
+        flag = unknown.group(1)
+        field = fields.get(flag, flag)
+        return f"this depixel is too old for the '{field}' setting ({flag}): upgrade depixel, or set '{field}' " \
+               "back to its default."
     return text
 
 
@@ -318,7 +318,7 @@ def _explain(stderr: str, bitmap: str) -> str:
 
 def replace_image(image, drawing, used_ids: set, keep_bitmap: bool) -> None:
     """Put ``drawing`` (depixel's SVG root) where ``image`` is drawn, in its parent."""
-    elements = [e for e in drawing if local_name(e) and e.tag.startswith("{%s}" % SVG_NS)
+    elements = [e for e in drawing if local_name(e) and e.tag.startswith(f"{{{SVG_NS}}}")
                 and local_name(e) not in NOT_DRAWING]
     import_ids(elements, used_ids)
     size = intrinsic_size(drawing)
@@ -326,33 +326,34 @@ def replace_image(image, drawing, used_ids: set, keep_bitmap: bool) -> None:
     mapping = viewport(svg_viewbox(drawing), (0.0, 0.0) + size, drawing.get("preserveAspectRatio"))
     placed = viewport((0.0, 0.0) + size, box, image.get("preserveAspectRatio"))
     inner = compose(placed, mapping)
-    sliced = (image.get("preserveAspectRatio") or "").split()[-1:] == ["slice"]
+    aspect = (image.get("preserveAspectRatio") or "").split()
+    sliced = aspect[-1:] == ["slice"] and "none" not in aspect
     own = _image_style(image)
     space_dependent = any(image.get(p) for p in SPACE_DEPENDENT) or any(k in SPACE_DEPENDENT for k, _ in own)
 
-    outer = image.makeelement("{%s}g" % SVG_NS)
+    outer = image.makeelement(f"{{{SVG_NS}}}g")
     if keep_bitmap:
         outer.set("id", unique_id((image.get("id") or "image") + "-depixel", used_ids))
     elif image.get("id"):
         outer.set("id", image.get("id"))  # clones and links to the bitmap now show the shapes
-    outer.set(INKSCAPE_LABEL, "{} (depixel)".format(image.get(INKSCAPE_LABEL) or image.get("id") or "bitmap"))
+    outer.set(INKSCAPE_LABEL, f"{image.get(INKSCAPE_LABEL) or image.get('id') or 'bitmap'} (depixel)")
     for name in ("class", "opacity", "visibility", "display") + SPACE_DEPENDENT:
         if image.get(name) is not None:
             outer.set(name, image.get(name))
     if own:
-        outer.set("style", ";".join("{}:{}".format(k, v) for k, v in own))
+        outer.set("style", _style_text(own))
 
     own_transform = inkex.Transform(image.get("transform") or "").matrix
     if space_dependent:  # outer keeps the image's own space, inner maps the drawing into it
         set_transform(outer, own_transform)
-        group = outer.makeelement("{%s}g" % SVG_NS)
+        group = outer.makeelement(f"{{{SVG_NS}}}g")
         set_transform(group, inner)
         outer.append(group)
     else:
         set_transform(outer, compose(own_transform, inner))
         group = outer
     if sliced:  # the bitmap is cut to its box: so are the shapes
-        group.set("clip-path", "url(#{})".format(_clip_box(box, inner, image, used_ids)))
+        group.set("clip-path", f"url(#{_clip_box(box, inner, image, used_ids)})")
     for element in elements:
         group.append(element)
 
@@ -361,7 +362,7 @@ def replace_image(image, drawing, used_ids: set, keep_bitmap: bool) -> None:
     if keep_bitmap:
         parent.insert(parent.index(image) + 1, outer)
         style = [(k, v) for k, v in _style_items(image.get("style")) if k != "display"]
-        image.set("style", ";".join("{}:{}".format(k, v) for k, v in style + [("display", "none")]))
+        image.set("style", _style_text(style + [("display", "none")]))
     else:
         parent.replace(image, outer)
 
@@ -375,6 +376,10 @@ def _style_items(style) -> list:
     return items
 
 
+def _style_text(items: list) -> str:
+    return ";".join(f"{key}:{value}" for key, value in items)
+
+
 def _image_style(image) -> list:
     """The image's style without what only applies to bitmaps."""
     return [(k, v) for k, v in _style_items(image.get("style")) if k not in ("image-rendering",)]
@@ -385,14 +390,14 @@ def _clip_box(box: tuple, inner: tuple, image, used_ids: set) -> str:
     x, y, w, h = box
     sx, sy, tx, ty = inner[0][0], inner[1][1], inner[0][2], inner[1][2]
     root = image.getroottree().getroot()
-    defs = root.find("{%s}defs" % SVG_NS)
+    defs = root.find(f"{{{SVG_NS}}}defs")
     if defs is None:
-        defs = root.makeelement("{%s}defs" % SVG_NS)
+        defs = root.makeelement(f"{{{SVG_NS}}}defs")
         root.insert(0, defs)
-    clip = defs.makeelement("{%s}clipPath" % SVG_NS)
+    clip = defs.makeelement(f"{{{SVG_NS}}}clipPath")
     clip.set("id", unique_id("depixel-clip", used_ids))
     clip.set("clipPathUnits", "userSpaceOnUse")
-    rect = clip.makeelement("{%s}rect" % SVG_NS)
+    rect = clip.makeelement(f"{{{SVG_NS}}}rect")
     for name, value in (("x", (x - tx) / sx), ("y", (y - ty) / sy), ("width", w / sx), ("height", h / sy)):
         rect.set(name, number(value))
     clip.append(rect)
@@ -410,7 +415,7 @@ def unique_id(wanted: str, used_ids: set) -> str:
     candidate, n = wanted, 1
     while candidate in used_ids:
         n += 1
-        candidate = "{}-{}".format(wanted, n)
+        candidate = f"{wanted}-{n}"
     used_ids.add(candidate)
     return candidate
 
@@ -436,7 +441,7 @@ def import_ids(elements: list, used_ids: set) -> None:
                     element.set(name, "#" + renamed[value[1:]])
                 elif "url(" in value:
                     element.set(name, URL_REFERENCE.sub(
-                        lambda m: "url({0}#{1}{0})".format(m.group(1), renamed.get(m.group(2), m.group(2))), value))
+                        lambda m: f"url({m.group(1)}#{renamed.get(m.group(2), m.group(2))}{m.group(1)})", value))
 
 
 # --- geometry -------------------------------------------------------------------------------------
@@ -445,7 +450,7 @@ def length(text, name: str) -> float:
     """An SVG length in user units (absolute CSS units only)."""
     match = re.fullmatch(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([a-z]*)\s*", text or "")
     if not match or match.group(2) not in UNITS:
-        raise inkex.AbortExtension("Depixelize: cannot use the {} {!r}: give it in px, mm, pt, ...".format(name, text))
+        raise inkex.AbortExtension(f"Depixelize: cannot use the {name} {text!r}: give it in px, mm, pt, ...")
     return float(match.group(1)) * UNITS[match.group(2)]
 
 
@@ -472,6 +477,8 @@ def image_box(image, size: tuple) -> tuple:
     y = length(image.get("y") or "0", "image y")
     w = length(image.get("width"), "image width") if image.get("width") else size[0]
     h = length(image.get("height"), "image height") if image.get("height") else size[1]
+    if w <= 0 or h <= 0:
+        raise inkex.AbortExtension(f"Depixelize: {describe(image)} has no area ({w} × {h}), nothing to convert.")
     return x, y, w, h
 
 
@@ -502,7 +509,7 @@ def compose(first: tuple, second: tuple) -> tuple:
 
 
 def number(value: float) -> str:
-    text = "{:.10g}".format(value)
+    text = f"{value:.10g}"
     return "0" if text == "-0" else text
 
 
@@ -512,13 +519,13 @@ def set_transform(element, matrix: tuple) -> None:
     ``set`` rounds transforms to 6 significant digits (0.02 px off at x = 12345)."""
     (a, c, e), (b, d, f) = matrix
     if (b, c) != (0.0, 0.0):
-        text = "matrix({})".format(",".join(number(v) for v in (a, b, c, d, e, f)))
+        text = f"matrix({','.join(number(v) for v in (a, b, c, d, e, f))})"
     else:
         parts = []
         if (e, f) != (0.0, 0.0):
-            parts.append("translate({},{})".format(number(e), number(f)))
+            parts.append(f"translate({number(e)},{number(f)})")
         if (a, d) != (1.0, 1.0):
-            parts.append("scale({},{})".format(number(a), number(d)))
+            parts.append(f"scale({number(a)},{number(d)})")
         text = " ".join(parts)
     if text:
         etree.ElementBase.set(element, "transform", text)
