@@ -22,7 +22,7 @@ corner of a diagonal link, or takes the node farther than ``max_offset`` from it
 afterwards, cells whose centre came too near their boundary get their nodes reverted.
 
 Relaxation: ``iterations`` sweeps; in each sweep the nodes are visited class by class in a
-random order of classes (nodes of one class are three or more positions apart along their
+random order of classes (nodes of one class are three or more slots apart along their
 curve, so their energies are independent and they move together, vectorized); each node
 tries ``candidates`` random offsets within ``radius`` of its current place and keeps the best
 (or stays). All randomness comes from ``numpy.random.default_rng(seed)``.
@@ -139,7 +139,7 @@ def detect_run_corners(splines: SplineSet, tolerance: float = 0.3, short: float 
 
     def run(step: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Vector from each node to the far end of its straight run along ``step``, and the
-        position of that far end (-1 for none)."""
+        slot of that far end (-1 for none)."""
         chord = np.zeros_like(here)
         far_pos = np.full(node.size, -1, dtype=np.int64)
         alive = interior.copy()
@@ -250,11 +250,11 @@ def optimize_splines(splines: SplineSet, params: Params = Params()) -> Optimized
 class _Group:
     """One class of independent nodes with every index its evaluation needs, precomputed."""
 
-    members: np.ndarray  # (M,) positions being moved
-    a: np.ndarray  # previous positions
-    b: np.ndarray  # next positions
-    a2: np.ndarray  # position before a (a itself when a is an end)
-    b2: np.ndarray  # position after b
+    members: np.ndarray  # (M,) slots being moved
+    a: np.ndarray  # previous slots
+    b: np.ndarray  # next slots
+    a2: np.ndarray  # slot before a (a itself when a is an end)
+    b2: np.ndarray  # slot after b
     has_a: np.ndarray  # (M,) bool: segment of a exists (a is interior)
     has_b: np.ndarray
     end_a: np.ndarray  # (M, 1) bool, broadcastable over candidates
@@ -268,17 +268,17 @@ class _Group:
 
 
 class _Relaxation:
-    """Node energies and clearances over the flattened curve positions."""
+    """Node energies and clearances over the curve slots."""
 
     def __init__(self, splines: SplineSet, prev, nxt, end, excluded):
         self.prev, self.nxt, self.end = prev, nxt, end
         self.keep = ~excluded  # (P, 2) halves counted in E_s
-        # protected points per position: centres of the pixels on both sides of the edge
+        # protected points per slot: centres of the pixels on both sides of the edge
         # leaving it, and the lattice corner of a diagonal link at its node (a thin
         # diagonal feature must stay connected there); far away where there is none
         cells = splines.cells
         w = cells.shape[1]
-        edge = splines.seg_edges
+        edge = splines.slot_edges
         pix = np.where(edge[:, None] >= 0, cells.edge_pixels[np.maximum(edge, 0)], -1)
         rows, cols = np.divmod(np.maximum(pix, 0), w)
         centre = np.stack([cols + 0.5, rows + 0.5], axis=-1).astype(np.float64)
@@ -397,8 +397,8 @@ def _excluded_halves(splines: SplineSet, corners: np.ndarray) -> np.ndarray:
 
 
 def _independent_classes(splines: SplineSet, movable: np.ndarray) -> list[np.ndarray]:
-    """Split movable positions into classes whose members are ≥ 3 apart along each curve."""
-    curve = splines.position_curve()
+    """Split movable slots into classes whose members are ≥ 3 slots apart along each curve."""
+    curve = splines.slot_curve()
     first = splines.curve_ptr[:-1][curve]
     length = np.diff(splines.curve_ptr)[curve]
     index = np.arange(curve.size) - first

@@ -38,16 +38,23 @@ SNAP_PASSES = 6
 
 @dataclass(frozen=True, eq=False)
 class SplineSet:
-    """Curves over the cell graph and the initial control points (pixel units)."""
+    """Curves over the cell graph and the initial control points (pixel units).
+
+    Vocabulary: the curves are stored one after another in flat arrays; an index into them
+    is a **slot** (``P`` slots in all; an open curve has one slot per node, both ends
+    included, a closed one one slot per edge). A node's **position** is always its
+    coordinates ``(x, y)`` in pixels; the **control point** of a slot is its node's position
+    (with T-junction ends snapped, :meth:`controls_for`).
+    """
 
     cells: CellGraph
     visible: np.ndarray  # (E,) bool: edge separates dissimilar pixels
     shading: np.ndarray  # (E,) bool: visible edge between colours within shading_distance
-    curve_ptr: np.ndarray  # (C+1,) int64: curve c owns positions curve_ptr[c]:curve_ptr[c+1]
-    curve_nodes: np.ndarray  # (P,) node at each position (an open curve lists both end nodes)
+    curve_ptr: np.ndarray  # (C+1,) int64: curve c owns slots curve_ptr[c]:curve_ptr[c+1]
+    curve_nodes: np.ndarray  # (P,) int64 node at each slot (an open curve lists both end nodes)
     curve_closed: np.ndarray  # (C,) bool
-    seg_edges: np.ndarray  # (P,) edge from position j to j+1 (wrapping for closed); -1 after an open end
-    seg_forward: np.ndarray  # (P,) bool: that edge is stored u→v in the direction of the curve
+    slot_edges: np.ndarray  # (P,) int64 edge from slot j to j+1 (wrapping for closed); -1 after an open end
+    slot_forward: np.ndarray  # (P,) bool: that edge is stored u→v in the direction of the curve
     positions: np.ndarray  # (N, 2) float64 initial node positions (quarter-pixel grid, in pixels)
 
     # --- derived layout helpers (all (P,) arrays) -----------------------------------------
@@ -55,11 +62,16 @@ class SplineSet:
     def n_curves(self) -> int:
         return int(self.curve_closed.size)
 
-    def position_curve(self) -> np.ndarray:
+    @property
+    def n_slots(self) -> int:
+        return int(self.curve_nodes.size)
+
+    def slot_curve(self) -> np.ndarray:
+        """(P,) the curve each slot belongs to."""
         return np.repeat(np.arange(self.n_curves), np.diff(self.curve_ptr))
 
     def neighbours(self) -> tuple[np.ndarray, np.ndarray]:
-        """Previous and next position of every position along its curve (-1 past an open end).
+        """Previous and next slot of every slot along its curve (-1 past an open end).
 
         Computed once per SplineSet (the arrays are shared: do not modify them)."""
         return self._links
@@ -67,7 +79,7 @@ class SplineSet:
     @cached_property
     def _links(self) -> tuple[np.ndarray, np.ndarray]:
         p = np.arange(self.curve_nodes.size)
-        curve = self.position_curve()
+        curve = self.slot_curve()
         first, last = self.curve_ptr[:-1][curve], self.curve_ptr[1:][curve] - 1
         closed = self.curve_closed[curve]
         prev = np.where(p == first, np.where(closed, last, -1), p - 1)
@@ -75,7 +87,7 @@ class SplineSet:
         return prev, nxt
 
     def is_end(self) -> np.ndarray:
-        """(P,) bool: position is an open curve's end point (clamped, interpolated)."""
+        """(P,) bool: the slot is an open curve's end point (clamped, interpolated)."""
         prev, nxt = self.neighbours()
         return (prev < 0) | (nxt < 0)
 
@@ -87,8 +99,8 @@ class SplineSet:
 
     # --- geometry -------------------------------------------------------------------------
     def snap_pairs(self) -> tuple[np.ndarray, np.ndarray]:
-        """Open-curve ends at T-junctions and the position of the curve passing through
-        their node: ``(ends, through)``, both (T,) position indices."""
+        """Open-curve ends at T-junctions and the slot of the curve passing through their
+        node: ``(ends, through)``, both (T,) slot indices."""
         end = self.is_end()
         where = np.full(len(self.positions), -1, dtype=np.int64)
         interior = np.flatnonzero(~end)
@@ -119,11 +131,12 @@ class SplineSet:
         return ends, through, a, b, end[a][:, None], end[b][:, None]
 
     def controls_for(self, positions: np.ndarray) -> np.ndarray:
-        """(P, 2) control point of every position, with T-junction ends snapped."""
+        """(P, 2) control point of every slot for node ``positions`` (N, 2), with T-junction
+        ends snapped."""
         return self.snap(positions[self.curve_nodes])
 
     def _curve_points(self, ctrl: np.ndarray) -> np.ndarray:
-        """(P, 2) S_j: the point of the curve belonging to each position."""
+        """(P, 2) S_j: the point of the curve belonging to each slot."""
         prev, nxt = self.neighbours()
         end = (prev < 0) | (nxt < 0)
         p_prev, p_next = np.maximum(prev, 0), np.maximum(nxt, 0)
@@ -178,8 +191,8 @@ class SplineSet:
         c1 = np.where(one[:, None], half_mid, c1)
         c2 = np.where(one[:, None], half1, c2)
         trio = np.stack([c0, c1, c2], axis=1)
-        edge = self.seg_edges[a]
-        forward = self.seg_forward[a]
+        edge = self.slot_edges[a]
+        forward = self.slot_forward[a]
         trio = np.where(forward[:, None, None], trio, trio[:, ::-1])
         curved[edge] = True
         controls[edge] = trio
@@ -220,7 +233,7 @@ def extract_splines(cells: CellGraph, params: Params = Params(), breaks: np.ndar
     partner = _pair_ends(cells, vis, end_node, shading[vis])
     if breaks is not None:
         partner[breaks[end_node]] = -1
-    curve_ptr, curve_nodes, closed, seg_edges, seg_forward = _chain(vis, end_node, partner)
+    curve_ptr, curve_nodes, closed, slot_edges, slot_forward = _chain(vis, end_node, partner)
     return SplineSet(
         cells=cells,
         visible=visible,
@@ -228,8 +241,8 @@ def extract_splines(cells: CellGraph, params: Params = Params(), breaks: np.ndar
         curve_ptr=curve_ptr,
         curve_nodes=curve_nodes,
         curve_closed=closed,
-        seg_edges=seg_edges,
-        seg_forward=seg_forward,
+        slot_edges=slot_edges,
+        slot_forward=slot_forward,
         positions=cells.nodes.astype(np.float64) / 4.0,
     )
 
