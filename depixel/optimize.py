@@ -38,6 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .bspline import flatten, flatten_edges, half_turns, span
 from .params import Params
 from .splines import SplineSet, extract_splines
 from .vector import VectorImage
@@ -309,10 +310,9 @@ class _Relaxation:
         c_a2, c_b2 = ctrl[g.a2[rows]][:, None], ctrl[g.b2[rows]][:, None]
         end_a, end_b = g.end_a[rows][..., None], g.end_b[rows][..., None]
         end_a2, end_b2 = g.end_a2[rows][..., None], g.end_b2[rows][..., None]
-        mid_a, mid_b = (c_a + trial) / 2.0, (trial + c_b) / 2.0
-        own = (np.where(end_a, c_a, mid_a), trial, np.where(end_b, c_b, mid_b))
-        before = (np.where(end_a2, c_a2, (c_a2 + c_a) / 2.0), c_a, mid_a)
-        after = (mid_b, c_b, np.where(end_b2, c_b2, (c_b + c_b2) / 2.0))
+        own = span(c_a, trial, c_b, end_a, end_b)
+        before = span(c_a2, c_a, trial, end_a2)
+        after = span(trial, c_b, c_b2, after_is_end=end_b2)
         return before, own, after
 
     def energy(self, ctrl, anchor, g: _Group, trial) -> np.ndarray:
@@ -328,7 +328,7 @@ class _Relaxation:
         protected points (pixel centres beside them, diagonal-link corners), per trial."""
         before, own, after = self._segments(ctrl, g, trial, rows)
         points = np.concatenate([
-            _points(*before)[..., :-1, :], _points(*own), _points(*after)[..., 1:, :],
+            flatten(*before, 4)[..., :-1, :], flatten(*own, 4), flatten(*after, 4)[..., 1:, :],
         ], axis=-2)  # (M, K, 13, 2)
         gap = ((points[..., None, :] - g.protected[rows]) ** 2).sum(axis=-1).min(axis=(-1, -2))
         return np.sqrt(gap)
@@ -336,9 +336,8 @@ class _Relaxation:
     def total_energy(self, ctrl, anchor) -> float:
         p = np.flatnonzero(~self.end)
         a, b = self.prev[p], self.nxt[p]
-        start = np.where(self.end[a][:, None], ctrl[a], (ctrl[a] + ctrl[p]) / 2.0)
-        stop = np.where(self.end[b][:, None], ctrl[b], (ctrl[p] + ctrl[b]) / 2.0)
-        smooth = _turning(start, ctrl[p], stop, self.keep[p]).sum()
+        spans = span(ctrl[a], ctrl[p], ctrl[b], self.end[a][:, None], self.end[b][:, None])
+        smooth = _turning(*spans, self.keep[p]).sum()
         positional = ((((ctrl - anchor) ** 2).sum(axis=1)) ** 2).sum()
         return float(smooth + positional)
 
@@ -359,30 +358,13 @@ def _unique_rows(points: np.ndarray) -> np.ndarray:
     pts = np.take_along_axis(pts, keep[..., None], axis=1)
     width = max(int((pts[..., 0] < _FAR).sum(axis=1).max(initial=0)), 1)
     return pts[:, :width]
-_TS = np.linspace(0.0, 1.0, 5)[:, None]  # clearance samples: quarters of a segment
 
 
 def _turning(start, c, stop, keep) -> np.ndarray:
-    """∫|κ| ds of quadratic segments (start, c, stop), sampled at t = 0, ½, 1: the tangent
-    of a quadratic Bézier turns monotonically (by less than π), so the angle between
-    consecutive tangent samples is exactly the integral over that half. ``keep`` (..., 2)
-    selects the halves that count (corner parts are left out)."""
-    d0, d1 = c - start, stop - c
-    dm = d0 + d1  # the tangent at t = ½ (up to a factor that does not change its direction)
-
-    def angle(p, q):
-        cross = p[..., 0] * q[..., 1] - p[..., 1] * q[..., 0]
-        dot = (p * q).sum(axis=-1)
-        return np.abs(np.arctan2(cross, dot))
-
-    return angle(d0, dm) * keep[..., 0] + angle(dm, d1) * keep[..., 1]
-
-
-def _points(start, c, stop) -> np.ndarray:
-    """Points of quadratic segments at the quarter parameters, (..., 5, 2)."""
-    t = _TS
-    return ((1 - t) ** 2 * start[..., None, :] + (2 * t * (1 - t)) * c[..., None, :]
-            + t**2 * stop[..., None, :])
+    """E_s of spans (start, c, stop): ∫|κ| ds over the halves that ``keep`` (..., 2) selects
+    (corner parts are left out)."""
+    first, second = half_turns(start, c, stop)
+    return first * keep[..., 0] + second * keep[..., 1]
 
 
 def _excluded_halves(splines: SplineSet, corners: np.ndarray) -> np.ndarray:
@@ -429,11 +411,7 @@ def centre_clearance(image: VectorImage, pixels: np.ndarray | None = None, sampl
         edge = np.flatnonzero(use & (image.curved == curved))
         a, b = image.points[cells.edges[edge, 0]], image.points[cells.edges[edge, 1]]
         if curved:
-            t = np.linspace(0.0, 1.0, samples + 1)[None, :, None]
-            c0, c1, c2 = (image.controls[edge, i][:, None] for i in range(3))
-            first = (1 - t) ** 2 * a[:, None] + 2 * t * (1 - t) * c0 + t**2 * c1
-            second = (1 - t) ** 2 * c1 + 2 * t * (1 - t) * c2 + t**2 * b[:, None]
-            poly = np.concatenate([first, second[:, 1:]], axis=1)  # (E', 2 * samples + 1, 2)
+            poly = flatten_edges(a, image.controls[edge], b, samples)  # (E', 2 * samples + 1, 2)
         else:
             poly = np.stack([a, b], axis=1)
         p0, p1 = poly[:, :-1], poly[:, 1:]

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .bspline import bend, edge_halves, flatten_edges, pieces_for
 from .errors import RenderError
 from .image import rgb_to_yuv
 from .params import Params
@@ -82,11 +83,9 @@ def _pieces_per_curve(image: VectorImage, scale: float) -> int:
         return 1
     p = image.points
     u, v = image.cells.edges[image.curved, 0], image.cells.edges[image.curved, 1]
-    c = image.controls[image.curved]
-    bend = np.maximum(np.linalg.norm(p[u] - 2 * c[:, 0] + c[:, 1], axis=1),
-                      np.linalg.norm(c[:, 1] - 2 * c[:, 2] + p[v], axis=1)).max()
-    tolerance = FLATTEN_TOLERANCE / scale
-    return int(np.clip(np.ceil(np.sqrt(bend / (4 * tolerance))), 1, 64))
+    first, second = edge_halves(p[u], image.controls[image.curved], p[v])
+    worst = np.maximum(bend(*first), bend(*second)).max()
+    return pieces_for(worst, FLATTEN_TOLERANCE / scale)
 
 
 def _flatten(image: VectorImage, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -96,16 +95,9 @@ def _flatten(image: VectorImage, n: int) -> tuple[np.ndarray, np.ndarray, np.nda
     u, v = image.cells.edges[:, 0], image.cells.edges[:, 1]
     straight = np.flatnonzero(~image.curved)
     curved = np.flatnonzero(image.curved)
-    # the curved edge u → v is the Bézier (p_u, c0, c1) followed by (c1, c2, p_v)
-    c = image.controls[curved]
-    starts = np.stack([p[u[curved]], c[:, 1]], axis=1)  # (C, 2, 2)
-    handles = c[:, [0, 2]]
-    ends = np.stack([c[:, 1], p[v[curved]]], axis=1)
-    t = (np.arange(n + 1) / n)[:, None]
-    poly = ((1 - t) ** 2 * starts[:, :, None] + 2 * t * (1 - t) * handles[:, :, None]
-            + t**2 * ends[:, :, None])  # (C, 2, n+1, 2)
-    a = np.concatenate([p[u[straight]], poly[:, :, :-1].reshape(-1, 2)])
-    b = np.concatenate([p[v[straight]], poly[:, :, 1:].reshape(-1, 2)])
+    poly = flatten_edges(p[u[curved]], image.controls[curved], p[v[curved]], n)  # (C, 2n+1, 2)
+    a = np.concatenate([p[u[straight]], poly[:, :-1].reshape(-1, 2)])
+    b = np.concatenate([p[v[straight]], poly[:, 1:].reshape(-1, 2)])
     edge = np.concatenate([straight, np.repeat(curved, 2 * n)])
     return a, b, edge
 

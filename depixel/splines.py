@@ -28,6 +28,7 @@ from functools import cached_property
 
 import numpy as np
 
+from .bspline import Bezier, between_curve_points, midpoint, slot_spans, span
 from .cells import CellGraph
 from .params import Params
 from .vector import VectorImage, linked_edges
@@ -116,9 +117,7 @@ class SplineSet:
         ends, through, a, b, end_a, end_b = self._snap_plan
         if ends.size:
             for _ in range(SNAP_PASSES):
-                start = np.where(end_a, ctrl[a], (ctrl[a] + ctrl[through]) / 2.0)
-                stop = np.where(end_b, ctrl[b], (ctrl[b] + ctrl[through]) / 2.0)
-                ctrl[ends] = (start + 2.0 * ctrl[through] + stop) / 4.0
+                ctrl[ends] = midpoint(*span(ctrl[a], ctrl[through], ctrl[b], end_a, end_b))
         return ctrl
 
     @cached_property
@@ -135,17 +134,18 @@ class SplineSet:
         ends snapped."""
         return self.snap(positions[self.curve_nodes])
 
-    def _curve_points(self, ctrl: np.ndarray) -> np.ndarray:
-        """(P, 2) S_j: the point of the curve belonging to each slot."""
+    def spans(self, ctrl: np.ndarray) -> Bezier:
+        """The quadratic Bézier span ``(start, C_j, stop)`` of every slot, each (P, 2), for
+        control points ``ctrl`` (P, 2) (from :meth:`controls_for`). The B-spline is exactly
+        the chain of the spans of a curve's interior slots; rows of end slots
+        (:meth:`is_end`) are meaningless."""
         prev, nxt = self.neighbours()
-        end = (prev < 0) | (nxt < 0)
-        p_prev, p_next = np.maximum(prev, 0), np.maximum(nxt, 0)
-        prev_end = end[p_prev]
-        next_end = end[p_next]
-        start = np.where(prev_end[:, None], ctrl[p_prev], (ctrl[p_prev] + ctrl) / 2.0)
-        stop = np.where(next_end[:, None], ctrl[p_next], (ctrl[p_next] + ctrl) / 2.0)
-        s = (start + 2.0 * ctrl + stop) / 4.0
-        return np.where(end[:, None], ctrl, s)
+        return slot_spans(ctrl, prev, nxt, self.is_end())
+
+    def _curve_points(self, ctrl: np.ndarray) -> np.ndarray:
+        """(P, 2) S_j: the point of the curve belonging to each slot (an end: the end)."""
+        s = midpoint(*self.spans(ctrl))
+        return np.where(self.is_end()[:, None], ctrl, s)
 
     def _display(self, ctrl: np.ndarray, positions: np.ndarray) -> np.ndarray:
         display = positions.copy()
@@ -172,25 +172,7 @@ class SplineSet:
         a_end, b_end = end[a], end[b]
         bend = ~(a_end & b_end)  # an edge between two end points is a straight segment
         a, b, a_end, b_end = a[bend], b[bend], a_end[bend], b_end[bend]
-        ca, cb = ctrl[a], ctrl[b]
-        mid = (ca + cb) / 2.0
-        sa, sb = s[a], s[b]
-        # interior–interior: S_a, (C_a+m)/2, m, (m+C_b)/2, S_b; with an end, one Bézier
-        # (end, m, S) split at t = ½ into two
-        both = ~a_end & ~b_end
-        c0 = np.where(both[:, None], (ca + mid) / 2.0, 0.0)
-        c1 = np.where(both[:, None], mid, 0.0)
-        c2 = np.where(both[:, None], (mid + cb) / 2.0, 0.0)
-        one = ~both
-        start = np.where(a_end[:, None], ca, sa)
-        stop = np.where(b_end[:, None], cb, sb)
-        half0 = (start + mid) / 2.0
-        half_mid = (start + 2.0 * mid + stop) / 4.0
-        half1 = (mid + stop) / 2.0
-        c0 = np.where(one[:, None], half0, c0)
-        c1 = np.where(one[:, None], half_mid, c1)
-        c2 = np.where(one[:, None], half1, c2)
-        trio = np.stack([c0, c1, c2], axis=1)
+        trio = between_curve_points(ctrl[a], ctrl[b], s[a], s[b], a_end, b_end)
         edge = self.slot_edges[a]
         forward = self.slot_forward[a]
         trio = np.where(forward[:, None, None], trio, trio[:, ::-1])
