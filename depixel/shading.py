@@ -30,14 +30,12 @@ from .image import rgb_to_yuv
 from .params import Params
 from .vector import VectorImage, regions
 
-SIGMA = 1.0  # paper §3.5: Gaussian influence with σ = 1 input pixel
-RADIUS = 2.0  # paper §3.5: truncated at 2 input pixels
 FLATTEN_TOLERANCE = 0.1  # not in paper: polyline error of flattened curves, in output pixels
 TILE_SAMPLES = 1 << 18  # not in paper: samples per tile; bounds memory (~40 MB) and fits caches
 MAX_OUTPUT_PIXELS = 1 << 28  # not in paper: the RGBA result alone is 1 GiB at this size
 
 
-def render_smooth(image: VectorImage, scale: float, supersample: int = 3,
+def render_smooth(image: VectorImage, scale: float, supersample: int | None = None,
                   params: Params = Params()) -> np.ndarray:
     """Render a VectorImage with the paper's smooth shading.
 
@@ -46,13 +44,16 @@ def render_smooth(image: VectorImage, scale: float, supersample: int = 3,
     image : any stage's VectorImage (cells, splines or optimized).
     scale : output pixels per input pixel; the output is ``round(H*scale) × round(W*scale)``.
     supersample : samples per output pixel along each axis for anti-aliased contours
-        (odd values put a sample at the pixel centre).
-    params : supplies the similarity thresholds that bound the shading.
+        (odd values put a sample at the pixel centre); default ``params.shading_supersample``.
+    params : the Gaussian's ``shading_sigma`` and ``shading_radius``, and the similarity
+        thresholds that bound the shading.
 
     Returns
     -------
     ``(round(H*scale), round(W*scale), 4) uint8`` RGBA, straight (not premultiplied) alpha.
     """
+    if supersample is None:
+        supersample = params.shading_supersample
     if not scale > 0 or not np.isfinite(scale):
         raise ValueError(f"scale must be a positive number, got {scale!r}")
     if int(supersample) != supersample or supersample < 1:
@@ -196,16 +197,17 @@ class _ShadingField:
         self.yuva = np.concatenate([rgb_to_yuv(rgba[:, :3]), rgba[:, 3:]], axis=1)
         self.limit = np.array([params.threshold_y, params.threshold_u, params.threshold_v,
                                params.threshold_alpha])
+        self.sigma, self.radius = params.shading_sigma, params.shading_radius
         rows, cols = np.divmod(np.arange(h * w), w)
         centre = np.stack([cols + 0.5, rows + 0.5], axis=1)
         shift = np.abs(self.centroid - centre).max()
         # offsets (dy, dx) of every pixel whose cell centroid may lie within the radius of a
         # point in pixel (0, 0): the nearest approach per axis is |d| - 1/2 - shift
-        reach = int(np.ceil(RADIUS + 0.5 + shift))
+        reach = int(np.ceil(self.radius + 0.5 + shift))
         d = np.arange(-reach, reach + 1)
         near = np.maximum(np.abs(d) - 0.5 - shift, 0.0)
         dy, dx = np.meshgrid(d, d, indexing="ij")
-        close = near[:, None] ** 2 + near[None, :] ** 2 < RADIUS**2
+        close = near[:, None] ** 2 + near[None, :] ** 2 < self.radius**2
         self.offsets = np.stack([dy[close], dx[close]], axis=1)
         self.flat = self._flat_cells(reach + 1)
         # the cells on a grid padded by `reach` (region -1, no colour), so that neighbour
@@ -256,11 +258,11 @@ class _ShadingField:
         x32, y32 = x.astype(np.float32), y.astype(np.float32)
         total = np.zeros(x.size, np.float32)
         acc = np.zeros((x.size, 4), np.float32)
-        floor = np.float32(np.exp(-(RADIUS**2) / (2 * SIGMA**2)))
+        floor = np.float32(np.exp(-(self.radius**2) / (2 * self.sigma**2)))
         for dy, dx in self.offsets.tolist():
             q = base + (dy * stride + dx)
             d2 = (self.pad_x[q] - x32) ** 2 + (self.pad_y[q] - y32) ** 2
-            weight = np.exp(d2 * np.float32(-0.5 / SIGMA**2)) - floor
+            weight = np.exp(d2 * np.float32(-0.5 / self.sigma**2)) - floor
             weight *= (self.pad_region[q] == region) & (weight > 0)
             total += weight
             acc += weight[:, None] * self.pad_colour[q]

@@ -19,12 +19,19 @@ segment i — written as two quadratic Béziers, which is exact (de Casteljau sp
 
 A curve that ends at a T-junction gets that end's control point moved to the point S of
 the continuing curve, so the two meet exactly (§3.3, last paragraph). Because S itself
-depends on neighbouring control points, the snapping is iterated a fixed number of times.
+depends on neighbouring control points, the snapping is iterated ``Params.snap_passes`` times.
+
+The steps: :func:`visible_edges` and :func:`shading_edges` say which edges carry curves and
+of what kind; :func:`pair_ends` applies the rules above at every node; :func:`chain_curves`
+walks the pairs into curves. The optimizer cuts curves at corners with
+:meth:`SplineSet.split_at`, which re-chains the same pairing (nothing is extracted twice).
+The curve maths is in :mod:`depixel.bspline`.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 
@@ -33,8 +40,36 @@ from .cells import CellGraph
 from .params import Params
 from .vector import VectorImage, linked_edges
 
-#: passes of T-junction snapping; each pass shrinks the residual gap at least 4×
-SNAP_PASSES = 6
+class HalfEnds(NamedTuple):
+    """The ends of the curve edges and how they continue each other at their nodes.
+
+    Half-end ``2k`` is the ``u`` end of edge ``edges[k]``, ``2k + 1`` its ``v`` end."""
+
+    edges: np.ndarray  # (K,) int64 the cell edges that carry curves
+    node: np.ndarray  # (2K,) int64 node of each half-end
+    partner: np.ndarray  # (2K,) int64 the half-end continuing it at its node, -1 where a curve ends
+
+
+class Chains(NamedTuple):
+    """Curves as flat slot arrays (see :class:`SplineSet`)."""
+
+    curve_ptr: np.ndarray
+    curve_nodes: np.ndarray
+    curve_closed: np.ndarray
+    slot_edges: np.ndarray
+    slot_forward: np.ndarray
+
+
+class _SnapPlan(NamedTuple):
+    """What :meth:`SplineSet.snap` needs: each T-junction end, the slot it snaps to, that
+    slot's neighbours and whether they are ends ((T, 1) bool, broadcastable over x, y)."""
+
+    ends: np.ndarray
+    through: np.ndarray
+    before: np.ndarray
+    after: np.ndarray
+    before_is_end: np.ndarray
+    after_is_end: np.ndarray
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,6 +92,8 @@ class SplineSet:
     slot_edges: np.ndarray  # (P,) int64 edge from slot j to j+1 (wrapping for closed); -1 after an open end
     slot_forward: np.ndarray  # (P,) bool: that edge is stored u→v in the direction of the curve
     positions: np.ndarray  # (N, 2) float64 initial node positions (quarter-pixel grid, in pixels)
+    half_ends: HalfEnds  # the pairing the curves were chained from (for split_at)
+    snap_passes: int  # Params.snap_passes
 
     # --- derived layout helpers (all (P,) arrays) -----------------------------------------
     @property
@@ -114,20 +151,21 @@ class SplineSet:
         the curve continuing through their node (iterated: those points may depend on
         other snapped ends). Returns a new array."""
         ctrl = ctrl.copy()
-        ends, through, a, b, end_a, end_b = self._snap_plan
-        if ends.size:
-            for _ in range(SNAP_PASSES):
-                ctrl[ends] = midpoint(*span(ctrl[a], ctrl[through], ctrl[b], end_a, end_b))
+        plan = self._snap_plan
+        if plan.ends.size:
+            for _ in range(self.snap_passes):
+                ctrl[plan.ends] = midpoint(*span(ctrl[plan.before], ctrl[plan.through], ctrl[plan.after],
+                                                 plan.before_is_end, plan.after_is_end))
         return ctrl
 
     @cached_property
-    def _snap_plan(self):
+    def _snap_plan(self) -> _SnapPlan:
         """Indices :meth:`snap` needs, computed once per SplineSet."""
         ends, through = self.snap_pairs()
         prev, nxt = self.neighbours()
         end = (prev < 0) | (nxt < 0)
         a, b = prev[through], nxt[through]
-        return ends, through, a, b, end[a][:, None], end[b][:, None]
+        return _SnapPlan(ends, through, a, b, end[a][:, None], end[b][:, None])
 
     def controls_for(self, positions: np.ndarray) -> np.ndarray:
         """(P, 2) control point of every slot for node ``positions`` (N, 2), with T-junction
@@ -202,39 +240,39 @@ def shading_edges(cells: CellGraph, visible: np.ndarray, params: Params) -> np.n
     return visible & (dist <= params.shading_distance) & ~clear_mismatch
 
 
-def extract_splines(cells: CellGraph, params: Params = Params(), breaks: np.ndarray | None = None) -> SplineSet:
-    """Pair visible edges at nodes and chain them into curves.
-
-    ``breaks`` (N,) bool marks nodes where every curve must end (sharp corners).
-    """
+def extract_splines(cells: CellGraph, params: Params = Params()) -> SplineSet:
+    """Pair the curve edges at their nodes and chain them into curves (§3.3)."""
     visible = visible_edges(cells)
     shading = shading_edges(cells, visible, params)
-    vis = np.flatnonzero(visible)
-    # half-ends: 2k is the u-end of visible edge vis[k], 2k+1 its v-end
-    end_node = cells.edges[vis].ravel()
-    partner = _pair_ends(cells, vis, end_node, shading[vis])
-    if breaks is not None:
-        partner[breaks[end_node]] = -1
-    curve_ptr, curve_nodes, closed, slot_edges, slot_forward = _chain(vis, end_node, partner)
-    return SplineSet(
-        cells=cells,
-        visible=visible,
-        shading=shading,
-        curve_ptr=curve_ptr,
-        curve_nodes=curve_nodes,
-        curve_closed=closed,
-        slot_edges=slot_edges,
-        slot_forward=slot_forward,
-        positions=cells.nodes.astype(np.float64) / 4.0,
-    )
+    half_ends = pair_ends(cells, np.flatnonzero(visible), shading)
+    return SplineSet(cells, visible, shading, *chain_curves(half_ends),
+                     positions=cells.nodes.astype(np.float64) / 4.0, half_ends=half_ends,
+                     snap_passes=params.snap_passes)
 
 
-def _pair_ends(cells: CellGraph, vis: np.ndarray, end_node: np.ndarray, shading: np.ndarray) -> np.ndarray:
-    """partner[h]: the half-end continuing half-end h at its node, or -1 (curve ends)."""
-    n_half = end_node.size
+def split_at(splines: SplineSet, breaks: np.ndarray) -> SplineSet:
+    """The same curves cut at the nodes ``breaks`` (N,) bool: every curve through such a
+    node ends there (both pieces are clamped, so the outline keeps a true kink). The
+    pairing is reused and only re-chained; without a break the SplineSet itself."""
+    half_ends = splines.half_ends
+    cut = breaks[half_ends.node]
+    if not cut.any():
+        return splines
+    partner = half_ends.partner.copy()
+    partner[cut] = -1
+    half_ends = half_ends._replace(partner=partner)
+    return replace(splines, **chain_curves(half_ends)._asdict(), half_ends=half_ends)
+
+
+def pair_ends(cells: CellGraph, edges: np.ndarray, shading: np.ndarray) -> HalfEnds:
+    """Pair the ends of the curve edges ``edges`` (K,) at every node, by the number of
+    curve edges meeting there: two continue each other; at three (a T-junction) one pair
+    is joined by :func:`_t_junction_pairs`; at one or four and more every curve ends."""
+    node = cells.edges[edges].ravel()
+    n_half = node.size
     partner = np.full(n_half, -1, dtype=np.int64)
-    order = np.argsort(end_node, kind="stable")
-    sorted_nodes = end_node[order]
+    order = np.argsort(node, kind="stable")
+    sorted_nodes = node[order]
     starts = np.flatnonzero(np.r_[True, sorted_nodes[1:] != sorted_nodes[:-1]])
     counts = np.diff(np.r_[starts, n_half])
 
@@ -245,29 +283,36 @@ def _pair_ends(cells: CellGraph, vis: np.ndarray, end_node: np.ndarray, shading:
     three = starts[counts == 3]
     if three.size:
         h = np.stack([order[three], order[three + 1], order[three + 2]], axis=1)  # (T, 3)
-        node = end_node[h[:, 0]]
-        other = end_node[h ^ 1]  # the far node of each edge
-        direction = cells.nodes[other].astype(np.float64) - cells.nodes[node][:, None, :]
-        direction /= np.linalg.norm(direction, axis=2, keepdims=True)
-        pairs = np.array([(0, 1), (0, 2), (1, 2)])
-        cosine = np.einsum("tpk,tpk->tp", direction[:, pairs[:, 0]], direction[:, pairs[:, 1]])
-        is_shading = shading[h >> 1]  # (T, 3)
-        # contour-over-shading rule: exactly one shading edge → join the other two
-        one_shading = is_shading.sum(axis=1) == 1
-        lone = np.argmax(is_shading, axis=1)  # index of the shading edge
-        by_rule = 2 - lone  # the pair not containing `lone`: (1,2)→idx 2, (0,2)→1, (0,1)→0
-        straightest = np.argmin(cosine, axis=1)  # closest to 180° (first on ties)
-        choice = np.where(one_shading, by_rule, straightest)
-        i, j = pairs[choice, 0], pairs[choice, 1]
-        rows = np.arange(three.size)
-        a, b = h[rows, i], h[rows, j]
+        a, b = _t_junction_pairs(cells, node, h, shading[edges[h >> 1]])
         partner[a] = b
         partner[b] = a
-    return partner
+    return HalfEnds(edges, node, partner)
 
 
-def _chain(vis: np.ndarray, end_node: np.ndarray, partner: np.ndarray):
+def _t_junction_pairs(cells: CellGraph, node: np.ndarray, h: np.ndarray,
+                      is_shading: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The two half-ends of each T-junction ``h`` (T, 3) that continue each other: the
+    contour edges when exactly one of the three is a shading edge (``is_shading`` (T, 3)),
+    else the pair closest to a straight line (the first such pair on a tie)."""
+    here = node[h[:, 0]]
+    other = node[h ^ 1]  # the far node of each edge
+    direction = cells.nodes[other].astype(np.float64) - cells.nodes[here][:, None, :]
+    direction /= np.linalg.norm(direction, axis=2, keepdims=True)
+    pairs = np.array([(0, 1), (0, 2), (1, 2)])
+    cosine = np.einsum("tpk,tpk->tp", direction[:, pairs[:, 0]], direction[:, pairs[:, 1]])
+    # contour-over-shading rule: exactly one shading edge → join the other two
+    one_shading = is_shading.sum(axis=1) == 1
+    lone = np.argmax(is_shading, axis=1)  # index of the shading edge
+    by_rule = 2 - lone  # the pair not containing `lone`: (1,2)→idx 2, (0,2)→1, (0,1)→0
+    straightest = np.argmin(cosine, axis=1)  # closest to 180° (first on ties)
+    choice = np.where(one_shading, by_rule, straightest)
+    rows = np.arange(h.shape[0])
+    return h[rows, pairs[choice, 0]], h[rows, pairs[choice, 1]]
+
+
+def chain_curves(half_ends: HalfEnds) -> Chains:
     """Walk paired half-ends into curves (open ones first from their free ends, then loops)."""
+    vis, end_node, partner = half_ends
     n_vis = vis.size
     used = np.zeros(n_vis, dtype=bool)
     ptr = [0]
@@ -308,7 +353,7 @@ def _chain(vis: np.ndarray, end_node: np.ndarray, partner: np.ndarray):
         if not used[k]:
             closed.append(walk(2 * k))
             ptr.append(len(nodes))
-    return (
+    return Chains(
         np.array(ptr, dtype=np.int64),
         np.array(nodes, dtype=np.int64),
         np.array(closed, dtype=bool),

@@ -10,7 +10,7 @@ import pytest
 from scipy.interpolate import BSpline
 
 from depixel.image import load_image, rgb_to_yuv
-from depixel.optimize import centre_clearance
+from depixel.fidelity import centre_clearance
 from depixel.params import Params
 from depixel.pipeline import depixelize
 from depixel.similarity import similar
