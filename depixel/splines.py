@@ -37,6 +37,7 @@ import numpy as np
 
 from .bspline import Bezier, between_curve_points, midpoint, slot_spans, span
 from .cells import CellGraph
+from .frozen import freeze
 from .params import Params
 from .vector import VectorImage, linked_edges
 
@@ -74,7 +75,8 @@ class _SnapPlan(NamedTuple):
 
 @dataclass(frozen=True, eq=False)
 class SplineSet:
-    """Curves over the cell graph and the initial control points (pixel units).
+    """Curves over the cell graph and the initial control points (pixel units); arrays
+    are read-only.
 
     Vocabulary: the curves are stored one after another in flat arrays; an index into them
     is a **slot** (``P`` slots in all; an open curve has one slot per node, both ends
@@ -95,6 +97,9 @@ class SplineSet:
     half_ends: HalfEnds  # the pairing the curves were chained from (for split_at)
     snap_passes: int  # Params.snap_passes
 
+    def __post_init__(self) -> None:
+        freeze(self)
+
     # --- derived layout helpers (all (P,) arrays) -----------------------------------------
     @property
     def n_curves(self) -> int:
@@ -111,7 +116,7 @@ class SplineSet:
     def neighbours(self) -> tuple[np.ndarray, np.ndarray]:
         """Previous and next slot of every slot along its curve (-1 past an open end).
 
-        Computed once per SplineSet (the arrays are shared: do not modify them)."""
+        Computed once per SplineSet (the arrays are shared, hence read-only)."""
         return self._links
 
     @cached_property
@@ -122,6 +127,8 @@ class SplineSet:
         closed = self.curve_closed[curve]
         prev = np.where(p == first, np.where(closed, last, -1), p - 1)
         nxt = np.where(p == last, np.where(closed, first, -1), p + 1)
+        prev.setflags(write=False)
+        nxt.setflags(write=False)
         return prev, nxt
 
     def is_end(self) -> np.ndarray:
