@@ -18,6 +18,7 @@ Everything is drawn with Pillow's ImageDraw, except the final render.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -25,6 +26,9 @@ from .bspline import flatten_edges
 from .pipeline import Result
 from .svg import to_svg
 from .vector import VectorImage, linked_edges
+
+if TYPE_CHECKING:  # Pillow is imported where it draws
+    from PIL.Image import Image
 
 GAP = 8  # pixels around and between panels
 TITLE_HEIGHT = 18  # strip above each panel for its name
@@ -52,7 +56,7 @@ def figure(result: Result, zoom: int | None = None):
     return compose(stage_panels(result, zoom))
 
 
-def compose(panels: list[tuple[str, object]]):
+def compose(panels: list[tuple[str, Image]]):
     """Lay titled panels (all the same size) out in a grid → one RGB PIL image."""
     from PIL import Image, ImageDraw  # noqa: PLC0415
 
@@ -69,7 +73,7 @@ def compose(panels: list[tuple[str, object]]):
     return sheet
 
 
-def stage_panels(result: Result, zoom: int | None = None) -> list[tuple[str, object]]:
+def stage_panels(result: Result, zoom: int | None = None) -> list[tuple[str, Image]]:
     """(title, PIL image) for every stage the run reached, in pipeline order."""
     z = zoom or default_zoom(result.cells.shape)
     panels = [

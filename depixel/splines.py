@@ -41,6 +41,7 @@ from .frozen import freeze
 from .params import Params
 from .vector import VectorImage, linked_edges
 
+
 class HalfEnds(NamedTuple):
     """The ends of the curve edges and how they continue each other at their nodes.
 

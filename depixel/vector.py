@@ -89,7 +89,9 @@ def label_components(n: int, pairs: np.ndarray) -> np.ndarray:
 
 def regions(cells: CellGraph) -> np.ndarray:
     """(H*W,) region label per pixel: components of cells joined by invisible edges."""
-    return faces_and_regions(cells)[1]
+    region = faces_and_regions(cells)[1]
+    assert region is not None
+    return region
 
 
 def faces(cells: CellGraph, per_cell: bool = False) -> np.ndarray:
