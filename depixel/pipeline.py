@@ -62,24 +62,23 @@ def depixelize(image, params: Params = Params(), stage: str = "optimized") -> Re
     if stage == "cells":
         return Result(similarity, resolution, cells, straight_image(cells), timings=timings)
 
-    from .splines import extract_splines  # noqa: PLC0415 (keeps the cells stage light)
+    from .splines import extract_splines, split_at  # noqa: PLC0415 (keeps the cells stage light)
 
     t = clock()
-    splines = extract_splines(cells, params)
+    splines = extract_splines(cells, params)  # §3.3
     timings["splines"] = clock() - t
     if stage == "splines":
         return Result(similarity, resolution, cells, splines.vector_image(), splines=splines, timings=timings)
 
     from .corners import detect_corners  # noqa: PLC0415
     from .optimize import optimize_splines  # noqa: PLC0415
-    from .splines import split_at  # noqa: PLC0415
 
     t = clock()
-    corners = detect_corners(splines, params)
+    corners = detect_corners(splines, params)  # §3.4, Figure 7
     curves = split_at(splines, corners.nodes)  # every corner ends its curves
     timings["corners"] = clock() - t
     t = clock()
-    optimized = optimize_splines(curves, corners, params)
+    optimized = optimize_splines(curves, corners, params)  # §3.4
     timings["optimize"] = clock() - t
     return Result(similarity, resolution, cells, optimized.vector_image(), splines=splines,
                   optimized=optimized, timings=timings)

@@ -22,6 +22,8 @@ Everything is vectorized per tile of output rows, so memory stays bounded at any
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from .bspline import bend, edge_halves, flatten_edges, pieces_for
@@ -89,9 +91,17 @@ def _pieces_per_curve(image: VectorImage, scale: float) -> int:
     return pieces_for(worst, FLATTEN_TOLERANCE / scale)
 
 
-def _flatten(image: VectorImage, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Line pieces ``(a, b, edge)`` of every edge walked from u to v: one per straight edge,
-    ``n`` per quadratic Bézier of a curved edge. ``a``, ``b`` are ``(S, 2)``."""
+class Pieces(NamedTuple):
+    """Line pieces of flattened cell edges, each walked from the edge's u towards its v."""
+
+    a: np.ndarray  # (S, 2) start of each piece
+    b: np.ndarray  # (S, 2) end
+    edge: np.ndarray  # (S,) int64 the cell edge it belongs to
+
+
+def _flatten(image: VectorImage, n: int) -> Pieces:
+    """Line pieces of every edge: one per straight edge, ``n`` per quadratic Bézier of a
+    curved edge."""
     p = image.points
     u, v = image.cells.edges[:, 0], image.cells.edges[:, 1]
     straight = np.flatnonzero(~image.curved)
@@ -100,10 +110,10 @@ def _flatten(image: VectorImage, n: int) -> tuple[np.ndarray, np.ndarray, np.nda
     a = np.concatenate([p[u[straight]], poly[:, :-1].reshape(-1, 2)])
     b = np.concatenate([p[v[straight]], poly[:, 1:].reshape(-1, 2)])
     edge = np.concatenate([straight, np.repeat(curved, 2 * n)])
-    return a, b, edge
+    return Pieces(a, b, edge)
 
 
-def cell_centroids(image: VectorImage, pieces: tuple | None = None) -> np.ndarray:
+def cell_centroids(image: VectorImage, pieces: Pieces | None = None) -> np.ndarray:
     """``(H*W, 2)`` centroid (x, y) of every cell polygon, curved edges flattened."""
     a, b, edge = _flatten(image, _pieces_per_curve(image, 8.0)) if pieces is None else pieces
     cells = image.cells
@@ -127,7 +137,7 @@ class _Segments:
     bottom, each with the cell on its east side (the cell a scanline enters there), sorted
     by their top so that a band of rows finds its pieces by bisection."""
 
-    def __init__(self, image: VectorImage, pieces: tuple[np.ndarray, np.ndarray, np.ndarray]):
+    def __init__(self, image: VectorImage, pieces: Pieces):
         a, b, edge = pieces
         down = b[:, 1] > a[:, 1]
         keep = b[:, 1] != a[:, 1]
@@ -185,7 +195,7 @@ def _cell_labels(seg: _Segments, k0: int, k1: int, fy: float, fx: float, width: 
 class _ShadingField:
     """The colour field: per-cell centroids, colours and regions, evaluated at points."""
 
-    def __init__(self, image: VectorImage, pieces: tuple, params: Params):
+    def __init__(self, image: VectorImage, pieces: Pieces, params: Params):
         h, w = image.shape
         self.shape = (h, w)
         self.centroid = cell_centroids(image, pieces)

@@ -62,6 +62,14 @@ class Chains(NamedTuple):
     slot_forward: np.ndarray
 
 
+class Geometry(NamedTuple):
+    """The drawing of a SplineSet at some node positions (the fields of a VectorImage)."""
+
+    points: np.ndarray  # (N, 2) display point of every node: its curve point S on a curve
+    curved: np.ndarray  # (E,) bool: the edge is drawn as two quadratic Béziers
+    controls: np.ndarray  # (E, 3, 2) c0, c1, c2 of "points[u] Q c0 c1 Q c2 points[v]"
+
+
 class _SnapPlan(NamedTuple):
     """What :meth:`SplineSet.snap` needs: each T-junction end, the slot it snaps to, that
     slot's neighbours and whether they are ends ((T, 1) bool, broadcastable over x, y)."""
@@ -200,7 +208,7 @@ class SplineSet:
         display[self.curve_nodes[~end]] = s[~end]
         return display
 
-    def geometry(self, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def geometry(self, positions: np.ndarray) -> Geometry:
         """Display points (N, 2), curved flags (E,) and Bézier controls (E, 3, 2) for given
         node positions — shared by the splines stage and the optimizer's result."""
         ctrl = self.controls_for(positions)
@@ -224,7 +232,7 @@ class SplineSet:
         trio = np.where(forward[:, None, None], trio, trio[:, ::-1])
         curved[edge] = True
         controls[edge] = trio
-        return display, curved, controls
+        return Geometry(display, curved, controls)
 
     def vector_image(self, positions: np.ndarray | None = None, stage: str = "splines") -> VectorImage:
         points, curved, controls = self.geometry(self.positions if positions is None else positions)

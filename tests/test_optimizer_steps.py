@@ -247,7 +247,7 @@ def test_harmonic_map_moves_each_free_node_by_the_mean_of_its_neighbours():
     # displacement of every node: curve nodes to their display points, border nodes none
     q = cells.nodes
     border = (q == 0).any(axis=1) | (q[:, 0] == 4 * 7) | (q[:, 1] == 4 * 7)
-    moved = np.where(on_curve[:, None], splines.geometry(positions)[0] - start, out - start)
+    moved = np.where(on_curve[:, None], splines.geometry(positions).points - start, out - start)
     assert not moved[border & ~on_curve].any()
     free = np.flatnonzero(~on_curve & ~border)
     assert free.size >= 10 and np.abs(moved[free]).max() > 1e-3
