@@ -14,7 +14,7 @@ from depixel.params import Params
 from depixel.pipeline import depixelize
 from depixel.raster import render_rgba
 from depixel.relax import Energy, smoothness, step
-from depixel.splines import SplineSet
+from depixel.splines import SplineSet, split_at
 from depixel.svg import to_svg
 from depixel.vector import faces
 
@@ -178,6 +178,27 @@ def test_square_corner_is_found_and_placed_on_its_lattice_point():
     corners = detect_corners(splines)
     start = corners.place(splines)
     assert {tuple(p) for p in start[square].tolist()} == {(1.0, 1.0), (5.0, 1.0), (1.0, 5.0), (5.0, 5.0)}
+
+
+def test_split_at_cuts_the_curves_at_the_corners_only():
+    img = art("""
+    ......
+    .####.
+    .####.
+    .####.
+    .####.
+    ......
+    """)
+    splines = splines_of(img)
+    assert splines.n_curves == 1 and splines.curve_closed[0]
+    corners = detect_corners(splines).nodes
+    cut = split_at(splines, corners)
+    # one open curve per side, each ending at two corners; the same edges, each once
+    assert cut.n_curves == 4 and not cut.curve_closed.any()
+    assert np.array_equal(np.sort(cut.slot_edges[cut.slot_edges >= 0]), np.sort(splines.slot_edges))
+    assert corners[cut.curve_nodes[cut.is_end()]].all()
+    assert not corners[cut.curve_nodes[~cut.is_end()]].any()
+    assert split_at(splines, np.zeros_like(corners)) is splines
 
 
 def test_corner_halves_are_left_out_of_the_smoothness():
