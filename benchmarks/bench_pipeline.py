@@ -50,7 +50,7 @@ ROWS = (
     ("similarity graph construction", ("similarity", "crossings")),
     ("cell graph", ("cells",)),
     ("spline extraction", ("splines",)),
-    ("spline optimization", ("optimize",)),
+    ("spline optimization", ("corners", "optimize")),
     ("SVG writing", ("svg",)),
 )
 

@@ -79,7 +79,8 @@ def run_job(job: Job) -> Outcome:
                              max_pixels=opt.max_pixels, precision=opt.precision)
             out.written.append(target)
         if opt.frames == "first" and out.written and (n := frame_count(job.source)) > 1:
-            out.notes.append(f"{display_name(job.source)}: has {n} frames, converted the first (--frames all converts each)")
+            out.notes.append(f"{display_name(job.source)}: has {n} frames, converted the first "
+                             "(--frames all converts each)")
     except DepixelError as exc:
         out.error, out.traceback = error_message(exc), traceback.format_exc()
     except Exception as exc:  # a bug: still one line, the traceback with --debug
@@ -181,7 +182,8 @@ def make_folders(jobs: list[Job]) -> tuple[list[Job], list[Outcome]]:
             job.output.parent.mkdir(parents=True, exist_ok=True)
             ready.append(job)
         except OSError as exc:
-            failed.append(Outcome(job.source, error=f"{display_name(job.output.parent)}: cannot create folder ({exc.strerror or exc})"))
+            error = f"{display_name(job.output.parent)}: cannot create folder ({exc.strerror or exc})"
+            failed.append(Outcome(job.source, error=error))
     return ready, failed
 
 

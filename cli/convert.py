@@ -17,7 +17,7 @@ from depixel.output import write_atomic
 from depixel.pipeline import STAGES
 
 from .batch import Job, Options, Outcome, Progress, default_jobs, expand_inputs, make_folders, plan, run, summary
-from .options import Exit, add_tuning, error_message, colour, int_range, params_from_args, positive_float, positive_int
+from .options import Exit, add_tuning, colour, error_message, int_range, params_from_args, positive_float, positive_int
 
 DESCRIPTION = """\
 examples:
@@ -142,6 +142,7 @@ def _convert_stream(source: str, output: str, options: Options) -> Outcome:
         data = read_source(sys.stdin.buffer) if source == "-" else api.read_input(source)
         name = "<stdin>" if source == "-" else display_name(source)
         protect = () if source == "-" else (Path(source),)
+        targets: list[tuple[int, str | Path]]
         if options.frames == "all":
             n = frame_count(data)  # data was read, so only decoding can fail: name it below
             targets = list(enumerate(api.frame_outputs(output, n)))

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import sys
 from importlib import metadata
+from typing import NoReturn
 
 import depixel
 from depixel.errors import DepixelError
@@ -18,7 +19,7 @@ from .options import Exit, error_exit, error_message, say
 
 
 class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # one line, exit code 2
+    def error(self, message: str) -> NoReturn:  # one line, exit code 2
         self.exit(Exit.USAGE, f"{self.prog}: error: {message}\n")
 
 

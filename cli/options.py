@@ -92,15 +92,18 @@ def colour(text: str) -> tuple[int, int, int]:
 _DEFAULTS = {f.name: f.default for f in fields(Params)}
 #: (flag, Params field, type, help) — the help shows the default from Params itself.
 TUNING = [
-    ("--threshold-y", "threshold_y", non_negative_float, "luma difference (0-255) above which neighbours are dissimilar"),
+    ("--threshold-y", "threshold_y", non_negative_float,
+     "luma difference (0-255) above which neighbours are dissimilar"),
     ("--threshold-u", "threshold_u", non_negative_float, "U chroma difference above which neighbours are dissimilar"),
     ("--threshold-v", "threshold_v", non_negative_float, "V chroma difference above which neighbours are dissimilar"),
-    ("--threshold-alpha", "threshold_alpha", non_negative_float, "alpha difference above which neighbours are dissimilar"),
+    ("--threshold-alpha", "threshold_alpha", non_negative_float,
+     "alpha difference above which neighbours are dissimilar"),
     ("--curve-weight", "curve_weight", non_negative_float, "weight of the 'curves' heuristic for crossing diagonals"),
     ("--sparse-weight", "sparse_weight", non_negative_float, "weight of the 'sparse pixels' heuristic"),
     ("--sparse-window", "sparse_window", int_range(2), "side of the window the 'sparse pixels' heuristic looks at"),
     ("--island-weight", "island_weight", non_negative_float, "vote of the 'islands' heuristic"),
-    ("--shading-distance", "shading_distance", non_negative_float, "YUV distance up to which an edge is a shading edge"),
+    ("--shading-distance", "shading_distance", non_negative_float,
+     "YUV distance up to which an edge is a shading edge"),
     ("--iterations", "iterations", non_negative_int, "sweeps of the spline optimization"),
     ("--seed", "seed", non_negative_int, "seed of the optimization's random offsets"),
 ]

@@ -13,8 +13,17 @@ from depixel.image import DEFAULT_MAX_PIXELS, read_source
 from depixel.output import write_atomic
 from depixel.pipeline import STAGES
 
-from .options import Exit, add_tuning, colour, int_range, non_negative_int, params_from_args, positive_float, \
-    positive_int, unit_float
+from .options import (
+    Exit,
+    add_tuning,
+    colour,
+    int_range,
+    non_negative_int,
+    params_from_args,
+    positive_float,
+    positive_int,
+    unit_float,
+)
 
 RENDER_DESCRIPTION = """\
 examples:
@@ -81,7 +90,8 @@ def add_parsers(sub) -> None:
     diff.add_argument("--include-aa", action="store_true", help="count anti-aliasing differences too")
     diff.add_argument("--allow-size-mismatch", action="store_true",
                       help="compare images of different sizes (the area only one covers counts)")
-    diff.add_argument("--diff-out", metavar="PNG", help="write a picture of the differences (red; yellow: anti-aliasing)")
+    diff.add_argument("--diff-out", metavar="PNG",
+                      help="write a picture of the differences (red; yellow: anti-aliasing)")
     diff.add_argument("--json", action="store_true", help="print the report as JSON on stdout")
     _debug(diff)
 
@@ -123,6 +133,7 @@ def run_render(args: argparse.Namespace) -> int:
     fmt = args.format or ("png" if args.output == "-" else api.output_format(args.output))
     if fmt == "svg":
         args.parser.error("render writes PNG or PDF; give OUT a .png or .pdf name or use --format")
+    protect: tuple[Path, ...]
     if args.input == "-":
         svg, name, protect = read_source(sys.stdin.buffer), "<stdin>", ()
     else:
@@ -153,7 +164,8 @@ def run_diff(args: argparse.Namespace) -> int:
         }, indent=2))
     else:
         verdict = "same" if same else "different"
-        print(f"{verdict}: {count} of {w * h} pixels differ ({100 * ratio:.3g}%) at {w}x{h}, threshold {args.threshold}")
+        print(f"{verdict}: {count} of {w * h} pixels differ ({100 * ratio:.3g}%) at {w}x{h}, "
+              f"threshold {args.threshold}")
     return Exit.OK if same else Exit.FAILED
 
 

@@ -7,12 +7,12 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
+from .api import convert, convert_bytes, convert_file, flatten, render_file
 from .errors import DepixelError, InputError, OutputError, RenderError
 from .image import load_image
 from .params import Params
 from .pipeline import STAGES, Result, depixelize
 from .svg import to_svg
-from .api import convert, convert_bytes, convert_file, flatten, render_file  # noqa: E402 (uses the above)
 
 __all__ = [
     "__version__",

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import OutputError, display_name
-from .image import DEFAULT_MAX_PIXELS, ImageSource, as_rgba, frame_count, load_image, read_source
+from .image import DEFAULT_MAX_PIXELS, ImageSource, as_rgba, load_image, read_source
 from .output import write_atomic
 from .params import Params
 from .pipeline import depixelize

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .crossings import CrossingResolution
+from .frozen import freeze
 from .loops import trace_loops
 from .similarity import SimilarityGraph
 
@@ -36,7 +37,8 @@ HORIZONTAL, VERTICAL, DIAGONAL = 0, 1, 2
 
 @dataclass(frozen=True, eq=False)
 class CellGraph:
-    """Reshaped pixel cells: nodes, edges with the pixel on each side, and cell polygons."""
+    """Reshaped pixel cells: nodes, edges with the pixel on each side, and cell polygons;
+    arrays are read-only."""
 
     graph: SimilarityGraph  # the resolved (planar) similarity graph it was built from
     nodes: np.ndarray  # (N, 2) int64, (x, y) in quarter pixels
@@ -46,6 +48,9 @@ class CellGraph:
     cell_ptr: np.ndarray  # (H*W + 1,) int64: cell p is cell_nodes[cell_ptr[p]:cell_ptr[p+1]]
     cell_nodes: np.ndarray  # node indices of every cell polygon, clockwise on screen
     cell_edges: np.ndarray  # matching edge indices: cell_edges[k] joins cell_nodes[k] to the next node
+
+    def __post_init__(self) -> None:
+        freeze(self)
 
     @property
     def shape(self) -> tuple[int, int]:

@@ -80,7 +80,8 @@ def resolve_crossings(graph: SimilarityGraph, params: Params = Params()) -> Cros
     tie_break = np.zeros_like(total)
     if params.tie_break:
         tied = ambiguous & (total == 0)
-        tie_break[tied] = _colour_frequency_vote(graph, *np.nonzero(tied), params)
+        tied_rows, tied_cols = np.nonzero(tied)
+        tie_break[tied] = _colour_frequency_vote(graph, tied_rows, tied_cols, params)
     total = total + tie_break
     keep_main = cleared.diag_main & ~(ambiguous & (total <= 0))
     keep_anti = cleared.diag_anti & ~(ambiguous & (total >= 0))

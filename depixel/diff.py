@@ -177,13 +177,15 @@ def load_pair(path_a: str | os.PathLike, path_b: str | os.PathLike, *, scale: fl
     for i, (d, p) in enumerate(zip(data, (path_a, path_b))):
         if not svg[i]:
             continue
-        if not svg[1 - i]:  # the other is a raster: its size rules
-            height, width = images[1 - i].shape[:2]
+        other = images[1 - i]
+        if not svg[1 - i] and other is not None:  # the other is a raster: its size rules
+            height, width = other.shape[:2]
         else:
             w, h = svg_size(d, name=str(p))
             width, height = max(1, round(w * scale)), max(1, round(h * scale))
         images[i] = render_rgba(d, width=width, height=height, name=str(p))
     a, b = images
+    assert a is not None and b is not None  # every SVG was rendered above
     if a.shape != b.shape:
         if not allow_size_mismatch:
             raise SizeMismatchError(f"{path_a} is {a.shape[1]}x{a.shape[0]} but {path_b} is "

@@ -9,7 +9,7 @@ calls the parameter something else (the CLI's ``--max-pixels``) rewrites that na
 from __future__ import annotations
 
 import os
-from typing import Mapping
+from collections.abc import Mapping
 
 
 class DepixelError(Exception):
@@ -26,11 +26,11 @@ class DepixelError(Exception):
     def message_for(self, names: Mapping[str, str]) -> str:
         """The message with the parameter's name replaced by what ``names`` calls it
         (e.g. ``{"max_pixels": "--max-pixels"}``); unchanged when it has no such name."""
-        text = str(self)
-        alias = names.get(self.parameter or "")
-        if not alias or self.parameter not in text:
+        text, parameter = str(self), self.parameter
+        alias = names.get(parameter) if parameter else None
+        if not parameter or not alias or parameter not in text:
             return text
-        head, _, tail = text.rpartition(self.parameter)
+        head, _, tail = text.rpartition(parameter)
         return head + alias + tail
 
 

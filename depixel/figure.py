@@ -18,12 +18,17 @@ Everything is drawn with Pillow's ImageDraw, except the final render.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .bspline import flatten_edges
 from .pipeline import Result
 from .svg import to_svg
 from .vector import VectorImage, linked_edges
+
+if TYPE_CHECKING:  # Pillow is imported where it draws
+    from PIL.Image import Image
 
 GAP = 8  # pixels around and between panels
 TITLE_HEIGHT = 18  # strip above each panel for its name
@@ -51,7 +56,7 @@ def figure(result: Result, zoom: int | None = None):
     return compose(stage_panels(result, zoom))
 
 
-def compose(panels: list[tuple[str, object]]):
+def compose(panels: list[tuple[str, Image]]):
     """Lay titled panels (all the same size) out in a grid → one RGB PIL image."""
     from PIL import Image, ImageDraw  # noqa: PLC0415
 
@@ -68,7 +73,7 @@ def compose(panels: list[tuple[str, object]]):
     return sheet
 
 
-def stage_panels(result: Result, zoom: int | None = None) -> list[tuple[str, object]]:
+def stage_panels(result: Result, zoom: int | None = None) -> list[tuple[str, Image]]:
     """(title, PIL image) for every stage the run reached, in pipeline order."""
     z = zoom or default_zoom(result.cells.shape)
     panels = [
@@ -220,12 +225,6 @@ def _cells_panel(result: Result, z: int):
     return img
 
 
-def _bezier(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, steps: int = 8) -> np.ndarray:
-    """Points along quadratic Béziers: ``(K, 2)`` control points each → ``(K, steps + 1, 2)``."""
-    t = np.linspace(0.0, 1.0, steps + 1)[None, :, None]
-    return (1 - t) ** 2 * p0[:, None] + 2 * (1 - t) * t * p1[:, None] + t**2 * p2[:, None]
-
-
 def _curves_panel(splines, positions: np.ndarray, z: int):
     """Faded cells under the curves: the visible edges as drawn, each B-spline's control
     polygon and control points (``splines`` is a :class:`depixel.splines.SplineSet`)."""
@@ -257,10 +256,7 @@ def _curves_panel(splines, positions: np.ndarray, z: int):
     _draw_segments(draw, np.stack([pts[u[straight]], pts[v[straight]]], axis=1), INK, lw)
     curved = np.flatnonzero(visible & vector.curved)
     if curved.size:
-        bez = vector.controls[curved] * z
-        first = _bezier(pts[u[curved]], bez[:, 0], bez[:, 1])
-        second = _bezier(bez[:, 1], bez[:, 2], pts[v[curved]])
-        for line in np.concatenate([first, second[:, 1:]], axis=1).tolist():
+        for line in flatten_edges(pts[u[curved]], vector.controls[curved] * z, pts[v[curved]], 8).tolist():
             draw.line([tuple(p) for p in line], fill=INK, width=lw)
     r = max(1.5, z * 0.09)
     for x, y in ctrl.tolist():

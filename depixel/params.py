@@ -6,15 +6,16 @@ Every constant carries its source: "paper" (Kopf & Lischinski 2011, with the sec
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
+from typing import Any
 
 
 @dataclass(frozen=True)
 class Params:
     """Constants of the depixelization pipeline (all colour values on a 0-255 scale).
 
-    Only what changes the geometry lives here; output settings (SVG precision, scale) are
-    arguments of the writers, and the last stage to run is an argument of
-    :func:`depixel.depixelize`."""
+    Only what changes the result lives here (the geometry, and the smooth shading of PNG
+    output); output settings (SVG precision, scale) are arguments of the writers, and the
+    last stage to run is an argument of :func:`depixel.depixelize`."""
 
     # --- §3.2 similarity graph -------------------------------------------------------------
     threshold_y: float = 48.0  # paper §3.2 / hqx: dissimilar when |ΔY| > 48/255
@@ -31,17 +32,42 @@ class Params:
 
     # --- §3.3 spline extraction -----------------------------------------------------------
     shading_distance: float = 100.0  # paper §3.3: a visible edge is a shading edge if YUV distance ≤ 100/255
+    snap_passes: int = 6  # not in paper: T-junction snapping is iterated; each pass shrinks the gap ≥ 4×
 
-    # --- §3.4 optimization ----------------------------------------------------------------
-    iterations: int = 10  # not in paper ("at each iteration"): 10 sweeps at radius 0.2 give 90% of the energy drop of 40 sweeps at 0.125
+    # --- §3.4 corners (docs/corners.md) ---------------------------------------------------
+    corner_patterns: bool = True  # paper §3.4 / Figure 7: keep detected corners out of the smoothness term
+    # not in paper: a straight run's nodes stay this near (px) its chord (a 2:1 staircase stays within ¼)
+    run_tolerance: float = 0.3
+    run_long: float = 2.5  # not in paper: a long run (px); smooth curves bend away before their chords do
+    run_short: float = 1.4  # not in paper: shortest bevel (px) between two long runs; the "386" chip's is 1.5
+    run_turn: float = 80.0  # not in paper: degrees two runs must turn by, across a sharp corner or a whole bevel
+    # not in paper: degrees each end of a bevel must turn by (a pixel circle turns 45° but over longer runs)
+    run_bend: float = 25.0
+    run_reach: float = 4.0  # not in paper: runs are followed at most this far (px); longer ones are no straighter
+
+    # --- §3.4 relaxation -------------------------------------------------------------------
+    # not in paper ("at each iteration"): 10 sweeps at radius 0.2 give 90% of the energy drop of 40 at 0.125
+    iterations: int = 10
     candidates: int = 8  # not in paper ("several random offsets"): trial positions per node and sweep
     radius: float = 0.2  # not in paper ("a small radius"): trial offsets within 1/5 pixel
     max_offset: float = 0.5  # not in paper: hard bound on a node's move from its initial place (pixels)
     centre_clearance: float = 0.15  # not in paper: curves keep this far (pixels) from the centres of their pixels
     seed: int = 0  # not in paper: all randomness comes from numpy's PCG64 seeded with this
-    corner_patterns: bool = True  # paper §3.4 / Figure 7: keep detected corners out of the smoothness term
 
-    def replace(self, **changes: object) -> "Params":
+    # --- §3.4 harmonic map and the fidelity guard --------------------------------------------
+    # not in paper: the harmonic map is solved within this many edges of a moved curve node (decayed beyond)
+    harmonic_reach: int = 6
+    # not in paper: rounds of reverting the nodes around cells whose centre came within centre_clearance / 2
+    # of their boundary (after relaxation; the fixtures need at most 2)
+    revert_rounds: int = 8
+
+    # --- §3.5 smooth shading (PNG output) ---------------------------------------------------
+    shading_sigma: float = 1.0  # paper §3.5: Gaussian influence of a cell with σ = 1 pixel
+    shading_radius: float = 2.0  # paper §3.5: truncated at 2 pixels
+    # not in paper: samples per output pixel along each axis at contours (odd: one at the pixel centre)
+    shading_supersample: int = 3
+
+    def replace(self, **changes: Any) -> Params:
         """A copy with some fields changed (unknown names raise TypeError)."""
         return replace(self, **changes)
 

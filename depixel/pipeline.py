@@ -1,5 +1,6 @@
 """The whole pipeline on one screen: image → similarity graph → resolved crossings →
-reshaped cells → splines → optimized splines → VectorImage (export with :mod:`depixel.svg`).
+reshaped cells → splines → corners → optimized splines → VectorImage (export with
+:mod:`depixel.svg`).
 
 Each stage is a function of the previous stage's immutable result; :func:`depixelize`
 calls them in order, stops at the requested stage and times each one.
@@ -8,6 +9,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from .cells import CellGraph, build_cell_graph
 from .crossings import CrossingResolution, resolve_crossings
@@ -16,20 +18,28 @@ from .params import Params
 from .similarity import SimilarityGraph, build_similarity_graph
 from .vector import VectorImage, straight_image
 
+if TYPE_CHECKING:  # the spline stages are imported only when a run reaches them
+    from .optimize import OptimizedSplines
+    from .splines import SplineSet
+
 #: Output stages, in pipeline order. "optimized" is the paper's final result.
 STAGES = ("cells", "splines", "optimized")
 
 
 @dataclass(frozen=True, eq=False)
 class Result:
-    """Every intermediate product of one run, plus the vector image of the last stage."""
+    """Every intermediate product of one run, plus the vector image of the last stage.
+
+    ``splines`` holds the curves of §3.3 as extracted (what the "splines" stage draws);
+    ``optimized.splines`` are the same curves cut at ``optimized.corners``, the ones the
+    "optimized" stage draws with ``optimized.positions``."""
 
     similarity: SimilarityGraph
     resolution: CrossingResolution
     cells: CellGraph
     vector: VectorImage
-    splines: object | None = None  # depixel.splines.SplineSet, when the stage was reached
-    optimized: object | None = None  # depixel.optimize.OptimizedSplines, likewise
+    splines: SplineSet | None = None  # when the "splines" stage was reached
+    optimized: OptimizedSplines | None = None  # when the "optimized" stage was reached
     timings: dict[str, float] = field(default_factory=dict)  # seconds per stage
 
 
@@ -52,18 +62,23 @@ def depixelize(image, params: Params = Params(), stage: str = "optimized") -> Re
     if stage == "cells":
         return Result(similarity, resolution, cells, straight_image(cells), timings=timings)
 
-    from .splines import extract_splines  # noqa: PLC0415 (keeps the cells stage light)
+    from .splines import extract_splines, split_at  # noqa: PLC0415 (keeps the cells stage light)
 
     t = clock()
-    splines = extract_splines(cells, params)
+    splines = extract_splines(cells, params)  # §3.3
     timings["splines"] = clock() - t
     if stage == "splines":
         return Result(similarity, resolution, cells, splines.vector_image(), splines=splines, timings=timings)
 
+    from .corners import detect_corners  # noqa: PLC0415
     from .optimize import optimize_splines  # noqa: PLC0415
 
     t = clock()
-    optimized = optimize_splines(splines, params)
+    corners = detect_corners(splines, params)  # §3.4, Figure 7
+    curves = split_at(splines, corners.nodes)  # every corner ends its curves
+    timings["corners"] = clock() - t
+    t = clock()
+    optimized = optimize_splines(curves, corners, params)  # §3.4
     timings["optimize"] = clock() - t
     return Result(similarity, resolution, cells, optimized.vector_image(), splines=splines,
                   optimized=optimized, timings=timings)

@@ -22,21 +22,22 @@ Everything is vectorized per tile of output rows, so memory stays bounded at any
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
+from .bspline import bend, edge_halves, flatten_edges, pieces_for
 from .errors import RenderError
 from .image import rgb_to_yuv
 from .params import Params
 from .vector import VectorImage, regions
 
-SIGMA = 1.0  # paper §3.5: Gaussian influence with σ = 1 input pixel
-RADIUS = 2.0  # paper §3.5: truncated at 2 input pixels
 FLATTEN_TOLERANCE = 0.1  # not in paper: polyline error of flattened curves, in output pixels
 TILE_SAMPLES = 1 << 18  # not in paper: samples per tile; bounds memory (~40 MB) and fits caches
 MAX_OUTPUT_PIXELS = 1 << 28  # not in paper: the RGBA result alone is 1 GiB at this size
 
 
-def render_smooth(image: VectorImage, scale: float, supersample: int = 3,
+def render_smooth(image: VectorImage, scale: float, supersample: int | None = None,
                   params: Params = Params()) -> np.ndarray:
     """Render a VectorImage with the paper's smooth shading.
 
@@ -45,13 +46,16 @@ def render_smooth(image: VectorImage, scale: float, supersample: int = 3,
     image : any stage's VectorImage (cells, splines or optimized).
     scale : output pixels per input pixel; the output is ``round(H*scale) × round(W*scale)``.
     supersample : samples per output pixel along each axis for anti-aliased contours
-        (odd values put a sample at the pixel centre).
-    params : supplies the similarity thresholds that bound the shading.
+        (odd values put a sample at the pixel centre); default ``params.shading_supersample``.
+    params : the Gaussian's ``shading_sigma`` and ``shading_radius``, and the similarity
+        thresholds that bound the shading.
 
     Returns
     -------
     ``(round(H*scale), round(W*scale), 4) uint8`` RGBA, straight (not premultiplied) alpha.
     """
+    if supersample is None:
+        supersample = params.shading_supersample
     if not scale > 0 or not np.isfinite(scale):
         raise ValueError(f"scale must be a positive number, got {scale!r}")
     if int(supersample) != supersample or supersample < 1:
@@ -82,35 +86,34 @@ def _pieces_per_curve(image: VectorImage, scale: float) -> int:
         return 1
     p = image.points
     u, v = image.cells.edges[image.curved, 0], image.cells.edges[image.curved, 1]
-    c = image.controls[image.curved]
-    bend = np.maximum(np.linalg.norm(p[u] - 2 * c[:, 0] + c[:, 1], axis=1),
-                      np.linalg.norm(c[:, 1] - 2 * c[:, 2] + p[v], axis=1)).max()
-    tolerance = FLATTEN_TOLERANCE / scale
-    return int(np.clip(np.ceil(np.sqrt(bend / (4 * tolerance))), 1, 64))
+    first, second = edge_halves(p[u], image.controls[image.curved], p[v])
+    worst = np.maximum(bend(*first), bend(*second)).max()
+    return pieces_for(worst, FLATTEN_TOLERANCE / scale)
 
 
-def _flatten(image: VectorImage, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Line pieces ``(a, b, edge)`` of every edge walked from u to v: one per straight edge,
-    ``n`` per quadratic Bézier of a curved edge. ``a``, ``b`` are ``(S, 2)``."""
+class Pieces(NamedTuple):
+    """Line pieces of flattened cell edges, each walked from the edge's u towards its v."""
+
+    a: np.ndarray  # (S, 2) start of each piece
+    b: np.ndarray  # (S, 2) end
+    edge: np.ndarray  # (S,) int64 the cell edge it belongs to
+
+
+def _flatten(image: VectorImage, n: int) -> Pieces:
+    """Line pieces of every edge: one per straight edge, ``n`` per quadratic Bézier of a
+    curved edge."""
     p = image.points
     u, v = image.cells.edges[:, 0], image.cells.edges[:, 1]
     straight = np.flatnonzero(~image.curved)
     curved = np.flatnonzero(image.curved)
-    # the curved edge u → v is the Bézier (p_u, c0, c1) followed by (c1, c2, p_v)
-    c = image.controls[curved]
-    starts = np.stack([p[u[curved]], c[:, 1]], axis=1)  # (C, 2, 2)
-    handles = c[:, [0, 2]]
-    ends = np.stack([c[:, 1], p[v[curved]]], axis=1)
-    t = (np.arange(n + 1) / n)[:, None]
-    poly = ((1 - t) ** 2 * starts[:, :, None] + 2 * t * (1 - t) * handles[:, :, None]
-            + t**2 * ends[:, :, None])  # (C, 2, n+1, 2)
-    a = np.concatenate([p[u[straight]], poly[:, :, :-1].reshape(-1, 2)])
-    b = np.concatenate([p[v[straight]], poly[:, :, 1:].reshape(-1, 2)])
+    poly = flatten_edges(p[u[curved]], image.controls[curved], p[v[curved]], n)  # (C, 2n+1, 2)
+    a = np.concatenate([p[u[straight]], poly[:, :-1].reshape(-1, 2)])
+    b = np.concatenate([p[v[straight]], poly[:, 1:].reshape(-1, 2)])
     edge = np.concatenate([straight, np.repeat(curved, 2 * n)])
-    return a, b, edge
+    return Pieces(a, b, edge)
 
 
-def cell_centroids(image: VectorImage, pieces: tuple | None = None) -> np.ndarray:
+def cell_centroids(image: VectorImage, pieces: Pieces | None = None) -> np.ndarray:
     """``(H*W, 2)`` centroid (x, y) of every cell polygon, curved edges flattened."""
     a, b, edge = _flatten(image, _pieces_per_curve(image, 8.0)) if pieces is None else pieces
     cells = image.cells
@@ -134,7 +137,7 @@ class _Segments:
     bottom, each with the cell on its east side (the cell a scanline enters there), sorted
     by their top so that a band of rows finds its pieces by bisection."""
 
-    def __init__(self, image: VectorImage, pieces: tuple[np.ndarray, np.ndarray, np.ndarray]):
+    def __init__(self, image: VectorImage, pieces: Pieces):
         a, b, edge = pieces
         down = b[:, 1] > a[:, 1]
         keep = b[:, 1] != a[:, 1]
@@ -192,7 +195,7 @@ def _cell_labels(seg: _Segments, k0: int, k1: int, fy: float, fx: float, width: 
 class _ShadingField:
     """The colour field: per-cell centroids, colours and regions, evaluated at points."""
 
-    def __init__(self, image: VectorImage, pieces: tuple, params: Params):
+    def __init__(self, image: VectorImage, pieces: Pieces, params: Params):
         h, w = image.shape
         self.shape = (h, w)
         self.centroid = cell_centroids(image, pieces)
@@ -204,16 +207,17 @@ class _ShadingField:
         self.yuva = np.concatenate([rgb_to_yuv(rgba[:, :3]), rgba[:, 3:]], axis=1)
         self.limit = np.array([params.threshold_y, params.threshold_u, params.threshold_v,
                                params.threshold_alpha])
+        self.sigma, self.radius = params.shading_sigma, params.shading_radius
         rows, cols = np.divmod(np.arange(h * w), w)
         centre = np.stack([cols + 0.5, rows + 0.5], axis=1)
         shift = np.abs(self.centroid - centre).max()
         # offsets (dy, dx) of every pixel whose cell centroid may lie within the radius of a
         # point in pixel (0, 0): the nearest approach per axis is |d| - 1/2 - shift
-        reach = int(np.ceil(RADIUS + 0.5 + shift))
+        reach = int(np.ceil(self.radius + 0.5 + shift))
         d = np.arange(-reach, reach + 1)
         near = np.maximum(np.abs(d) - 0.5 - shift, 0.0)
         dy, dx = np.meshgrid(d, d, indexing="ij")
-        close = near[:, None] ** 2 + near[None, :] ** 2 < RADIUS**2
+        close = near[:, None] ** 2 + near[None, :] ** 2 < self.radius**2
         self.offsets = np.stack([dy[close], dx[close]], axis=1)
         self.flat = self._flat_cells(reach + 1)
         # the cells on a grid padded by `reach` (region -1, no colour), so that neighbour
@@ -264,11 +268,11 @@ class _ShadingField:
         x32, y32 = x.astype(np.float32), y.astype(np.float32)
         total = np.zeros(x.size, np.float32)
         acc = np.zeros((x.size, 4), np.float32)
-        floor = np.float32(np.exp(-(RADIUS**2) / (2 * SIGMA**2)))
+        floor = np.float32(np.exp(-(self.radius**2) / (2 * self.sigma**2)))
         for dy, dx in self.offsets.tolist():
             q = base + (dy * stride + dx)
             d2 = (self.pad_x[q] - x32) ** 2 + (self.pad_y[q] - y32) ** 2
-            weight = np.exp(d2 * np.float32(-0.5 / SIGMA**2)) - floor
+            weight = np.exp(d2 * np.float32(-0.5 / self.sigma**2)) - floor
             weight *= (self.pad_region[q] == region) & (weight > 0)
             total += weight
             acc += weight[:, None] * self.pad_colour[q]

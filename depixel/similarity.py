@@ -64,7 +64,7 @@ class SimilarityGraph:
         ]
         return np.concatenate(parts, axis=0).reshape(-1, 2)
 
-    def with_diagonals(self, diag_main: np.ndarray, diag_anti: np.ndarray) -> "SimilarityGraph":
+    def with_diagonals(self, diag_main: np.ndarray, diag_anti: np.ndarray) -> SimilarityGraph:
         """The same graph with other diagonal links (used by crossing resolution)."""
         return SimilarityGraph(self.rgba, self.yuv, self.right, self.down, diag_main, diag_anti)
 

@@ -19,63 +19,129 @@ segment i — written as two quadratic Béziers, which is exact (de Casteljau sp
 
 A curve that ends at a T-junction gets that end's control point moved to the point S of
 the continuing curve, so the two meet exactly (§3.3, last paragraph). Because S itself
-depends on neighbouring control points, the snapping is iterated a fixed number of times.
+depends on neighbouring control points, the snapping is iterated ``Params.snap_passes`` times.
+
+The steps: :func:`visible_edges` and :func:`shading_edges` say which edges carry curves and
+of what kind; :func:`pair_ends` applies the rules above at every node; :func:`chain_curves`
+walks the pairs into curves. The optimizer cuts curves at corners with
+:meth:`SplineSet.split_at`, which re-chains the same pairing (nothing is extracted twice).
+The curve maths is in :mod:`depixel.bspline`.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 
+from .bspline import Bezier, between_curve_points, midpoint, slot_spans, span
 from .cells import CellGraph
+from .frozen import freeze
 from .params import Params
 from .vector import VectorImage, linked_edges
 
-#: passes of T-junction snapping; each pass shrinks the residual gap at least 4×
-SNAP_PASSES = 6
+
+class HalfEnds(NamedTuple):
+    """The ends of the curve edges and how they continue each other at their nodes.
+
+    Half-end ``2k`` is the ``u`` end of edge ``edges[k]``, ``2k + 1`` its ``v`` end."""
+
+    edges: np.ndarray  # (K,) int64 the cell edges that carry curves
+    node: np.ndarray  # (2K,) int64 node of each half-end
+    partner: np.ndarray  # (2K,) int64 the half-end continuing it at its node, -1 where a curve ends
+
+
+class Chains(NamedTuple):
+    """Curves as flat slot arrays (see :class:`SplineSet`)."""
+
+    curve_ptr: np.ndarray
+    curve_nodes: np.ndarray
+    curve_closed: np.ndarray
+    slot_edges: np.ndarray
+    slot_forward: np.ndarray
+
+
+class Geometry(NamedTuple):
+    """The drawing of a SplineSet at some node positions (the fields of a VectorImage)."""
+
+    points: np.ndarray  # (N, 2) display point of every node: its curve point S on a curve
+    curved: np.ndarray  # (E,) bool: the edge is drawn as two quadratic Béziers
+    controls: np.ndarray  # (E, 3, 2) c0, c1, c2 of "points[u] Q c0 c1 Q c2 points[v]"
+
+
+class _SnapPlan(NamedTuple):
+    """What :meth:`SplineSet.snap` needs: each T-junction end, the slot it snaps to, that
+    slot's neighbours and whether they are ends ((T, 1) bool, broadcastable over x, y)."""
+
+    ends: np.ndarray
+    through: np.ndarray
+    before: np.ndarray
+    after: np.ndarray
+    before_is_end: np.ndarray
+    after_is_end: np.ndarray
 
 
 @dataclass(frozen=True, eq=False)
 class SplineSet:
-    """Curves over the cell graph and the initial control points (pixel units)."""
+    """Curves over the cell graph and the initial control points (pixel units); arrays
+    are read-only.
+
+    Vocabulary: the curves are stored one after another in flat arrays; an index into them
+    is a **slot** (``P`` slots in all; an open curve has one slot per node, both ends
+    included, a closed one one slot per edge). A node's **position** is always its
+    coordinates ``(x, y)`` in pixels; the **control point** of a slot is its node's position
+    (with T-junction ends snapped, :meth:`controls_for`).
+    """
 
     cells: CellGraph
     visible: np.ndarray  # (E,) bool: edge separates dissimilar pixels
     shading: np.ndarray  # (E,) bool: visible edge between colours within shading_distance
-    curve_ptr: np.ndarray  # (C+1,) int64: curve c owns positions curve_ptr[c]:curve_ptr[c+1]
-    curve_nodes: np.ndarray  # (P,) node at each position (an open curve lists both end nodes)
+    curve_ptr: np.ndarray  # (C+1,) int64: curve c owns slots curve_ptr[c]:curve_ptr[c+1]
+    curve_nodes: np.ndarray  # (P,) int64 node at each slot (an open curve lists both end nodes)
     curve_closed: np.ndarray  # (C,) bool
-    seg_edges: np.ndarray  # (P,) edge from position j to j+1 (wrapping for closed); -1 after an open end
-    seg_forward: np.ndarray  # (P,) bool: that edge is stored u→v in the direction of the curve
+    slot_edges: np.ndarray  # (P,) int64 edge from slot j to j+1 (wrapping for closed); -1 after an open end
+    slot_forward: np.ndarray  # (P,) bool: that edge is stored u→v in the direction of the curve
     positions: np.ndarray  # (N, 2) float64 initial node positions (quarter-pixel grid, in pixels)
+    half_ends: HalfEnds  # the pairing the curves were chained from (for split_at)
+    snap_passes: int  # Params.snap_passes
+
+    def __post_init__(self) -> None:
+        freeze(self)
 
     # --- derived layout helpers (all (P,) arrays) -----------------------------------------
     @property
     def n_curves(self) -> int:
         return int(self.curve_closed.size)
 
-    def position_curve(self) -> np.ndarray:
+    @property
+    def n_slots(self) -> int:
+        return int(self.curve_nodes.size)
+
+    def slot_curve(self) -> np.ndarray:
+        """(P,) the curve each slot belongs to."""
         return np.repeat(np.arange(self.n_curves), np.diff(self.curve_ptr))
 
     def neighbours(self) -> tuple[np.ndarray, np.ndarray]:
-        """Previous and next position of every position along its curve (-1 past an open end).
+        """Previous and next slot of every slot along its curve (-1 past an open end).
 
-        Computed once per SplineSet (the arrays are shared: do not modify them)."""
+        Computed once per SplineSet (the arrays are shared, hence read-only)."""
         return self._links
 
     @cached_property
     def _links(self) -> tuple[np.ndarray, np.ndarray]:
         p = np.arange(self.curve_nodes.size)
-        curve = self.position_curve()
+        curve = self.slot_curve()
         first, last = self.curve_ptr[:-1][curve], self.curve_ptr[1:][curve] - 1
         closed = self.curve_closed[curve]
         prev = np.where(p == first, np.where(closed, last, -1), p - 1)
         nxt = np.where(p == last, np.where(closed, first, -1), p + 1)
+        prev.setflags(write=False)
+        nxt.setflags(write=False)
         return prev, nxt
 
     def is_end(self) -> np.ndarray:
-        """(P,) bool: position is an open curve's end point (clamped, interpolated)."""
+        """(P,) bool: the slot is an open curve's end point (clamped, interpolated)."""
         prev, nxt = self.neighbours()
         return (prev < 0) | (nxt < 0)
 
@@ -87,8 +153,8 @@ class SplineSet:
 
     # --- geometry -------------------------------------------------------------------------
     def snap_pairs(self) -> tuple[np.ndarray, np.ndarray]:
-        """Open-curve ends at T-junctions and the position of the curve passing through
-        their node: ``(ends, through)``, both (T,) position indices."""
+        """Open-curve ends at T-junctions and the slot of the curve passing through their
+        node: ``(ends, through)``, both (T,) slot indices."""
         end = self.is_end()
         where = np.full(len(self.positions), -1, dtype=np.int64)
         interior = np.flatnonzero(~end)
@@ -101,38 +167,39 @@ class SplineSet:
         the curve continuing through their node (iterated: those points may depend on
         other snapped ends). Returns a new array."""
         ctrl = ctrl.copy()
-        ends, through, a, b, end_a, end_b = self._snap_plan
-        if ends.size:
-            for _ in range(SNAP_PASSES):
-                start = np.where(end_a, ctrl[a], (ctrl[a] + ctrl[through]) / 2.0)
-                stop = np.where(end_b, ctrl[b], (ctrl[b] + ctrl[through]) / 2.0)
-                ctrl[ends] = (start + 2.0 * ctrl[through] + stop) / 4.0
+        plan = self._snap_plan
+        if plan.ends.size:
+            for _ in range(self.snap_passes):
+                ctrl[plan.ends] = midpoint(*span(ctrl[plan.before], ctrl[plan.through], ctrl[plan.after],
+                                                 plan.before_is_end, plan.after_is_end))
         return ctrl
 
     @cached_property
-    def _snap_plan(self):
+    def _snap_plan(self) -> _SnapPlan:
         """Indices :meth:`snap` needs, computed once per SplineSet."""
         ends, through = self.snap_pairs()
         prev, nxt = self.neighbours()
         end = (prev < 0) | (nxt < 0)
         a, b = prev[through], nxt[through]
-        return ends, through, a, b, end[a][:, None], end[b][:, None]
+        return _SnapPlan(ends, through, a, b, end[a][:, None], end[b][:, None])
 
     def controls_for(self, positions: np.ndarray) -> np.ndarray:
-        """(P, 2) control point of every position, with T-junction ends snapped."""
+        """(P, 2) control point of every slot for node ``positions`` (N, 2), with T-junction
+        ends snapped."""
         return self.snap(positions[self.curve_nodes])
 
-    def _curve_points(self, ctrl: np.ndarray) -> np.ndarray:
-        """(P, 2) S_j: the point of the curve belonging to each position."""
+    def spans(self, ctrl: np.ndarray) -> Bezier:
+        """The quadratic Bézier span ``(start, C_j, stop)`` of every slot, each (P, 2), for
+        control points ``ctrl`` (P, 2) (from :meth:`controls_for`). The B-spline is exactly
+        the chain of the spans of a curve's interior slots; rows of end slots
+        (:meth:`is_end`) are meaningless."""
         prev, nxt = self.neighbours()
-        end = (prev < 0) | (nxt < 0)
-        p_prev, p_next = np.maximum(prev, 0), np.maximum(nxt, 0)
-        prev_end = end[p_prev]
-        next_end = end[p_next]
-        start = np.where(prev_end[:, None], ctrl[p_prev], (ctrl[p_prev] + ctrl) / 2.0)
-        stop = np.where(next_end[:, None], ctrl[p_next], (ctrl[p_next] + ctrl) / 2.0)
-        s = (start + 2.0 * ctrl + stop) / 4.0
-        return np.where(end[:, None], ctrl, s)
+        return slot_spans(ctrl, prev, nxt, self.is_end())
+
+    def _curve_points(self, ctrl: np.ndarray) -> np.ndarray:
+        """(P, 2) S_j: the point of the curve belonging to each slot (an end: the end)."""
+        s = midpoint(*self.spans(ctrl))
+        return np.where(self.is_end()[:, None], ctrl, s)
 
     def _display(self, ctrl: np.ndarray, positions: np.ndarray) -> np.ndarray:
         display = positions.copy()
@@ -141,7 +208,7 @@ class SplineSet:
         display[self.curve_nodes[~end]] = s[~end]
         return display
 
-    def geometry(self, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def geometry(self, positions: np.ndarray) -> Geometry:
         """Display points (N, 2), curved flags (E,) and Bézier controls (E, 3, 2) for given
         node positions — shared by the splines stage and the optimizer's result."""
         ctrl = self.controls_for(positions)
@@ -159,31 +226,13 @@ class SplineSet:
         a_end, b_end = end[a], end[b]
         bend = ~(a_end & b_end)  # an edge between two end points is a straight segment
         a, b, a_end, b_end = a[bend], b[bend], a_end[bend], b_end[bend]
-        ca, cb = ctrl[a], ctrl[b]
-        mid = (ca + cb) / 2.0
-        sa, sb = s[a], s[b]
-        # interior–interior: S_a, (C_a+m)/2, m, (m+C_b)/2, S_b; with an end, one Bézier
-        # (end, m, S) split at t = ½ into two
-        both = ~a_end & ~b_end
-        c0 = np.where(both[:, None], (ca + mid) / 2.0, 0.0)
-        c1 = np.where(both[:, None], mid, 0.0)
-        c2 = np.where(both[:, None], (mid + cb) / 2.0, 0.0)
-        one = ~both
-        start = np.where(a_end[:, None], ca, sa)
-        stop = np.where(b_end[:, None], cb, sb)
-        half0 = (start + mid) / 2.0
-        half_mid = (start + 2.0 * mid + stop) / 4.0
-        half1 = (mid + stop) / 2.0
-        c0 = np.where(one[:, None], half0, c0)
-        c1 = np.where(one[:, None], half_mid, c1)
-        c2 = np.where(one[:, None], half1, c2)
-        trio = np.stack([c0, c1, c2], axis=1)
-        edge = self.seg_edges[a]
-        forward = self.seg_forward[a]
+        trio = between_curve_points(ctrl[a], ctrl[b], s[a], s[b], a_end, b_end)
+        edge = self.slot_edges[a]
+        forward = self.slot_forward[a]
         trio = np.where(forward[:, None, None], trio, trio[:, ::-1])
         curved[edge] = True
         controls[edge] = trio
-        return display, curved, controls
+        return Geometry(display, curved, controls)
 
     def vector_image(self, positions: np.ndarray | None = None, stage: str = "splines") -> VectorImage:
         points, curved, controls = self.geometry(self.positions if positions is None else positions)
@@ -207,39 +256,39 @@ def shading_edges(cells: CellGraph, visible: np.ndarray, params: Params) -> np.n
     return visible & (dist <= params.shading_distance) & ~clear_mismatch
 
 
-def extract_splines(cells: CellGraph, params: Params = Params(), breaks: np.ndarray | None = None) -> SplineSet:
-    """Pair visible edges at nodes and chain them into curves.
-
-    ``breaks`` (N,) bool marks nodes where every curve must end (sharp corners).
-    """
+def extract_splines(cells: CellGraph, params: Params = Params()) -> SplineSet:
+    """Pair the curve edges at their nodes and chain them into curves (§3.3)."""
     visible = visible_edges(cells)
     shading = shading_edges(cells, visible, params)
-    vis = np.flatnonzero(visible)
-    # half-ends: 2k is the u-end of visible edge vis[k], 2k+1 its v-end
-    end_node = cells.edges[vis].ravel()
-    partner = _pair_ends(cells, vis, end_node, shading[vis])
-    if breaks is not None:
-        partner[breaks[end_node]] = -1
-    curve_ptr, curve_nodes, closed, seg_edges, seg_forward = _chain(vis, end_node, partner)
-    return SplineSet(
-        cells=cells,
-        visible=visible,
-        shading=shading,
-        curve_ptr=curve_ptr,
-        curve_nodes=curve_nodes,
-        curve_closed=closed,
-        seg_edges=seg_edges,
-        seg_forward=seg_forward,
-        positions=cells.nodes.astype(np.float64) / 4.0,
-    )
+    half_ends = pair_ends(cells, np.flatnonzero(visible), shading)
+    return SplineSet(cells, visible, shading, *chain_curves(half_ends),
+                     positions=cells.nodes.astype(np.float64) / 4.0, half_ends=half_ends,
+                     snap_passes=params.snap_passes)
 
 
-def _pair_ends(cells: CellGraph, vis: np.ndarray, end_node: np.ndarray, shading: np.ndarray) -> np.ndarray:
-    """partner[h]: the half-end continuing half-end h at its node, or -1 (curve ends)."""
-    n_half = end_node.size
+def split_at(splines: SplineSet, breaks: np.ndarray) -> SplineSet:
+    """The same curves cut at the nodes ``breaks`` (N,) bool: every curve through such a
+    node ends there (both pieces are clamped, so the outline keeps a true kink). The
+    pairing is reused and only re-chained; without a break the SplineSet itself."""
+    half_ends = splines.half_ends
+    cut = breaks[half_ends.node]
+    if not cut.any():
+        return splines
+    partner = half_ends.partner.copy()
+    partner[cut] = -1
+    half_ends = half_ends._replace(partner=partner)
+    return replace(splines, **chain_curves(half_ends)._asdict(), half_ends=half_ends)
+
+
+def pair_ends(cells: CellGraph, edges: np.ndarray, shading: np.ndarray) -> HalfEnds:
+    """Pair the ends of the curve edges ``edges`` (K,) at every node, by the number of
+    curve edges meeting there: two continue each other; at three (a T-junction) one pair
+    is joined by :func:`_t_junction_pairs`; at one or four and more every curve ends."""
+    node = cells.edges[edges].ravel()
+    n_half = node.size
     partner = np.full(n_half, -1, dtype=np.int64)
-    order = np.argsort(end_node, kind="stable")
-    sorted_nodes = end_node[order]
+    order = np.argsort(node, kind="stable")
+    sorted_nodes = node[order]
     starts = np.flatnonzero(np.r_[True, sorted_nodes[1:] != sorted_nodes[:-1]])
     counts = np.diff(np.r_[starts, n_half])
 
@@ -250,29 +299,36 @@ def _pair_ends(cells: CellGraph, vis: np.ndarray, end_node: np.ndarray, shading:
     three = starts[counts == 3]
     if three.size:
         h = np.stack([order[three], order[three + 1], order[three + 2]], axis=1)  # (T, 3)
-        node = end_node[h[:, 0]]
-        other = end_node[h ^ 1]  # the far node of each edge
-        direction = cells.nodes[other].astype(np.float64) - cells.nodes[node][:, None, :]
-        direction /= np.linalg.norm(direction, axis=2, keepdims=True)
-        pairs = np.array([(0, 1), (0, 2), (1, 2)])
-        cosine = np.einsum("tpk,tpk->tp", direction[:, pairs[:, 0]], direction[:, pairs[:, 1]])
-        is_shading = shading[h >> 1]  # (T, 3)
-        # contour-over-shading rule: exactly one shading edge → join the other two
-        one_shading = is_shading.sum(axis=1) == 1
-        lone = np.argmax(is_shading, axis=1)  # index of the shading edge
-        by_rule = 2 - lone  # the pair not containing `lone`: (1,2)→idx 2, (0,2)→1, (0,1)→0
-        straightest = np.argmin(cosine, axis=1)  # closest to 180° (first on ties)
-        choice = np.where(one_shading, by_rule, straightest)
-        i, j = pairs[choice, 0], pairs[choice, 1]
-        rows = np.arange(three.size)
-        a, b = h[rows, i], h[rows, j]
+        a, b = _t_junction_pairs(cells, node, h, shading[edges[h >> 1]])
         partner[a] = b
         partner[b] = a
-    return partner
+    return HalfEnds(edges, node, partner)
 
 
-def _chain(vis: np.ndarray, end_node: np.ndarray, partner: np.ndarray):
+def _t_junction_pairs(cells: CellGraph, node: np.ndarray, h: np.ndarray,
+                      is_shading: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The two half-ends of each T-junction ``h`` (T, 3) that continue each other: the
+    contour edges when exactly one of the three is a shading edge (``is_shading`` (T, 3)),
+    else the pair closest to a straight line (the first such pair on a tie)."""
+    here = node[h[:, 0]]
+    other = node[h ^ 1]  # the far node of each edge
+    direction = cells.nodes[other].astype(np.float64) - cells.nodes[here][:, None, :]
+    direction /= np.linalg.norm(direction, axis=2, keepdims=True)
+    pairs = np.array([(0, 1), (0, 2), (1, 2)])
+    cosine = np.einsum("tpk,tpk->tp", direction[:, pairs[:, 0]], direction[:, pairs[:, 1]])
+    # contour-over-shading rule: exactly one shading edge → join the other two
+    one_shading = is_shading.sum(axis=1) == 1
+    lone = np.argmax(is_shading, axis=1)  # index of the shading edge
+    by_rule = 2 - lone  # the pair not containing `lone`: (1,2)→idx 2, (0,2)→1, (0,1)→0
+    straightest = np.argmin(cosine, axis=1)  # closest to 180° (first on ties)
+    choice = np.where(one_shading, by_rule, straightest)
+    rows = np.arange(h.shape[0])
+    return h[rows, pairs[choice, 0]], h[rows, pairs[choice, 1]]
+
+
+def chain_curves(half_ends: HalfEnds) -> Chains:
     """Walk paired half-ends into curves (open ones first from their free ends, then loops)."""
+    vis, end_node, partner = half_ends
     n_vis = vis.size
     used = np.zeros(n_vis, dtype=bool)
     ptr = [0]
@@ -313,7 +369,7 @@ def _chain(vis: np.ndarray, end_node: np.ndarray, partner: np.ndarray):
         if not used[k]:
             closed.append(walk(2 * k))
             ptr.append(len(nodes))
-    return (
+    return Chains(
         np.array(ptr, dtype=np.int64),
         np.array(nodes, dtype=np.int64),
         np.array(closed, dtype=bool),

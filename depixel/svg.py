@@ -57,6 +57,7 @@ def to_svg(image: VectorImage, scale: float = 1.0, precision: int = 3, per_cell:
     if per_cell is None:
         per_cell = image.stage == "cells"
     labels, region = faces_and_regions(image.cells, per_cell)
+    assert region is not None
     n_faces = int(labels.max()) + 1
     face_pixel = np.zeros(n_faces, np.int64)
     face_pixel[labels[::-1]] = np.arange(labels.size)[::-1]  # first pixel of each face
@@ -168,8 +169,8 @@ def _face_outlines(image: VectorImage, labels: np.ndarray, rank: np.ndarray, fac
         return result
 
     boundary = np.empty((member_key.size, 4), bool)
-    for part in range(4):
-        boundary[:, part] = ~holds(member_face, across[member_piece, part])
+    for side in range(4):
+        boundary[:, side] = ~holds(member_face, across[member_piece, side])
     which, part = np.nonzero(boundary)  # in (member, part) order, as the loops expect
     face_b, piece_b = member_face[which], member_piece[which]
     hu = np.stack([mid_in, node, mid_out, centre], axis=1)[piece_b, part]

@@ -17,18 +17,23 @@ from dataclasses import dataclass
 import numpy as np
 
 from .cells import DIAGONAL, CellGraph
+from .frozen import freeze
 from .graph import component_roots
 
 
 @dataclass(frozen=True, eq=False)
 class VectorImage:
-    """Final geometry of a depixelized image (coordinates in input pixels, y down)."""
+    """Final geometry of a depixelized image (coordinates in input pixels, y down); arrays
+    are read-only."""
 
     cells: CellGraph  # topology: nodes, edges, pixels on each side, cell polygons
     points: np.ndarray  # (N, 2) float64 display position of every node, in pixels
     curved: np.ndarray  # (E,) bool: edge drawn as a curve rather than a straight segment
     controls: np.ndarray  # (E, 3, 2) float64: points[u] Q c0 c1 Q c2 points[v], for curved edges
     stage: str  # "cells", "splines" or "optimized"
+
+    def __post_init__(self) -> None:
+        freeze(self)
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -84,7 +89,9 @@ def label_components(n: int, pairs: np.ndarray) -> np.ndarray:
 
 def regions(cells: CellGraph) -> np.ndarray:
     """(H*W,) region label per pixel: components of cells joined by invisible edges."""
-    return faces_and_regions(cells)[1]
+    region = faces_and_regions(cells)[1]
+    assert region is not None
+    return region
 
 
 def faces(cells: CellGraph, per_cell: bool = False) -> np.ndarray:

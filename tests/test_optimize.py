@@ -10,7 +10,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 from hypothesis.extra.numpy import arrays
 
 from depixel.image import load_image
-from depixel.optimize import centre_clearance
+from depixel.fidelity import centre_clearance
 from depixel.params import Params
 from depixel.pipeline import depixelize
 from depixel.raster import render_rgba
@@ -95,7 +95,7 @@ def test_square_keeps_its_four_corners():
     img = square_image()
     result = depixelize(img)
     opt = result.optimized
-    corner_xy = opt.positions[opt.corners]
+    corner_xy = opt.positions[opt.corners.nodes]
     assert sorted(map(tuple, corner_xy.tolist())) == [(2.0, 2.0), (2.0, 10.0), (10.0, 2.0), (10.0, 10.0)]
     s = 8
     rendered = render_rgba(to_svg(result.vector), width=12 * s, height=12 * s).astype(int)
@@ -128,7 +128,7 @@ def test_staircase_disc_gets_rounder():
         result = depixelize(img, stage=stage)
         distance = np.linalg.norm(outline_points(result.vector) - centre, axis=1)
         spread[stage] = distance.std()
-    assert depixelize(img).optimized.corners.sum() == 0, "a disc has no corners"
+    assert depixelize(img).optimized.corners.nodes.sum() == 0, "a disc has no corners"
     assert spread["optimized"] < 0.9 * spread["splines"], spread
 
 

@@ -10,7 +10,7 @@ import pytest
 from scipy.interpolate import BSpline
 
 from depixel.image import load_image, rgb_to_yuv
-from depixel.optimize import centre_clearance
+from depixel.fidelity import centre_clearance
 from depixel.params import Params
 from depixel.pipeline import depixelize
 from depixel.similarity import similar
@@ -58,7 +58,7 @@ def curve_slice(splines: SplineSet, c: int) -> slice:
 
 def curve_pixels(splines: SplineSet, c: int) -> np.ndarray:
     """(K, 2) the pixels on the (left, right) of each edge of curve c."""
-    edges = splines.seg_edges[curve_slice(splines, c)]
+    edges = splines.slot_edges[curve_slice(splines, c)]
     return splines.cells.edge_pixels[edges[edges >= 0]]
 
 
@@ -111,7 +111,7 @@ def chain_errors(splines: SplineSet, positions: np.ndarray, vector) -> tuple[flo
     for c in range(splines.n_curves):
         part = curve_slice(splines, c)
         k = part.stop - part.start
-        edges, forward = splines.seg_edges[part], splines.seg_forward[part]
+        edges, forward = splines.slot_edges[part], splines.slot_forward[part]
         if k == 2 and not splines.curve_closed[c]:  # one edge between two end points: straight
             assert not vector.curved[edges[0]]
             continue
@@ -188,11 +188,11 @@ def test_diagonal_line_gives_one_continuous_curve_on_each_side():
 
 
 def through_and_ending(splines: SplineSet, node: int) -> tuple[int, int]:
-    """At a T-junction node: the position where a curve passes through, and where one ends."""
+    """At a T-junction node: the slot where a curve passes through, and where one ends."""
     at = np.flatnonzero(splines.curve_nodes == node)
     end = splines.is_end()[at]
     assert splines.through_nodes()[node]
-    assert at.size == 2 and end.sum() == 1, f"node {node}: positions {at.tolist()}, ends {end.tolist()}"
+    assert at.size == 2 and end.sum() == 1, f"node {node}: slots {at.tolist()}, ends {end.tolist()}"
     return int(at[~end][0]), int(at[end][0])
 
 
@@ -211,13 +211,13 @@ def test_t_junction_joins_the_contour_edges_over_the_shading_edge(k):
     white = (rgba == WHITE).all(axis=1)
     # the curve through the junction turns there (up + right) and keeps white on one side of
     # both its edges at the node; the straightest pair (left + right) would not
-    for edge in (splines.seg_edges[prev[through]], splines.seg_edges[through]):
+    for edge in (splines.slot_edges[prev[through]], splines.slot_edges[through]):
         assert white[splines.cells.edge_pixels[edge]].sum() == 1
     d0 = splines.positions[splines.curve_nodes[prev[through]]] - splines.positions[node]
     d1 = splines.positions[splines.curve_nodes[nxt[through]]] - splines.positions[node]
     assert abs(np.dot(d0, d1)) < 1e-12, "through curve should turn by 90° at the junction"
     # the ending curve is the shading edge between the reds
-    edge = splines.seg_edges[ending] if splines.seg_edges[ending] >= 0 else splines.seg_edges[prev[ending]]
+    edge = splines.slot_edges[ending] if splines.slot_edges[ending] >= 0 else splines.slot_edges[prev[ending]]
     assert splines.shading[edge] and not white[splines.cells.edge_pixels[edge]].any()
 
 
@@ -323,7 +323,7 @@ def test_t_junction_end_lies_exactly_on_the_through_curve():
     node = node_at(splines, (12, 12))
     through, ending = through_and_ending(splines, node)
     ctrl = splines.controls_for(splines.positions)
-    c = int(splines.position_curve()[through])
+    c = int(splines.slot_curve()[through])
     part = curve_slice(splines, c)
     curve, u = bspline(ctrl[part], bool(splines.curve_closed[c]))
     on_curve = curve(u[through - part.start])
@@ -341,7 +341,7 @@ def test_t_junction_ends_stay_on_their_curves_after_optimization(name):
     end = splines.is_end()
     snapped = np.flatnonzero(end & splines.through_nodes()[splines.curve_nodes])
     assert snapped.size > 0, "fixture has no T-junction"
-    curve_of = splines.position_curve()
+    curve_of = splines.slot_curve()
     for p in snapped:
         node = splines.curve_nodes[p]
         q = int(np.flatnonzero((splines.curve_nodes == node) & ~end)[0])

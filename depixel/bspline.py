@@ -1,0 +1,145 @@
+"""The curve maths, in one place: uniform quadratic B-splines as quadratic Béziers.
+
+A uniform quadratic B-spline with control points C_0 … C_{n-1} is, exactly, a chain of
+quadratic Béziers (TrueType's ``qCurveTo`` with implied on-curve points): the **span** of an
+interior control point C_j is the Bézier
+
+    (start, C_j, stop),  start = mid(C_{j-1}, C_j),  stop = mid(C_j, C_{j+1}),
+
+where a neighbour that is an open curve's end point (clamped, interpolated) is used itself
+instead of the midpoint. S_j, the span's point at t = ½, is the *curve point* of C_j.
+Everything is vectorized over leading axes: points are ``(..., 2)`` float64 arrays (x, y).
+
+The formulas below are written once and used by the spline stage, the optimizer, the smooth
+renderer and the stage figure; their floating-point evaluation order is part of the output
+(SVG bytes are compared in ``benchmarks/check_output_stable.py``), so keep it as it is.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+
+class Bezier(NamedTuple):
+    """Quadratic Béziers ``(p0, p1, p2)``: on-curve start, off-curve control, on-curve end,
+    each ``(..., 2)``."""
+
+    p0: np.ndarray
+    p1: np.ndarray
+    p2: np.ndarray
+
+
+def span(before: np.ndarray, control: np.ndarray, after: np.ndarray,
+         before_is_end: np.ndarray | bool = False, after_is_end: np.ndarray | bool = False) -> Bezier:
+    """The span of control point ``control`` between its neighbours ``before`` and ``after``.
+
+    ``before_is_end`` / ``after_is_end`` (broadcastable to the points, e.g. ``(..., 1)``) mark
+    neighbours that are open-curve end points: the span then starts (ends) at them instead of
+    at the midpoint of the control leg.
+    """
+    start = (before + control) / 2.0
+    stop = (control + after) / 2.0
+    if before_is_end is not False:
+        start = np.where(before_is_end, before, start)
+    if after_is_end is not False:
+        stop = np.where(after_is_end, after, stop)
+    return Bezier(start, control, stop)
+
+
+def slot_spans(ctrl: np.ndarray, prev: np.ndarray, nxt: np.ndarray, end: np.ndarray) -> Bezier:
+    """The span of every slot of flat curve arrays (the layout of
+    :class:`depixel.splines.SplineSet`): ``ctrl`` (P, 2) control points, ``prev``/``nxt``
+    (P,) neighbouring slots (-1 past an open end), ``end`` (P,) open-curve end points.
+
+    Rows of end slots are meaningless (an end point has no span of its own; the curve's
+    first and last spans start and stop on it)."""
+    p_prev, p_next = np.maximum(prev, 0), np.maximum(nxt, 0)
+    return span(ctrl[p_prev], ctrl, ctrl[p_next], end[p_prev][:, None], end[p_next][:, None])
+
+
+def midpoint(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> np.ndarray:
+    """The point at t = ½ of quadratic Béziers (of a span: its curve point S)."""
+    return (p0 + 2.0 * p1 + p2) / 4.0
+
+
+def split_half(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> tuple[Bezier, Bezier]:
+    """de Casteljau at t = ½: the two halves of quadratic Béziers, exactly."""
+    middle = midpoint(p0, p1, p2)
+    return Bezier(p0, (p0 + p1) / 2.0, middle), Bezier(middle, (p1 + p2) / 2.0, p2)
+
+
+def evaluate(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Points of quadratic Béziers at parameters ``t`` (all four broadcast together; give
+    ``t`` a trailing axis of 1 for the coordinates)."""
+    return (1 - t) ** 2 * p0 + 2 * t * (1 - t) * p1 + t**2 * p2
+
+
+def flatten(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, pieces: int) -> np.ndarray:
+    """``(..., pieces + 1, 2)`` polylines of quadratic Béziers ``(..., 2)``, at equal steps
+    of t (both end points included)."""
+    t = (np.arange(pieces + 1) / pieces)[:, None]
+    return evaluate(p0[..., None, :], p1[..., None, :], p2[..., None, :], t)
+
+
+def bend(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> np.ndarray:
+    """``|p0 − 2 p1 + p2|`` of quadratic Béziers: the flattening error of ``n`` equal pieces
+    is at most bend / 4n² (the second derivative is 2 (p0 − 2 p1 + p2))."""
+    return np.linalg.norm(p0 - 2 * p1 + p2, axis=-1)
+
+
+def pieces_for(bend_max: float, tolerance: float, most: int = 64) -> int:
+    """The fewest equal pieces (1 … ``most``) keeping a Bézier of this bend within
+    ``tolerance`` of its polyline."""
+    return int(np.clip(np.ceil(np.sqrt(bend_max / (4 * tolerance))), 1, most))
+
+
+def half_turns(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """∫|κ| ds over the first and over the second half of quadratic Béziers.
+
+    The tangent of a quadratic Bézier turns monotonically (by less than π), so the angle
+    between its directions at t = 0 and ½ (and ½ and 1) is exactly the integral over that
+    half — no sampling error."""
+    d0, d1 = p1 - p0, p2 - p1
+    dm = d0 + d1  # the tangent at t = ½ (up to a factor that does not change its direction)
+    return _angle(d0, dm), _angle(dm, d1)
+
+
+def _angle(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Unsigned angle between directions u and v (..., 2)."""
+    cross = u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+    dot = (u * v).sum(axis=-1)
+    return np.abs(np.arctan2(cross, dot))
+
+
+def between_curve_points(c_a: np.ndarray, c_b: np.ndarray, s_a: np.ndarray, s_b: np.ndarray,
+                         a_is_end: np.ndarray, b_is_end: np.ndarray) -> np.ndarray:
+    """``(E, 3, 2)`` controls (c0, c1, c2) of the curve between consecutive control points
+    C_a → C_b, from the curve point S_a to S_b, as two Béziers ``S_a Q c0 c1 Q c2 S_b``.
+
+    Both interior: the second half of C_a's span and the first half of C_b's, which meet
+    at m = mid(C_a, C_b). With an end point (``a_is_end`` / ``b_is_end``, (E,) bool; the curve
+    starts or stops there instead of at S): the one Bézier (C_a or S_a, m, S_b or C_b) split
+    at t = ½. Either way the result is exactly the B-spline; at most one of the two may be
+    an end (an open curve of one edge is a straight segment)."""
+    mid = (c_a + c_b) / 2.0
+    inner = np.stack([(c_a + mid) / 2.0, mid, (mid + c_b) / 2.0], axis=1)
+    start = np.where(a_is_end[:, None], c_a, s_a)
+    stop = np.where(b_is_end[:, None], c_b, s_b)
+    first, second = split_half(start, mid, stop)
+    single = np.stack([first.p1, first.p2, second.p1], axis=1)
+    both = ~a_is_end & ~b_is_end
+    return np.where(both[:, None, None], inner, single)
+
+
+def edge_halves(start: np.ndarray, controls: np.ndarray, stop: np.ndarray) -> tuple[Bezier, Bezier]:
+    """The two Béziers of curved cell edges as :class:`depixel.vector.VectorImage` stores
+    them: ``start`` Q c0 c1 Q c2 ``stop`` with ``controls`` (E, 3, 2) = (c0, c1, c2)."""
+    c0, c1, c2 = controls[:, 0], controls[:, 1], controls[:, 2]
+    return Bezier(start, c0, c1), Bezier(c1, c2, stop)
+
+
+def flatten_edges(start: np.ndarray, controls: np.ndarray, stop: np.ndarray, pieces: int) -> np.ndarray:
+    """``(E, 2 * pieces + 1, 2)`` polylines of curved cell edges, ``pieces`` per Bézier."""
+    first, second = edge_halves(start, controls, stop)
+    return np.concatenate([flatten(*first, pieces), flatten(*second, pieces)[:, 1:]], axis=1)

@@ -1,0 +1,205 @@
+"""Stage 5a — paper §3.4 (Figure 7) — splines → the corners the optimizer keeps sharp.
+
+The smoothness energy cannot tell staircasing from intended corners, so corners are found
+as patterns of the quantized outline (docs/corners.md has the drawings):
+
+* :func:`detect_square_corners` — the right-angle corner of a block whose legs run straight
+  for two pixel edges on both sides (moved back onto its lattice point);
+* :func:`detect_run_corners` — long straight runs meeting at an angle, directly or across a
+  short bevel (the corners of the 45°-rotated Windows 3.1 "386" chip, which the paper's own
+  patterns miss, §4.1).
+
+Beyond the paper (its §4.1 suggests knot multiplicity for sharp features), every corner
+node becomes a break point of its curves (:func:`depixel.splines.split_at`), stays where it
+is during the relaxation, and the curve halves next to it are left out of E_s
+(:func:`excluded_halves`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .frozen import freeze
+from .params import Params
+from .splines import SplineSet
+
+
+@dataclass(frozen=True, eq=False)
+class Corners:
+    """Corner nodes of a cell graph, by pattern; arrays are read-only."""
+
+    square: np.ndarray  # (N,) bool: right-angle corner of a block (sits on its lattice point)
+    runs: np.ndarray  # (N,) bool: straight runs meet there at an angle
+
+    def __post_init__(self) -> None:
+        freeze(self)
+
+    @property
+    def nodes(self) -> np.ndarray:
+        """(N,) bool: every corner node."""
+        return self.square | self.runs
+
+    def place(self, splines: SplineSet) -> np.ndarray:
+        """(N, 2) the nodes' initial positions with every right-angle corner moved onto its
+        lattice point (the cut made by the diagonal link is undone)."""
+        start = splines.positions.copy()
+        q = splines.cells.nodes[self.square]
+        start[self.square] = 4 * np.round(q / 4.0) / 4.0
+        return start
+
+
+def detect_corners(splines: SplineSet, params: Params = Params()) -> Corners:
+    """Both corner patterns, or none when ``params.corner_patterns`` is off."""
+    if not params.corner_patterns:
+        none = np.zeros(len(splines.positions), dtype=bool)
+        return Corners(none, none)
+    return Corners(detect_square_corners(splines), detect_run_corners(splines, params))
+
+
+def detect_square_corners(splines: SplineSet) -> np.ndarray:
+    """(N,) bool: interior curve nodes matching the axis-aligned right-angle corner pattern.
+
+    In quarter-pixel units: the node K = P + (sx, sy) sits one quarter off a lattice point P
+    diagonally (a corner cut by a diagonal link), its curve neighbours are the lattice points
+    P + 4(sx, 0) and P + 4(0, sy), and the curve continues straight beyond both, to
+    P + 8(sx, 0) and P + 8(0, sy). The cutting link must be redundant (the pixel opposite
+    the corner is linked to both linked pixels), so that restoring the corner cannot cut a
+    thin diagonal line.
+    """
+    cells = splines.cells
+    q = cells.nodes
+    prev, nxt = splines.neighbours()
+    end = (prev < 0) | (nxt < 0)
+    prev2 = np.where(prev >= 0, prev[np.maximum(prev, 0)], -1)
+    next2 = np.where(nxt >= 0, nxt[np.maximum(nxt, 0)], -1)
+    ok = ~end & (prev2 >= 0) & (next2 >= 0)
+    node = splines.curve_nodes
+    k = q[node]
+    lattice = 4 * np.round(k / 4.0).astype(np.int64)
+    off = k - lattice
+    cut = (np.abs(off) == 1).all(axis=1)
+    sx, sy = off[:, 0], off[:, 1]
+    leg_x = lattice + 4 * np.stack([sx, np.zeros_like(sx)], axis=1)
+    leg_y = lattice + 4 * np.stack([np.zeros_like(sy), sy], axis=1)
+    far_x = lattice + 8 * np.stack([sx, np.zeros_like(sx)], axis=1)
+    far_y = lattice + 8 * np.stack([np.zeros_like(sy), sy], axis=1)
+
+    def at(slot: np.ndarray) -> np.ndarray:
+        return q[node[np.maximum(slot, 0)]]
+
+    def same(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return (u == v).all(axis=1)
+
+    a, b = at(prev), at(nxt)
+    a2, b2 = at(prev2), at(next2)
+    forward = same(a, leg_x) & same(b, leg_y) & same(a2, far_x) & same(b2, far_y)
+    backward = same(a, leg_y) & same(b, leg_x) & same(a2, far_y) & same(b2, far_x)
+    match = ok & cut & (forward | backward)
+    # The cut must come from a redundant link: the pixel opposite the corner is linked to
+    # both linked pixels, so restoring the corner cannot disconnect a thin diagonal line.
+    g = cells.graph
+    h, w = g.shape
+    r_k = lattice[:, 1] // 4 - (sy < 0)  # the pixel whose corner K is
+    c_k = lattice[:, 0] // 4 - (sx < 0)
+    r_o = lattice[:, 1] // 4 - (sy > 0)  # the opposite pixel of the 2×2 block
+    c_o = lattice[:, 0] // 4 - (sx > 0)
+    valid = match & (r_k >= 0) & (r_k < h) & (c_k >= 0) & (c_k < w) & (r_o >= 0) & (r_o < h) & (c_o >= 0) & (c_o < w)
+    rk, ck, ro, co = (np.where(valid, x, 0) for x in (r_k, c_k, r_o, c_o))
+    across = g.right[ro, np.minimum(co, ck).clip(0, max(w - 2, 0))] if w > 1 else np.zeros_like(valid)
+    along = g.down[np.minimum(ro, rk).clip(0, max(h - 2, 0)), co] if h > 1 else np.zeros_like(valid)
+    match = valid & across & along
+    corners = np.zeros(len(q), dtype=bool)
+    corners[node[match]] = True
+    return corners
+
+
+def detect_run_corners(splines: SplineSet, params: Params = Params()) -> np.ndarray:
+    """(N,) bool: nodes where long straight runs of the quantized outline meet at an angle.
+
+    From every curve node, the run behind and the run ahead are extended node by node as
+    long as every node in between stays within ``run_tolerance`` pixels of the chord (up to
+    ``run_reach`` px). A staircase of any slope is one run (its quarter-pixel nodes stay
+    within the tolerance of a single chord); a smooth curve bends before its chords get
+    long. Two patterns:
+
+    * a sharp corner: runs of at least ``run_long`` on both sides turning by ``run_turn``
+      (80°) or more;
+    * a bevelled corner: a long run, a short one (``run_short`` ≤ length < ``run_long``) and a
+      long one, bending at both ends of the short run by ``run_bend`` or more and by
+      ``run_turn`` or more in all — the apex pixels of a 45°-rotated rectangle, like the
+      corners of the Windows 3.1 "386" chip. Both ends of the short run are corners.
+
+    A pixel circle is an octagon of runs turning by 45° at a time, over runs longer than a
+    bevel: no node of it matches.
+    """
+    tolerance, short, long = params.run_tolerance, params.run_short, params.run_long
+    min_turn, min_bend = np.radians(params.run_turn), np.radians(params.run_bend)
+    q = splines.cells.nodes.astype(np.float64) / 4.0
+    prev, nxt = splines.neighbours()
+    node = splines.curve_nodes
+    here = q[node]
+    interior = (prev >= 0) & (nxt >= 0)
+    # nodes are at least a quarter pixel apart diagonally (0.35 px): this many steps reach
+    steps = int(np.ceil(params.run_reach / 0.35))
+
+    def run(step: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Vector from each slot's node to the far end of its straight run along ``step``,
+        and the slot of that far end (-1 for none)."""
+        chord = np.zeros_like(here)
+        far_slot = np.full(node.size, -1, dtype=np.int64)
+        alive = interior.copy()
+        walk = np.arange(node.size)
+        visited: list[np.ndarray] = []
+        for _ in range(steps):
+            walk = np.where(alive, step[np.maximum(walk, 0)], -1)
+            alive &= walk >= 0
+            far = q[node[np.maximum(walk, 0)]]
+            candidate = far - here
+            length = np.linalg.norm(candidate, axis=1)
+            ok = alive.copy()
+            for mid in visited:  # every node passed must stay near the new chord
+                rel = mid - here
+                cross = np.abs(candidate[:, 0] * rel[:, 1] - candidate[:, 1] * rel[:, 0])
+                ok &= cross <= tolerance * np.maximum(length, 1e-9)
+            alive &= ok
+            chord = np.where(alive[:, None], candidate, chord)
+            far_slot = np.where(alive, walk, far_slot)
+            alive &= length < params.run_reach
+            visited.append(far)
+        return chord, far_slot
+
+    def turn(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """Angle between directions u and v (0 = straight on)."""
+        cos = (u * v).sum(axis=1) / np.maximum(np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1), 1e-12)
+        return np.arccos(np.clip(cos, -1.0, 1.0))
+
+    back, _ = run(prev)
+    ahead, ahead_end = run(nxt)
+    lb, la = np.linalg.norm(back, axis=1), np.linalg.norm(ahead, axis=1)
+    incoming = -back  # direction of travel arriving at the node
+    sharp = interior & (lb >= long) & (la >= long) & (turn(incoming, ahead) >= min_turn)
+
+    k = np.maximum(ahead_end, 0)
+    after = ahead[k]
+    bevel = (interior & (ahead_end >= 0) & (lb >= long) & (la >= short) & (la < long)
+             & (np.linalg.norm(after, axis=1) >= long)
+             & (turn(incoming, ahead) >= min_bend) & (turn(ahead, after) >= min_bend)
+             & (turn(incoming, after) >= min_turn))
+    corners = np.zeros(len(q), dtype=bool)
+    corners[node[sharp]] = True
+    corners[node[bevel]] = True
+    corners[node[k[bevel]]] = True  # the bevel's far end
+    return corners
+
+
+def excluded_halves(splines: SplineSet, corners: np.ndarray) -> np.ndarray:
+    """(P, 2) bool: the halves of each slot's span left out of E_s — both halves at a
+    corner node, and the half next to a neighbouring corner node."""
+    prev, nxt = splines.neighbours()
+    at_corner = corners[splines.curve_nodes]
+    excluded = np.zeros((splines.curve_nodes.size, 2), dtype=bool)
+    excluded[:, 0] = (prev >= 0) & at_corner[np.maximum(prev, 0)]
+    excluded[:, 1] = (nxt >= 0) & at_corner[np.maximum(nxt, 0)]
+    excluded |= at_corner[:, None]
+    return excluded

@@ -1,0 +1,153 @@
+"""Not in the paper — fidelity guards of §3.4: every pixel centre stays inside its cell.
+
+The paper's energy lets a curve drift over the centre of the pixel it outlines; then that
+pixel's colour no longer shows where the pixel was, and the seam-free underlay of the SVG
+(docs/design.md, "Seams") needs the centre well inside its cell. Two guards:
+
+* during the relaxation, a move is refused if it brings one of the node's spans closer
+  than ``centre_clearance`` to a **protected point** beside it (:func:`protected_points`:
+  the centres of the pixels on both sides, and the lattice corner of a diagonal link, where
+  a thin diagonal feature must stay connected) — unless it was closer already;
+* afterwards, :func:`keep_centres_inside` reverts the nodes around any cell whose centre
+  came nearer than half the clearance to its drawn boundary (a T-junction end follows the
+  curve it ends on, which the per-move check of the node cannot see).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .bspline import flatten_edges
+from .splines import SplineSet
+from .vector import VectorImage
+
+#: stands for "no protected point" (far from every curve)
+FAR = 1e6
+
+
+def protected_points(splines: SplineSet) -> np.ndarray:
+    """(P, 3, 2) the points the spans at each slot must keep clear of: the centres of the
+    pixels on both sides of the edge leaving the slot, and the lattice corner of a diagonal
+    link at its node; :data:`FAR` where there is none."""
+    cells = splines.cells
+    w = cells.shape[1]
+    edge = splines.slot_edges
+    pix = np.where(edge[:, None] >= 0, cells.edge_pixels[np.maximum(edge, 0)], -1)
+    rows, cols = np.divmod(np.maximum(pix, 0), w)
+    centre = np.stack([cols + 0.5, rows + 0.5], axis=-1).astype(np.float64)
+    side = np.where((pix >= 0)[..., None], centre, FAR)  # (P, 2, 2)
+    q = cells.nodes[splines.curve_nodes]
+    lattice = 4 * np.round(q / 4.0)
+    split = (np.abs(q - lattice) == 1).all(axis=1)
+    link = np.where(split[:, None], lattice / 4.0, FAR)[:, None, :]
+    return np.concatenate([side, link], axis=1)
+
+
+def unique_rows(points: np.ndarray) -> np.ndarray:
+    """(M, Q, 2) → (M, Q', 2): each row's distinct points first, padded with :data:`FAR`."""
+    key = points[..., 0] * 4096.0 + points[..., 1]
+    order = np.argsort(key, axis=1)
+    key = np.take_along_axis(key, order, axis=1)
+    pts = np.take_along_axis(points, order[..., None], axis=1)
+    repeat = np.zeros(key.shape, bool)
+    repeat[:, 1:] = key[:, 1:] == key[:, :-1]
+    pts = np.where((repeat | (pts[..., 0] >= FAR))[..., None], FAR, pts)
+    keep = np.argsort(pts[..., 0] >= FAR, axis=1, kind="stable")
+    pts = np.take_along_axis(pts, keep[..., None], axis=1)
+    width = max(int((pts[..., 0] < FAR).sum(axis=1).max(initial=0)), 1)
+    return pts[:, :width]
+
+
+def centre_clearance(image: VectorImage, pixels: np.ndarray | None = None, samples: int = 3) -> np.ndarray:
+    """(H*W,) signed distance of each pixel centre to its own drawn cell's boundary.
+
+    Positive inside, negative outside (curves flattened into ``2 * samples`` pieces per
+    edge); +inf for pixels outside the optional ``pixels`` mask. Inside-ness is even-odd
+    ray casting from every centre towards +x against the flattened boundary of its own cell,
+    all cells at once: each edge contributes its polyline to the cells on both sides.
+    """
+    cells = image.cells
+    h, w = cells.shape
+    n_px = h * w
+    wanted = np.ones(n_px, bool) if pixels is None else pixels
+    sides = cells.edge_pixels
+    use = (wanted[np.maximum(sides, 0)] & (sides >= 0)).any(axis=1)
+    pix_all, hits_all, dist_all = [], [], []
+    for curved in (False, True):  # a straight edge is one segment, a curve 2 * samples
+        edge = np.flatnonzero(use & (image.curved == curved))
+        a, b = image.points[cells.edges[edge, 0]], image.points[cells.edges[edge, 1]]
+        if curved:
+            poly = flatten_edges(a, image.controls[edge], b, samples)  # (E', 2 * samples + 1, 2)
+        else:
+            poly = np.stack([a, b], axis=1)
+        p0, p1 = poly[:, :-1], poly[:, 1:]
+        for side in (0, 1):
+            pix = sides[edge, side]
+            has = (pix >= 0) & wanted[np.maximum(pix, 0)]
+            rows, cols = np.divmod(pix[has], w)
+            cx, cy = (cols + 0.5)[:, None], (rows + 0.5)[:, None]
+            q0, q1 = p0[has], p1[has]
+            straddle = (q0[..., 1] > cy) != (q1[..., 1] > cy)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                x_at = q0[..., 0] + (cy - q0[..., 1]) * (q1[..., 0] - q0[..., 0]) / (q1[..., 1] - q0[..., 1])
+            hits_all.append((straddle & (x_at > cx)).sum(axis=1))
+            seg = q1 - q0
+            rel_x, rel_y = cx - q0[..., 0], cy - q0[..., 1]
+            length2 = np.maximum(seg[..., 0] ** 2 + seg[..., 1] ** 2, 1e-12)
+            along = np.clip((rel_x * seg[..., 0] + rel_y * seg[..., 1]) / length2, 0.0, 1.0)
+            dx, dy = rel_x - along * seg[..., 0], rel_y - along * seg[..., 1]
+            dist_all.append(np.sqrt((dx * dx + dy * dy).min(axis=1)))
+            pix_all.append(pix[has])
+    pix = np.concatenate(pix_all)
+    count = np.bincount(pix, weights=np.concatenate(hits_all), minlength=n_px)
+    nearest = np.full(n_px, np.inf)
+    if pix.size:
+        order = np.argsort(pix, kind="stable")
+        sorted_pix = pix[order]
+        starts = np.flatnonzero(np.r_[True, sorted_pix[1:] != sorted_pix[:-1]])
+        nearest[sorted_pix[starts]] = np.minimum.reduceat(np.concatenate(dist_all)[order], starts)
+    inside = count.astype(np.int64) % 2 == 1
+    return np.where(wanted, np.where(inside, nearest, -nearest), np.inf)
+
+
+def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
+                        margin: float, rounds: int = 8) -> np.ndarray:
+    """Undo moves around any cell whose pixel centre came closer than ``margin`` to its
+    boundary (or left it), until none does. Moves made elsewhere on a curve (a T-junction
+    end follows the curve it ends on) can reach a cell the relaxation did not check.
+    Only cells next to an edge whose geometry changed are measured."""
+    cells = splines.cells
+    positions = positions.copy()
+    initial = splines.vector_image(start)
+    prev, nxt = splines.neighbours()
+    n_px = cells.shape[0] * cells.shape[1]
+    floor = np.full(n_px, np.nan)  # min(margin, initial clearance), filled in on demand
+    reference = initial  # geometry already verified (or initial), to find what changed since
+    for _ in range(rounds):
+        current = splines.vector_image(positions)
+        changed = (
+            (np.abs(current.points - reference.points).max(axis=1)[cells.edges] > 1e-12).any(axis=1)
+            | (np.abs(current.controls - reference.controls).max(axis=(1, 2)) > 1e-12)
+        )
+        pixels = np.zeros(n_px, bool)
+        sides = cells.edge_pixels[changed].ravel()
+        pixels[sides[sides >= 0]] = True
+        if not pixels.any():
+            break
+        missing = pixels & np.isnan(floor)
+        if missing.any():
+            floor[missing] = np.minimum(centre_clearance(initial, missing)[missing], margin)
+        ok = ~pixels | (centre_clearance(current, pixels) >= floor - 1e-9)
+        reference = current
+        if ok.all():
+            break
+        bad = np.flatnonzero(~ok)
+        touched = np.isin(cells.edge_pixels, bad).any(axis=1)
+        nodes = np.unique(cells.edges[touched])
+        # widen to the whole neighbourhood on the curves through those nodes
+        on = np.isin(splines.curve_nodes, nodes)
+        for step in (prev, nxt):
+            near = step[on & (step >= 0)]
+            on[near] = True
+        nodes = np.union1d(nodes, splines.curve_nodes[on])
+        positions[nodes] = start[nodes]
+    return positions

@@ -1,0 +1,93 @@
+"""Stage 5c — paper §3.4 (last paragraph) — the nodes off the curves follow them.
+
+After the relaxation moves the curve nodes, the other nodes of the cell graph (inside
+regions, between shading cells) move by the harmonic interpolation of the curve nodes'
+displacements, so the cells next to a moved curve follow it instead of folding. Untouched
+areas keep exactly their template geometry, since a zero displacement field is harmonic.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from .splines import SplineSet
+
+
+def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
+                 corners: np.ndarray, reach: int = 6) -> np.ndarray:
+    """(N, 2) ``positions`` with the free nodes moved by the harmonic interpolation of the
+    constrained displacements (``start`` → ``positions`` (N, 2); ``corners`` (N,) bool).
+
+    Constrained: every curve node (displaced from its initial place to its display point),
+    the border and corners (not displaced). The system — each free node's displacement is
+    the mean of its neighbours' (uniform weights) — is solved for the free nodes within
+    ``reach`` edges of a displaced node; farther free nodes are held at their place (the
+    harmonic field has decayed to nothing there), which keeps full frames cheap. The
+    solver is conjugate gradients in numpy (the system is symmetric positive definite),
+    run to far below the output precision.
+    """
+    cells = splines.cells
+    n = len(start)
+    q = cells.nodes
+    h, w = cells.shape
+    border = (q[:, 0] == 0) | (q[:, 1] == 0) | (q[:, 0] == 4 * w) | (q[:, 1] == 4 * h)
+    on_curve = np.zeros(n, dtype=bool)
+    on_curve[splines.curve_nodes] = True
+    display = splines.geometry(positions).points
+    displacement = np.where(on_curve[:, None], display - start, 0.0)
+    u, v = cells.edges[:, 0], cells.edges[:, 1]
+    near = np.abs(displacement).max(axis=1) > 1e-12
+    for _ in range(reach):
+        grown = near.copy()
+        grown[u[near[v]]] = True
+        grown[v[near[u]]] = True
+        near = grown
+    free = ~(on_curve | border | corners) & near
+    if not free.any():
+        return positions
+    degree = np.bincount(u, minlength=n) + np.bincount(v, minlength=n)
+    # the system on the free nodes only: compact indices, free–free edges for the operator,
+    # free–fixed edges for the right-hand side
+    index = np.cumsum(free) - 1
+    m = int(free.sum())
+    inner = free[u] & free[v]
+    fu, fv = index[u[inner]], index[v[inner]]
+    rhs = np.zeros((m, 2))
+    for a, b in ((u, v), (v, u)):  # a free, b fixed
+        edge = free[a] & ~free[b]
+        for i in range(2):
+            rhs[:, i] += np.bincount(index[a[edge]], displacement[b[edge], i], minlength=m)
+    diagonal = degree[free][:, None].astype(np.float64)
+
+    def apply(x: np.ndarray) -> np.ndarray:
+        out = diagonal * x
+        for i in range(2):
+            out[:, i] -= np.bincount(fu, x[fv, i], minlength=m) + np.bincount(fv, x[fu, i], minlength=m)
+        return out
+
+    out = positions.copy()
+    out[free] = start[free] + conjugate_gradients(apply, rhs)
+    return out
+
+
+def conjugate_gradients(apply: Callable[[np.ndarray], np.ndarray], rhs: np.ndarray) -> np.ndarray:
+    """Solve ``apply(x) = rhs`` for a symmetric positive definite operator, every column of
+    ``rhs`` (M, K) at once, to a residual 1e-9 of the right-hand side's (far below the
+    output precision)."""
+    x = np.zeros_like(rhs)
+    r = rhs.copy()
+    p = r.copy()
+    rr = (r * r).sum(axis=0)
+    target = 1e-18 * max(float(rr.max()), 1e-30)
+    for _ in range(4 * rhs.shape[0] + 10):
+        if rr.max() <= target:
+            break
+        ap = apply(p)
+        step = rr / np.maximum((p * ap).sum(axis=0), 1e-300)
+        x += step * p
+        r -= step * ap
+        rr_new = (r * r).sum(axis=0)
+        p = r + (rr_new / np.maximum(rr, 1e-300)) * p
+        rr = rr_new
+    return x

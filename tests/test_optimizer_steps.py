@@ -1,0 +1,373 @@
+"""Paper §3.4, step by step: each behaviour of the optimizer pinned by a direct test on a
+tiny drawn case with a hand-checked expectation (the golden renders cannot see moves of a
+tenth of a pixel). Each test was checked by breaking its behaviour in the code."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from depixel.bspline import evaluate, half_turns, midpoint
+from depixel.corners import detect_corners, detect_square_corners, excluded_halves
+from depixel.fidelity import centre_clearance
+from depixel.harmonic import harmonic_map
+from depixel.params import Params
+from depixel.pipeline import depixelize
+from depixel.raster import render_rgba
+from depixel.relax import Energy, smoothness, step
+from depixel.splines import SplineSet, split_at
+from depixel.svg import to_svg
+from depixel.vector import faces
+
+from conftest import art
+
+RED, PINK, ORANGE, WHITE = (200, 40, 40, 255), (255, 110, 110, 255), (230, 80, 40, 255), (255, 255, 255, 255)
+
+
+def splines_of(img: np.ndarray, params: Params = Params()) -> SplineSet:
+    splines = depixelize(img, params, stage="splines").splines
+    assert splines is not None
+    return splines
+
+
+def slot_at(splines: SplineSet, xy: tuple[float, float], interior: bool = True) -> int:
+    """The (interior) slot of the node at pixel coordinates ``xy``."""
+    at = (splines.cells.nodes[splines.curve_nodes] == np.multiply(xy, 4)).all(axis=1)
+    if interior:
+        at &= ~splines.is_end()
+    found = np.flatnonzero(at)
+    assert found.size == 1, f"{found.size} slots at {xy}"
+    return int(found[0])
+
+
+def corner_points(splines: SplineSet, corners: np.ndarray) -> set[tuple[float, float]]:
+    return {tuple(p) for p in (splines.cells.nodes[corners] / 4.0).tolist()}
+
+
+# --- E_s: the turning integral --------------------------------------------------------------
+
+def numerical_turning(p0, p1, p2, t0: float, t1: float, n: int = 200_001) -> float:
+    """∫|κ| ds = ∫ |B' × B''| / |B'|² dt, by the trapezoid rule."""
+    t = np.linspace(t0, t1, n)[:, None]
+    d1 = 2 * ((1 - t) * (p1 - p0) + t * (p2 - p1))
+    d2 = 2 * (p2 - 2 * p1 + p0)
+    f = np.abs(d1[:, 0] * d2[1] - d1[:, 1] * d2[0]) / (d1 ** 2).sum(axis=1)
+    return float(((f[1:] + f[:-1]) / 2).sum() * (t1 - t0) / (n - 1))
+
+
+def test_turning_of_each_half_is_the_integral_of_the_curvature():
+    rng = np.random.default_rng(7)
+    checked = 0
+    for _ in range(40):
+        p0, p1, p2 = rng.uniform(-1, 1, (3, 2))
+        first, second = half_turns(p0, p1, p2)
+        if first + second > 2.5:  # nearly a cusp: the numerical integral needs far more steps
+            continue
+        assert float(first) == pytest.approx(numerical_turning(p0, p1, p2, 0.0, 0.5), abs=1e-6)
+        assert float(second) == pytest.approx(numerical_turning(p0, p1, p2, 0.5, 1.0), abs=1e-6)
+        checked += 1
+    assert checked > 20
+
+
+def test_smoothness_counts_only_the_kept_halves():
+    spans = (np.array([0.0, 0.0]), np.array([1.0, 0.0]), np.array([1.0, 1.0]))  # turns by 90°
+    first, second = half_turns(*spans)
+    assert float(first + second) == pytest.approx(np.pi / 2)
+    assert smoothness(spans, np.array([True, True])) == pytest.approx(np.pi / 2)
+    assert smoothness(spans, np.array([True, False])) == pytest.approx(float(first))
+    assert smoothness(spans, np.array([False, True])) == pytest.approx(float(second))
+    assert smoothness(spans, np.array([False, False])) == 0.0
+
+
+# --- E_p: the positional term -----------------------------------------------------------------
+
+def test_positional_energy_is_the_fourth_power_of_the_distance():
+    # a straight horizontal outline: moving a node along it keeps every span straight
+    # (E_s = 0), so the energy of a trial is the positional term alone
+    img = art("""
+    ########
+    ########
+    ........
+    ........
+    """)
+    splines = splines_of(img)
+    slot = slot_at(splines, (4, 2))
+    model = Energy(splines, np.zeros((splines.n_slots, 2), bool))
+    ctrl = splines.controls_for(splines.positions)
+    distances = np.array([0.0, 0.1, 0.2, 0.4])
+    trial = ctrl[slot] + np.stack([distances, np.zeros_like(distances)], axis=1)[None]
+    energy = model.energy(ctrl, ctrl, model.prepare(np.array([slot])), trial)[0]
+    assert energy == pytest.approx(distances**4, abs=1e-15)
+
+
+# --- corners (Figure 7 and the run patterns) ----------------------------------------------
+
+DIAMOND = art("""
+..............
+......##......
+.....####.....
+....######....
+...########...
+..##########..
+...########...
+....######....
+.....####.....
+......##......
+..............
+""")  # the "386" chip's shape: a square turned by 45°, with two-pixel apexes
+
+
+def test_bevelled_apex_marks_both_ends_of_the_bevel():
+    splines = splines_of(DIAMOND)
+    found = corner_points(splines, detect_corners(splines).runs)
+    # each two-pixel apex is a 1.5-pixel bevel between two 45° staircases: both of its ends
+    # are corners, whichever way the curve runs (one end is found from the other)
+    for bevel in (((6.25, 1.25), (7.75, 1.25)), ((6.25, 9.75), (7.75, 9.75)),
+                  ((2.25, 5.25), (2.25, 5.75)), ((11.75, 5.25), (11.75, 5.75))):
+        assert set(bevel) <= found, (bevel, sorted(found))
+    # and nothing along the staircase sides: every corner is at an apex
+    apexes = np.array([(7, 1), (7, 10), (2, 5.5), (12, 5.5)])
+    for point in found:
+        assert np.abs(apexes - point).max(axis=1).min() <= 1.0, point
+
+
+def test_octagon_has_no_corners():
+    # straight sides of 8 px joined by 45° staircases of 3 px: every vertex turns by 45°,
+    # which is rounded, as in the paper
+    n = 18
+    yy, xx = np.mgrid[0:n, 0:n] + 0.5
+    inside = (np.maximum(abs(xx - n / 2), abs(yy - n / 2)) <= 7) & (abs(xx - n / 2) + abs(yy - n / 2) <= 10)
+    img = np.full((n, n, 4), 255, np.uint8)
+    img[inside, :3] = 0
+    splines = splines_of(img)
+    assert splines.n_curves == 1
+    corners = detect_corners(splines)
+    assert not corners.nodes.any(), sorted(corner_points(splines, corners.nodes))
+
+
+@pytest.mark.parametrize("k", [1, 2, 4, 6])
+def test_staircase_is_not_a_corner(k):
+    # a right triangle whose hypotenuse is a k:1 staircase from its k-pixel top (1..1+k, 1)
+    # down to (1 + 6k, 7): corners are at its vertices, none along the staircase, whose
+    # steps turn one way and back (no total turn)
+    width = 6 * k + 4
+    rows = ["." * width]
+    rows += ["." + "#" * (k * r + k) + "." * (width - 1 - k * (r + 1)) for r in range(6)]
+    rows += ["." * width]
+    splines = splines_of(art("\n".join(rows)))
+    corners = detect_corners(splines)
+    found = corner_points(splines, corners.nodes)
+    vertices = np.array([(1, 1), (1 + k, 1), (1, 7), (1 + 6 * k, 7)])
+    away = [p for p in found if np.abs(vertices - p).max(axis=1).min() > 0.75]
+    assert not away, sorted(found)
+    assert (1.25, 6.75) in corner_points(splines, corners.square)  # the right angle, cut
+
+
+def test_square_corner_is_found_and_placed_on_its_lattice_point():
+    img = art("""
+    ......
+    .####.
+    .####.
+    .####.
+    .####.
+    ......
+    """)
+    splines = splines_of(img)
+    square = detect_square_corners(splines)
+    # the cut corner nodes, a quarter pixel inside the block
+    assert corner_points(splines, square) == {(1.25, 1.25), (4.75, 1.25), (1.25, 4.75), (4.75, 4.75)}
+    corners = detect_corners(splines)
+    start = corners.place(splines)
+    assert {tuple(p) for p in start[square].tolist()} == {(1.0, 1.0), (5.0, 1.0), (1.0, 5.0), (5.0, 5.0)}
+
+
+def test_split_at_cuts_the_curves_at_the_corners_only():
+    img = art("""
+    ......
+    .####.
+    .####.
+    .####.
+    .####.
+    ......
+    """)
+    splines = splines_of(img)
+    assert splines.n_curves == 1 and splines.curve_closed[0]
+    corners = detect_corners(splines).nodes
+    cut = split_at(splines, corners)
+    # one open curve per side, each ending at two corners; the same edges, each once
+    assert cut.n_curves == 4 and not cut.curve_closed.any()
+    assert np.array_equal(np.sort(cut.slot_edges[cut.slot_edges >= 0]), np.sort(splines.slot_edges))
+    assert corners[cut.curve_nodes[cut.is_end()]].all()
+    assert not corners[cut.curve_nodes[~cut.is_end()]].any()
+    assert split_at(splines, np.zeros_like(corners)) is splines
+
+
+def test_corner_halves_are_left_out_of_the_smoothness():
+    # one closed curve around a block; pretend the node of slot 2 is a corner
+    splines = splines_of(art(".....\n.###.\n.###.\n.###.\n....."))
+    assert splines.n_curves == 1 and splines.curve_closed[0] and splines.n_slots >= 6
+    corner = np.zeros(len(splines.positions), bool)
+    corner[splines.curve_nodes[2]] = True
+    expected = np.zeros((splines.n_slots, 2), bool)
+    expected[2] = True  # the corner's own span: both halves
+    expected[1, 1] = True  # the span before it: the half that reaches the corner
+    expected[3, 0] = True  # the span after it: likewise
+    assert np.array_equal(excluded_halves(splines, corner), expected)
+
+
+# --- T-junctions ------------------------------------------------------------------------------
+
+# Two T-junctions one edge apart: at (3, 2) the red|pink edge ends on the turning
+# red|white–pink|white curve; at (2, 2) the orange|pink edge ends on the red|orange–red|pink
+# curve, whose neighbouring control point is that first snapped end. Red, pink and orange
+# are shading edges to each other, white a contour to all.
+CHAINED_T = art("""
+AAAAAA
+AAAAAA
+DDBCCC
+DDBCCC
+""", dict(A=RED, B=PINK, C=WHITE, D=ORANGE))
+
+
+def snap_gaps(splines: SplineSet) -> np.ndarray:
+    ends, through = splines.snap_pairs()
+    ctrl = splines.controls_for(splines.positions)
+    return np.abs(ctrl[ends] - midpoint(*splines.spans(ctrl))[through]).max(axis=1)
+
+
+def test_chained_t_junction_ends_meet_their_curves_exactly():
+    splines = splines_of(CHAINED_T)
+    ends, _ = splines.snap_pairs()
+    assert corner_points(splines, splines.curve_nodes[ends]) == {(2.0, 2.0), (3.0, 2.0)}
+    assert snap_gaps(splines).max() < 1e-12
+    # the chain is real: one pass of snapping leaves the second end off its curve
+    assert snap_gaps(splines_of(CHAINED_T, Params(snap_passes=1))).max() > 0.01
+
+
+# --- the harmonic map ---------------------------------------------------------------------------
+
+def test_harmonic_map_moves_each_free_node_by_the_mean_of_its_neighbours():
+    img = art("""
+    .......
+    .......
+    .......
+    ...##..
+    ...##..
+    .......
+    .......
+    """)
+    splines = splines_of(img)
+    cells = splines.cells
+    n = len(cells.nodes)
+    start = splines.positions.copy()
+    positions = start.copy()
+    on_curve = np.zeros(n, bool)
+    on_curve[splines.curve_nodes] = True
+    positions[on_curve] += np.random.default_rng(3).uniform(-0.2, 0.2, (int(on_curve.sum()), 2))
+    out = harmonic_map(splines, start, positions, np.zeros(n, bool), reach=6)
+    assert np.array_equal(out[on_curve], positions[on_curve])
+    # displacement of every node: curve nodes to their display points, border nodes none
+    q = cells.nodes
+    border = (q == 0).any(axis=1) | (q[:, 0] == 4 * 7) | (q[:, 1] == 4 * 7)
+    moved = np.where(on_curve[:, None], splines.geometry(positions).points - start, out - start)
+    assert not moved[border & ~on_curve].any()
+    free = np.flatnonzero(~on_curve & ~border)
+    assert free.size >= 10 and np.abs(moved[free]).max() > 1e-3
+    for node in free:
+        u, v = cells.edges[:, 0], cells.edges[:, 1]
+        neighbours = np.r_[v[u == node], u[v == node]]
+        assert moved[node] == pytest.approx(moved[neighbours].mean(axis=0), abs=1e-9)
+
+
+def test_harmonic_map_runs_in_the_pipeline():
+    result = depixelize(DIAMOND)
+    opt = result.optimized
+    on_curve = np.zeros(len(opt.positions), bool)
+    on_curve[opt.splines.curve_nodes] = True
+    q = opt.splines.cells.nodes
+    inside = ~on_curve & (q > 0).all(axis=1) & (q[:, 0] < 4 * 14) & (q[:, 1] < 4 * 11)
+    assert np.abs(opt.positions[inside] - opt.initial[inside]).max() > 0.01
+
+
+# --- the fidelity guard of each move ------------------------------------------------------------
+
+class Draws:
+    """Stands for numpy's Generator in :func:`step`: hands out the given draws in order."""
+
+    def __init__(self, *draws: np.ndarray):
+        self.draws = list(draws)
+
+    def uniform(self, low: float, high: float, size: tuple[int, int]) -> np.ndarray:
+        draw = self.draws.pop(0)
+        assert draw.shape == size
+        return draw
+
+
+def test_a_move_closer_to_a_pixel_centre_than_the_clearance_is_refused():
+    img = art("""
+    ........
+    ........
+    .....###
+    ..######
+    ########
+    """)
+    splines = splines_of(img)
+    slot = slot_at(splines, (5.25, 2.25))  # the inner node of a one-pixel step
+    model = Energy(splines, np.zeros((splines.n_slots, 2), bool))
+    ctrl = splines.controls_for(splines.positions)
+    group = model.prepare(np.array([slot]))
+    angle = np.repeat(np.linspace(0, 2 * np.pi, 16, endpoint=False), 4)[None]
+    radius = np.tile([0.1, 0.2, 0.3, 0.45], 16)[None]
+    params = Params(radius=0.45, candidates=64)
+    draws = (angle, (radius / params.radius) ** 2)
+    trial = ctrl[slot] + np.stack([np.cos(angle), np.sin(angle)], axis=-1) * radius[..., None]
+    trial = np.concatenate([ctrl[slot][None, None], trial], axis=1)
+    best = int(np.argmin(model.energy(ctrl, ctrl, group, trial)[0]))
+    clearance = model.clearance(ctrl, group, trial, np.array([0]))[0]
+    # the case: the best trial comes within 0.2 px of a protected point, staying does not
+    assert best > 0 and clearance[best] < 0.2 <= clearance[0]
+    moved = step(model, ctrl, ctrl, group, Draws(*draws), params.replace(centre_clearance=0.0))
+    assert moved[0] == pytest.approx(trial[0, best])
+    kept = step(model, ctrl, ctrl, group, Draws(*draws), params.replace(centre_clearance=0.2))
+    assert np.array_equal(kept[0], ctrl[slot])
+
+
+# --- switches, end to end -------------------------------------------------------------------------
+
+def test_without_corner_patterns_the_square_is_rounded():
+    img = np.full((12, 12, 4), 255, np.uint8)
+    img[2:10, 2:10, :3] = 0
+    result = depixelize(img, Params(corner_patterns=False))
+    opt = result.optimized
+    assert not opt.corners.nodes.any()
+    assert opt.splines is result.splines  # nothing to cut
+    rendered = render_rgba(to_svg(result.vector), width=96, height=96)
+    assert (rendered[int(2.15 * 8), int(2.15 * 8), :3] > 128).all(), "the corner should be cut"
+    with_corners = render_rgba(to_svg(depixelize(img).vector), width=96, height=96)
+    assert (with_corners[int(2.15 * 8), int(2.15 * 8), :3] < 32).all()
+
+
+def test_without_tie_break_a_tied_crossing_loses_both_diagonals():
+    # the block [. r / r .] at the top right: the curve vote favours the white diagonal
+    # (+1), the sparse vote the red one (-1): a tie. Red is the rarer colour around it.
+    img = art("""
+    ..r
+    #r.
+    ###
+    """)
+    red = [2, 4]  # flat pixel indices of the two red pixels
+    for tie_break, joined in ((True, True), (False, False)):
+        result = depixelize(img, Params(tie_break=tie_break))
+        res = result.resolution
+        assert res.ambiguous[0, 1] and res.curve_vote[0, 1] + res.sparse_vote[0, 1] == 0
+        assert res.graph.diag_anti[0, 1] == joined and not res.graph.diag_main[0, 1]
+        labels = faces(result.cells)
+        assert (labels[red[0]] == labels[red[1]]) == joined
+        assert centre_clearance(result.vector).min() > 0  # the whole pipeline ran and holds
+
+
+def test_bezier_evaluate_matches_the_bernstein_form():
+    # the shared evaluator (bspline.evaluate), against an independent de Casteljau
+    p = np.random.default_rng(1).uniform(-3, 3, (5, 3, 2))
+    t = np.linspace(0, 1, 7)[:, None, None]
+    a, b = p[:, 0] + t * (p[:, 1] - p[:, 0]), p[:, 1] + t * (p[:, 2] - p[:, 1])
+    assert np.allclose(evaluate(p[:, 0], p[:, 1], p[:, 2], t), a + t * (b - a), atol=1e-12)
