@@ -6,6 +6,29 @@ Every constant carries its source: "paper" (Kopf & Lischinski 2011, with the sec
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
+from typing import NamedTuple
+
+
+class Range(NamedTuple):
+    """The values a numeric field accepts: finite, within [low, high], whole when ``integer``."""
+
+    low: float | None = 0.0
+    high: float | None = None
+    integer: bool = False
+
+
+#: The constraint of every numeric field (a field not listed is not checked; booleans must be bool).
+#: Upper bounds keep the pipeline's memory in reason (a window of side N costs N² per crossing).
+LIMITS: dict[str, Range] = {
+    "threshold_y": Range(), "threshold_u": Range(), "threshold_v": Range(), "threshold_alpha": Range(),
+    "curve_weight": Range(), "sparse_weight": Range(), "island_weight": Range(),
+    "sparse_window": Range(2, 64, integer=True),
+    "shading_distance": Range(),
+    "iterations": Range(0, 10_000, integer=True),
+    "candidates": Range(1, 1_000, integer=True),
+    "radius": Range(), "max_offset": Range(), "centre_clearance": Range(),
+    "seed": Range(0, 2**63 - 1, integer=True),
+}
 
 
 @dataclass(frozen=True)
@@ -40,6 +63,21 @@ class Params:
     centre_clearance: float = 0.15  # not in paper: curves keep this far (pixels) from the centres of their pixels
     seed: int = 0  # not in paper: all randomness comes from numpy's PCG64 seeded with this
     corner_patterns: bool = True  # paper §3.4 / Figure 7: keep detected corners out of the smoothness term
+
+    def __post_init__(self) -> None:
+        """Refuse values the pipeline cannot use (runs on construction and on :meth:`replace`)."""
+        from .errors import ParameterError  # noqa: PLC0415
+        from .validate import number  # noqa: PLC0415
+
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if isinstance(f.default, bool) and not isinstance(value, bool):
+                raise ParameterError(f"{f.name} must be True or False, not {value!r}", parameter=f.name)
+            rule = LIMITS.get(f.name)
+            if rule is not None:
+                number(f.name, value, low=rule.low, high=rule.high, integer=rule.integer)
+                # whole floats and numpy integers become int (range() and the RNG need it)
+                object.__setattr__(self, f.name, int(value) if rule.integer else float(value))
 
     def replace(self, **changes: object) -> "Params":
         """A copy with some fields changed (unknown names raise TypeError)."""
