@@ -103,7 +103,7 @@ def add_parsers(sub) -> None:
 
 
 def _debug(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
+    parser.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help="show the full traceback on errors")
 
 
 def _write(target: str, data: bytes, protect: tuple[Path, ...] = ()) -> None:

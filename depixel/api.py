@@ -211,8 +211,8 @@ def output_format(path: str | os.PathLike, fmt: str | None = None) -> str:
     if fmt is not None:
         _check_format(fmt)
         if suffix in FORMATS and suffix != fmt:
-            raise OutputError(f"{display_name(path)}: the name says {suffix.upper()} but the format asked "
-                                 f"for is {fmt.upper()}; name it .{fmt} (or drop the format)", parameter="fmt")
+            raise OutputError(f"{display_name(path)}: the name says {suffix.upper()} but the format is "
+                              f"{fmt.upper()}; name it .{fmt} (or drop the format)", parameter="fmt")
         return fmt
     if suffix not in FORMATS:
         raise OutputError(f"{display_name(path)}: cannot tell the output format from the extension "
@@ -221,8 +221,11 @@ def output_format(path: str | os.PathLike, fmt: str | None = None) -> str:
 
 
 def frame_outputs(output: str | os.PathLike, n_frames: int) -> list[Path]:
-    """Output names for every frame of an animation: ``name-000.svg``, ``name-001.svg``, …"""
+    """Output names for every frame of an animation: ``name-000.svg``, ``name-001.svg``, …;
+    a still image (one frame) keeps the plain name."""
     out = Path(output)
+    if n_frames == 1:
+        return [out]
     digits = max(3, len(str(n_frames - 1)))
     return [out.with_name(f"{out.stem}-{i:0{digits}d}{out.suffix}") for i in range(n_frames)]
 
