@@ -101,7 +101,8 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:  # a bug: one line unless --debug
         if args.debug:
             raise
-        say(f"internal error: {type(exc).__name__}: {exc} (--debug shows the traceback)")
+        first = str(exc).splitlines()[0] if str(exc) else ""
+        say(f"internal error: {type(exc).__name__}: {first} (--debug shows the traceback)")
         return error_exit(args.command)
 
 
