@@ -21,6 +21,8 @@ import math
 
 import numpy as np
 
+from .errors import RenderError
+from .limits import DEFAULT_MAX_OUTPUT_PIXELS
 from .pipeline import Result
 from .svg import to_svg
 from .vector import VectorImage, linked_edges
@@ -68,9 +70,17 @@ def compose(panels: list[tuple[str, object]]):
     return sheet
 
 
-def stage_panels(result: Result, zoom: int | None = None) -> list[tuple[str, object]]:
-    """(title, PIL image) for every stage the run reached, in pipeline order."""
+def stage_panels(result: Result, zoom: int | None = None,
+                 max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS) -> list[tuple[str, object]]:
+    """(title, PIL image) for every stage the run reached, in pipeline order. Panels that
+    would hold more than ``max_output_pixels`` pixels together are refused before drawing."""
     z = zoom or default_zoom(result.cells.shape)
+    h, w = result.cells.shape
+    n_panels = 5 + (result.splines is not None) + (result.optimized is not None)
+    if max_output_pixels is not None and n_panels * h * w * z * z > max_output_pixels:
+        raise RenderError(f"{n_panels} panels of {w * z}x{h * z} are {n_panels * h * w * z * z} pixels, over the "
+                          f"limit of {max_output_pixels} (a smaller zoom, or raise it with max_output_pixels)",
+                          parameter="max_output_pixels")
     panels = [
         ("input", _input_panel(result, z)),
         ("similarity graph", _similarity_panel(result, z)),

@@ -13,6 +13,10 @@ DEFAULT_MAX_PIXELS = 1_048_576
 #: Pixels of a raster output (a PNG, a diff render, an inspect figure); ``max_output_pixels``,
 #: ``--max-output-pixels``. 8192 × 4096: a 128 MiB RGBA image; ``diff`` needs ~140 bytes a pixel.
 DEFAULT_MAX_OUTPUT_PIXELS = 1 << 25
+#: Pixels of each image ``diff`` compares (input rasters and renders); ``max_pixels`` of
+#: :func:`depixel.diff.diff_files`, ``diff --max-pixels``. Comparing costs ~140 bytes a
+#: pixel: 4096 × 4096 stays under 2.5 GB.
+DEFAULT_MAX_DIFF_PIXELS = 1 << 24
 #: Bytes of an input file or stream, and of a compressed SVG (.svgz) once decompressed.
 MAX_FILE_BYTES = 256 * 2**20
 #: Peak memory of one conversion per input pixel, above the import baseline (bytes), measured
