@@ -312,11 +312,12 @@ class Progress:
             from tqdm import tqdm  # noqa: PLC0415
 
             try:
-                columns = os.get_terminal_size(sys.stderr.fileno()).columns
+                columns, lines = os.get_terminal_size(sys.stderr.fileno())
             except OSError:
-                columns = 0
+                columns = lines = 0
+            # tqdm draws nothing on a terminal of 0 columns or 0 lines: assume 80x24 there
             size = {"dynamic_ncols": True} if columns > 0 else {"ncols": 80}
-            self.bar = tqdm(total=total, unit="file", file=sys.stderr, leave=False, **size)
+            self.bar = tqdm(total=total, unit="file", file=sys.stderr, leave=False, nrows=lines or 24, **size)
 
     def message(self, text: str) -> None:
         if self.bar is not None:

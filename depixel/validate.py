@@ -25,7 +25,9 @@ def number(name: str, value: object, *, low: float | None = None, high: float | 
         raise ParameterError(f"{name} must be an integer, not {value!r}", parameter=name)
     too_low = low is not None and (value <= low if low_open else value < low)
     if too_low or (high is not None and value > high):
-        if low is not None and high is not None:
+        if low == 0 and low_open and high is None:
+            bounds = "a positive number"
+        elif low is not None and high is not None:
             bounds = f"between {_text(low)} and {_text(high)}"
         elif low is not None:
             bounds = f"above {_text(low)}" if low_open else f"at least {_text(low)}"
