@@ -89,15 +89,7 @@ def run_job(job: Job) -> Outcome:
     try:
         if opt.frames == "all" and job.frames == 0:  # not counted when planned (a single -o)
             job = Job(job.source, job.output, opt, frame_count(job.source))
-        todo = {}
-        for frame, target in frame_targets(job):
-            options = api.file_options(target, opt.params, fmt=opt.fmt, stage=opt.stage, scale=opt.scale,
-                                       frame=frame, background=opt.background, shading=opt.shading,
-                                       precision=opt.precision, width=opt.width, height=opt.height)
-            if not opt.force and api.is_up_to_date(job.source, target, options):
-                out.up_to_date.append(target)
-            else:
-                todo[frame] = (target, options)
+        todo = _outputs_to_make(job, out)
         if todo:
             frames = load_frames(job.source, opt.max_pixels) if opt.frames == "all" else \
                 [(frame, api.load(job.source, frame=frame, max_pixels=opt.max_pixels)) for frame in todo]
@@ -120,6 +112,34 @@ def run_job(job: Job) -> Outcome:
         out.error = f"{display_name(job.source)}: internal error ({type(exc).__name__}: {exc})"
         out.traceback = traceback.format_exc()
     return out
+
+
+def _outputs_to_make(job: Job, out: Outcome) -> dict[int, tuple[Path, dict]]:
+    """{frame: (output, file options)} of the outputs not up to date; the others are added
+    to ``out.up_to_date``."""
+    opt = job.options
+    todo = {}
+    for frame, target in frame_targets(job):
+        options = api.file_options(target, opt.params, fmt=opt.fmt, stage=opt.stage, scale=opt.scale,
+                                   frame=frame, background=opt.background, shading=opt.shading,
+                                   precision=opt.precision, width=opt.width, height=opt.height)
+        if not opt.force and api.is_up_to_date(job.source, target, options):
+            out.up_to_date.append(target)
+        else:
+            todo[frame] = (target, options)
+    return todo
+
+
+def already_done(job: Job) -> Outcome | None:
+    """The outcome of a job whose outputs are all up to date (checked here, without a
+    worker: a rerun of an unchanged batch starts no process), else None."""
+    if job.options.force or (job.options.frames == "all" and job.frames == 0):
+        return None
+    out = Outcome(job.source, job.output)
+    try:
+        return None if _outputs_to_make(job, out) else out
+    except (DepixelError, OSError):
+        return None  # the job itself will report it
 
 
 def remove_temporary_files(job: Job) -> None:
@@ -275,29 +295,38 @@ def run(jobs: list[Job], workers: int, report, signals, progress: "Progress | No
         if progress is not None:
             progress.current(jobs[index].source)
 
-    if workers <= 1 or len(jobs) <= 1:
-        for index, job in enumerate(jobs):
+    for index, job in enumerate(jobs):
+        if (done := already_done(job)) is not None:
+            finished(Finished(index, done))
+    todo = [i for i in range(len(jobs)) if i not in outcomes]
+    if workers <= 1 or len(todo) <= 1:
+        for index in todo:
+            job = jobs[index]
             if signals.signum is not None:
                 finished(Finished(index, cancelled=True))
                 continue
             started(index)
+            signals.raising = True  # a signal now abandons the file at once (the writer removes its temporary file)
             try:
-                signals.raising = True  # a signal abandons the file at once (no temporary file left)
-                if signals.signum is None:
-                    result = run_job(job)
-                signals.raising = False
+                result = run_job(job)
             except Interrupted:
+                result = None
+            finally:
                 signals.raising = False
+            if result is None:
                 remove_temporary_files(job)
                 finished(Finished(index, interrupted=True))
-                continue
-            if signals.signum is not None:  # arrived between the job's end and here
-                finished(Finished(index, interrupted=True))
-                continue
-            finished(Finished(index, result))
+            else:
+                finished(Finished(index, result))
     else:
         signals.raising = False
-        run_jobs(jobs, workers, run_job, finished, signals, cleanup=remove_temporary_files, started=started)
+
+        def renumbered(done: Finished) -> None:  # run_jobs numbers the jobs of ``todo``
+            finished(Finished(todo[done.index], done.result, done.died, done.retried, done.interrupted,
+                              done.cancelled))
+
+        run_jobs([jobs[i] for i in todo], workers, run_job, renumbered, signals, cleanup=remove_temporary_files,
+                 started=lambda i: started(todo[i]))
     return [outcomes[i] for i in range(len(jobs))]
 
 
