@@ -12,11 +12,13 @@ from __future__ import annotations
 import glob
 import os
 import sys
+import time
 import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from depixel import api
+from depixel import stamp as stamps
 from depixel.errors import DepixelError, display_name
 from depixel.image import frame_count, load_frames
 from depixel.limits import PEAK_BYTES_PER_PIXEL, WORKER_BASELINE_BYTES
@@ -140,6 +142,24 @@ def already_done(job: Job) -> Outcome | None:
         return None if _outputs_to_make(job, out) else out
     except (DepixelError, OSError):
         return None  # the job itself will report it
+
+
+def _abandoned(job: Job, begun: int) -> Outcome:
+    """The outcome of a job stopped while running: the outputs it completed (renamed into
+    place, with their stamp, since ``begun``) are listed as written; with all of them done,
+    the job is simply done."""
+    out = Outcome(job.source, job.output, state=INTERRUPTED)
+    if job.options.frames == "all" and job.frames == 0:
+        return out
+    for frame, target in frame_targets(job):
+        try:
+            if target.stat().st_mtime_ns >= begun and stamps.read(target) is not None:
+                out.written.append(target)
+        except OSError:
+            pass
+    if len(out.written) == len(frame_targets(job)):
+        out.state = DONE
+    return out
 
 
 def remove_temporary_files(job: Job) -> None:
@@ -275,11 +295,14 @@ def run(jobs: list[Job], workers: int, report, signals, progress: "Progress | No
     from .pool import Finished, Interrupted, run_jobs  # noqa: PLC0415
 
     outcomes: dict[int, Outcome] = {}
+    begun = time.time_ns()
 
     def finished(done: Finished) -> None:
         job = jobs[done.index]
-        if done.cancelled or done.interrupted:
-            outcome = Outcome(job.source, job.output, state=CANCELLED if done.cancelled else INTERRUPTED)
+        if done.interrupted:
+            outcome = _abandoned(job, begun)
+        elif done.cancelled:
+            outcome = Outcome(job.source, job.output, state=CANCELLED)
         elif done.died:
             outcome = Outcome(job.source, job.output,
                               error=f"{display_name(job.source)}: worker process died ({done.died}), also when retried")

@@ -20,7 +20,7 @@ from pathlib import Path
 
 from depixel.errors import DepixelError, display_name
 
-from .batch import CANCELLED, INTERRUPTED, Job, Outcome, Progress, frame_targets, run_job
+from .batch import CANCELLED, INTERRUPTED, Job, Outcome, Progress, already_done, frame_targets, run_job
 
 #: Seconds between two looks at the signals while waiting for tasks.
 POLL_SECONDS = 0.2
@@ -46,10 +46,15 @@ def run_dask(jobs: list[Job], address: str, report, signals, progress: Progress 
     outcomes: dict[int, Outcome] = {}
     signals.raising = False  # a signal is seen by the loop below, which cancels the queue
     try:
-        absolute = [_absolute(job) for job in jobs]
-        futures = client.map(run_job, absolute, pure=False, key=[f"depixel-{i}-{job.source.name}"
-                                                                  for i, job in enumerate(jobs)])
-        index = {future.key: i for i, future in enumerate(futures)}
+        for i, job in enumerate(jobs):  # up to date: decided here, no task
+            if (done := already_done(job)) is not None:
+                outcomes[i] = done
+                report(done)
+        todo = [i for i in range(len(jobs)) if i not in outcomes]
+        absolute = {i: _absolute(jobs[i]) for i in todo}
+        futures = client.map(run_job, list(absolute.values()), pure=False,
+                             key=[f"depixel-{i}-{jobs[i].source.name}" for i in todo])
+        index = {future.key: i for i, future in zip(todo, futures)}
         pending = set(futures)
         finished = as_completed(futures, loop=client.loop)
         while pending and signals.signum is None:
@@ -65,7 +70,10 @@ def run_dask(jobs: list[Job], address: str, report, signals, progress: Progress 
                     progress.current(jobs[i].source)
                 report(outcomes[i])
         if pending:  # stopped: queued tasks are cancelled, running ones finish on their worker
-            running = {key for keys in client.processing().values() for key in keys}
+            try:
+                running = {key for keys in client.processing().values() for key in keys}
+            except Exception:  # the scheduler is gone: nothing is known to run
+                running = set()
             client.cancel(list(pending))
             for future in pending:
                 i = index[future.key]

@@ -73,16 +73,26 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args, extras = parser.parse_known_args(argv)
-    if extras:
-        getattr(args, "parser", parser).unrecognized(extras)
-    if args.command is None:
-        parser.print_help(sys.stderr)
-        return Exit.USAGE
+    with Signals() as signals:  # Ctrl-C and SIGTERM, from here to the end: see depixel_cli/pool.py
+        try:
+            parser = build_parser()
+            args, extras = parser.parse_known_args(argv)
+            if extras:
+                getattr(args, "parser", parser).unrecognized(extras)
+        except Interrupted as exc:
+            say("interrupted")
+            return exc.exit_code
+        if args.command is None:
+            parser.print_help(sys.stderr)
+            return Exit.USAGE
+        args.signals = signals
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
+    """Run the command; every library error becomes one line and an exit code."""
     try:
-        with Signals() as args.signals:  # Ctrl-C and SIGTERM: see depixel_cli/pool.py
-            return int(args.run(args))
+        return int(args.run(args))
     except ParameterError as exc:  # a value the library refuses is a usage error
         if args.debug:
             raise

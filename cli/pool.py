@@ -214,8 +214,17 @@ class _Pool:
             if worker.process.is_alive():
                 _signal(worker, signal.SIGKILL)
                 worker.process.join(1)
-            self.cleanup(worker.job[1])
-            report(Finished(worker.job[0], interrupted=True))
+            result = None
+            try:
+                if worker.conn.poll():  # it finished before the stop reached it
+                    result = worker.conn.recv()
+            except (EOFError, OSError):
+                pass
+            if result is None:
+                self.cleanup(worker.job[1])
+                report(Finished(worker.job[0], interrupted=True))
+            else:
+                report(Finished(worker.job[0], result))
             worker.job = None
         for index, _ in pending:
             report(Finished(index, cancelled=True))

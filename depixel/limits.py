@@ -20,8 +20,10 @@ DEFAULT_MAX_DIFF_PIXELS = 1 << 24
 #: Bytes of an input file or stream, and of a compressed SVG (.svgz) once decompressed.
 MAX_FILE_BYTES = 256 * 2**20
 #: Peak memory of one conversion per input pixel, above the import baseline (bytes), measured
-#: with benchmarks/memory_per_pixel.py on the worst case (a 512×512 checkerboard) at 6769c95.
+#: with benchmarks/memory_per_pixel.py at 6769c95 on the worst case, a checkerboard (8.5 KB at
+#: 128², 8.4 KB at 256², 7.9 KB at 512²; noise 4.7-4.9 KB).
 #: ``-j auto`` divides the available memory by this × the largest input's pixels.
 PEAK_BYTES_PER_PIXEL = 8_500
-#: Memory of an idle worker process (the interpreter with numpy and depixel imported), bytes.
+#: Memory of a worker process before its image: 35-38 MB measured with numpy and depixel imported
+#: (memory_per_pixel.py's baseline), plus room for cairo when it renders PNG or PDF.
 WORKER_BASELINE_BYTES = 80 * 2**20
