@@ -167,9 +167,8 @@ def remove_temporary_files(job: Job) -> None:
     each of its outputs (``.NAME.XXXXXXXX.tmp`` beside it)."""
     for _, target in frame_targets(job) if job.options.frames != "all" or job.frames else [(0, job.output)]:
         try:
-            folder = Path(os.path.realpath(target)).parent
-            prefix = f".{Path(os.path.realpath(target)).name[:64]}."
-            for leftover in folder.glob(glob.escape(prefix) + "*.tmp"):
+            real = Path(os.path.realpath(target))
+            for leftover in real.parent.glob(glob.escape(f".{real.name[:64]}.") + "*.tmp"):
                 leftover.unlink(missing_ok=True)
         except (OSError, ValueError):
             pass

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-from .errors import DepixelError, InputError, OutputError, RenderError
+from .errors import DepixelError, InputError, OutputError, ParameterError, RenderError
 from .image import load_image
 from .params import Params
 from .pipeline import STAGES, Result, depixelize
@@ -19,6 +19,7 @@ __all__ = [
     "DepixelError",
     "InputError",
     "OutputError",
+    "ParameterError",
     "RenderError",
     "Params",
     "STAGES",

@@ -8,7 +8,6 @@ machine down.
 from __future__ import annotations
 
 import gzip
-import io
 import os
 import stat
 import subprocess
@@ -21,7 +20,7 @@ from PIL import Image
 
 import depixel
 from depixel import api
-from depixel.errors import InputError, OutputError, ParameterError, RenderError
+from depixel.errors import InputError, OutputError, ParameterError
 from depixel.image import load_image
 from depixel.output import write_atomic
 from depixel_cli.main import main
