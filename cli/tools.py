@@ -178,12 +178,13 @@ def run_diff(args: argparse.Namespace) -> int:
 
 
 def run_inspect(args: argparse.Namespace) -> int:
-    from depixel.figure import compose, stage_panels  # noqa: PLC0415
+    from depixel.figure import check_figure_size, compose, panel_count, stage_panels  # noqa: PLC0415
     from depixel.pipeline import depixelize  # noqa: PLC0415
 
     if args.output is None and args.out_dir is None:
         args.parser.error("say where to write: -o PNG and/or --out-dir DIR")
     rgba = api.load(args.input, frame=args.frame, background=args.background, max_pixels=args.max_pixels)
+    check_figure_size(rgba.shape[:2], args.zoom, panel_count(args.stage), args.max_output_pixels)
     result = depixelize(rgba, params_from_args(args), stage=args.stage)
     panels = stage_panels(result, args.zoom, max_output_pixels=args.max_output_pixels)
     protect = (Path(args.input),)
