@@ -13,9 +13,11 @@ One design serves every command (docs/cli.md, "Interrupts and faults"):
   grace, SIGKILL; their temporary files are removed by the caller's ``cleanup``. No worker
   outlives the command: they also get SIGTERM from the kernel when the main process dies.
 
-Workers are started with ``spawn`` (a fresh interpreter holding only its own pipe, so a
-dead parent closes every worker's pipe) and ignore SIGINT, which a terminal sends to the
-whole process group: only the main process decides what Ctrl-C means.
+Workers are forked from a ``forkserver`` that imported depixel once (``spawn`` where there
+is none): each starts in milliseconds and holds only its own pipe, so a dead parent closes
+every worker's pipe (a plain ``fork`` would hand each worker the others' pipes, and the
+threads of the parent). Workers ignore SIGINT, which a terminal sends to the whole process
+group: only the main process decides what Ctrl-C means.
 """
 from __future__ import annotations
 
@@ -138,7 +140,13 @@ class _Pool:
         import multiprocessing  # noqa: PLC0415
 
         self.started = started
-        self.context = multiprocessing.get_context("spawn")
+        if "forkserver" in multiprocessing.get_all_start_methods():
+            # a server process imports depixel once, then forks each worker from it: a worker
+            # starts in milliseconds, holding only its own pipe
+            self.context = multiprocessing.get_context("forkserver")
+            self.context.set_forkserver_preload(["depixel_cli.batch"])
+        else:
+            self.context = multiprocessing.get_context("spawn")
         self.function = function
         self.signals = signals
         self.cleanup = cleanup

@@ -49,15 +49,26 @@ def wait_for_outputs(out: Path, proc: subprocess.Popen, count: int = 1, timeout:
     raise AssertionError("the batch did not start")
 
 
+def children_of(pid: int) -> list[int]:
+    return [int(child) for task in Path(f"/proc/{pid}/task").iterdir()
+            for child in (task / "children").read_text().split()]
+
+
 def children(pid: int) -> list[int]:
-    """Worker processes of ``pid`` (not multiprocessing's resource tracker)."""
+    """Worker processes of ``pid``: its spawned children, or those of its fork server."""
     found = []
-    for task in Path(f"/proc/{pid}/task").iterdir():
-        for child in (task / "children").read_text().split():
-            cmdline = Path(f"/proc/{child}/cmdline").read_bytes()
-            if b"spawn_main" in cmdline:
-                found.append(int(child))
+    for child in children_of(pid):
+        cmdline = Path(f"/proc/{child}/cmdline").read_bytes()
+        if b"spawn_main" in cmdline:
+            found.append(child)
+        elif b"forkserver" in cmdline:
+            found += children_of(child)
     return found
+
+
+def helpers(pid: int) -> list[int]:
+    """Every other process under ``pid`` (fork server, resource tracker): they must go too."""
+    return [child for child in children_of(pid) if child not in children(pid)]
 
 
 def alive(pid: int) -> bool:
@@ -86,6 +97,7 @@ def test_first_signal_stops_the_batch_with_a_summary(tmp_path, jobs, signum, cod
     wait_for_outputs(out, proc)
     workers = children(proc.pid)
     assert len(workers) == (2 if jobs == "2" else 0)
+    workers += helpers(proc.pid)
     sent = time.monotonic()
     proc.send_signal(signum)
     stdout, stderr = proc.communicate(timeout=60)
@@ -109,7 +121,8 @@ def test_sigterm_to_the_whole_group_leaves_nothing_behind(tmp_path):
                              str(out), "--json", "-j", "2"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, start_new_session=True)
     wait_for_outputs(out, proc)
-    workers = children(proc.pid)
+    workers = children(proc.pid) + helpers(proc.pid)
+    assert len(workers) >= 2
     os.killpg(proc.pid, signal.SIGTERM)
     stdout, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 143, stderr
@@ -122,7 +135,7 @@ def test_second_ctrl_c_exits_at_once_quietly(tmp_path):
     out = tmp_path / "out"
     proc = start(batch_folder(tmp_path), out, "-j", "2")
     wait_for_outputs(out, proc)
-    workers = children(proc.pid)
+    workers = children(proc.pid) + helpers(proc.pid)
     proc.send_signal(signal.SIGINT)
     proc.send_signal(signal.SIGINT)
     stdout, stderr = proc.communicate(timeout=60)
