@@ -131,6 +131,19 @@ def test_sigterm_to_the_whole_group_leaves_nothing_behind(tmp_path):
     assert_gone(workers)
 
 
+def test_workers_die_with_a_killed_command(tmp_path):
+    """17.3: even SIGKILL of the command (no chance to clean up) leaves no worker running."""
+    out = tmp_path / "out"
+    proc = start(batch_folder(tmp_path), out, "-j", "2")
+    wait_for_outputs(out, proc)
+    workers = children(proc.pid) + helpers(proc.pid)
+    assert len(workers) >= 2
+    proc.kill()
+    proc.communicate(timeout=60)
+    assert_gone(workers)
+    assert not [p for p in out.iterdir() if p.name.startswith(".")]
+
+
 def test_second_ctrl_c_exits_at_once_quietly(tmp_path):
     out = tmp_path / "out"
     proc = start(batch_folder(tmp_path), out, "-j", "2")
