@@ -12,11 +12,26 @@ from pathlib import Path
 
 from depixel import api
 from depixel.errors import DepixelError, OutputError, display_name
-from depixel.image import DEFAULT_MAX_PIXELS, frame_count, read_source
+from depixel.image import frame_count, read_source
+from depixel.limits import DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
 from depixel.output import write_atomic
 from depixel.pipeline import STAGES
 
-from .batch import Job, Options, Outcome, Progress, default_jobs, expand_inputs, make_folders, plan, run, summary
+from .batch import (
+    CANCELLED,
+    DONE,
+    Job,
+    Options,
+    Outcome,
+    Progress,
+    auto_jobs,
+    cores,
+    expand_inputs,
+    make_folders,
+    plan,
+    run,
+    summary,
+)
 from .options import Exit, add_tuning, colour, error_message, int_range, params_from_args, positive_float, positive_int
 
 DESCRIPTION = """\
@@ -29,9 +44,13 @@ examples:
   depixel convert sprite.png -o cells.svg --stage cells     only the reshaped pixel cells
 
 Convert pixel art to SVG, PNG or PDF (Kopf & Lischinski, Depixelizing Pixel Art, 2011).
-The format comes from the output's extension or --format. With --out-dir, outputs keep the
-inputs' relative folders, existing outputs are skipped (--force replaces them), a failed
-file is reported and the rest go on; the exit code is 1 if any file failed.
+The format comes from the output's extension (--format for a name without .svg/.png/.pdf;
+a format that contradicts the extension is refused). With --out-dir, outputs keep the
+inputs' relative folders; an output newer than its input and made with the same options is
+up to date and skipped (--force reconverts it); a failed file is reported and the rest go
+on; the exit code is 1 if any file failed. Ctrl-C (or SIGTERM) stops: no new file is
+started, files being converted are abandoned without leaving partial files, what was done
+is reported (exit 130, or 143 for SIGTERM); a second Ctrl-C exits at once.
 """
 
 
@@ -44,6 +63,15 @@ def frames_option(text: str) -> str | int:
         raise argparse.ArgumentTypeError(f"expected first, all or a frame number, not {text!r}") from None
 
 
+def jobs_option(text: str) -> str | int:
+    if text == "auto":
+        return text
+    try:
+        return positive_int(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"expected auto or a number of processes, not {text!r}") from None
+
+
 def add_parser(sub) -> None:
     p = sub.add_parser("convert", help="convert pixel art to SVG, PNG or PDF", description=DESCRIPTION,
                        usage="%(prog)s INPUT... (-o FILE | --out-dir DIR) [options]",
@@ -54,9 +82,15 @@ def add_parser(sub) -> None:
     out = p.add_argument_group("output")
     out.add_argument("-o", "--output", metavar="FILE", help="output file for a single input; - writes to stdout")
     out.add_argument("--out-dir", metavar="DIR", type=Path, help="folder for the outputs of many inputs")
-    out.add_argument("--format", choices=api.FORMATS, help="output format (default: from -o's extension, else svg)")
-    out.add_argument("--scale", type=positive_float, default=1.0,
-                     help="size as a multiple of the pixel size: SVG width/height, PNG pixels, PDF size (default 1)")
+    out.add_argument("--format", choices=api.FORMATS,
+                     help="output format (default: from -o's extension, else svg); "
+                          "must agree with a .svg/.png/.pdf name")
+    size = out.add_mutually_exclusive_group()
+    size.add_argument("--scale", type=positive_float, default=1.0,
+                      help="size as a multiple of the pixel size: SVG width/height, PNG pixels, PDF size (default 1)")
+    size.add_argument("--width", type=positive_int, metavar="W",
+                      help="output width in pixels (SVG width, PNG pixels), height to match")
+    size.add_argument("--height", type=positive_int, metavar="H", help="output height in pixels, width to match")
     out.add_argument("--background", type=colour, metavar="COLOR",
                      help="flatten the image onto this colour first (#rgb, #rrggbb or a name like white)")
     out.add_argument("--shading", choices=api.SHADINGS, default="smooth",
@@ -69,16 +103,26 @@ def add_parser(sub) -> None:
     out.add_argument("--precision", type=int_range(0, 12), default=3, metavar="N",
                      help="decimals of the numbers in the SVG (default 3)")
     out.add_argument("--max-pixels", type=positive_int, default=DEFAULT_MAX_PIXELS, metavar="N",
-                     help=f"refuse larger images (default {DEFAULT_MAX_PIXELS}; pixel art is small)")
+                     help=f"refuse larger images, frames or pages (default {DEFAULT_MAX_PIXELS}; pixel art is small)")
+    out.add_argument("--max-output-pixels", type=positive_int, default=DEFAULT_MAX_OUTPUT_PIXELS, metavar="N",
+                     help=f"refuse larger PNG outputs (default {DEFAULT_MAX_OUTPUT_PIXELS})")
     batch = p.add_argument_group("many files")
     batch.add_argument("-r", "--recursive", action="store_true", help="also convert the images in subfolders")
-    batch.add_argument("--force", action="store_true", help="replace existing outputs (default: skip them)")
-    batch.add_argument("-j", "--jobs", type=positive_int, default=default_jobs(), metavar="N",
-                       help=f"files converted in parallel (default: all {default_jobs()} cores)")
+    batch.add_argument("--force", action="store_true",
+                       help="reconvert every file "
+                            "(default: skip outputs newer than their input made with the same options)")
+    batch.add_argument("-j", "--jobs", type=jobs_option, default="auto", metavar="N|auto",
+                       help=f"files converted in parallel (default auto: one per core, {cores()} here, fewer when "
+                            "the largest image would not fit in the available memory)")
+    batch.add_argument("--dask", metavar="ADDRESS",
+                       help="run the conversions on a Dask cluster (scheduler address, e.g. tcp://host:8786); "
+                            "inputs and outputs must be on a filesystem the workers share; pip install 'depixel[dask]'")
     batch.add_argument("--json", action="store_true",
-                       help="print a JSON summary on stdout (files, ok, skipped, failed with reasons, seconds)")
+                       help="print a JSON summary on stdout (files, ok, skipped, failed with reasons, every output "
+                            "with its status, interrupted, seconds)")
     add_tuning(p)
-    p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
+    p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                   help="show the full traceback on errors")
 
 
 def run_convert(args: argparse.Namespace) -> int:
@@ -91,14 +135,20 @@ def run_convert(args: argparse.Namespace) -> int:
         parser.error("- (stdin) must be the only input, with -o FILE or -o -")
     if args.output == "-" and (args.frames == "all" or args.json):
         parser.error("-o - writes one image to stdout: no --frames all or --json with it")
+    if args.out_dir is not None and args.out_dir.exists() and not args.out_dir.is_dir():
+        parser.error(f"--out-dir {display_name(args.out_dir)}: is a file, not a folder")
+    if args.dask is not None and args.out_dir is None:
+        parser.error("--dask converts batches: use it with --out-dir DIR")
     try:
-        fmt = args.format or (api.output_format(args.output) if args.output not in (None, "-") else "svg")
+        fmt = api.output_format(args.output, args.format) if args.output not in (None, "-") else args.format or "svg"
     except OutputError as exc:
-        parser.error(f"{exc}; or use --format")
+        parser.error(str(exc).replace("the format", "--format").replace("give --format", "use --format"))
     options = Options(params_from_args(args), fmt, args.stage, args.scale, args.frames, args.background,
-                      args.max_pixels, force=args.force, shading=args.shading, precision=args.precision)
+                      args.max_pixels, force=args.force, shading=args.shading, precision=args.precision,
+                      width=args.width, height=args.height, max_output_pixels=args.max_output_pixels)
 
     start = time.perf_counter()
+    signals = args.signals
     if args.inputs == ["-"] or args.output == "-":
         outcome = _convert_stream(args.inputs[0], args.output, options)
         _report(outcome, Progress(0), args)
@@ -108,15 +158,19 @@ def run_convert(args: argparse.Namespace) -> int:
         if problems or len(found) != 1:
             parser.error(problems[0][1] if problems else
                          f"-o takes one input, not {len(found)}; use --out-dir DIR for several")
-        # an explicitly named output is always written
-        job = Job(found[0][0], Path(args.output), replace(options, force=True))
-        outcomes = run([job], 1, lambda o: _report(o, Progress(0), args))
+        # an explicitly named output is always written; its frames are counted by the job
+        job = Job(found[0][0], Path(args.output), replace(options, force=True), frames=0)
+        outcomes = run([job], 1, lambda o: _report(o, Progress(0), args), signals)
     else:
         outcomes = _convert_batch(args, options)
+    seconds = time.perf_counter() - start
+    interrupted = signals.signum is not None
     if args.json:
-        print(json.dumps(summary(outcomes, time.perf_counter() - start), indent=2))
-    elif len(outcomes) >= 2 and sys.stderr.isatty():  # like the progress bar: quiet in logs
-        _print_totals(outcomes, time.perf_counter() - start)
+        print(json.dumps(summary(outcomes, seconds, interrupted), indent=2))
+    elif interrupted or (len(outcomes) >= 2 and sys.stderr.isatty()):  # like the progress bar: quiet in logs
+        _print_totals(outcomes, seconds, interrupted)
+    if interrupted:
+        return 128 + signals.signum
     return Exit.FAILED if any(o.error for o in outcomes) else Exit.OK
 
 
@@ -130,7 +184,16 @@ def _convert_batch(args: argparse.Namespace, options: Options) -> list[Outcome]:
     try:
         for outcome in failed:
             _report(outcome, progress, args, step=False)
-        return failed + run(jobs, args.jobs, lambda o: _report(o, progress, args))
+        if args.dask is not None:
+            from .dask_batch import run_dask  # noqa: PLC0415
+
+            return failed + run_dask(jobs, args.dask, lambda o: _report(o, progress, args), args.signals, progress)
+        workers = args.jobs
+        if workers == "auto":
+            workers, note = auto_jobs(jobs)
+            if note:
+                progress.message(f"note: {note}")
+        return failed + run(jobs, workers, lambda o: _report(o, progress, args), args.signals, progress)
     finally:
         progress.close()
 
@@ -155,7 +218,8 @@ def _convert_stream(source: str, output: str, options: Options) -> Outcome:
             blob = api.convert_bytes(rgba, options.fmt, options.params, stage=options.stage,
                                      scale=options.scale, shading=options.shading, name=name,
                                      title=None if source == "-" else Path(source).name,
-                                     precision=options.precision)
+                                     precision=options.precision, width=options.width, height=options.height,
+                                     max_pixels=options.max_pixels, max_output_pixels=options.max_output_pixels)
             if target == "-":
                 if options.fmt != "svg" and sys.stdout.isatty():
                     raise OutputError(f"refusing to write binary {options.fmt.upper()} to a terminal")
@@ -172,6 +236,8 @@ def _convert_stream(source: str, output: str, options: Options) -> Outcome:
 
 
 def _report(outcome: Outcome, progress: Progress, args: argparse.Namespace, step: bool = True) -> None:
+    if outcome.state != DONE:
+        return
     for note in outcome.notes:
         progress.message(f"note: {note}")
     if outcome.error:
@@ -182,11 +248,14 @@ def _report(outcome: Outcome, progress: Progress, args: argparse.Namespace, step
         progress.step()
 
 
-def _print_totals(outcomes: list[Outcome], seconds: float) -> None:
-    report = summary(outcomes, seconds)
+def _print_totals(outcomes: list[Outcome], seconds: float, interrupted: bool = False) -> None:
+    report = summary(outcomes, seconds, interrupted)
     parts = [f"{report['ok']} converted"]
     if report["skipped"]:
-        parts.append(f"{report['skipped']} skipped (existing; --force replaces)")
+        parts.append(f"{report['skipped']} up to date (--force reconverts)")
     if report["failed"]:
         parts.append(f"{len(report['failed'])} failed")
+    if interrupted:
+        cancelled = sum(1 for o in outcomes if o.state == CANCELLED)
+        parts.append(f"{report['not_done'] - cancelled} abandoned, {cancelled} not started (interrupted)")
     print(f"depixel: {len(outcomes)} files: {', '.join(parts)} in {seconds:.1f} s", file=sys.stderr)

@@ -7,20 +7,39 @@ Every command builds its options, calls the library and maps a library error
 from __future__ import annotations
 
 import argparse
+import difflib
+import re
 import sys
 from importlib import metadata
-from typing import NoReturn
+from typing import NoReturn, cast
 
 import depixel
-from depixel.errors import DepixelError
+from depixel.errors import DepixelError, ParameterError
 
 from . import convert, inkscape, tools
 from .options import Exit, error_exit, error_message, say
+from .pool import Interrupted, Signals
 
 
 class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> NoReturn:  # one line, exit code 2
+    def error(self, message: str) -> NoReturn:  # one line naming the (sub)command, exit code 2
+        choice = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
+        if choice:
+            close = difflib.get_close_matches(choice.group(1), re.findall(r"'([^']*)'", choice.group(2)), n=1)
+            if close:
+                message += f"; did you mean {close[0]}?"
         self.exit(Exit.USAGE, f"{self.prog}: error: {message}\n")
+
+    def unrecognized(self, extras: list[str]) -> None:
+        """Unknown arguments, with the closest option of this (sub)command for each flag."""
+        options = [o for action in self._actions for o in action.option_strings if o.startswith("--")]
+        hints = []
+        for arg in extras:
+            if arg.startswith("-"):
+                close = difflib.get_close_matches(arg.split("=")[0], options, n=1, cutoff=0.6)
+                if close:
+                    hints.append(f"{arg.split('=')[0]}: did you mean {close[0]}?")
+        self.error(f"unrecognized arguments: {' '.join(extras)}" + (f" ({'; '.join(hints)})" if hints else ""))
 
 
 class _Version(argparse.Action):
@@ -56,27 +75,46 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if args.command is None:
-        parser.print_help(sys.stderr)
-        return Exit.USAGE
+    with Signals() as signals:  # Ctrl-C and SIGTERM, from here to the end: see depixel_cli/pool.py
+        try:
+            parser = build_parser()
+            args, extras = parser.parse_known_args(argv)
+            if extras:
+                cast(_Parser, getattr(args, "parser", parser)).unrecognized(extras)
+        except Interrupted as exc:
+            say("interrupted")
+            return exc.exit_code
+        if args.command is None:
+            parser.print_help(sys.stderr)
+            return Exit.USAGE
+        args.signals = signals
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
+    """Run the command; every library error becomes one line and an exit code."""
     try:
         return int(args.run(args))
+    except ParameterError as exc:  # a value the library refuses is a usage error
+        if args.debug:
+            raise
+        say(f"error: {error_message(exc)}")
+        return Exit.USAGE
     except DepixelError as exc:
         if args.debug:
             raise
         say(f"error: {error_message(exc)}")
         return error_exit(args.command)
-    except KeyboardInterrupt:
+    except (Interrupted, KeyboardInterrupt) as exc:
         say("interrupted")
-        return Exit.INTERRUPTED
+        return exc.exit_code if isinstance(exc, Interrupted) else Exit.INTERRUPTED
     except BrokenPipeError:  # e.g. `depixel convert - -o - | head`
         return Exit.FAILED
     except Exception as exc:  # a bug: one line unless --debug
         if args.debug:
             raise
-        say(f"internal error: {type(exc).__name__}: {exc} (--debug shows the traceback)")
+        first = str(exc).splitlines()[0] if str(exc) else ""
+        say(f"internal error: {type(exc).__name__}: {first} (--debug shows the traceback)")
         return error_exit(args.command)
 
 

@@ -127,6 +127,13 @@ def params_from_args(args: argparse.Namespace) -> Params:
 #: The CLI's name of each library parameter that error messages may name.
 FLAG_OF_PARAMETER = {
     "max_pixels": "--max-pixels",
+    "max_output_pixels": "--max-output-pixels",
+    "width": "--width",
+    "height": "--height",
+    "scale": "--scale",
+    "fmt": "--format",
+    "background": "--background",
+    "precision": "--precision",
     **{name: flag for flag, name, _, _ in TUNING},
 }
 

@@ -9,7 +9,8 @@ from pathlib import Path
 
 from depixel import api
 from depixel.errors import OutputError, display_name
-from depixel.image import DEFAULT_MAX_PIXELS, read_source
+from depixel.image import read_source
+from depixel.limits import DEFAULT_MAX_DIFF_PIXELS, DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
 from depixel.output import write_atomic
 from depixel.pipeline import STAGES
 
@@ -38,12 +39,15 @@ DIFF_DESCRIPTION = """\
 examples:
   depixel diff expected.svg actual.svg                 exit 0 same, 1 different, 2 error
   depixel diff sprite.svg sprite.png --diff-out d.png  SVG rendered at the PNG's size
+  depixel diff sprite.svg sprite.png --scale 8         the SVG against the 1x pixel art, at 8x
   depixel diff a.svg b.svg --scale 4 --max-ratio 0.001 --json
 
-Compare two images (SVG or PNG) the way a person would. Both are rendered at the same
-size (an SVG at the PNG's size, or at its width/height x --scale), flattened over a
-background colour neither contains (default magenta, so seams and alpha leaks show) and
-compared pixel by pixel with pixelmatch's YIQ distance; anti-aliasing differences are ignored.
+Compare two images (SVG or PNG) the way a person would. Both are brought to one size (a
+PNG's size, or the SVGs' own, times --scale; a PNG is enlarged by nearest neighbour, an SVG
+rendered at that size), flattened over a background colour neither contains (default
+magenta, so seams and alpha leaks show) and compared pixel by pixel with pixelmatch's YIQ
+distance; anti-aliasing differences are ignored. The images are the same when no pixel
+differs, or when the differing pixels are within either tolerance given.
 """
 
 INSPECT_DESCRIPTION = """\
@@ -65,10 +69,14 @@ def add_parsers(sub) -> None:
     render.set_defaults(run=run_render, parser=render)
     render.add_argument("input", metavar="IN.svg", help="SVG file; - reads stdin")
     render.add_argument("-o", "--output", required=True, metavar="OUT", help="PNG or PDF file; - writes to stdout")
-    render.add_argument("--format", choices=("png", "pdf"), help="output format (default: from the extension)")
+    render.add_argument("--format", choices=("png", "pdf"),
+                        help="output format (default: from the extension; must agree with a .png/.pdf name)")
     size = render.add_mutually_exclusive_group()
     size.add_argument("--scale", type=positive_float, help="multiple of the SVG's width/height (default 1)")
     size.add_argument("--width", type=positive_int, metavar="W", help="width in pixels, height to match")
+    size.add_argument("--height", type=positive_int, metavar="H", help="height in pixels, width to match")
+    render.add_argument("--max-output-pixels", type=positive_int, default=DEFAULT_MAX_OUTPUT_PIXELS, metavar="N",
+                        help=f"refuse larger PNG renders (default {DEFAULT_MAX_OUTPUT_PIXELS})")
     render.add_argument("--background", type=colour, metavar="COLOR", help="opaque background (default transparent)")
     _debug(render)
 
@@ -78,13 +86,18 @@ def add_parsers(sub) -> None:
     diff.add_argument("a", metavar="A", help="SVG or PNG")
     diff.add_argument("b", metavar="B", help="SVG or PNG")
     diff.add_argument("--scale", type=positive_float, default=1.0,
-                      help="render SVGs at their width/height times this when no PNG sets the size (default 1)")
+                      help="compare at this multiple of the size: a PNG is enlarged by nearest neighbour, an "
+                           "SVG rendered to match (default 1: the PNG's size, or the SVGs' own)")
     diff.add_argument("--threshold", type=unit_float, default=0.1, metavar="T",
-                      help="colour distance (0-1) below which pixels count as equal (default 0.1, as pixelmatch)")
-    diff.add_argument("--max-pixels-diff", type=non_negative_int, default=0, metavar="N",
-                      help="tolerate up to N different pixels (default 0)")
-    diff.add_argument("--max-ratio", type=unit_float, default=0.0, metavar="R",
-                      help="tolerate up to this fraction of different pixels (default 0)")
+                      help="colour distance (0-1) above which two pixels differ: pixelmatch's threshold, "
+                           "a YIQ distance over 35215*T^2 (default 0.1, as pixelmatch)")
+    diff.add_argument("--max-pixels-diff", type=non_negative_int, metavar="N",
+                      help="same if at most N pixels differ")
+    diff.add_argument("--max-ratio", type=unit_float, metavar="R",
+                      help="same if at most this fraction of the pixels differs (with --max-pixels-diff: "
+                           "within either bound; with neither: no pixel may differ)")
+    diff.add_argument("--max-pixels", type=positive_int, default=DEFAULT_MAX_DIFF_PIXELS, metavar="N",
+                      help=f"refuse to compare images larger than this (default {DEFAULT_MAX_DIFF_PIXELS})")
     diff.add_argument("--background", type=colour, metavar="COLOR",
                       help="flatten both over this colour (default: magenta, or another colour neither image has)")
     diff.add_argument("--include-aa", action="store_true", help="count anti-aliasing differences too")
@@ -108,12 +121,15 @@ def add_parsers(sub) -> None:
     inspect.add_argument("--background", type=colour, metavar="COLOR", help="flatten the image onto this colour first")
     inspect.add_argument("--max-pixels", type=positive_int, default=DEFAULT_MAX_PIXELS, metavar="N",
                          help=f"refuse larger images (default {DEFAULT_MAX_PIXELS})")
+    inspect.add_argument("--max-output-pixels", type=positive_int, default=DEFAULT_MAX_OUTPUT_PIXELS, metavar="N",
+                         help=f"refuse figures of more pixels (default {DEFAULT_MAX_OUTPUT_PIXELS})")
     add_tuning(inspect)
     _debug(inspect)
 
 
 def _debug(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
+    parser.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                        help="show the full traceback on errors")
 
 
 def _write(target: str, data: bytes, protect: tuple[Path, ...] = ()) -> None:
@@ -130,27 +146,32 @@ def _write(target: str, data: bytes, protect: tuple[Path, ...] = ()) -> None:
 def run_render(args: argparse.Namespace) -> int:
     from depixel.raster import render  # noqa: PLC0415
 
-    fmt = args.format or ("png" if args.output == "-" else api.output_format(args.output))
-    if fmt == "svg":
-        args.parser.error("render writes PNG or PDF; give OUT a .png or .pdf name or use --format")
+    try:
+        fmt = args.format or "png" if args.output == "-" else api.output_format(args.output, args.format)
+    except OutputError:
+        fmt = None
+    if fmt not in ("png", "pdf"):
+        args.parser.error(f"{display_name(args.output)}: render writes PNG or PDF; name OUT .png or .pdf "
+                          "(or use --format with a name without those extensions)")
     protect: tuple[Path, ...]
     if args.input == "-":
         svg, name, protect = read_source(sys.stdin.buffer), "<stdin>", ()
     else:
         svg, name, protect = api.read_input(args.input), display_name(args.input), (Path(args.input),)
-    data = render(svg, fmt, scale=args.scale, width=args.width, background=args.background, name=name)
+    data = render(svg, str(fmt), scale=args.scale, width=args.width, height=args.height, background=args.background,
+                  name=name, max_output_pixels=args.max_output_pixels)
     _write(args.output, data, protect)
     return Exit.OK
 
 
 def run_diff(args: argparse.Namespace) -> int:
-    from depixel.diff import diff_files  # noqa: PLC0415
+    from depixel.diff import diff_files, within  # noqa: PLC0415
 
     comparison, background = diff_files(args.a, args.b, scale=args.scale, threshold=args.threshold,
                                         background=args.background, allow_size_mismatch=args.allow_size_mismatch,
-                                        include_antialiasing=args.include_aa)
+                                        include_antialiasing=args.include_aa, max_pixels=args.max_pixels)
     count, ratio = comparison.different_pixels, comparison.ratio
-    same = count <= args.max_pixels_diff and ratio <= args.max_ratio
+    same = within(comparison, args.max_pixels_diff, args.max_ratio)
     if args.diff_out:
         _write(args.diff_out, _png(comparison.diff_image()), protect=(Path(args.a), Path(args.b)))
     h, w = comparison.different.shape
@@ -170,14 +191,15 @@ def run_diff(args: argparse.Namespace) -> int:
 
 
 def run_inspect(args: argparse.Namespace) -> int:
-    from depixel.figure import compose, stage_panels  # noqa: PLC0415
+    from depixel.figure import check_figure_size, compose, panel_count, stage_panels  # noqa: PLC0415
     from depixel.pipeline import depixelize  # noqa: PLC0415
 
     if args.output is None and args.out_dir is None:
         args.parser.error("say where to write: -o PNG and/or --out-dir DIR")
     rgba = api.load(args.input, frame=args.frame, background=args.background, max_pixels=args.max_pixels)
+    check_figure_size(rgba.shape[:2], args.zoom, panel_count(args.stage), args.max_output_pixels)
     result = depixelize(rgba, params_from_args(args), stage=args.stage)
-    panels = stage_panels(result, args.zoom)
+    panels = stage_panels(result, args.zoom, max_output_pixels=args.max_output_pixels)
     protect = (Path(args.input),)
     if args.out_dir is not None:
         try:

@@ -8,7 +8,7 @@ from __future__ import annotations
 __version__ = "0.1.0"
 
 from .api import convert, convert_bytes, convert_file, flatten, render_file
-from .errors import DepixelError, InputError, OutputError, RenderError
+from .errors import DepixelError, InputError, OutputError, ParameterError, RenderError
 from .image import load_image
 from .params import Params
 from .pipeline import STAGES, Result, depixelize
@@ -19,6 +19,7 @@ __all__ = [
     "DepixelError",
     "InputError",
     "OutputError",
+    "ParameterError",
     "RenderError",
     "Params",
     "STAGES",

@@ -18,9 +18,11 @@ from pathlib import Path
 
 import numpy as np
 
+from . import validate
 from .api import Colour, flatten, read_input
 from .errors import InputError
-from .image import load_image
+from .image import check_pixels, load_image
+from .limits import DEFAULT_MAX_DIFF_PIXELS
 
 DEFAULT_THRESHOLD = 0.1  # pixelmatch's default: about 1% of the largest YIQ distance
 MAX_YIQ_DELTA = 35215.0  # the largest YIQ distance between two colours (cyan and red)
@@ -159,31 +161,47 @@ def is_svg(data: bytes, path: str | os.PathLike = "") -> bool:
 
 
 def load_pair(path_a: str | os.PathLike, path_b: str | os.PathLike, *, scale: float = 1.0,
-              allow_size_mismatch: bool = False) -> tuple[np.ndarray, np.ndarray]:
+              allow_size_mismatch: bool = False,
+              max_pixels: int | None = DEFAULT_MAX_DIFF_PIXELS) -> tuple[np.ndarray, np.ndarray]:
     """Both files as ``(H, W, 4) uint8`` RGBA of the same size, not yet flattened.
 
-    A PNG (any raster) keeps its size; an SVG is rendered at the other file's size when that
-    is a raster, else at its own width/height × ``scale``. Different sizes raise
+    The comparison size is a raster's own size (or an SVG's width/height when both are
+    SVGs) times ``scale``: a raster is enlarged by nearest-neighbour (each pixel a square,
+    as pixel art is meant to be seen) and an SVG is rendered at that size. So
+    ``scale=8`` compares a sprite's SVG with its 1x PNG at 8x. Different sizes raise
     :class:`SizeMismatchError` unless ``allow_size_mismatch``: then both are padded with
     transparency to the larger size, so the area only one image covers counts as changed.
+    Every image, read or rendered, is refused over ``max_pixels`` before it is decoded.
     """
+    from PIL import Image  # noqa: PLC0415
+
     from .raster import render_rgba, svg_size  # noqa: PLC0415
 
-    data = [read_input(p) for p in (path_a, path_b)]
-    svg = [is_svg(d, p) for d, p in zip(data, (path_a, path_b))]
-    images: list[np.ndarray | None] = [
-        None if s else load_image(d, max_pixels=None).copy() for d, s in zip(data, svg)
-    ]
-    for i, (d, p) in enumerate(zip(data, (path_a, path_b))):
+    validate.positive("scale", scale)
+    max_pixels = validate.limit("max_pixels", max_pixels)
+    paths = (path_a, path_b)
+    data = [read_input(p) for p in paths]
+    svg = [is_svg(d, p) for d, p in zip(data, paths)]
+    images: list[np.ndarray | None] = [None, None]
+    for i, (d, p) in enumerate(zip(data, paths)):
+        if svg[i]:
+            continue
+        rgba = load_image(d, max_pixels=max_pixels)
+        size = max(1, round(rgba.shape[1] * scale)), max(1, round(rgba.shape[0] * scale))
+        check_pixels(str(p), size[0], size[1], max_pixels)
+        images[i] = rgba.copy() if size == rgba.shape[1::-1] else \
+            np.asarray(Image.fromarray(rgba, "RGBA").resize(size, Image.Resampling.NEAREST))
+    for i, (d, p) in enumerate(zip(data, paths)):
         if not svg[i]:
             continue
         other = images[1 - i]
-        if not svg[1 - i] and other is not None:  # the other is a raster: its size rules
+        if not svg[1 - i] and other is not None:  # the other is a raster: its (scaled) size rules
             height, width = other.shape[:2]
         else:
             w, h = svg_size(d, name=str(p))
             width, height = max(1, round(w * scale)), max(1, round(h * scale))
-        images[i] = render_rgba(d, width=width, height=height, name=str(p))
+        check_pixels(str(p), width, height, max_pixels)
+        images[i] = render_rgba(d, width=width, height=height, name=str(p), max_output_pixels=max_pixels)
     a, b = images
     assert a is not None and b is not None  # every SVG was rendered above
     if a.shape != b.shape:
@@ -197,10 +215,23 @@ def load_pair(path_a: str | os.PathLike, path_b: str | os.PathLike, *, scale: fl
 
 def diff_files(path_a: str | os.PathLike, path_b: str | os.PathLike, *, scale: float = 1.0,
                threshold: float = DEFAULT_THRESHOLD, background: Colour | None = None,
-               allow_size_mismatch: bool = False, include_antialiasing: bool = False) -> tuple[Comparison, Colour]:
+               allow_size_mismatch: bool = False, include_antialiasing: bool = False,
+               max_pixels: int | None = DEFAULT_MAX_DIFF_PIXELS) -> tuple[Comparison, Colour]:
     """Load, flatten and compare two SVG/PNG files; returns the comparison and the background used."""
-    a, b = load_pair(path_a, path_b, scale=scale, allow_size_mismatch=allow_size_mismatch)
+    validate.number("threshold", threshold, low=0, high=1)
+    a, b = load_pair(path_a, path_b, scale=scale, allow_size_mismatch=allow_size_mismatch, max_pixels=max_pixels)
     if background is None:
         background = pick_background([a, b])
     comparison = compare(flatten(a, background), flatten(b, background), threshold, include_antialiasing)
     return comparison, background
+
+
+def within(comparison: Comparison, max_pixels_diff: int | None = None, max_ratio: float | None = None) -> bool:
+    """The verdict: no pixel differs, or the differing pixels are within either bound given
+    (at most ``max_pixels_diff`` pixels, or at most the fraction ``max_ratio`` of all)."""
+    count = comparison.different_pixels
+    if count == 0:
+        return True
+    by_count = max_pixels_diff is not None and count <= max_pixels_diff
+    by_ratio = max_ratio is not None and comparison.ratio <= max_ratio
+    return by_count or by_ratio

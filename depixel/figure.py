@@ -23,6 +23,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .bspline import flatten_edges
+from .errors import RenderError
+from .limits import DEFAULT_MAX_OUTPUT_PIXELS
 from .pipeline import Result
 from .svg import to_svg
 from .vector import VectorImage, linked_edges
@@ -73,9 +75,30 @@ def compose(panels: list[tuple[str, Image]]):
     return sheet
 
 
-def stage_panels(result: Result, zoom: int | None = None) -> list[tuple[str, Image]]:
-    """(title, PIL image) for every stage the run reached, in pipeline order."""
+def panel_count(stage: str) -> int:
+    """Panels of the figure of a run that stops at ``stage``."""
+    return {"cells": 5, "splines": 6}.get(stage, 7)
+
+
+def check_figure_size(shape: tuple[int, int], zoom: int | None, n_panels: int,
+                      max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS) -> None:
+    """Refuse a figure of more than ``max_output_pixels`` pixels (all panels together);
+    callable before the pipeline runs, from the image's shape."""
+    h, w = shape
+    z = zoom or default_zoom(shape)
+    if max_output_pixels is not None and n_panels * h * w * z * z > max_output_pixels:
+        raise RenderError(f"{n_panels} panels of {w * z}x{h * z} are {n_panels * h * w * z * z} pixels, over the "
+                          f"limit of {max_output_pixels} (a smaller zoom, or raise it with max_output_pixels)",
+                          parameter="max_output_pixels")
+
+
+def stage_panels(result: Result, zoom: int | None = None,
+                 max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS) -> list[tuple[str, Image]]:
+    """(title, PIL image) for every stage the run reached, in pipeline order. Panels that
+    would hold more than ``max_output_pixels`` pixels together are refused before drawing."""
     z = zoom or default_zoom(result.cells.shape)
+    check_figure_size(result.cells.shape, z, 5 + (result.splines is not None) + (result.optimized is not None),
+                      max_output_pixels)
     panels = [
         ("input", _input_panel(result, z)),
         ("similarity graph", _similarity_panel(result, z)),

@@ -20,11 +20,8 @@ from typing import BinaryIO
 import numpy as np
 
 from .errors import InputError, display_name
+from .limits import DEFAULT_MAX_PIXELS, MAX_FILE_BYTES  # noqa: F401 (DEFAULT_MAX_PIXELS: re-exported)
 
-#: Default limit on width × height. Pixel art is small; a larger input is almost always a photo.
-DEFAULT_MAX_PIXELS = 1_048_576
-#: Files longer than this are refused before decoding (a 1024×1024 RGBA PNG is at most ~4 MiB).
-MAX_FILE_BYTES = 256 * 2**20
 #: Modes with more than 8 bits per grey sample, scaled by hand (Pillow's convert clips them).
 _WIDE_GREY = ("I;16", "I;16B", "I;16L", "I;16N", "I", "F")
 
@@ -52,39 +49,69 @@ def load_image(source: ImageSource, max_pixels: int | None = DEFAULT_MAX_PIXELS,
     ``source`` is a path, raw file bytes or a binary file object. Every Pillow mode is
     accepted (docs/colour.md, "Input modes"): palette and grey images with a tRNS
     transparency key keep it as alpha, 16-bit and 32-bit data are scaled to 8 bits.
-    The size is checked against ``max_pixels`` (``None``: only Pillow's decompression-bomb
-    guard) from the header, before any pixel is decoded. Anything unreadable raises
-    :class:`InputError` with a one-line message naming the file.
+    The size of the frame (or page) decoded is checked against ``max_pixels`` (``None``:
+    only Pillow's decompression-bomb guard) from its header, before any pixel is decoded.
+    Anything unreadable raises :class:`InputError` with a one-line message naming the file.
     """
+    from .validate import number  # noqa: PLC0415
+
+    number("frame", frame, low=0, integer=True)
+    for _, rgba in _frames(source, max_pixels, only=int(frame)):
+        return rgba
+    raise AssertionError("unreachable: _frames yields the frame or raises")
+
+
+def load_frames(source: ImageSource, max_pixels: int | None = DEFAULT_MAX_PIXELS):
+    """Every frame of an (animated) image in order, each decoded once: yields ``(index,
+    (H, W, 4) uint8 RGBA)``. The file is read once and the frames are decoded sequentially,
+    so the cost is linear in the number of frames; each is checked against ``max_pixels``."""
+    yield from _frames(source, max_pixels, only=None)
+
+
+def _frames(source: ImageSource, max_pixels: int | None, only: int | None):
+    """Frames ``only`` (one index) or all of them, as :func:`load_frames` describes."""
+    from .validate import limit  # noqa: PLC0415
+
+    max_pixels = limit("max_pixels", max_pixels)
     name = _describe(source)
-    if frame < 0:
-        raise InputError(f"{name}: frame must be 0 or more, not {frame}")
     data = read_source(source)
     with _quiet_pillow(), _open(data, name) as img:
         width, height = img.size
-        if max_pixels is not None and width * height > max_pixels:
-            raise InputError(
-                f"{name}: {width}x{height} is {width * height} pixels, over the limit of "
-                f"{max_pixels} (depixel is for pixel art; raise it with max_pixels)",
-                parameter="max_pixels",
-            )
+        check_pixels(name, width, height, max_pixels)
         try:
             n_frames = int(getattr(img, "n_frames", 1))
-            if frame >= n_frames:
-                raise InputError(f"{name}: has {n_frames} frame(s), no frame {frame}")
-            with _mute_stderr_fd(img.format == "TIFF"):  # libtiff prints its complaints there
-                if frame:
-                    img.seek(frame)
-                img.load()
-        except InputError:
-            raise
-        except MemoryError:
-            raise InputError(f"{name}: not enough memory to decode a {width}x{height} image") from None
-        except Exception as exc:  # Pillow raises OSError, SyntaxError, ValueError, zlib.error, ...
-            if _is_bomb(exc):
-                raise _bomb_error(name) from None
+        except Exception:
             raise InputError(f"{name}: truncated or corrupt image data") from None
-        return _to_rgba(img, name)
+        if only is not None and only >= n_frames:
+            raise InputError(f"{name}: has {n_frames} frame(s), no frame {only}")
+        for index in range(n_frames) if only is None else (only,):
+            try:
+                with _mute_stderr_fd(img.format == "TIFF"):  # libtiff prints its complaints there
+                    if index:
+                        img.seek(index)  # the next frame after the previous one: no re-reading
+                    # a page of a TIFF (or a frame of an APNG) has its own size: check it too
+                    width, height = img.size
+                    check_pixels(name, width, height, max_pixels)
+                    img.load()
+            except InputError:
+                raise
+            except MemoryError:
+                raise InputError(f"{name}: not enough memory to decode a {img.size[0]}x{img.size[1]} image") from None
+            except Exception as exc:  # Pillow raises OSError, SyntaxError, ValueError, zlib.error, ...
+                if _is_bomb(exc):
+                    raise _bomb_error(name) from None
+                raise InputError(f"{name}: truncated or corrupt image data") from None
+            yield index, _to_rgba(img, name)
+
+
+def check_pixels(name: str, width: int, height: int, max_pixels: int | None) -> None:
+    """Refuse an image of more than ``max_pixels`` pixels, naming the parameter."""
+    if max_pixels is not None and width * height > max_pixels:
+        raise InputError(
+            f"{name}: {width}x{height} is {width * height} pixels, over the limit of "
+            f"{max_pixels} (depixel is for pixel art; raise it with max_pixels)",
+            parameter="max_pixels",
+        )
 
 
 def frame_count(source: ImageSource) -> int:

@@ -56,7 +56,7 @@ def write_atomic(path: str | os.PathLike, data: bytes | str, protect: tuple[Path
             fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
-        os.chmod(tmp, stat.S_IMODE(current.st_mode) if current is not None else 0o644)
+        os.chmod(tmp, stat.S_IMODE(current.st_mode) if current is not None else 0o666 & ~_umask())
         os.replace(tmp, target)
     except BaseException as exc:  # KeyboardInterrupt included: never leave the temporary file
         try:
@@ -66,6 +66,21 @@ def write_atomic(path: str | os.PathLike, data: bytes | str, protect: tuple[Path
         if isinstance(exc, OSError):
             raise OutputError(f"{name}: cannot write ({exc.strerror or exc})") from None
         raise
+
+
+def _umask() -> int:
+    """The process's umask (new files get 0666 without its bits, as ``open`` would give them);
+    read from /proc where it can be, since setting it to read it is not thread-safe."""
+    try:
+        with open("/proc/self/status", "rb") as fh:
+            for line in fh:
+                if line.startswith(b"Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
 
 
 def _stat(target: Path, name: str) -> os.stat_result | None:

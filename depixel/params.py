@@ -6,7 +6,36 @@ Every constant carries its source: "paper" (Kopf & Lischinski 2011, with the sec
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
-from typing import Any
+from typing import Any, NamedTuple
+
+
+class Range(NamedTuple):
+    """The values a numeric field accepts: finite, within [low, high], whole when ``integer``."""
+
+    low: float | None = 0.0
+    high: float | None = None
+    integer: bool = False
+
+
+#: The constraint of every numeric field (a field not listed is not checked; booleans must be bool).
+#: Upper bounds keep the pipeline's memory in reason (a window of side N costs N² per crossing).
+LIMITS: dict[str, Range] = {
+    "threshold_y": Range(), "threshold_u": Range(), "threshold_v": Range(), "threshold_alpha": Range(),
+    "curve_weight": Range(), "sparse_weight": Range(), "island_weight": Range(),
+    "sparse_window": Range(2, 64, integer=True),
+    "shading_distance": Range(),
+    "iterations": Range(0, 10_000, integer=True),
+    "candidates": Range(1, 1_000, integer=True),
+    "radius": Range(), "max_offset": Range(), "centre_clearance": Range(),
+    "seed": Range(0, 2**63 - 1, integer=True),
+    "snap_passes": Range(1, 100, integer=True),
+    "run_tolerance": Range(), "run_long": Range(), "run_short": Range(), "run_turn": Range(0, 180),
+    "run_bend": Range(0, 180), "run_reach": Range(),
+    "harmonic_reach": Range(0, 1_000, integer=True),
+    "revert_rounds": Range(0, 1_000, integer=True),
+    "shading_sigma": Range(1e-6), "shading_radius": Range(1e-6),
+    "shading_supersample": Range(1, 16, integer=True),
+}
 
 
 @dataclass(frozen=True)
@@ -66,6 +95,21 @@ class Params:
     shading_radius: float = 2.0  # paper §3.5: truncated at 2 pixels
     # not in paper: samples per output pixel along each axis at contours (odd: one at the pixel centre)
     shading_supersample: int = 3
+
+    def __post_init__(self) -> None:
+        """Refuse values the pipeline cannot use (runs on construction and on :meth:`replace`)."""
+        from .errors import ParameterError  # noqa: PLC0415
+        from .validate import number  # noqa: PLC0415
+
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if isinstance(f.default, bool) and not isinstance(value, bool):
+                raise ParameterError(f"{f.name} must be True or False, not {value!r}", parameter=f.name)
+            rule = LIMITS.get(f.name)
+            if rule is not None:
+                number(f.name, value, low=rule.low, high=rule.high, integer=rule.integer)
+                # whole floats and numpy integers become int (range() and the RNG need it)
+                object.__setattr__(self, f.name, int(value) if rule.integer else float(value))
 
     def replace(self, **changes: Any) -> Params:
         """A copy with some fields changed (unknown names raise TypeError)."""

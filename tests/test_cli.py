@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -52,7 +53,8 @@ def test_folder_in_parallel_with_a_corrupt_file(tmp_path, capsys):
     assert [f["input"] for f in report["failed"]] == [str(src / "broken.png")]
     assert "broken.png" in report["failed"][0]["error"]
     expected = {out / "heart.svg", out / "leaf.svg", out / "potion_rgba.svg", out / "sub" / "leaf_la.svg"}
-    assert set(map(Path, report["outputs"])) == expected
+    statuses = {Path(o["output"]): o["status"] for o in report["outputs"]}
+    assert statuses == {**{p: "converted" for p in expected}, out / "broken.svg": "failed"}
     assert {p for p in out.rglob("*") if p.is_file()} == expected  # nothing else, no temp files
     for path in expected:
         root = svg_root(path)
@@ -92,18 +94,37 @@ def test_format_option_in_batch_mode(tmp_path):
         assert img.size == (24, 24)
 
 
-def test_existing_outputs_are_skipped_unless_forced(tmp_path, capsys):
-    out = tmp_path / "out"
-    args = ["convert", str(FIXTURES / "heart.png"), str(FIXTURES / "leaf.png"), "--out-dir", str(out),
-            "--stage", "cells", "-j", "1", "--json"]
-    assert main(args) == Exit.OK
-    capsys.readouterr()
-    (out / "heart.svg").write_text("stale")
-    assert main(args) == Exit.OK
-    report = json.loads(capsys.readouterr().out)
+def test_up_to_date_outputs_are_skipped_stale_ones_reconverted(tmp_path, capsys):
+    """Finding 13.3: an output is skipped only when newer than its input and made with the
+    same options; an edited input or another option reconverts exactly the files concerned."""
+    src, out = tmp_path / "in", tmp_path / "out"
+    src.mkdir()
+    for name in ("heart.png", "leaf.png"):
+        shutil.copy(FIXTURES / name, src / name)
+    args = ["convert", str(src), "--out-dir", str(out), "--stage", "cells", "-j", "1", "--json"]
+
+    def statuses(argv):
+        assert main(argv) == Exit.OK
+        report = json.loads(capsys.readouterr().out)
+        return {Path(o["output"]).name: o["status"] for o in report["outputs"]}, report
+
+    assert statuses(args)[0] == {"heart.svg": "converted", "leaf.svg": "converted"}
+    first = (out / "heart.svg").read_bytes()
+    got, report = statuses(args)  # unchanged: every output listed, up to date
+    assert got == {"heart.svg": "up-to-date", "leaf.svg": "up-to-date"}
     assert report["ok"] == 0 and report["skipped"] == 2
-    assert (out / "heart.svg").read_text() == "stale"
-    assert main(args + ["--force"]) == Exit.OK
+    # the input changes (and is newer): only its output is remade
+    shutil.copy(FIXTURES / "ghost.png", src / "heart.png")
+    os.utime(src / "heart.png", ns=((out / "heart.svg").stat().st_mtime_ns + 1,) * 2)  # newer, not future
+    assert statuses(args)[0] == {"heart.svg": "converted", "leaf.svg": "up-to-date"}
+    assert (out / "heart.svg").read_bytes() != first
+    # another option that changes the bytes: both are remade; one that does not (-j): none
+    assert set(statuses(args + ["--precision", "1"])[0].values()) == {"converted"}
+    assert set(statuses(args + ["--precision", "1", "-j", "2"])[0].values()) == {"up-to-date"}
+    # a file at the output that depixel did not make with these options is replaced
+    (out / "leaf.svg").write_text("hand-edited")
+    assert statuses(args + ["--precision", "1"])[0]["leaf.svg"] == "converted"
+    assert main(args + ["--precision", "1", "--force"]) == Exit.OK
     assert json.loads(capsys.readouterr().out)["ok"] == 2
     svg_root(out / "heart.svg")
 

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import depixel
-from depixel.errors import InputError, OutputError
+from depixel.errors import InputError, OutputError, ParameterError
 from depixel.image import load_image
 from depixel.output import write_atomic
 
@@ -142,7 +142,7 @@ def test_file_over_the_byte_limit_is_refused_before_decoding(tmp_path, monkeypat
 def test_bad_frame_numbers():
     with pytest.raises(InputError, match="has 2 frame"):
         load_image(FIXTURES / "heart_beat.gif", frame=2)
-    with pytest.raises(InputError, match="frame must be 0 or more"):
+    with pytest.raises(ParameterError, match="frame must be at least 0"):
         load_image(FIXTURES / "heart_beat.gif", frame=-1)
 
 

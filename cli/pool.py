@@ -1,0 +1,328 @@
+"""Worker processes that survive faults and stop cleanly on Ctrl-C or SIGTERM.
+
+One design serves every command (docs/cli.md, "Interrupts and faults"):
+
+* :class:`Signals` turns the first SIGINT/SIGTERM into a request to stop (a flag, and an
+  :class:`Interrupted` exception where work may be abandoned at once) and makes a second one
+  exit at once, quietly, with 128 + the signal number.
+* :func:`run_jobs` hands one job at a time to each worker over its own pipe, so the main
+  process always knows which job a worker holds. A worker that dies (killed, out of memory)
+  fails only that job, which is retried once in a fresh worker. On a stop request no new
+  job is handed out, queued jobs are cancelled, running ones get SIGTERM (a worker then
+  abandons its file; the atomic writer removes its temporary file) and, after a short
+  grace, SIGKILL; their temporary files are removed by the caller's ``cleanup``. No worker
+  outlives the command: they also get SIGTERM from the kernel when the main process dies.
+
+Workers are forked from a ``forkserver`` that imported depixel once (``spawn`` where there
+is none): each starts in milliseconds and holds only its own pipe, so a dead parent closes
+every worker's pipe (a plain ``fork`` would hand each worker the others' pipes, and the
+threads of the parent). Workers ignore SIGINT, which a terminal sends to the whole process
+group: only the main process decides what Ctrl-C means.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+#: Seconds running jobs get to stop after SIGTERM before they are killed.
+GRACE_SECONDS = 1.0
+#: Times a job whose worker died is tried again, each time in a fresh worker.
+RETRIES = 1
+
+
+class Interrupted(BaseException):
+    """A stop request (SIGINT or SIGTERM) raised where work can be abandoned at once."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+    @property
+    def exit_code(self) -> int:
+        return 128 + self.signum
+
+
+class Signals:
+    """While active (a context manager): the first SIGINT or SIGTERM sets :attr:`signum`
+    and, when :attr:`raising` is on, raises :class:`Interrupted`; a second one calls
+    ``on_second`` (kill the workers) and exits at once with 128 + its number."""
+
+    def __init__(self, raising: bool = True) -> None:
+        self.signum: int | None = None
+        self.raising = raising
+        self.on_second: Callable[[], None] | None = None
+        self.wakeup_fd: int | None = None  # written to on a signal: wakes a select() loop
+        self._saved: dict[int, Any] = {}
+
+    def __enter__(self) -> Signals:
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            self._saved[signum] = signal.signal(signum, self._handle)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for signum, handler in self._saved.items():
+            signal.signal(signum, handler)
+
+    def _handle(self, signum: int, frame: object) -> None:
+        if self.signum is not None:  # the second one: no more waiting
+            if self.on_second is not None:
+                self.on_second()
+            os._exit(128 + signum)
+        self.signum = signum
+        if self.wakeup_fd is not None:
+            try:
+                os.write(self.wakeup_fd, b"!")
+            except OSError:
+                pass
+        if self.raising:
+            raise Interrupted(signum)
+
+
+@dataclass
+class Finished:
+    """What :func:`run_jobs` reports for one job: its result, or why there is none."""
+
+    index: int
+    result: Any = None
+    died: str | None = None  # the worker died on every try: how
+    retried: str | None = None  # the worker died once and the retry gave the result: how
+    interrupted: bool = False  # running when the stop came, abandoned
+    cancelled: bool = False  # not started when the stop came
+
+
+def run_jobs(jobs: Sequence[Any], workers: int, function: Callable[[Any], Any], report: Callable[[Finished], None],
+             signals: Signals, cleanup: Callable[[Any], None] = lambda job: None,
+             started: Callable[[int], None] = lambda index: None) -> None:
+    """Run ``function(job)`` for every job in ``workers`` processes; ``report`` gets each
+    :class:`Finished` as it happens (cancelled jobs last), ``started`` each index handed out.
+    ``function`` must be picklable by reference and must not raise. Returns when all are
+    reported."""
+    pool = _Pool(function, signals, cleanup, started)
+    try:
+        pool.run(list(enumerate(jobs)), workers, report)
+    finally:
+        pool.close()
+
+
+class _Worker:
+    def __init__(self, context, function: Callable) -> None:
+        parent, child = context.Pipe()
+        self.process = context.Process(target=_serve, args=(child, function), daemon=True)
+        # SIGINT stays blocked from here until the worker ignores it (the mask is inherited)
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            self.process.start()
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        child.close()
+        self.conn = parent
+        self.job: tuple[int, Any] | None = None
+        self.tries = 0
+
+    def how_it_died(self) -> str:
+        self.process.join(5)
+        code = self.process.exitcode
+        if code is not None and code < 0:
+            try:
+                return f"killed by {signal.Signals(-code).name}"
+            except ValueError:
+                return f"killed by signal {-code}"
+        return f"exit code {code}"
+
+
+class _Pool:
+    def __init__(self, function: Callable, signals: Signals, cleanup: Callable[[Any], None],
+                 started: Callable[[int], None]) -> None:
+        import multiprocessing  # noqa: PLC0415
+
+        self.started = started
+        if "forkserver" in multiprocessing.get_all_start_methods():
+            # a server process imports depixel once, then forks each worker from it: a worker
+            # starts in milliseconds, holding only its own pipe
+            self.context: Any = multiprocessing.get_context("forkserver")
+            self.context.set_forkserver_preload(["depixel_cli.batch"])
+        else:
+            self.context = multiprocessing.get_context("spawn")
+        self.function = function
+        self.signals = signals
+        self.cleanup = cleanup
+        self.workers: list[_Worker] = []
+        self.wake_r, self.wake_w = os.pipe()
+        os.set_blocking(self.wake_w, False)
+        signals.wakeup_fd = self.wake_w
+        signals.on_second = self.kill_all
+
+    def run(self, pending: list[tuple[int, Any]], size: int, report: Callable[[Finished], None]) -> None:
+        from multiprocessing.connection import wait  # noqa: PLC0415
+
+        tries: dict[int, int] = {}
+        retried: dict[int, str] = {}
+        while (pending or any(w.job for w in self.workers)) and self.signals.signum is None:
+            while pending and self.signals.signum is None:  # hand out work to idle (or new) workers
+                worker = next((w for w in self.workers if w.job is None), None)
+                if worker is None and len(self.workers) < size:
+                    worker = _Worker(self.context, self.function)
+                    self.workers.append(worker)
+                if worker is None:
+                    break
+                worker.job = pending.pop(0)
+                self.started(worker.job[0])
+                try:
+                    worker.conn.send(worker.job[1])
+                except OSError:
+                    pass  # it died already: seen below through its sentinel
+            busy = [w for w in self.workers if w.job is not None]
+            ready = wait([w.conn for w in busy] + [w.process.sentinel for w in busy] + [self.wake_r])
+            for worker in busy:
+                if worker.conn in ready or worker.process.sentinel in ready:
+                    self._collect(worker, pending, tries, retried, report)
+        if self.signals.signum is not None:
+            self._stop(pending, report)
+
+    def _collect(self, worker: _Worker, pending: list, tries: dict[int, int], retried: dict[int, str],
+                 report: Callable[[Finished], None]) -> None:
+        assert worker.job is not None  # only busy workers are collected
+        index, job = worker.job
+        try:
+            if worker.conn.poll():
+                result = worker.conn.recv()
+                worker.job = None
+                report(Finished(index, result, retried=retried.get(index)))
+                return
+        except (EOFError, OSError):
+            pass
+        if worker.process.is_alive():
+            return
+        # the worker died holding this job: a fresh worker tries it once more
+        how = worker.how_it_died()
+        self.workers.remove(worker)
+        worker.conn.close()
+        self.cleanup(job)
+        tries[index] = tries.get(index, 0) + 1
+        if self.signals.signum is not None:  # stopped by the same signal as the main process
+            report(Finished(index, interrupted=True))
+        elif tries[index] <= RETRIES:
+            retried[index] = how
+            pending.insert(0, (index, job))
+        else:
+            report(Finished(index, died=how))
+
+    def _stop(self, pending: list[tuple[int, Any]], report: Callable[[Finished], None]) -> None:
+        """Stop request: cancel the queue, abandon running jobs (SIGTERM, then SIGKILL)."""
+        busy = [w for w in self.workers if w.job is not None]
+        for worker in busy:
+            _signal(worker, signal.SIGTERM)
+        deadline = time.monotonic() + GRACE_SECONDS
+        for worker in busy:
+            worker.process.join(max(0.0, deadline - time.monotonic()))
+        for worker in busy:
+            if worker.process.is_alive():
+                _signal(worker, signal.SIGKILL)
+                worker.process.join(1)
+            result = None
+            try:
+                if worker.conn.poll():  # it finished before the stop reached it
+                    result = worker.conn.recv()
+            except (EOFError, OSError):
+                pass
+            assert worker.job is not None
+            index, job = worker.job
+            if result is None:
+                self.cleanup(job)
+                report(Finished(index, interrupted=True))
+            else:
+                report(Finished(index, result))
+            worker.job = None
+        for index, _ in pending:
+            report(Finished(index, cancelled=True))
+        pending.clear()
+
+    def kill_all(self) -> None:
+        """Second signal: kill every worker and remove their temporary files, at once."""
+        for worker in self.workers:
+            _signal(worker, signal.SIGKILL)
+        for worker in self.workers:
+            if worker.job is not None:
+                worker.process.join(0.5)
+                self.cleanup(worker.job[1])
+
+    def close(self) -> None:
+        for worker in self.workers:
+            if worker.job is None:
+                try:
+                    worker.conn.send(None)  # done: exit
+                except OSError:
+                    pass
+        for worker in self.workers:
+            worker.process.join(2)
+            if worker.process.is_alive():
+                _signal(worker, signal.SIGKILL)
+                worker.process.join(1)
+            worker.conn.close()
+        self.workers.clear()
+        self.signals.wakeup_fd = None
+        self.signals.on_second = None
+        os.close(self.wake_r)
+        os.close(self.wake_w)
+
+
+def _signal(worker: _Worker, signum: int) -> None:
+    try:
+        os.kill(worker.process.pid, signum)
+    except (ProcessLookupError, TypeError):
+        pass
+
+
+# --- the worker process --------------------------------------------------------------------------
+
+class _Stop(BaseException):
+    """SIGTERM in a worker: abandon the job (files being written remove their temporary file)."""
+
+
+def _stop(signum: int, frame: object) -> None:
+    raise _Stop()
+
+
+def _serve(conn, function: Callable) -> None:
+    """A worker's life: ignore SIGINT, stop on SIGTERM or when the main process is gone."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    signal.signal(signal.SIGTERM, _stop)
+    _die_with_parent()
+    try:
+        while True:
+            try:
+                job = conn.recv()
+            except (EOFError, OSError):
+                return
+            if job is None:
+                return
+            result = function(job)
+            try:
+                conn.send(result)
+            except (BrokenPipeError, OSError):
+                return
+    except (_Stop, KeyboardInterrupt):
+        return
+    finally:
+        sys.stdout.flush()
+
+
+def _die_with_parent() -> None:
+    """Linux: ask the kernel for SIGTERM when the main process dies (even by SIGKILL)."""
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        import ctypes  # noqa: PLC0415
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+    if os.getppid() == 1:  # the parent died before prctl took effect
+        raise SystemExit(0)

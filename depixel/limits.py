@@ -1,0 +1,29 @@
+"""The resource limits, in one place (docs/limits.md lists them with their messages).
+
+Each limit is checked before the memory it guards is spent: input pixels from the image
+header (of the frame or page actually decoded), output pixels from the size a render will
+have, decompressed bytes while decompressing. An error names the library parameter that
+raises the limit (``parameter=``), which the CLI shows as its flag.
+"""
+from __future__ import annotations
+
+#: Pixels (width × height) of an input image, frame or page; ``max_pixels``, ``--max-pixels``.
+#: Pixel art is small; a larger input is almost always a photo.
+DEFAULT_MAX_PIXELS = 1_048_576
+#: Pixels of a raster output (a PNG, a diff render, an inspect figure); ``max_output_pixels``,
+#: ``--max-output-pixels``. 8192 × 4096: a 128 MiB RGBA image; ``diff`` needs ~140 bytes a pixel.
+DEFAULT_MAX_OUTPUT_PIXELS = 1 << 25
+#: Pixels of each image ``diff`` compares (input rasters and renders); ``max_pixels`` of
+#: :func:`depixel.diff.diff_files`, ``diff --max-pixels``. Comparing costs ~140 bytes a
+#: pixel: 4096 × 4096 stays under 2.5 GB.
+DEFAULT_MAX_DIFF_PIXELS = 1 << 24
+#: Bytes of an input file or stream, and of a compressed SVG (.svgz) once decompressed.
+MAX_FILE_BYTES = 256 * 2**20
+#: Peak memory of one conversion per input pixel, above the import baseline (bytes), measured
+#: with benchmarks/memory_per_pixel.py at 6769c95 on the worst case, a checkerboard (8.5 KB at
+#: 128², 8.4 KB at 256², 7.9 KB at 512²; noise 4.7-4.9 KB).
+#: ``-j auto`` divides the available memory by this × the largest input's pixels.
+PEAK_BYTES_PER_PIXEL = 8_500
+#: Memory of a worker process before its image: 35-38 MB measured with numpy and depixel imported
+#: (memory_per_pixel.py's baseline), plus room for cairo when it renders PNG or PDF.
+WORKER_BASELINE_BYTES = 80 * 2**20

@@ -1,0 +1,69 @@
+"""Checks of the arguments the library's entry points take, with one-line messages.
+
+Every check raises :class:`depixel.errors.ParameterError` naming the parameter (in the
+message and in ``parameter=``), so a front end can rewrite it as its own option name.
+"""
+from __future__ import annotations
+
+import math
+import numbers
+from collections.abc import Iterable
+from typing import cast
+
+
+def number(name: str, value: object, *, low: float | None = None, high: float | None = None,
+           low_open: bool = False, integer: bool = False, kind: str = "") -> float:
+    """``value`` as a finite real number within [low, high] (``low_open``: above ``low``);
+    ``integer`` also refuses fractions. Booleans are refused (``True`` is not a scale)."""
+    from .errors import ParameterError  # noqa: PLC0415
+
+    what = kind or ("an integer" if integer else "a number")
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ParameterError(f"{name} must be {what}, not {value!r}", parameter=name)
+    # an int stays an int (a seed may exceed a float's precision); float for the type checker
+    value = cast(float, value)
+    if not math.isfinite(value):
+        raise ParameterError(f"{name} must be a finite number, not {value!r}", parameter=name)
+    if integer and not isinstance(value, numbers.Integral) and value != int(value):
+        raise ParameterError(f"{name} must be an integer, not {value!r}", parameter=name)
+    too_low = low is not None and (value <= low if low_open else value < low)
+    if too_low or (high is not None and value > high):
+        if low == 0 and low_open and high is None:
+            bounds = "a positive number"
+        elif low is not None and high is not None:
+            bounds = f"between {_text(low)} and {_text(high)}"
+        elif low is not None:
+            bounds = f"above {_text(low)}" if low_open else f"at least {_text(low)}"
+        else:
+            bounds = f"at most {_text(cast(float, high))}"
+        raise ParameterError(f"{name} must be {bounds}, not {value!r}", parameter=name)
+    return value
+
+
+def positive(name: str, value: object) -> float:
+    """A finite number above 0 (scales, sizes in output units)."""
+    return number(name, value, low=0, low_open=True, kind="a positive number")
+
+
+def limit(name: str, value: object) -> int | None:
+    """A pixel or byte limit: a positive integer, or None for none."""
+    return None if value is None else int(number(name, value, low=1, integer=True))
+
+
+def choice(name: str, value: object, options: Iterable[str]) -> str:
+    """One of ``options`` (a misspelt choice gets a suggestion)."""
+    from .errors import ParameterError  # noqa: PLC0415
+
+    options = tuple(options)
+    if value not in options:
+        import difflib  # noqa: PLC0415
+
+        close = difflib.get_close_matches(str(value), options, n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise ParameterError(f"unknown {name} {value!r}{hint}; choose one of {', '.join(options)}",
+                             parameter=name)
+    return value
+
+
+def _text(bound: float) -> str:
+    return str(int(bound)) if float(bound).is_integer() else f"{bound:g}"

@@ -1,0 +1,226 @@
+"""Batches under real signals and real dead workers (issues 13.1 and 17.2-3).
+
+Each test runs ``python -m depixel`` in a subprocess on a folder of copies of a fixture,
+waits until the batch has really started (a first output exists: no sleep that assumes a
+speed), sends a real signal and checks what a user would: the exit code, the ``--json``
+summary, no temporary file, no process left behind.
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from depixel_cli.pool import Finished, Signals, run_jobs
+
+from conftest import FIXTURES
+
+#: generous on a loaded 2-core machine; the measured time is ~0.1-1.2 s (docs/cli.md)
+STOP_SECONDS = 6.0
+
+
+def batch_folder(tmp_path: Path, copies: int = 40) -> Path:
+    folder = tmp_path / "in"
+    folder.mkdir()
+    for i in range(copies):
+        shutil.copy(FIXTURES / "mushroom.png", folder / f"m{i:03d}.png")
+    return folder
+
+
+def start(folder: Path, out: Path, *extra: str) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "depixel", "convert", str(folder), "--out-dir", str(out),
+                             "--json", *extra], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def wait_for_outputs(out: Path, proc: subprocess.Popen, count: int = 1, timeout: float = 180) -> None:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if out.is_dir() and len(list(out.glob("*.svg"))) >= count:
+            return
+        assert proc.poll() is None, proc.communicate()
+        time.sleep(0.05)
+    raise AssertionError("the batch did not start")
+
+
+def children_of(pid: int) -> list[int]:
+    return [int(child) for task in Path(f"/proc/{pid}/task").iterdir()
+            for child in (task / "children").read_text().split()]
+
+
+def children(pid: int) -> list[int]:
+    """Worker processes of ``pid``: its spawned children, or those of its fork server."""
+    found = []
+    for child in children_of(pid):
+        cmdline = Path(f"/proc/{child}/cmdline").read_bytes()
+        if b"spawn_main" in cmdline:
+            found.append(child)
+        elif b"forkserver" in cmdline:
+            found += children_of(child)
+    return found
+
+
+def helpers(pid: int) -> list[int]:
+    """Every other process under ``pid`` (fork server, resource tracker): they must go too."""
+    return [child for child in children_of(pid) if child not in children(pid)]
+
+
+def alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/status").read_text()
+    except (FileNotFoundError, ProcessLookupError):
+        return False
+    return "\nState:\tZ" not in state  # a zombie orphan (nobody reaps it here) is dead
+
+
+def assert_gone(pids: list[int]) -> None:
+    deadline = time.monotonic() + 10
+    while any(alive(p) for p in pids) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not any(alive(p) for p in pids), "a worker outlived the command"
+
+
+pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+
+
+@pytest.mark.parametrize("jobs,signum,code", [("2", signal.SIGINT, 130), ("2", signal.SIGTERM, 143),
+                                              ("1", signal.SIGINT, 130), ("1", signal.SIGTERM, 143)])
+def test_first_signal_stops_the_batch_with_a_summary(tmp_path, jobs, signum, code):
+    out = tmp_path / "out"
+    proc = start(batch_folder(tmp_path), out, "-j", jobs)
+    wait_for_outputs(out, proc)
+    workers = children(proc.pid)
+    assert len(workers) == (2 if jobs == "2" else 0)
+    workers += helpers(proc.pid)
+    sent = time.monotonic()
+    proc.send_signal(signum)
+    stdout, stderr = proc.communicate(timeout=60)
+    assert time.monotonic() - sent < STOP_SECONDS
+    assert proc.returncode == code, stderr
+    assert "Traceback" not in stderr and "Exception ignored" not in stderr
+    report = json.loads(stdout)
+    assert report["interrupted"] is True and report["files"] == 40
+    status = {Path(o["output"]).name: o["status"] for o in report["outputs"]}
+    assert len(status) == 40 and "cancelled" in status.values()
+    written = {p.name for p in out.iterdir()}
+    assert {n for n, s in status.items() if s == "converted"} == written  # no temporary file, nothing unlisted
+    assert report["ok"] == len(written) < 40
+    assert_gone(workers)
+
+
+def test_sigterm_to_the_whole_group_leaves_nothing_behind(tmp_path):
+    """17.3: SIGTERM to the process group (workers included, as a service manager sends it)."""
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "depixel", "convert", str(batch_folder(tmp_path)), "--out-dir",
+                             str(out), "--json", "-j", "2"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)
+    wait_for_outputs(out, proc)
+    workers = children(proc.pid) + helpers(proc.pid)
+    assert len(workers) >= 2
+    os.killpg(proc.pid, signal.SIGTERM)
+    stdout, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 143, stderr
+    assert json.loads(stdout)["interrupted"] is True
+    assert not [p for p in out.iterdir() if p.name.startswith(".")]
+    assert_gone(workers)
+
+
+def test_workers_die_with_a_killed_command(tmp_path):
+    """17.3: even SIGKILL of the command (no chance to clean up) leaves no worker running."""
+    out = tmp_path / "out"
+    proc = start(batch_folder(tmp_path), out, "-j", "2")
+    wait_for_outputs(out, proc)
+    workers = children(proc.pid) + helpers(proc.pid)
+    assert len(workers) >= 2
+    proc.kill()
+    proc.communicate(timeout=60)
+    assert_gone(workers)
+    assert not [p for p in out.iterdir() if p.name.startswith(".")]
+
+
+def test_second_ctrl_c_exits_at_once_quietly(tmp_path):
+    out = tmp_path / "out"
+    proc = start(batch_folder(tmp_path), out, "-j", "2")
+    wait_for_outputs(out, proc)
+    workers = children(proc.pid) + helpers(proc.pid)
+    proc.send_signal(signal.SIGINT)
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130
+    assert "Traceback" not in stderr and "Exception ignored" not in stderr
+    assert not [p for p in out.iterdir() if p.name.startswith(".")]
+    assert_gone(workers)
+
+
+def test_ctrl_c_without_json_says_what_was_done(tmp_path):
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "depixel", "convert", str(batch_folder(tmp_path, 20)),
+                             "--out-dir", str(out), "-j", "2"], stderr=subprocess.PIPE, text=True)
+    wait_for_outputs(out, proc)
+    proc.send_signal(signal.SIGINT)
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130
+    last = stderr.strip().splitlines()[-1]
+    assert last.startswith("depixel: 20 files: ") and "not started (interrupted)" in last, stderr
+
+
+@pytest.mark.parametrize("argv", [["render", "{svg}", "-o", "{out}.png", "--width", "6000"],
+                                  ["diff", "{svg}", "{svg}", "--scale", "150"]])
+def test_single_commands_stop_on_a_signal(tmp_path, argv):
+    """render and diff (inspect and a single convert share the code path) exit 130 at once."""
+    svg = tmp_path / "noise.svg"
+    import numpy as np
+
+    import depixel
+
+    noise = np.random.default_rng(0).integers(0, 2, (24, 24, 3), dtype=np.uint8) * 255
+    svg.write_text(depixel.convert(noise, stage="cells"))
+    args = [a.format(svg=svg, out=tmp_path / "out") for a in argv]
+    proc = subprocess.Popen([sys.executable, "-m", "depixel", *args], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    while proc.poll() is None and b"libcairo" not in Path(f"/proc/{proc.pid}/maps").read_bytes():
+        time.sleep(0.02)  # until it renders (before that, Python itself may still be importing)
+    proc.send_signal(signal.SIGINT)
+    _, stderr = proc.communicate(timeout=60)
+    if proc.returncode == 0:
+        pytest.skip("finished before the signal")
+    assert proc.returncode == 130, stderr
+    assert stderr.strip().splitlines() == ["depixel: interrupted"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["noise.svg"]
+
+
+def test_killed_worker_fails_only_its_file_after_a_retry(tmp_path):
+    """Issue 17.2 on the real command: SIGKILL one worker mid-batch; every file converts."""
+    out = tmp_path / "out"
+    proc = start(batch_folder(tmp_path, 30), out, "-j", "2")
+    wait_for_outputs(out, proc)
+    victim = children(proc.pid)[0]
+    os.kill(victim, signal.SIGKILL)
+    stdout, stderr = proc.communicate(timeout=300)
+    assert proc.returncode == 0, stderr
+    report = json.loads(stdout)
+    assert report["ok"] == 30 and report["failed"] == []
+    assert "converted on the retry" in stderr and "SIGKILL" in stderr
+    assert len(list(out.iterdir())) == 30
+
+
+def test_pool_reports_a_file_that_kills_every_worker(tmp_path):
+    """A file whose worker dies twice fails alone; one that kills it once converts on the retry."""
+    jobs = [(name, str(tmp_path)) for name in ("a", "always", "b", "once", "c")]
+    done: list[Finished] = []
+    with Signals(raising=False) as signals:
+        from pool_jobs import crash
+
+        run_jobs(jobs, 2, crash, done.append, signals)
+    by_name = {jobs[f.index][0]: f for f in done}
+    assert set(by_name) == {"a", "always", "b", "once", "c"}
+    assert by_name["always"].died == "killed by SIGKILL" and by_name["always"].result is None
+    assert by_name["once"].retried == "killed by SIGKILL" and by_name["once"].result.startswith("once done")
+    for name in "abc":
+        assert by_name[name].result.startswith(f"{name} done") and by_name[name].died is None

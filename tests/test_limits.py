@@ -1,0 +1,245 @@
+"""One resource policy at every entry (issue 17.1, 4-10): each oversized request is refused
+with one line naming the limit and its flag/parameter, before the memory is spent.
+
+The tests that would exhaust memory if a limit regressed run in a subprocess under
+``resource.setrlimit(RLIMIT_AS)``, so a regression fails the test instead of taking the
+machine down.
+"""
+from __future__ import annotations
+
+import gzip
+import os
+import stat
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import depixel
+from depixel import api
+from depixel.errors import InputError, OutputError, ParameterError
+from depixel.image import load_image
+from depixel.output import write_atomic
+from depixel_cli.main import main
+from depixel_cli.options import Exit
+
+from conftest import FIXTURES
+
+#: address space of a limited subprocess: enough for Python, numpy and cairo, far less than any bomb
+LIMIT = 1536 * 2**20
+
+
+def run_limited(*argv: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    """``python -m depixel ARGV`` with its address space capped at LIMIT."""
+    code = ("import resource, sys, runpy; "
+            f"resource.setrlimit(resource.RLIMIT_AS, ({LIMIT}, {LIMIT})); "
+            "sys.argv = ['depixel'] + sys.argv[1:]; runpy.run_module('depixel', run_name='__main__')")
+    return subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, timeout=300,
+                          cwd=cwd)
+
+
+def one_line(err: str) -> str:
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and "Traceback" not in err and "internal error" not in err, err
+    return lines[0]
+
+
+def two_page_tiff(path: Path) -> None:
+    """Page 0 is 1x1, page 1 is 3000x3000 (9 Mpixels; compressed, the file is small)."""
+    small = Image.new("RGB", (1, 1), (255, 0, 0))
+    big = Image.new("RGB", (3000, 3000), (0, 0, 255))
+    small.save(path, "TIFF", save_all=True, append_images=[big], compression="tiff_deflate")
+
+
+def test_every_page_of_a_tiff_is_checked(tmp_path):
+    """17.1: the limit applies to the page decoded, not to page 0."""
+    tiff = tmp_path / "pages.tif"
+    two_page_tiff(tiff)
+    with pytest.raises(InputError, match="3000x3000 is 9000000 pixels, over the limit of 100"):
+        load_image(tiff, frame=1, max_pixels=100)
+    assert load_image(tiff, frame=0, max_pixels=100).shape == (1, 1, 4)
+    for frames in ("1", "all"):  # with all, page 0 converts (x-000.svg) and page 1 fails
+        run = run_limited("convert", str(tiff), "-o", str(tmp_path / "x.svg"), "--frames", frames)
+        assert run.returncode == 1
+        assert "over the limit of 1048576" in one_line(run.stderr) and "--max-pixels" in run.stderr
+    assert [p.name for p in tmp_path.glob("x*.svg")] == ["x-000.svg"]
+
+
+def test_diff_is_bounded(tmp_path):
+    """17.4: a huge --scale, and an SVG declaring 32000x32000, are refused before rendering."""
+    small = tmp_path / "a.svg"
+    small.write_text(depixel.convert(np.zeros((10, 10, 3), np.uint8), stage="cells"))
+    run = run_limited("diff", str(small), str(small), "--scale", "1200")
+    assert run.returncode == 2
+    assert "over the limit" in one_line(run.stderr) and "--max-pixels" in run.stderr
+    huge = tmp_path / "huge.svg"
+    huge.write_text('<svg xmlns="http://www.w3.org/2000/svg" width="32000" height="32000"/>')
+    run = run_limited("diff", str(huge), str(huge))
+    assert run.returncode == 2 and "32000x32000" in one_line(run.stderr)
+    # a PNG input too: it loads under the same limit
+    big_png = tmp_path / "big.png"
+    Image.new("RGB", (5000, 4000)).save(big_png)
+    run = run_limited("diff", str(big_png), str(big_png))
+    assert run.returncode == 2 and "20000000 pixels" in one_line(run.stderr)
+
+
+def test_compressed_svg_bomb_is_refused(tmp_path):
+    """17.5: the size bound applies after decompression, while decompressing."""
+    bomb = tmp_path / "bomb.svgz"
+    body = b'<svg xmlns="http://www.w3.org/2000/svg" width="10" height="10"><!--' + b" " * (300 * 2**20)
+    bomb.write_bytes(gzip.compress(body + b"--></svg>", compresslevel=1))
+    assert bomb.stat().st_size < 2 * 2**20
+    run = run_limited("render", str(bomb), "-o", str(tmp_path / "bomb.png"))
+    assert run.returncode == 1 and "once decompressed" in one_line(run.stderr)
+    assert not (tmp_path / "bomb.png").exists()
+    # an ordinary .svgz renders
+    ok = tmp_path / "ok.svgz"
+    ok.write_bytes(gzip.compress(depixel.convert(api.load(FIXTURES / "heart.png"), stage="cells").encode()))
+    assert main(["render", str(ok), "-o", str(tmp_path / "ok.png")]) == Exit.OK
+
+
+@pytest.mark.parametrize("argv,fragment", [
+    (["inspect", "{big}", "-o", "{out}/i.png", "--zoom", "64"], "7 panels of 32768x32768"),
+    (["convert", "{heart}", "-o", "{out}/f.png", "--shading", "flat", "--scale", "3000"], "heart.png: a 30000x30000"),
+    (["convert", "{heart}", "-o", "{out}/s.png", "--scale", "3000"], "heart.png: a 30000x30000"),
+    (["render", "{svg}", "-o", "{out}/r.png", "--width", "100000"], "heart.svg: a 100000x100000"),
+])
+def test_rendered_outputs_are_bounded(tmp_path, argv, fragment):
+    """17.6: every raster output is checked before it is allocated, naming the file."""
+    big = tmp_path / "big.png"
+    Image.fromarray(np.random.default_rng(0).integers(0, 2, (512, 512), dtype=np.uint8) * 255).save(big)
+    svg = tmp_path / "heart.svg"
+    svg.write_text(depixel.convert(api.load(FIXTURES / "heart.png"), stage="cells"))
+    args = [a.format(big=big, heart=FIXTURES / "heart.png", svg=svg, out=tmp_path) for a in argv]
+    run = run_limited(*args)
+    line = one_line(run.stderr)
+    assert run.returncode == 1 and "over the limit" in line and "--max-output-pixels" in line
+    assert fragment in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["big.png", "heart.svg"]
+
+
+def test_arrays_have_a_pixel_limit():
+    """17.9: depixel.convert of a 5000x5000 array is refused before any copy (it took 24 GB)."""
+    code = ("import resource; resource.setrlimit(resource.RLIMIT_AS, ({0}, {0})); "
+            "import numpy as np, depixel\n"
+            "a = np.zeros((5000, 5000), np.uint8)\n"
+            "try:\n    depixel.convert(a)\nexcept depixel.InputError as e:\n    print(e.parameter, e)\n").format(LIMIT)
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert run.stdout.startswith("max_pixels <image>: 5000x5000 is 25000000 pixels, over the limit"), run.stderr
+    assert depixel.convert(np.zeros((5000, 5000), np.uint8)[:10, :10]).startswith("<?xml")
+
+
+@pytest.mark.parametrize("change,match", [
+    ({"sparse_window": 0}, "sparse_window must be between 2 and 64"),
+    ({"seed": -1}, "seed must be between 0"),
+    ({"threshold_y": float("nan")}, "threshold_y must be a finite number"),
+    ({"iterations": 2.5}, "iterations must be an integer"),
+    ({"curve_weight": "1"}, "curve_weight must be a number"),
+    ({"tie_break": 1}, "tie_break must be True or False"),
+])
+def test_params_validate_themselves(change, match):
+    """17.9: Params checks itself on construction and on replace, naming the field."""
+    name = next(iter(change))
+    with pytest.raises(ParameterError, match=match) as info:
+        depixel.Params().replace(**change)
+    assert info.value.parameter == name
+    with pytest.raises(ParameterError, match=match):
+        depixel.Params(**change)
+    assert depixel.Params(iterations=3.0).iterations == 3 and isinstance(depixel.Params(iterations=3.0).iterations, int)
+
+
+def test_pdf_is_byte_identical_and_dated_reproducibly(tmp_path, monkeypatch):
+    """17.10: the creation date is fixed (or SOURCE_DATE_EPOCH), so runs give the same bytes."""
+    from depixel.raster import render
+
+    svg = depixel.convert(api.load(FIXTURES / "heart.png"), stage="cells")
+    monkeypatch.delenv("SOURCE_DATE_EPOCH", raising=False)
+    fixed = render(svg, "pdf")
+    assert b"/CreationDate (19700101000000Z)" in fixed or b"/CreationDate (D:19700101000000Z)" in fixed
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000000")  # 2023-11-14 22:13:20 UTC
+    dated = render(svg, "pdf")
+    assert b"20231114221320Z)" in dated
+    # two whole runs of the command: the same bytes
+    outs = [tmp_path / f"h{i}.pdf" for i in range(2)]
+    for out in outs:
+        subprocess.run([sys.executable, "-m", "depixel", "convert", str(FIXTURES / "heart.png"), "-o", str(out)],
+                       check=True, timeout=120)
+    assert outs[0].read_bytes() == outs[1].read_bytes()
+
+
+def test_new_files_follow_the_umask(tmp_path):
+    """17.7: umask 077 gives 0600 (it was always 0644)."""
+    old = os.umask(0o077)
+    try:
+        write_atomic(tmp_path / "private.svg", "x")
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE((tmp_path / "private.svg").stat().st_mode) == 0o600
+    old = os.umask(0o022)
+    try:
+        write_atomic(tmp_path / "public.svg", "x")
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE((tmp_path / "public.svg").stat().st_mode) == 0o644
+
+
+def test_over_long_names_are_one_line(tmp_path, capsys):
+    """17.8: -o with 260 characters, and --frames all of a long GIF name."""
+    long_name = tmp_path / ("a" * 260 + ".svg")
+    assert main(["convert", str(FIXTURES / "heart.png"), "-o", str(long_name)]) == Exit.FAILED
+    assert "cannot write (File name too long)" in one_line(capsys.readouterr().err)
+    gif = tmp_path / ("b" * 250 + ".gif")
+    gif.write_bytes((FIXTURES / "heart_beat.gif").read_bytes())
+    assert main(["convert", str(gif), "--out-dir", str(tmp_path / "out"), "--frames", "all"]) == Exit.FAILED
+    assert "File name too long" in one_line(capsys.readouterr().err)
+    with pytest.raises(OutputError, match="File name too long"):
+        depixel.convert_file(FIXTURES / "heart.png", long_name)
+
+
+def test_frames_all_reads_the_file_once(tmp_path, monkeypatch):
+    """17.12: every frame decoded once, in order, from one read of the file."""
+    from depixel import image
+    from depixel_cli.batch import Job, Options, run_job
+
+    frames = [Image.new("RGB", (8, 8), (8 * i, 255 - 8 * i, 0)) for i in range(30)]
+    gif = tmp_path / "many.gif"
+    frames[0].save(gif, save_all=True, append_images=frames[1:], duration=50)
+    reads = []
+    original = image.read_source
+    monkeypatch.setattr(image, "read_source", lambda source: reads.append(source) or original(source))
+    options = Options(depixel.Params(), "svg", "cells", 1.0, "all", None, None, force=False)
+    (tmp_path / "out").mkdir()
+    outcome = run_job(Job(gif, tmp_path / "out" / "many.svg", options, 30))
+    assert outcome.error is None and len(outcome.written) == 30
+    assert len(reads) == 1  # it was one read (and one decode from frame 0) per frame
+    assert [i for i, _ in image.load_frames(gif)] == list(range(30))
+
+
+def test_auto_jobs_fit_the_memory(tmp_path):
+    """17 (memory-aware -j auto): the largest pending image decides how many workers fit."""
+    from depixel.limits import PEAK_BYTES_PER_PIXEL, WORKER_BASELINE_BYTES
+    from depixel_cli import batch
+
+    big = tmp_path / "big.png"
+    Image.new("RGB", (1000, 1000)).save(big)
+    jobs = [batch.Job(big, tmp_path / "a.svg", None)] + [batch.Job(FIXTURES / "heart.png", tmp_path / f"{i}.svg", None)
+                                                           for i in range(7)]
+    per_worker = WORKER_BASELINE_BYTES + PEAK_BYTES_PER_PIXEL * 1_000_000
+    cores = min(batch.cores(), 8)
+    count, note = batch.auto_jobs(jobs, memory=per_worker * 100)
+    assert count == cores and note is None
+    count, note = batch.auto_jobs(jobs, memory=int(per_worker * 1.5))
+    assert count == 1 or cores == 1
+    if cores > 1:
+        assert "big.png (1000000 pixels)" in note and "-j auto: 1 worker, not" in note
+
+
+def test_out_dir_that_is_a_file_is_one_error(tmp_path, capsys):
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(SystemExit) as info:
+        main(["convert", str(FIXTURES / "heart.png"), str(FIXTURES / "leaf.png"), "--out-dir", str(tmp_path / "file")])
+    assert info.value.code == Exit.USAGE
+    assert "is a file, not a folder" in one_line(capsys.readouterr().err)
