@@ -122,7 +122,7 @@ def _outputs_to_make(job: Job, out: Outcome) -> dict[int, tuple[Path, dict]]:
     to ``out.up_to_date``."""
     opt = job.options
     todo = {}
-    for _, target in frame_targets(job):
+    for frame, target in frame_targets(job):
         options = api.file_options(target, opt.params, fmt=opt.fmt, stage=opt.stage, scale=opt.scale,
                                    frame=frame, background=opt.background, shading=opt.shading,
                                    precision=opt.precision, width=opt.width, height=opt.height)
@@ -152,7 +152,7 @@ def _abandoned(job: Job, begun: int) -> Outcome:
     out = Outcome(job.source, job.output, state=INTERRUPTED)
     if job.options.frames == "all" and job.frames == 0:
         return out
-    for frame, target in frame_targets(job):
+    for _, target in frame_targets(job):
         try:
             if target.stat().st_mtime_ns >= begun and stamps.read(target) is not None:
                 out.written.append(target)
