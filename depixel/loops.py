@@ -26,12 +26,17 @@ class Loops:
         return int(self.owner.size)
 
 
-def trace_loops(owner: np.ndarray, u: np.ndarray, v: np.ndarray) -> Loops:
+def trace_loops(owner: np.ndarray, u: np.ndarray, v: np.ndarray, points: np.ndarray | None = None) -> Loops:
     """Chain half-edges u→v of each owner into closed loops.
 
     Where an owner's boundary touches itself at a node (k > 1 half-edges in and out), the
     i-th incoming half-edge (in index order) continues with the i-th outgoing one; any such
-    pairing closes every loop and leaves the enclosed area unchanged.
+    pairing closes every loop and leaves the enclosed area unchanged. With ``points`` (the
+    node coordinates, y down, the owner's area on the right of each half-edge), each
+    incoming half-edge continues with the outgoing one that turns most sharply around the
+    area the other way, keeping the outside on its left: so the loops never cross, and a
+    hole that touches the outer boundary (or another hole) at a node is a loop of its own.
+    Every loop is then an outer boundary (clockwise on screen) or a hole (counter-clockwise).
     Loops are ordered by owner, then by their smallest half-edge index, and each loop starts
     at its smallest half-edge index, so the result is deterministic.
     """
@@ -48,11 +53,47 @@ def trace_loops(owner: np.ndarray, u: np.ndarray, v: np.ndarray) -> Loops:
         raise ValueError("half-edges do not form closed loops")
     nxt = np.empty(n, np.int64)
     nxt[in_order] = out_order
+    if points is not None:
+        _pair_by_angle(nxt, owner, u, v, out_order, in_order, points)
     leader, position = cycle_leaders(nxt)
     order = _argsort_pairs(owner, leader * n + position)  # by owner, leader, then along the loop
     starts = np.flatnonzero(position[order] == 0)
     ptr = np.r_[starts, n].astype(np.int64)
     return Loops(owner=owner[order][starts], ptr=ptr, halfedges=order)
+
+
+def _pair_by_angle(nxt: np.ndarray, owner: np.ndarray, u: np.ndarray, v: np.ndarray, out_order: np.ndarray,
+                   in_order: np.ndarray, points: np.ndarray) -> None:
+    """Re-pair the half-edges at every (owner, node) with several in and out, in place."""
+    key = owner[out_order] * (int(u.max()) + 1) + u[out_order]
+    crowded = np.flatnonzero(key[1:] == key[:-1])
+    if crowded.size == 0:
+        return
+    for group in np.unique(key[crowded]).tolist():
+        lo, hi = np.searchsorted(key, [group, group + 1])
+        outs, ins = out_order[lo:hi], in_order[lo:hi]
+        node = points[u[outs[0]]].astype(np.float64)
+        out_angle = np.arctan2(*(points[v[outs]] - node)[:, ::-1].T)
+        back_angle = np.arctan2(*(points[u[ins]] - node)[:, ::-1].T)
+        # the outside lies counter-clockwise (on screen) from the way back to the way out
+        turn = (out_angle[None, :] - back_angle[:, None]) % (2 * np.pi)
+        turn[turn <= 0] = 2 * np.pi
+        for i, j in zip(*_assign(turn)):
+            nxt[ins[i]] = outs[j]
+
+
+def _assign(cost: np.ndarray) -> tuple[list[int], list[int]]:
+    """Pair rows with columns, each row with its cheapest free column, cheapest pairs first."""
+    rows, cols = [], []
+    free_r, free_c = set(range(cost.shape[0])), set(range(cost.shape[1]))
+    for flat in np.argsort(cost, axis=None, kind="stable").tolist():
+        i, j = divmod(flat, cost.shape[1])
+        if i in free_r and j in free_c:
+            rows.append(i)
+            cols.append(j)
+            free_r.discard(i)
+            free_c.discard(j)
+    return rows, cols
 
 
 def _argsort_pairs(major: np.ndarray, minor: np.ndarray) -> np.ndarray:

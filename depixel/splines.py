@@ -39,7 +39,7 @@ from .bspline import Bezier, between_curve_points, midpoint, slot_spans, span
 from .cells import CellGraph
 from .frozen import freeze
 from .params import Params
-from .vector import VectorImage, linked_edges
+from .vector import CurveTable, VectorImage, linked_edges
 
 
 class HalfEnds(NamedTuple):
@@ -211,7 +211,9 @@ class SplineSet:
     def geometry(self, positions: np.ndarray) -> Geometry:
         """Display points (N, 2), curved flags (E,) and Bézier controls (E, 3, 2) for given
         node positions — shared by the splines stage and the optimizer's result."""
-        ctrl = self.controls_for(positions)
+        return self._geometry(self.controls_for(positions), positions)
+
+    def _geometry(self, ctrl: np.ndarray, positions: np.ndarray) -> Geometry:
         display = self._display(ctrl, positions)
         s = self._curve_points(ctrl)
         n_edges = len(self.cells.edges)
@@ -235,8 +237,25 @@ class SplineSet:
         return Geometry(display, curved, controls)
 
     def vector_image(self, positions: np.ndarray | None = None, stage: str = "splines") -> VectorImage:
-        points, curved, controls = self.geometry(self.positions if positions is None else positions)
-        return VectorImage(self.cells, points, curved, controls, stage)
+        positions = self.positions if positions is None else positions
+        ctrl = self.controls_for(positions)
+        points, curved, controls = self._geometry(ctrl, positions)
+        return VectorImage(self.cells, points, curved, controls, stage, self.curve_table(ctrl, curved))
+
+    def curve_table(self, ctrl: np.ndarray, curved: np.ndarray) -> CurveTable:
+        """The slot-by-slot B-spline data of the curved edges (:class:`CurveTable`) for
+        control points ``ctrl`` (P, 2) and the edges drawn curved."""
+        prev, nxt = self.neighbours()
+        n_edges = len(self.cells.edges)
+        slots = np.flatnonzero(self.slot_edges >= 0)
+        edge = self.slot_edges[slots]
+        keep = curved[edge]
+        edge_slot = np.full(n_edges, -1, dtype=np.int64)
+        edge_slot[edge[keep]] = slots[keep]
+        edge_forward = np.zeros(n_edges, dtype=bool)
+        edge_forward[edge[keep]] = self.slot_forward[slots[keep]]
+        return CurveTable(self.curve_nodes, self.slot_curve(), self.curve_closed, prev, nxt, ctrl,
+                          edge_slot, edge_forward)
 
 
 def visible_edges(cells: CellGraph) -> np.ndarray:
@@ -256,11 +275,34 @@ def shading_edges(cells: CellGraph, visible: np.ndarray, params: Params) -> np.n
     return visible & (dist <= params.shading_distance) & ~clear_mismatch
 
 
+def band_edges(cells: CellGraph) -> np.ndarray:
+    """(E,) bool: invisible edges (between linked, similar pixels) whose colours differ.
+
+    Not in the paper, whose regions are shaded smoothly by its renderer (§3.5): in an SVG
+    with one flat fill per face, the boundaries between the colour bands of one region
+    become curves too, so the bands read as steps of a gradient rather than a mosaic of
+    cells."""
+    left, right = cells.edge_pixels[:, 0], cells.edge_pixels[:, 1]
+    rgba = cells.graph.rgba.reshape(-1, 4)
+    differ = (rgba[np.maximum(left, 0)] != rgba[np.maximum(right, 0)]).any(axis=1)
+    return (left >= 0) & (right >= 0) & linked_edges(cells) & differ
+
+
 def extract_splines(cells: CellGraph, params: Params = Params()) -> SplineSet:
-    """Pair the curve edges at their nodes and chain them into curves (§3.3)."""
+    """Pair the curve edges at their nodes and chain them into curves (§3.3).
+
+    Contours (visible edges) are paired by the paper's rules. Shading-band edges
+    (:func:`band_edges`) are paired among themselves by the same rules at nodes no contour
+    touches, and end where they meet a contour (a T-junction, snapped as the paper's)."""
     visible = visible_edges(cells)
     shading = shading_edges(cells, visible, params)
-    half_ends = pair_ends(cells, np.flatnonzero(visible), shading)
+    contours = pair_ends(cells, np.flatnonzero(visible), shading)
+    bands = pair_ends(cells, np.flatnonzero(band_edges(cells)), np.zeros(len(cells.edges), bool))
+    on_contour = np.zeros(len(cells.nodes), dtype=bool)
+    on_contour[contours.node] = True
+    band_partner = np.where(on_contour[bands.node] | (bands.partner < 0), -1, bands.partner + contours.node.size)
+    half_ends = HalfEnds(np.concatenate([contours.edges, bands.edges]), np.concatenate([contours.node, bands.node]),
+                         np.concatenate([contours.partner, band_partner]))
     return SplineSet(cells, visible, shading, *chain_curves(half_ends),
                      positions=cells.nodes.astype(np.float64) / 4.0, half_ends=half_ends,
                      snap_passes=params.snap_passes)

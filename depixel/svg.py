@@ -1,28 +1,37 @@
-"""Stage 6 — SVG export — VectorImage → SVG text.
+"""Stage 7 — SVG export — Outlines → SVG text.
 
-Each face (linked cells of one colour; one per cell for the cells stage) becomes one
-``<path>``; faces are grouped per region (``<g id="region-N">``). Curved edges are written
-exactly as quadratic Béziers (``Q``), straight ones as ``L``.
+The geometry is decided by :mod:`depixel.outlines`; this module only formats it:
 
-Seams (docs/design.md, "Seams"): two shapes that abut along a shared curve are each
-anti-aliased, and the pixels on the curve end up partly transparent (conflation). To avoid
-this, faces are drawn in a fixed order (larger regions first) and each opaque face's path
-also covers the cells of the opaque faces drawn after it that share an edge with it — the
-"stacked" layout. Every boundary then has an opaque underlay beneath it, in every renderer,
-while each face still shows exactly its own cells.
+* one ``<path>`` per shape, in drawing order, with ``fill="#rrggbb"`` (plus ``fill-opacity``
+  when not opaque — never ``rgba()``, which Inkscape and Illustrator read as black);
+* an ``id`` and an ``inkscape:label`` that say what the shape is (``outline-181425`` /
+  "outline #181425", ``backdrop-5c94fc``, ``band-e0e0e0``…) so an editor's layers panel reads
+  well; consecutive shapes of one region (paper §3.3) in a ``<g>`` when there are several;
+* compact path data: each command in absolute or relative form, whichever is shorter; a
+  command letter left out where it repeats; ``H``/``V`` for axis-aligned lines; ``T`` for a
+  quadratic whose control point mirrors the previous one (every inner span of a B-spline);
+  no separator before a minus sign or before a ".5" that follows a number with a point; the
+  last line of a loop left to ``Z``.
 
-The text is assembled with whole-array operations (:mod:`depixel.svgtext`): a token table
-of every drawing command, and one index array that lists the tokens of the document.
+The text is assembled with whole-array operations (:mod:`depixel.svgtext`).
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .loops import Loops, trace_loops
-from .svgtext import Texts, concat, numbers, stack
-from .vector import VectorImage, faces_and_regions
+from .boundaries import CUBIC, LINE, QUAD
+from .outlines import ROLES, Outlines, build_outlines
+from .svgtext import Texts, numbers, stack
+from .vector import VectorImage
 
 SVG_HEADER = '<?xml version="1.0" encoding="UTF-8"?>\n'
+INKSCAPE_NS = "http://www.inkscape.org/namespaces/inkscape"
+
+# command codes, and their letters (absolute; relative is lower case) and number of arguments
+M, L, H, V, Q, T, C, Z = range(8)
+_LETTERS = "MLHVQTCZ"
+_ARITY = np.array([2, 2, 1, 1, 4, 2, 6, 0])
+_W = 6  # argument columns
 
 
 def _xml_text(text: str) -> str:
@@ -35,258 +44,265 @@ def _xml_text(text: str) -> str:
     return "".join(c if allowed(ord(c)) else "\ufffd" for c in text)
 
 
-def draw_order(labels: np.ndarray, region: np.ndarray) -> np.ndarray:
-    """Rank of every face in drawing order: larger regions first, then larger faces, then
-    scanline order of the first pixel (labels are already numbered that way)."""
-    n_faces = int(labels.max()) + 1
-    face_size = np.bincount(labels, minlength=n_faces)
-    region_size = np.bincount(region)
-    face_region = np.zeros(n_faces, np.int64)
-    face_region[labels] = region
-    order = np.lexsort((np.arange(n_faces), -face_size, face_region, -region_size[face_region]))
-    rank = np.empty(n_faces, np.int64)
-    rank[order] = np.arange(n_faces)
-    return rank
+def _escape(text: str) -> str:
+    return _xml_text(text).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;").replace('"', "&quot;")
 
 
-def to_svg(image: VectorImage, scale: float = 1.0, precision: int = 3, per_cell: bool | None = None,
-           title: str | None = None) -> str:
-    """Write a VectorImage as SVG text; ``scale`` sets width/height, the viewBox stays W×H."""
-    h, w = image.shape
-    rgba = image.rgba.reshape(-1, 4)
-    if per_cell is None:
-        per_cell = image.stage == "cells"
-    labels, region = faces_and_regions(image.cells, per_cell)
-    assert region is not None
-    n_faces = int(labels.max()) + 1
-    face_pixel = np.zeros(n_faces, np.int64)
-    face_pixel[labels[::-1]] = np.arange(labels.size)[::-1]  # first pixel of each face
-    face_region = np.zeros(n_faces, np.int64)
-    face_region[labels] = region
-    rank = draw_order(labels, region)
+def to_svg(image: VectorImage, scale: float = 1.0, precision: int = 3, title: str | None = None,
+           layout: str = "stacked", simplify: float = 0.0) -> str:
+    """Write a VectorImage as SVG text; ``scale`` sets width/height, the viewBox stays W×H.
 
-    loops, tokens, token_of, start_row = _face_outlines(image, labels, rank, rgba[face_pixel, 3], precision)
-    face_of_rank = np.empty(n_faces, np.int64)
-    face_of_rank[rank] = np.arange(n_faces)
-    body = _path_elements(loops, tokens, token_of, start_row, face_of_rank, face_region, rgba[face_pixel])
+    ``layout`` and ``simplify`` are those of :func:`depixel.outlines.build_outlines`."""
+    outlines = build_outlines(image, layout, grid=10.0**-precision, simplify=simplify)
+    return write_svg(outlines, scale, precision, title)
 
+
+def write_svg(outlines: Outlines, scale: float = 1.0, precision: int = 3, title: str | None = None) -> str:
+    """Format outlines (built with ``grid=10**-precision``) as an SVG document."""
+    h, w = outlines.shape
     width, height = numbers(np.array([w * scale, h * scale]), 3).tolist()
     head = (
-        f'{SVG_HEADER}<svg xmlns="http://www.w3.org/2000/svg" version="1.1" width="{width}" height="{height}" '
-        f'viewBox="0 0 {w} {h}">\n'
+        f'{SVG_HEADER}<svg xmlns="{"http://www.w3.org/2000/svg"}" xmlns:inkscape="{INKSCAPE_NS}" version="1.1" '
+        f'width="{width}" height="{height}" viewBox="0 0 {w} {h}">\n'
     )
     if title:
-        text = _xml_text(title).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
-        head += f"<title>{text}</title>\n"
-    return head + body.decode("ascii") + "</svg>\n"
+        head += f"<title>{_escape(title)}</title>\n"
+    return head + _elements(outlines, precision) + "</svg>\n"
 
 
-def _face_outlines(image: VectorImage, labels: np.ndarray, rank: np.ndarray, face_alpha: np.ndarray,
-                   precision: int) -> tuple[Loops, Texts, np.ndarray, np.ndarray]:
-    """Outline loops of every drawn face (owner = drawing rank) and the text of each step.
-
-    Each cell is cut into corner pieces, one per polygon node: piece k of a cell is bounded
-    by the second half of the edge into node k, the first half of the edge out of it, and
-    two spokes to the pixel centre. A face's path covers the pieces of its own cells and,
-    as the stacked underlay, every piece of a later opaque cell at a node the face touches.
-    So around every node and along every edge, the earliest face present lies fully beneath
-    the later ones, and no renderer can leave a partly transparent seam.
-
-    Returns the loops over the boundary half-edges, a table of drawing commands, the row of
-    each half-edge's command in it, and per loop the row of "L" + its first point (the
-    loop's ``M`` uses that row without the "L").
-    """
-    cells = image.cells
-    n_px = labels.size
-    n_nodes, n_edges = len(image.points), len(cells.edges)
-    n_piece = cells.cell_nodes.size
-    piece_cell = np.repeat(np.arange(n_px), np.diff(cells.cell_ptr))
-    k = np.arange(n_piece)
-    last = cells.cell_ptr[1:][piece_cell] - 1
-    first = cells.cell_ptr[:-1][piece_cell]
-    k_next = np.where(k == last, first, k + 1)
-    k_prev = np.where(k == first, last, k - 1)
-    node = cells.cell_nodes
-    # the polygon position of the same edge in the cell on its other side (-1 on the border)
-    by_edge = np.argsort(cells.cell_edges, kind="stable")
-    sorted_edges = cells.cell_edges[by_edge]
-    twin = np.full(n_piece, -1, np.int64)
-    pair = np.flatnonzero(sorted_edges[1:] == sorted_edges[:-1])
-    twin[by_edge[pair]] = by_edge[pair + 1]
-    twin[by_edge[pair + 1]] = by_edge[pair]
-
-    # faces present at each node, once each: (n_nodes, width) table padded with -1
-    own = labels[piece_cell]
-    by_node = np.lexsort((own, node))
-    node_sorted, face_sorted = node[by_node], own[by_node]
-    fresh = np.r_[True, (node_sorted[1:] != node_sorted[:-1]) | (face_sorted[1:] != face_sorted[:-1])]
-    node_sorted, face_sorted = node_sorted[fresh], face_sorted[fresh]
-    group_start = np.flatnonzero(np.r_[True, node_sorted[1:] != node_sorted[:-1]])
-    group_of = np.repeat(np.arange(group_start.size), np.diff(np.r_[group_start, node_sorted.size]))
-    slot = np.arange(node_sorted.size) - group_start[group_of]
-    table = np.full((n_nodes, int(slot.max()) + 1), -1, np.int64)
-    table[node_sorted, slot] = face_sorted
-
-    # four half-edges per piece k of cell q (midpoint of edge e is point n_nodes + e, the
-    # centre of q is point n_nodes + n_edges + q), with the piece across each:
-    #   0: mid(edge into k) -> node k      across: the other cell's piece at this node
-    #   1: node k -> mid(edge out of k)    across: the piece after the twin position
-    #   2: mid(edge out of k) -> centre    across: k_next
-    #   3: centre -> mid(edge into k)      across: k_prev
-    edge_in, edge_out = cells.cell_edges[k_prev], cells.cell_edges
-    mid_in, mid_out = n_nodes + edge_in, n_nodes + edge_out
-    centre = n_nodes + n_edges + piece_cell
-    twin_out = twin[k]
-    across = np.stack([twin[k_prev], np.where(twin_out >= 0, k_next[np.maximum(twin_out, 0)], -1), k_next, k_prev],
-                      axis=1)
-    # Only a piece at a node shared by several faces, or on the image border, can have a
-    # boundary half-edge: elsewhere the pieces across all four sides (at the same node or
-    # in the same cell) belong to its own face, and no other face can use it as underlay.
-    shared = table[:, 1] >= 0 if table.shape[1] > 1 else np.zeros(n_nodes, bool)
-    ks = np.flatnonzero(shared[node] | (across < 0).any(axis=1))
-
-    # membership (face, piece): own pieces, plus underlay pieces of later opaque cells
-    drawn = face_alpha > 0
-    opaque_own = face_alpha[own] == 255
-    own_s = own[ks]
-    candidate = table[node[ks]]  # (len(ks), width)
-    cand = np.maximum(candidate, 0)
-    under = (candidate >= 0) & (rank[cand] < rank[own_s][:, None]) & opaque_own[ks][:, None] & drawn[cand]
-    member_key = np.sort(np.concatenate([
-        own_s[drawn[own_s]] * n_piece + ks[drawn[own_s]],
-        candidate[under] * n_piece + np.broadcast_to(ks[:, None], under.shape)[under],
-    ]))
-    member_face, member_piece = np.divmod(member_key, n_piece)
-
-    def holds(face: np.ndarray, piece: np.ndarray) -> np.ndarray:
-        """Whether (face, piece) is a membership, for member faces and pieces (-1: none)."""
-        inside = piece >= 0
-        piece = np.maximum(piece, 0)
-        other = own[piece]
-        result = inside & (other == face)
-        maybe = np.flatnonzero(inside & ~result & opaque_own[piece] & (rank[face] < rank[other]))
-        result[maybe] = (table[node[piece[maybe]]] == face[maybe, None]).any(axis=1)
-        return result
-
-    boundary = np.empty((member_key.size, 4), bool)
-    for side in range(4):
-        boundary[:, side] = ~holds(member_face, across[member_piece, side])
-    which, part = np.nonzero(boundary)  # in (member, part) order, as the loops expect
-    face_b, piece_b = member_face[which], member_piece[which]
-    hu = np.stack([mid_in, node, mid_out, centre], axis=1)[piece_b, part]
-    hv = np.stack([node, mid_out, centre, mid_in], axis=1)[piece_b, part]
-    loops = trace_loops(rank[face_b], hu, hv)
-
-    # drawing command of each boundary half-edge, as a command id: "L" + point i is id i;
-    # half j of the c-th curved edge is id n_points + 4c + j (see _command_texts)
-    n_points = n_nodes + n_edges + n_px
-    curve_id = np.full(n_edges, -1, np.int64)
-    curve_id[image.curved] = n_points + 4 * np.arange(int(image.curved.sum()))
-    ein, eout, at = edge_in[piece_b], edge_out[piece_b], node[piece_b]
-    into = np.where(image.curved[ein], curve_id[ein] + np.where(cells.edges[ein, 1] == at, 1, 3), at)
-    out_of = np.where(image.curved[eout], curve_id[eout] + np.where(cells.edges[eout, 0] == at, 0, 2), mid_out[piece_b])
-    command = np.choose(part, [into, out_of, centre[piece_b], mid_in[piece_b]])
-    start = hu[loops.halfedges[loops.ptr[:-1]]]  # "L" + the first point of each loop, for its "M"
-    used, row = np.unique(np.concatenate([command, start]), return_inverse=True)  # format only these
-    return loops, _command_texts(image, used, precision), row[: command.size], row[command.size :]
+def _elements(outlines: Outlines, precision: int) -> str:
+    """The ``<g>``/``<path>`` elements in drawing order."""
+    n = len(outlines)
+    if n == 0:
+        return ""
+    data = path_data(outlines, precision)
+    region = outlines.region
+    run_start = np.r_[True, region[1:] != region[:-1]]
+    run_id = np.cumsum(run_start) - 1
+    run_size = np.bincount(run_id)
+    grouped = run_size[run_id] > 1
+    ids = _ids(outlines)
+    lines = []
+    for s in range(n):
+        if grouped[s] and run_start[s]:
+            first = outlines.rgba[s]
+            label = f"shading #{first[0]:02x}{first[1]:02x}{first[2]:02x} ({run_size[run_id[s]]} tones)"
+            lines.append(f'<g id="region-{int(region[s])}-{int(run_id[s])}" inkscape:label="{label}">\n')
+        r, g, b, a = (int(x) for x in outlines.rgba[s])
+        colour = f"#{r:02x}{g:02x}{b:02x}"
+        opacity = "" if a == 255 else f' fill-opacity="{numbers(np.array([a / 255.0]), 3).tolist()[0]}"'
+        role = ROLES[int(outlines.role[s])]
+        lines.append(f'<path id="{ids[s]}" inkscape:label="{role} {colour}" fill="{colour}"{opacity} d="{data[s]}"/>\n')
+        if grouped[s] and (s + 1 == n or run_start[s + 1]):
+            lines.append("</g>\n")
+    return "".join(lines)
 
 
-def _command_texts(image: VectorImage, ids: np.ndarray, precision: int) -> Texts:
-    """Text of the drawing commands with the given (sorted) ids, in that order.
-
-    Points are the nodes, then the edge midpoints (the curve's middle control point when
-    curved), then the pixel centres; id i is "L" + point i. The c-th curved edge e
-    (u → v, controls c0 c1 c2) has ids ``n_points + 4c + j``: j = 0 "Q c0 mid" (u → mid),
-    1 "Q c2 v" (mid → v), 2 "Q c2 mid" (v → mid), 3 "Q c0 u".
-    """
-    cells = image.cells
-    h, w = image.shape
-    u, v = cells.edges[:, 0], cells.edges[:, 1]
-    pts = image.points
-    n_points = len(pts) + len(u) + h * w
-    line, quad = ids[ids < n_points], ids[ids >= n_points] - n_points
-
-    def point(i: np.ndarray) -> np.ndarray:
-        """(len(i), 2) coordinates of points i."""
-        node = np.minimum(i, len(pts) - 1)
-        e = np.clip(i - len(pts), 0, len(u) - 1)
-        row, col = np.divmod(i - len(pts) - len(u), w)
-        mid = np.where(image.curved[e, None], image.controls[e, 1], (pts[u[e]] + pts[v[e]]) / 2.0)
-        centre = np.stack([col + 0.5, row + 0.5], axis=1)
-        return np.where((i < len(pts))[:, None], pts[node], np.where((i < len(pts) + len(u))[:, None], mid, centre))
-
-    curved = np.flatnonzero(image.curved)
-    c, j = np.divmod(quad, 4)
-    e = curved[c]
-    control = np.where(((j == 0) | (j == 3))[:, None], image.controls[e, 0], image.controls[e, 2])
-    end = np.choose(j, [len(pts) + e, v[e], len(pts) + e, u[e]])
-    lines = numbers(point(line), precision, prefix="L")
-    quads = numbers(np.concatenate([control, point(end)], axis=1), precision, prefix="Q")
-    return stack([lines, quads])[0]
+def _ids(outlines: Outlines) -> list[str]:
+    """``role-rrggbb`` for every shape, with ``-2``, ``-3``… where that repeats."""
+    seen: dict[str, int] = {}
+    out = []
+    for role, (r, g, b, _) in zip(outlines.role.tolist(), outlines.rgba.tolist()):
+        base = f"{ROLES[role]}-{r:02x}{g:02x}{b:02x}"
+        count = seen.get(base, 0) + 1
+        seen[base] = count
+        out.append(base if count == 1 else f"{base}-{count}")
+    return out
 
 
-#: two hex digits of every byte value
-_HEX = Texts.of([f"{i:02x}" for i in range(256)])
+def path_data(outlines: Outlines, precision: int) -> list[str]:
+    """The ``d`` attribute of every shape."""
+    unit = 10.0**precision
+    cmd, args = _commands(outlines, unit)
+    n_cmd = cmd.size
+    arity = _ARITY[cmd]
+    shape_of_loop = np.repeat(np.arange(len(outlines)), np.diff(outlines.shape_ptr))
+    # every loop is M + segments + Z: the command's shape from its loop
+    loop_len = np.diff(outlines.loop_ptr)
+    last_line = outlines.kind[outlines.loop_ptr[1:] - 1] == LINE
+    per_loop = loop_len - last_line + 2
+    shape_of_cmd = np.repeat(shape_of_loop, per_loop)
+
+    # relative arguments: from the current point (previous end; for M, the start of the
+    # previous loop of the same path, or the origin)
+    absolute = args  # (C, 6) int64 units, (x, y) pairs; H has x, V has y in column 0
+    rel = _relative(cmd, absolute, shape_of_cmd)
+    texts_abs, flags_abs = _format(absolute, arity, precision)
+    texts_rel, flags_rel = _format(rel, arity, precision)
+    use_rel = flags_rel.length < flags_abs.length
+    use_rel &= cmd != Z
+    letter = np.where(use_rel, cmd + 8, cmd)  # 0-7 upper case, 8-15 lower case
+    prev_letter = np.r_[-1, letter[:-1]]
+    new_shape = np.r_[True, shape_of_cmd[1:] != shape_of_cmd[:-1]]
+    implicit = ((letter == prev_letter) & (cmd != M) & (cmd != Z)) | \
+        ((letter == L) & (prev_letter == M)) | ((letter == L + 8) & (prev_letter == M + 8))
+    implicit &= ~new_shape
+
+    # token stream: per command an optional letter, then its numbers
+    n_num = arity
+    tok_count = (~implicit).astype(np.int64) + n_num
+    tok_start = np.cumsum(tok_count) - tok_count
+    n_tok = int(tok_count.sum())
+    is_number = np.ones(n_tok, bool)
+    is_number[tok_start[~implicit]] = False
+    letters = Texts.of(list(_LETTERS) + list(_LETTERS.lower()))
+    number_rows = np.where(use_rel[:, None], 1, 0)  # which table: abs 0 / rel 1
+    num_cmd = np.repeat(np.arange(n_cmd), n_num)
+    num_k = np.arange(num_cmd.size) - np.repeat(np.cumsum(n_num) - n_num, n_num)
+    num_pos = tok_start[num_cmd] + (~implicit[num_cmd]) + num_k
+    rel_num = use_rel[num_cmd]
+    flat = num_cmd * _W + num_k
+    minus = np.where(rel_num, flags_rel.minus[flat], flags_abs.minus[flat])
+    dot_start = np.where(rel_num, flags_rel.dot_start[flat], flags_abs.dot_start[flat])
+    has_dot = np.where(rel_num, flags_rel.has_dot[flat], flags_abs.has_dot[flat])
+    del number_rows
+
+    # separators: a space before a number that follows a number, unless the number starts
+    # with "-", or with "." after a number that has a point
+    tok_has_dot = np.zeros(n_tok, bool)
+    tok_has_dot[num_pos] = has_dot
+    prev_is_number = np.r_[False, is_number[:-1]]
+    sep = np.zeros(n_tok, bool)
+    sep[num_pos] = prev_is_number[num_pos] & ~minus & ~(dot_start & np.r_[False, tok_has_dot[:-1]][num_pos])
+    tok_shape = np.repeat(shape_of_cmd, tok_count)
+    sep &= np.r_[False, tok_shape[1:] == tok_shape[:-1]]
+
+    table, (letter_row, abs_row, rel_row, space_row) = stack([letters, texts_abs, texts_rel, Texts.of([" "])])
+    row = np.empty(n_tok, np.int64)
+    row[tok_start[~implicit]] = letter_row + letter[~implicit]
+    row[num_pos] = np.where(rel_num, rel_row, abs_row) + flat
+    # interleave the separators: token i becomes [space] + token
+    out_count = 1 + sep.astype(np.int64)
+    out_start = np.cumsum(out_count) - out_count
+    stream = np.empty(int(out_count.sum()), np.int64)
+    stream[out_start + sep] = row
+    stream[out_start[sep]] = space_row
+    pieces = table.take(stream)
+    # split per shape
+    shape_tok_end = np.searchsorted(tok_shape, np.arange(len(outlines)) + 1)
+    out_end = np.r_[out_start, stream.size][shape_tok_end]
+    text = pieces.tobytes().decode("ascii")
+    byte_end = np.cumsum(pieces.length)
+    bounds = np.r_[0, byte_end[out_end - 1]]
+    return [text[bounds[i] : bounds[i + 1]] for i in range(len(outlines))]
 
 
-def _path_elements(loops: Loops, tokens: Texts, token_of: np.ndarray, start_row: np.ndarray,
-                   face_of_rank: np.ndarray, face_region: np.ndarray, face_rgba: np.ndarray) -> bytes:
-    """The ``<g>`` and ``<path>`` elements: every face with loops, in drawing order.
+def _commands(outlines: Outlines, unit: float) -> tuple[np.ndarray, np.ndarray]:
+    """Command codes and absolute arguments (``(C, 6)`` int64 in 10^-precision units) of
+    every path: per loop M, its segments (the last one left out when it is a line: Z draws
+    it), Z."""
+    kind = outlines.kind
+    end = np.round(outlines.end * unit).astype(np.int64)
+    ctrl = np.round(np.nan_to_num(outlines.ctrl) * unit).astype(np.int64)
+    ctrl2 = np.round(np.nan_to_num(outlines.ctrl2) * unit).astype(np.int64)
+    n_loop = outlines.loop_ptr.size - 1
+    loop_len = np.diff(outlines.loop_ptr)
+    seg_loop = np.repeat(np.arange(n_loop), loop_len)
+    last = outlines.loop_ptr[1:] - 1
+    start = end[last]  # each loop starts where its last segment ends
+    seg_start = np.roll(end, 1, axis=0)
+    seg_start[outlines.loop_ptr[:-1]] = start
+    drop = np.zeros(kind.size, bool)
+    drop[last[kind[last] == LINE]] = True
+    # a quadratic whose control mirrors the previous quadratic's through its start is "T"
+    first = np.zeros(kind.size, bool)
+    first[outlines.loop_ptr[:-1]] = True
+    prev_ctrl = np.roll(ctrl, 1, axis=0)
+    prev_quad = np.roll(kind, 1) == QUAD
+    smooth = (kind == QUAD) & prev_quad & ~first & (ctrl == 2 * seg_start - prev_ctrl).all(axis=1)
 
-    Each face is ``<path id="face-F" fill="#rrggbb" d="`` + per loop ``M x y`` + its steps
-    + ``Z`` + ``"/>``, inside ``<g id="region-R">`` groups of consecutive faces.
-    """
-    n_loops = len(loops)
-    if n_loops == 0:
-        return b""
-    loop_rank = loops.owner
-    new_face = np.r_[True, loop_rank[1:] != loop_rank[:-1]]
-    face_first_loop = np.flatnonzero(new_face)
-    face_end_loop = np.r_[face_first_loop[1:], n_loops]
-    loop_face = np.cumsum(new_face) - 1  # index among the drawn faces
+    code = np.where(kind == LINE, L, np.where(kind == CUBIC, C, np.where(smooth, T, Q)))
+    horizontal = (kind == LINE) & (end[:, 1] == seg_start[:, 1])
+    vertical = (kind == LINE) & (end[:, 0] == seg_start[:, 0]) & ~horizontal
+    code = np.where(horizontal, H, np.where(vertical, V, code))
+    args = np.zeros((kind.size, _W), np.int64)
+    args[:, :2] = end
+    args[code == H, 0] = end[code == H, 0]
+    args[code == V, 0] = end[code == V, 1]
+    quad = code == Q
+    args[quad, :2] = ctrl[quad]
+    args[quad, 2:4] = end[quad]
+    cubic = code == C
+    args[cubic, :2] = ctrl[cubic]
+    args[cubic, 2:4] = ctrl2[cubic]
+    args[cubic, 4:6] = end[cubic]
 
-    face = face_of_rank[loop_rank[face_first_loop]]
-    n = face.size
-    region = face_region[face]
-    opens = np.r_[True, region[1:] != region[:-1]]
-    closes = np.r_[False, opens[1:]]
-    rgba = face_rgba[face]
-    translucent = rgba[:, 3] != 255
-    # one formatting pass; whole numbers print the same at any precision
-    formatted = numbers(np.concatenate([face, region, rgba[:, 3] / 255.0]), 3)
-    face_text, region_text, alpha_text = (formatted.take(np.arange(i * n, (i + 1) * n)) for i in range(3))
-    header = concat(
-        _where(closes, "</g>\n"), _where(opens, '<g id="region-'), _blank(region_text, opens), _where(opens, '">\n'),
-        '<path id="face-', face_text, '" fill="#', _HEX.take(rgba[:, 0]), _HEX.take(rgba[:, 1]), _HEX.take(rgba[:, 2]),
-        '"', _where(translucent, ' fill-opacity="'), _blank(alpha_text, translucent), _where(translucent, '"'), ' d="',
-    )
-    points = Texts(tokens.data, tokens.start + 1, tokens.length - 1)  # "L x y" rows without the "L"
-    table, (_, point_row, header_row, const_row) = stack([tokens, points, header, Texts.of(['"/>\n', "Z", "M"])])
-    closer, close_path, move = const_row, const_row + 1, const_row + 2
-
-    ptr = loops.ptr
-    n_steps = ptr[-1]
-    stream = np.empty(n_steps + 3 * n_loops + 2 * face.size, np.int64)
-    # positions: before step i of loop l of face f come i steps, 3 rows (M, point, Z) per
-    # earlier loop, M and point of this loop, and header + closer of each earlier face
-    step_loop = np.repeat(np.arange(n_loops), np.diff(ptr))
-    stream[np.arange(n_steps) + 3 * step_loop + 2 * loop_face[step_loop] + 3] = token_of[loops.halfedges]
-    loop_pos = ptr[:-1] + 3 * np.arange(n_loops) + 2 * loop_face
-    stream[loop_pos + 1] = move
-    stream[loop_pos + 2] = point_row + start_row
-    stream[ptr[1:] + 3 * np.arange(n_loops) + 2 * loop_face + 3] = close_path
-    faces = np.arange(face.size)
-    stream[ptr[face_first_loop] + 3 * face_first_loop + 2 * faces] = header_row + faces
-    stream[ptr[face_end_loop] + 3 * face_end_loop + 2 * faces + 1] = closer
-    return table.take(stream).tobytes() + b"</g>\n"
+    # interleave: loop l = [M start] + its kept segments + [Z]
+    keep = ~drop
+    per_loop = np.bincount(seg_loop[keep], minlength=n_loop) + 2
+    loop_first = np.cumsum(per_loop) - per_loop
+    total = int(per_loop.sum())
+    cmd = np.empty(total, np.int64)
+    out = np.zeros((total, _W), np.int64)
+    cmd[loop_first] = M
+    out[loop_first, :2] = start
+    cmd[loop_first + per_loop - 1] = Z
+    seg_index = np.flatnonzero(keep)
+    rank_in_loop = np.arange(seg_index.size) - np.repeat(np.cumsum(per_loop - 2) - (per_loop - 2), per_loop - 2)
+    pos = loop_first[seg_loop[seg_index]] + 1 + rank_in_loop
+    cmd[pos] = code[seg_index]
+    out[pos] = args[seg_index]
+    return cmd, out
 
 
-def _where(keep: np.ndarray, text: str) -> Texts:
-    """``text`` where ``keep`` is True, else the empty string."""
-    return Texts(np.frombuffer(text.encode("ascii"), np.uint8), np.zeros(keep.size, np.int64),
-                 np.where(keep, len(text), 0))
+def _relative(cmd: np.ndarray, absolute: np.ndarray, shape_of_cmd: np.ndarray) -> np.ndarray:
+    """The arguments relative to the current point before each command."""
+    n = cmd.size
+    # end point of every command (Z returns to its loop's M)
+    end = np.zeros((n, 2), np.int64)
+    x_only, y_only = cmd == H, cmd == V
+    pair = ~(x_only | y_only) & (cmd != Z)
+    end_col = np.where((cmd == Q)[:, None], absolute[:, 2:4], np.where((cmd == C)[:, None], absolute[:, 4:6],
+                                                                         absolute[:, 0:2]))
+    # H keeps y, V keeps x: fill those from the running point below
+    loop_m = np.maximum.accumulate(np.where(cmd == M, np.arange(n), 0))
+    end[pair] = end_col[pair]
+    end[cmd == Z] = absolute[loop_m[cmd == Z], 0:2]
+    # propagate x (for V) and y (for H): the last command that set that coordinate
+    set_x = pair | x_only | (cmd == Z)
+    set_y = pair | y_only | (cmd == Z)
+    x_src = np.maximum.accumulate(np.where(set_x, np.arange(n), 0))
+    y_src = np.maximum.accumulate(np.where(set_y, np.arange(n), 0))
+    x_val = np.where(x_only, absolute[:, 0], end[:, 0])
+    y_val = np.where(y_only, absolute[:, 0], end[:, 1])
+    cur = np.stack([x_val[x_src], y_val[y_src]], axis=1)  # current point after each command
+    before = np.zeros((n, 2), np.int64)
+    before[1:] = cur[:-1]
+    new_shape = np.r_[True, shape_of_cmd[1:] != shape_of_cmd[:-1]]
+    before[new_shape] = 0
+    rel = absolute.copy()
+    rel[pair, 0:2] -= before[pair]
+    q = (cmd == Q) | (cmd == C)
+    rel[q, 2:4] -= before[q]
+    c = cmd == C
+    rel[c, 4:6] -= before[c]
+    rel[x_only, 0] -= before[x_only, 0]
+    rel[y_only, 0] -= before[y_only, 1]
+    return rel
 
 
-def _blank(texts: Texts, keep: np.ndarray) -> Texts:
-    """The same strings, emptied where ``keep`` is False."""
-    return Texts(texts.data, texts.start, np.where(keep, texts.length, 0))
+class _Flags:
+    """Per number (C*6, flattened): starts with "-", starts with ".", holds a "."; per
+    command: the length of its numbers with their separators."""
+
+    def __init__(self, minus: np.ndarray, dot_start: np.ndarray, has_dot: np.ndarray, length: np.ndarray):
+        self.minus, self.dot_start, self.has_dot, self.length = minus, dot_start, has_dot, length
+
+
+def _format(args: np.ndarray, arity: np.ndarray, precision: int) -> tuple[Texts, _Flags]:
+    """Compact text of every argument (one string per number, ``(C*6,)`` rows) and flags."""
+    values = args.ravel()
+    texts = numbers(values / 10.0**precision, precision, compact=True)
+    scale = 10**precision
+    whole, frac = np.divmod(np.abs(values), scale)
+    minus = values < 0
+    has_dot = frac != 0
+    dot_start = (whole == 0) & has_dot & ~minus
+    used = np.arange(_W)[None, :] < arity[:, None]
+    length = texts.length.reshape(-1, _W)
+    # a space between two numbers of one command unless the second starts with "-" or "."
+    sep = np.zeros((args.shape[0], _W), bool)
+    m, d, hd = minus.reshape(-1, _W), dot_start.reshape(-1, _W), has_dot.reshape(-1, _W)
+    sep[:, 1:] = ~m[:, 1:] & ~(d[:, 1:] & hd[:, :-1])
+    total = np.where(used, length + sep, 0).sum(axis=1)
+    return texts, _Flags(minus, dot_start, has_dot, total)

@@ -7,8 +7,8 @@ concatenating columns and writing a token sequence are whole-array numpy operati
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 
@@ -28,14 +28,14 @@ class Texts:
         return int(self.start.size)
 
     @classmethod
-    def of(cls, strings: Sequence[str]) -> Texts:
+    def of(cls, strings: Sequence[str]) -> "Texts":
         """A table from Python strings (for constants and short lists)."""
         encoded = [s.encode("ascii") for s in strings]
         length = np.array([len(b) for b in encoded], dtype=np.int64)
         data = np.frombuffer(b"".join(encoded), dtype=np.uint8)
         return cls(data, np.cumsum(length) - length, length)
 
-    def take(self, index: np.ndarray) -> Texts:
+    def take(self, index: np.ndarray) -> "Texts":
         """The strings at ``index``, sharing this table's buffer."""
         return Texts(self.data, self.start[index], self.length[index])
 
@@ -75,23 +75,24 @@ def concat(*columns: Texts | str) -> Texts:
     segment = np.empty((n, len(columns)), dtype=np.int64)
     for j, (col, row0) in enumerate(zip(columns, first)):
         segment[:, j] = row0 if isinstance(col, str) else row0 + np.arange(n)
-    rows = segment.ravel()
-    data = _copy_segments(table.data, table.start[rows], table.length[rows])
-    length = table.length[rows].reshape(n, len(columns)).sum(axis=1)
+    segment = segment.ravel()
+    data = _copy_segments(table.data, table.start[segment], table.length[segment])
+    length = table.length[segment].reshape(n, len(columns)).sum(axis=1)
     return Texts(data, np.cumsum(length) - length, length)
 
 
-def numbers(values: np.ndarray, precision: int, prefix: str = "") -> Texts:
+def numbers(values: np.ndarray, precision: int, prefix: str = "", compact: bool = False) -> Texts:
     """Fixed-precision decimals without trailing zeros (byte-stable, never "-0").
 
-    ``values`` are rounded to ``precision`` decimals; 1.5 → "1.5", 2.0 → "2", -0.25 → "-0.25".
+    ``values`` are rounded to ``precision`` decimals; 1.5 → "1.5", 2.0 → "2", -0.25 → "-0.25"
+    (with ``compact``, as SVG path data allows: 0.25 → ".25", -0.25 → "-.25").
     A 1-d array gives one string per value; an ``(n, k)`` array one string per row, its k
     numbers separated by spaces. Every string starts with ``prefix``.
     """
     values = np.asarray(values, dtype=np.float64)
     n = len(values)
     k = int(np.prod(values.shape[1:], dtype=np.int64)) if values.ndim > 1 else 1
-    digits, digits_keep = _decimal_columns(values.ravel(), precision)  # (n*k, W)
+    digits, digits_keep = _decimal_columns(values.ravel(), precision, compact)  # (n*k, W)
     lead, width = len(prefix), digits.shape[1] + 1  # each number: a space, then its digits
     chars = np.empty((n, lead + k * width), dtype=np.uint8)
     keep = np.empty(chars.shape, dtype=bool)
@@ -104,8 +105,9 @@ def numbers(values: np.ndarray, precision: int, prefix: str = "") -> Texts:
     return Texts(chars[keep], np.cumsum(length) - length, length)
 
 
-def _decimal_columns(values: np.ndarray, precision: int) -> tuple[np.ndarray, np.ndarray]:
-    """Characters ``(n, W) uint8`` of each formatted value, and which of them to keep."""
+def _decimal_columns(values: np.ndarray, precision: int, compact: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Characters ``(n, W) uint8`` of each formatted value, and which of them to keep
+    (``compact``: no units digit "0" before a fraction)."""
     scaled = np.round(values * 10**precision).astype(np.int64)
     whole, frac = np.divmod(np.abs(scaled), 10**precision)
     n_digits = max(len(str(int(whole.max(initial=0)))), 1)
@@ -118,7 +120,7 @@ def _decimal_columns(values: np.ndarray, precision: int) -> tuple[np.ndarray, np
         rest, digit = np.divmod(rest, 10)
         chars[:, col] = digit + ord("0")
         keep[:, col] = whole >= 10 ** (n_digits - col)
-    keep[:, n_digits] = True  # the units digit, even of 0
+    keep[:, n_digits] = ~((whole == 0) & (frac != 0)) if compact else True  # the units digit, even of 0
     chars[:, n_digits + 1], keep[:, n_digits + 1] = ord("."), frac != 0
     rest, nonzero_after = frac, np.zeros(scaled.size, dtype=bool)
     for col in range(chars.shape[1] - 1, n_digits + 1, -1):  # keep digits up to the last nonzero one

@@ -22,6 +22,36 @@ from .graph import component_roots
 
 
 @dataclass(frozen=True, eq=False)
+class CurveTable:
+    """The quadratic B-splines behind the curved edges of a :class:`VectorImage`, slot by
+    slot (a slot is one place of one curve in the flat curve arrays of
+    :class:`depixel.splines.SplineSet`; an open curve has a slot for each end node).
+
+    Span j of a curve (interior slot j) is the quadratic Bézier ``(P0_j, C_j, P2_j)`` with
+    ``C_j = ctrl[j]`` and ``P0_j``/``P2_j`` the midpoints of its control legs, or the
+    neighbouring control point itself where that neighbour is an open end (clamped); the
+    curve passes through the display point of slot j's node at the span's middle.
+    Read-only arrays.
+    """
+
+    node: np.ndarray  # (P,) int64 cell-graph node of each slot
+    curve: np.ndarray  # (P,) int64 curve of each slot
+    closed: np.ndarray  # (C,) bool: the curve is closed (periodic)
+    prev: np.ndarray  # (P,) int64 previous slot along the curve, -1 before an open start
+    next: np.ndarray  # (P,) int64 next slot along the curve, -1 after an open end
+    ctrl: np.ndarray  # (P, 2) float64 control points (T-junction ends snapped)
+    edge_slot: np.ndarray  # (E,) int64 slot at the start of each curved edge, in curve direction; -1 if straight
+    edge_forward: np.ndarray  # (E,) bool: the edge is stored u → v in the curve's direction
+
+    def __post_init__(self) -> None:
+        freeze(self)
+
+    def is_end(self) -> np.ndarray:
+        """(P,) bool: the slot is an open curve's end (its control point is on the curve)."""
+        return (self.prev < 0) | (self.next < 0)
+
+
+@dataclass(frozen=True, eq=False)
 class VectorImage:
     """Final geometry of a depixelized image (coordinates in input pixels, y down); arrays
     are read-only."""
@@ -31,6 +61,7 @@ class VectorImage:
     curved: np.ndarray  # (E,) bool: edge drawn as a curve rather than a straight segment
     controls: np.ndarray  # (E, 3, 2) float64: points[u] Q c0 c1 Q c2 points[v], for curved edges
     stage: str  # "cells", "splines" or "optimized"
+    curves: CurveTable | None = None  # the B-splines of the curved edges (None: all straight)
 
     def __post_init__(self) -> None:
         freeze(self)

@@ -1,0 +1,210 @@
+"""The boundaries between faces, cut at junctions into pieces of line and quadratic segments.
+
+Every face boundary of a :class:`~depixel.vector.VectorImage` runs along the B-spline curves
+of the spline stages (or along straight cell edges at the cells stage). Where three or more
+face boundaries meet (a *junction*), or where a curve ends, a shape's outline may turn from
+one curve onto another; between two such places every shape that follows the curve follows
+all of it. So the curves are cut at those places into *pieces*, and each piece is written
+once, as segments; an outline is then a sequence of whole pieces, each traversed forwards
+or backwards. Two shapes that share a boundary use the same piece, so they draw exactly the
+same geometry (and, on a grid, the same numbers).
+
+A piece from slot a to slot b (:class:`~depixel.vector.CurveTable`) is: the second half of
+span a (from the curve point S_a, where the curve passes through a's node), the full spans
+of the slots in between, and the first half of span b (to S_b) — one quadratic Bézier per
+span, with TrueType's implied on-curve points between them; at an open end the clamped end
+point itself. A closed curve without any junction is one piece of full spans.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .vector import VectorImage
+
+#: segment kinds: a line, a quadratic Bézier (the spline's spans), a cubic Bézier (simplified)
+LINE, QUAD, CUBIC = 0, 1, 2
+
+
+@dataclass(frozen=True, eq=False)
+class BoundaryPieces:
+    """Pieces of curve between junctions, each a run of segments in the curve's direction.
+
+    Piece p starts at ``start[p]`` and has the segments ``ptr[p]:ptr[p+1]``. The curved cell
+    edges map to pieces: ``edge_piece[e]`` (-1 for a straight edge), and whether the edge is
+    the first (``edge_first``) or last (``edge_last``) edge of its piece in the curve's
+    direction (``edge_forward`` of the curve table says how the edge is stored).
+    """
+
+    start: np.ndarray  # (N, 2) float64 start point of each piece
+    ptr: np.ndarray  # (N+1,) int64
+    kind: np.ndarray  # (K,) uint8 LINE, QUAD or CUBIC
+    ctrl: np.ndarray  # (K, 2) float64 control point (the first of a CUBIC; NaN for a LINE)
+    end: np.ndarray  # (K, 2) float64 end point
+    edge_piece: np.ndarray  # (E,) int64
+    edge_first: np.ndarray  # (E,) bool
+    edge_last: np.ndarray  # (E,) bool
+    span_slot: np.ndarray  # (K,) int64 slot whose span the segment is (part of); -1 once simplified
+    slot_ctrl: np.ndarray  # (P, 2) float64 control point of every slot's span (on the grid)
+    ctrl2: np.ndarray  # (K, 2) float64 second control point of a CUBIC (NaN otherwise)
+
+    def __len__(self) -> int:
+        return int(self.ptr.size - 1)
+
+    def replace_segments(self, start: np.ndarray, ptr: np.ndarray, kind: np.ndarray, ctrl: np.ndarray,
+                         end: np.ndarray, ctrl2: np.ndarray) -> "BoundaryPieces":
+        """The same pieces with other segments (e.g. simplified)."""
+        return BoundaryPieces(start, ptr, kind, ctrl, end, self.edge_piece, self.edge_first, self.edge_last,
+                              np.full(kind.size, -1, np.int64),
+                              self.slot_ctrl, ctrl2)
+
+
+def junction_nodes(image: VectorImage, face: np.ndarray) -> np.ndarray:
+    """(N,) bool: nodes where three or more face boundaries meet (``face``: label per pixel)."""
+    cells = image.cells
+    sides = cells.edge_pixels
+    inner = (sides >= 0).all(axis=1)
+    boundary = inner & (face[np.maximum(sides[:, 0], 0)] != face[np.maximum(sides[:, 1], 0)])
+    degree = np.bincount(cells.edges[boundary].ravel(), minlength=len(cells.nodes))
+    return degree >= 3
+
+
+def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = None) -> BoundaryPieces:
+    """Cut the curves of ``image`` at the ``junction`` nodes and at their ends into pieces.
+
+    With ``grid``, every node point and joint is a multiple of ``grid`` and every control
+    point a multiple of twice it (so each implied on-curve point, a midpoint of two control
+    points, is exact); each value is computed once, whichever shapes use it.
+    """
+    n_edges = len(image.cells.edges)
+    curves = image.curves
+    empty = np.zeros(0, np.int64)
+    if curves is None or not image.curved.any():
+        return BoundaryPieces(np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, np.uint8), np.zeros((0, 2)),
+                              np.zeros((0, 2)), np.full(n_edges, -1, np.int64), np.zeros(n_edges, bool),
+                              np.zeros(n_edges, bool), empty, np.zeros((0, 2)), np.zeros((0, 2)))
+    point = _on_grid(image.points, grid)
+    node, prev, nxt = curves.node, curves.prev, curves.next
+    end = curves.is_end()
+    ctrl = curves.ctrl if grid is None else np.round(curves.ctrl / (2 * grid)) * (2 * grid)
+    b = np.maximum(nxt, 0)
+    joint = np.where(end[:, None], point[node], np.where(end[b][:, None], point[node[b]], (ctrl + ctrl[b]) / 2.0))
+    joint[nxt < 0] = np.nan  # joint[s]: between slot s and the next one
+    joint_before = np.where((prev >= 0)[:, None], joint[np.maximum(prev, 0)], np.nan)
+    half_next = _on_grid((ctrl + joint) / 2.0, grid)  # control of the half of span s towards next
+    half_prev = _on_grid((ctrl + joint_before) / 2.0, grid)
+
+    # slots that bound pieces; a closed curve with none gets its first slot, where its
+    # piece starts and ends at a joint instead of a curve point
+    n_slots = node.size
+    anchor = end | junction[node]
+    closed_free = _seeds(curves.curve, curves.closed, anchor)
+    anchor_or_seed = anchor | closed_free
+    # walk: for every slot, the piece it starts (an anchor with a next slot) and the slots it covers
+    starts = np.flatnonzero(anchor_or_seed & (nxt >= 0))
+    piece_of_slot = np.full(n_slots, -1, np.int64)  # piece that the edge slot → next belongs to
+    piece_of_slot[starts] = np.arange(starts.size)
+    walker = starts.copy()
+    length = np.ones(starts.size, np.int64)  # edges per piece
+    active = np.ones(starts.size, bool)
+    while True:
+        step = nxt[walker]
+        active &= ~anchor_or_seed[step]
+        if not active.any():
+            break
+        walker = np.where(active, step, walker)
+        piece_of_slot[walker[active]] = np.flatnonzero(active)
+        length += active
+    last_slot = nxt[walker]  # the anchor each piece ends at
+    first_slot = starts
+
+    # segments: [head half of span a] + full spans in between + [tail half of span b]; at a
+    # seeded closed curve, full spans all round from the joint before its seed
+    seed = closed_free[first_slot]
+    head = ~end[first_slot] & ~seed
+    tail = ~end[last_slot] & ~seed
+    n_full = length - 1 + seed  # a seeded piece: every slot's span, seed included
+    count = head + n_full + tail
+    ptr = np.r_[0, np.cumsum(count)].astype(np.int64)
+    total = int(ptr[-1])
+    kind = np.full(total, QUAD, np.uint8)
+    seg_ctrl = np.empty((total, 2))
+    seg_end = np.empty((total, 2))
+    span_slot = np.empty(total, np.int64)
+    piece = np.repeat(np.arange(starts.size), count)
+    offset = np.arange(total) - ptr[piece]
+    # which slot's span each segment is, walking from the first slot
+    is_head = head[piece] & (offset == 0)
+    is_tail = tail[piece] & (offset == count[piece] - 1)
+    steps = offset - head[piece] + 1 - seed[piece]  # full span k is the slot k steps after the first
+    slot = _advance(nxt, first_slot[piece], np.where(is_head, 0, np.where(is_tail, length[piece], steps)))
+    span_slot[:] = slot
+    seg_ctrl[:] = ctrl[slot]
+    seg_end[:] = joint[slot]
+    seg_ctrl[is_head] = half_next[slot[is_head]]
+    seg_ctrl[is_tail] = half_prev[slot[is_tail]]
+    seg_end[is_tail] = point[node[slot[is_tail]]]
+    start = np.where(seed[:, None], joint_before[first_slot], point[node[first_slot]])
+
+    edge_piece = np.full(n_edges, -1, np.int64)
+    edge_first = np.zeros(n_edges, bool)
+    edge_last = np.zeros(n_edges, bool)
+    edge_slot = curves.edge_slot
+    curved_edges = np.flatnonzero(edge_slot >= 0)
+    slot_of_edge = edge_slot[curved_edges]
+    edge_piece[curved_edges] = piece_of_slot[slot_of_edge]
+    edge_first[curved_edges] = anchor_or_seed[slot_of_edge]
+    edge_last[curved_edges] = anchor_or_seed[nxt[slot_of_edge]]
+    kind, seg_ctrl = _straighten(start, ptr, kind, seg_ctrl, seg_end, grid)
+    span_slot[kind == LINE] = -1
+    return BoundaryPieces(start, ptr, kind, seg_ctrl, seg_end, edge_piece, edge_first, edge_last, span_slot, ctrl,
+                          np.full(seg_ctrl.shape, np.nan))
+
+
+def _on_grid(xy: np.ndarray, grid: float | None) -> np.ndarray:
+    return xy.copy() if grid is None else np.round(xy / grid) * grid
+
+
+def _advance(nxt: np.ndarray, slot: np.ndarray, steps: np.ndarray) -> np.ndarray:
+    """``nxt`` applied ``steps`` times to each slot (binary lifting)."""
+    out = slot.copy()
+    jump = nxt.copy()
+    steps = steps.copy()
+    while steps.any():
+        odd = (steps & 1) == 1
+        out[odd] = jump[out[odd]]
+        steps >>= 1
+        if steps.any():
+            jump = np.where(jump >= 0, jump[np.maximum(jump, 0)], -1)
+    return out
+
+
+def _seeds(curve: np.ndarray, closed: np.ndarray, anchor: np.ndarray) -> np.ndarray:
+    """(P,) bool: the first slot of every closed curve that has no anchor."""
+    n_curves = closed.size
+    anchored = np.bincount(curve, weights=anchor, minlength=n_curves) > 0
+    first = np.full(n_curves, curve.size, np.int64)
+    np.minimum.at(first, curve, np.arange(curve.size))
+    seed = np.zeros(curve.size, bool)
+    free = np.flatnonzero(closed & ~anchored & (first < curve.size))
+    seed[first[free]] = True
+    return seed
+
+
+def _straighten(start: np.ndarray, ptr: np.ndarray, kind: np.ndarray, ctrl: np.ndarray, end: np.ndarray,
+                grid: float | None) -> tuple[np.ndarray, np.ndarray]:
+    """Quadratics whose control point lies on the segment between their ends are lines."""
+    n = kind.size
+    if n == 0:
+        return kind, ctrl
+    piece = np.repeat(np.arange(ptr.size - 1), np.diff(ptr))
+    before = np.r_[0, np.arange(n - 1)]
+    seg_start = np.where((np.arange(n) == ptr[:-1][piece])[:, None], start[piece], end[before])
+    d0, d1 = ctrl - seg_start, end - ctrl
+    cross = d0[:, 0] * d1[:, 1] - d0[:, 1] * d1[:, 0]
+    tol = 1e-12 if grid is None else 0.25 * grid * grid
+    flat = (kind == QUAD) & (np.abs(cross) <= tol) & ((d0 * d1).sum(axis=1) >= 0)
+    kind = np.where(flat, LINE, kind).astype(np.uint8)
+    ctrl = np.where(flat[:, None], np.nan, ctrl)
+    return kind, ctrl

@@ -1,0 +1,304 @@
+"""Stage 6 — outlines — VectorImage → the shapes an SVG draws, as loops of segments.
+
+A *face* is a group of linked cells of one RGBA colour (:mod:`depixel.vector`); every face
+with any opacity becomes one *shape*. This module decides which area each shape covers and
+in which order the shapes are drawn, and writes each shape's boundary as closed loops of
+line and quadratic Bézier segments. :mod:`depixel.svg` only formats the result.
+
+Layouts:
+
+* ``"stacked"`` (default; potrace's and vtracer's convention): shapes are drawn back to
+  front and every shape continues under the shapes drawn above it. A shape covers its own
+  face, every opaque neighbouring face drawn above it, and every hole that this union
+  encloses unless the hole holds transparent or translucent pixels. So no shape cuts a hole
+  for a shape on top of it, the lower of two touching shapes lies beneath their common
+  boundary (no renderer can leave a seam there), and each shape's outline is made of its
+  own boundary and of boundaries of the shapes above it, never of hidden fragments.
+* ``"cutout"``: every shape is exactly its face, with holes; the shapes tile the image
+  without overlap. Renderers that anti-alias each shape on its own leave a faint seam where
+  two shapes meet (docs/svg.md).
+
+Drawing order: by depth (the number of face boundaries to cross from the image border or
+from a transparent area, so enclosing faces come first), then regions together, then
+larger faces first, then scanline order. Anything inside a hole of a shape's union has a
+greater depth than the shape, so it is drawn later: filling the hole never covers a shape
+drawn earlier.
+
+Segments: a run of cell edges along one B-spline curve becomes one quadratic Bézier per
+span of the spline (TrueType's implied on-curve points, :class:`~depixel.vector.CurveTable`),
+with half spans where the boundary joins or leaves the curve at a node; straight runs
+become one line. With ``grid`` set, every coordinate is rounded to that grid once per node,
+control point and joint (controls to twice the grid, so every implied on-curve point is
+exact and a span may be written as SVG's ``T``): two shapes that share a boundary write
+bit-identical numbers for it, in either direction.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .boundaries import CUBIC, LINE, QUAD, BoundaryPieces, build_pieces, junction_nodes
+from .loops import Loops, trace_loops
+from .stacking import ROLES, FaceTopology
+from .simplify import simplify_pieces
+from .vector import VectorImage
+
+LAYOUTS = ("stacked", "cutout")
+
+
+@dataclass(frozen=True, eq=False)
+class Outlines:
+    """Shapes in drawing order (back to front), each a set of closed loops of segments.
+
+    Loop l of shape s is ``loop_ptr[l]:loop_ptr[l+1]`` for l in ``shape_ptr[s]:shape_ptr[s+1]``;
+    its segments run from the end of its last segment (the loop's start point) through
+    ``seg_end`` in order. The shape's area is the nonzero-rule fill of its loops.
+    """
+
+    shape: tuple[int, int]  # (H, W) of the image, in pixels
+    layout: str
+    grid: float | None  # coordinates are multiples of this (None: exact)
+    face: np.ndarray  # (S,) face label of each shape
+    rgba: np.ndarray  # (S, 4) uint8 fill colour and opacity
+    region: np.ndarray  # (S,) region label (paper §3.3) of each shape's face
+    role: np.ndarray  # (S,) int8 index into ROLES
+    shape_ptr: np.ndarray  # (S+1,) loops of each shape
+    loop_ptr: np.ndarray  # (L+1,) segments of each loop
+    kind: np.ndarray  # (K,) uint8 LINE, QUAD or CUBIC
+    ctrl: np.ndarray  # (K, 2) float64 control point of a QUAD, first of a CUBIC (NaN for a LINE)
+    ctrl2: np.ndarray  # (K, 2) float64 second control point of a CUBIC (NaN otherwise)
+    end: np.ndarray  # (K, 2) float64 end point
+
+    def __len__(self) -> int:
+        return int(self.face.size)
+
+    def loop_starts(self) -> np.ndarray:
+        """(L, 2) start point of every loop (the end of its last segment)."""
+        return self.end[self.loop_ptr[1:] - 1]
+
+    def loops_of(self, s: int) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+        """Shape ``s`` as a list of loops ``(start, kind, ctrl, ctrl2, end)`` (for tests and tools)."""
+        out = []
+        starts = self.loop_starts()
+        for loop in range(int(self.shape_ptr[s]), int(self.shape_ptr[s + 1])):
+            a, b = int(self.loop_ptr[loop]), int(self.loop_ptr[loop + 1])
+            out.append((starts[loop], self.kind[a:b], self.ctrl[a:b], self.ctrl2[a:b], self.end[a:b]))
+        return out
+
+    def polylines(self, s: int, pieces: int = 8) -> list[np.ndarray]:
+        """Shape ``s``'s loops flattened to closed polylines, ``pieces`` per quadratic."""
+        t = np.linspace(0.0, 1.0, pieces + 1)[1:, None]
+        out = []
+        for start, kind, ctrl, ctrl2, end in self.loops_of(s):
+            points = [start[None]]
+            current = start
+            for k, c, d, e in zip(kind, ctrl, ctrl2, end):
+                if k == QUAD:
+                    points.append((1 - t) ** 2 * current + 2 * t * (1 - t) * c + t**2 * e)
+                elif k == CUBIC:
+                    points.append((1 - t) ** 3 * current + 3 * t * (1 - t) ** 2 * c + 3 * t**2 * (1 - t) * d + t**3 * e)
+                else:
+                    points.append(e[None])
+                current = e
+            out.append(np.concatenate(points))
+        return out
+
+
+def build_outlines(image: VectorImage, layout: str = "stacked", grid: float | None = None,
+                   simplify: float = 0.0) -> Outlines:
+    """The shapes of a vector image in ``layout`` (see the module docstring).
+
+    ``grid`` rounds every coordinate to a multiple of it (the SVG writer passes 10^-precision);
+    ``None`` keeps exact coordinates. ``simplify`` > 0 replaces the exact spline by fewer
+    quadratics within that many pixels of it (:mod:`depixel.simplify`).
+    """
+    if layout not in LAYOUTS:
+        raise ValueError(f"unknown layout {layout!r}; choose one of {', '.join(LAYOUTS)}")
+    cells = image.cells
+    h, w = cells.shape
+    topo = FaceTopology(image)
+    pieces = build_pieces(image, junction_nodes(image, topo.labels), grid)
+    if simplify > 0:
+        pieces = simplify_pieces(pieces, image, simplify, grid=grid)
+    members = topo.members(stacked=layout == "stacked", edge_cost=_edge_costs(image, pieces))
+    owner_face, entry = _member_entries(topo, members)
+    u = topo.entry_from[entry]
+    loops = trace_loops(topo.rank[owner_face], u, topo.entry_to[entry], points=topo.cells.nodes)
+    halfedge_edge, halfedge_from = topo.entry_edge[entry], u
+    keep = _loops_to_keep(topo, loops, halfedge_from, fill_holes=layout == "stacked")
+    kind, ctrl, ctrl2, end, loop_ptr = _loop_segments(image, pieces, loops, keep, halfedge_edge, halfedge_from, grid)
+
+    shape_rank = loops.owner[keep]
+    drawn = np.unique(shape_rank)
+    shape_ptr = np.searchsorted(shape_rank, np.r_[drawn, np.iinfo(np.int64).max]).astype(np.int64)
+    face = topo.face_of_rank[drawn]
+    return Outlines(
+        shape=(h, w), layout=layout, grid=grid, face=face, rgba=topo.face_rgba[face],
+        region=topo.face_region[face], role=topo.roles(face), shape_ptr=shape_ptr, loop_ptr=loop_ptr,
+        kind=kind, ctrl=ctrl, ctrl2=ctrl2, end=end,
+    )
+
+
+def _edge_costs(image: VectorImage, pieces: BoundaryPieces) -> np.ndarray:
+    """(E,) what drawing each cell edge in an outline costs, in segments: its piece's
+    segments shared out over the piece's edges (a straight edge: a little, since straight
+    runs merge into one line)."""
+    cost = np.full(len(image.cells.edges), 0.25)
+    curved = pieces.edge_piece >= 0
+    piece = pieces.edge_piece[curved]
+    edges_in = np.bincount(piece, minlength=len(pieces))
+    cost[curved] = np.diff(pieces.ptr)[piece] / np.maximum(edges_in[piece], 1)
+    return cost
+
+
+def _member_entries(topo: FaceTopology, members: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """(owner face, boundary entry) of every shape's union of member faces."""
+    owner, member = members
+    counts = topo.entry_ptr[member + 1] - topo.entry_ptr[member]
+    which = np.repeat(np.arange(owner.size), counts)
+    entry = np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts) + topo.entry_ptr[member][which]
+    shape_face = owner[which]
+    other = topo.entry_other[entry]
+    # a half-edge bounds the union unless the face across is a member of the same shape
+    n = topo.n_faces + 1
+    member_key = owner * n + member
+    other_key = shape_face * n + other
+    pos = np.minimum(np.searchsorted(member_key, other_key), member_key.size - 1)
+    inside = (other >= 0) & (member_key[pos] == other_key)
+    return shape_face[~inside], entry[~inside]
+
+
+def _loops_to_keep(topo: FaceTopology, loops: Loops, halfedge_from: np.ndarray, fill_holes: bool) -> np.ndarray:
+    """Indices of the loops drawn: all of them, less (stacked layout) the holes that hold no
+    transparent or translucent pixel (those are covered by shapes drawn later)."""
+    everything = np.arange(len(loops))
+    if not fill_holes or len(loops) == 0:
+        return everything
+    nodes = topo.cells.nodes.astype(np.int64)
+    start = halfedge_from[loops.halfedges]
+    nxt_pos = np.arange(start.size) + 1
+    nxt_pos[loops.ptr[1:] - 1] = loops.ptr[:-1]
+    p, q = nodes[start], nodes[start[nxt_pos]]
+    cross = p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]
+    loop_of = np.repeat(everything, np.diff(loops.ptr))
+    area2 = np.bincount(loop_of, weights=cross, minlength=len(loops))  # clockwise on screen > 0
+    holes = np.flatnonzero(area2 < 0)
+    if holes.size == 0:
+        return everything
+    clear = np.flatnonzero(~topo.opaque)
+    if clear.size == 0:
+        return np.flatnonzero(area2 >= 0)
+    w = topo.cells.shape[1]
+    row, col = np.divmod(topo.first_pixel[clear], w)
+    probe = np.stack([4 * col + 2, 4 * row + 2], axis=1)  # a pixel centre of each, quarter units
+    hole_edges = np.flatnonzero(np.isin(loop_of, holes))
+    a, b = p[hole_edges], q[hole_edges]
+    # even-odd ray casting towards +x, every (hole edge, probe) pair at once, in chunks
+    parity = np.zeros((len(loops), probe.shape[0]), np.int64)
+    py, px = probe[None, :, 1], probe[None, :, 0]
+    chunk = max(1, (1 << 22) // probe.shape[0])
+    for c0 in range(0, hole_edges.size, chunk):
+        ea, eb = a[c0 : c0 + chunk, None, :], b[c0 : c0 + chunk, None, :]
+        straddle = (ea[..., 1] > py) != (eb[..., 1] > py)
+        dy = eb[..., 1] - ea[..., 1]
+        # the crossing lies right of the probe: (px - ax) * dy < (py - ay) * (bx - ax), sign of dy
+        lhs = (px - ea[..., 0]) * dy
+        rhs = (py - ea[..., 1]) * (eb[..., 0] - ea[..., 0])
+        hit = straddle & np.where(dy > 0, lhs < rhs, lhs > rhs)
+        np.add.at(parity, loop_of[hole_edges[c0 : c0 + chunk]], hit.astype(np.int64))
+    blocked = (parity % 2 == 1).any(axis=1)
+    keep = (area2 >= 0) | blocked
+    return np.flatnonzero(keep)
+
+
+def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, keep: np.ndarray,
+                   halfedge_edge: np.ndarray, halfedge_from: np.ndarray, grid: float | None):
+    """Segments of the kept loops, ``(kind, ctrl, end, loop_ptr)``: a straight cell edge is a
+    line, a run along a curve is its pieces, each written where the loop enters it, in the
+    loop's direction."""
+    cells = image.cells
+    counts = np.diff(loops.ptr)[keep]
+    take = np.repeat(loops.ptr[:-1][keep] - (np.cumsum(counts) - counts), counts) + np.arange(int(counts.sum()))
+    he = loops.halfedges[take]
+    edge, x = halfedge_edge[he], halfedge_from[he]
+    u, v = cells.edges[edge, 0], cells.edges[edge, 1]
+    y = np.where(x == u, v, u)
+    loop_of = np.repeat(np.arange(keep.size), counts)
+    piece = pieces.edge_piece[edge]
+    curved = piece >= 0
+    forward_edge = image.curves.edge_forward[edge] if image.curves is not None else np.ones(edge.size, bool)
+    along = (x == u) == forward_edge
+    enters = curved & np.where(along, pieces.edge_first[edge], pieces.edge_last[edge])
+    length = np.r_[np.diff(pieces.ptr), 0]  # (a sentinel for images without curves)
+    n_seg = np.where(curved, np.where(enters, length[np.maximum(piece, 0)], 0), 1)
+    total = int(n_seg.sum())
+    step = np.repeat(np.arange(edge.size), n_seg)
+    index = np.arange(total) - np.repeat(np.cumsum(n_seg) - n_seg, n_seg)  # within the piece
+    kind = np.full(total, LINE, np.uint8)
+    ctrl = np.full((total, 2), np.nan)
+    ctrl2 = np.full((total, 2), np.nan)
+    end = np.empty((total, 2))
+    span = np.full(total, -1, np.int64)
+    line = ~curved[step]
+    end[line] = _on_grid(image.points[y[step[line]]], grid)
+    p = piece[step]
+    on = ~line
+    fwd = on & along[step]
+    rev = on & ~along[step]
+    src = pieces.ptr[np.maximum(p, 0)] + index
+    kind[fwd], ctrl[fwd], end[fwd] = pieces.kind[src[fwd]], pieces.ctrl[src[fwd]], pieces.end[src[fwd]]
+    ctrl2[fwd] = pieces.ctrl2[src[fwd]]
+    span[fwd] = pieces.span_slot[src[fwd]]
+    m = length[np.maximum(p, 0)]
+    back = pieces.ptr[np.maximum(p, 0)] + m - 1 - index  # the segment traversed backwards
+    kind[rev] = pieces.kind[back[rev]]
+    reversed_cubic = pieces.kind[back[rev]] == CUBIC  # a cubic backwards swaps its control points
+    ctrl[rev] = np.where(reversed_cubic[:, None], pieces.ctrl2[back[rev]], pieces.ctrl[back[rev]])
+    ctrl2[rev] = np.where(reversed_cubic[:, None], pieces.ctrl[back[rev]], pieces.ctrl2[back[rev]])
+    span[rev] = pieces.span_slot[back[rev]]
+    at_start = rev & (back == pieces.ptr[np.maximum(p, 0)])
+    end[rev & ~at_start] = pieces.end[back[rev & ~at_start] - 1]
+    end[at_start] = pieces.start[p[at_start]]
+    seg_loop = loop_of[step]
+    # where a loop goes on along its curve through a junction, the two halves of the span
+    # there (the end of one piece, the start of the next) are that one span
+    whole = np.flatnonzero((span[:-1] >= 0) & (span[:-1] == span[1:]) & (seg_loop[:-1] == seg_loop[1:]))
+    if whole.size:
+        ctrl[whole + 1] = pieces.slot_ctrl[span[whole]]
+        keep_seg = np.ones(total, bool)
+        keep_seg[whole] = False
+        kind, ctrl, end, seg_loop = kind[keep_seg], ctrl[keep_seg], end[keep_seg], seg_loop[keep_seg]
+        ctrl2 = ctrl2[keep_seg]
+    loop_ptr = np.searchsorted(seg_loop, np.arange(keep.size + 1)).astype(np.int64)
+    return _merge_lines(kind, ctrl, ctrl2, end, loop_ptr, grid)
+
+
+def _on_grid(xy: np.ndarray, grid: float | None) -> np.ndarray:
+    return xy.copy() if grid is None else np.round(xy / grid) * grid
+
+
+def _merge_lines(kind, ctrl, ctrl2, end, loop_ptr, grid):
+    """Merge consecutive lines that continue each other (cyclically in each loop)."""
+    n = kind.size
+    if n == 0:
+        return kind, ctrl, ctrl2, end, loop_ptr
+    loop_of = np.repeat(np.arange(loop_ptr.size - 1), np.diff(loop_ptr))
+    k = np.arange(n)
+    first, last = loop_ptr[:-1][loop_of], loop_ptr[1:][loop_of] - 1
+    before = np.where(k == first, last, k - 1)
+    after = np.where(k == last, first, k + 1)
+    start = end[before]
+    tol = 1e-12 if grid is None else 0.25 * grid * grid
+    line = kind == LINE
+    a, b = end - start, end[after] - end
+    turn = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    merge = line & line[after] & (np.abs(turn) <= tol) & ((a * b).sum(axis=1) > 0) & (after != k)
+    if not merge.any():
+        return kind, ctrl, ctrl2, end, loop_ptr
+    keep = ~merge
+    kept_per_loop = np.bincount(loop_of[keep], minlength=loop_ptr.size - 1)
+    keep |= (kept_per_loop[loop_of] == 0) & (k == last)  # never drop every segment of a loop
+    loop_of = loop_of[keep]
+    loop_ptr = np.searchsorted(loop_of, np.arange(loop_ptr.size)).astype(np.int64)
+    return kind[keep], ctrl[keep], ctrl2[keep], end[keep], loop_ptr

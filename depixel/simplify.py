@@ -1,0 +1,344 @@
+"""Optional simplification of the boundary pieces: fewer curves within a tolerance.
+
+Not in the paper; potrace's ``opttolerance`` and vtracer's ``splice_threshold`` give their
+users the same choice. Each piece of boundary between two junctions
+(:mod:`depixel.boundaries`) is simplified on its own, so two shapes that share it still
+draw the same geometry, and its ends (junctions, corners, curve ends) stay where they are.
+
+A run of the piece's exact segments is replaced by one cubic Bézier with the same end
+points and the same tangent directions there (so the result is exactly as smooth as the
+spline at every joint it keeps, and corners stay sharp); the lengths of its two control
+legs are fitted by least squares to points of the run (chord-length parameters). Each piece
+is tried whole, then split at the joint nearest its middle, level by level, all pieces of
+a level at once. A fit is kept only when
+
+* every sample of the exact run lies within ``tolerance`` pixels of the cubic, and the
+  cubic is not more than 10 % longer than the run (no loops or bulges between samples),
+* every protected point near it — the centres of the pixels beside the piece and the
+  lattice corners of the diagonal links at its nodes, the points the optimizer keeps clear
+  of (:mod:`depixel.optimize`) — stays on its side of the boundary and no nearer to it than
+  ``min(its distance to the exact spline, clearance)``.
+
+So every pixel centre keeps its colour and every thin diagonal stays connected.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .boundaries import CUBIC, LINE, QUAD, BoundaryPieces
+from .vector import VectorImage
+
+_T_ORIG = np.array([0.0, 0.25, 0.5, 0.75])  # samples of each exact segment
+_T_FIT = np.linspace(0.0, 1.0, 17)  # samples of a fitted cubic (its polyline)
+
+
+def simplify_pieces(pieces: BoundaryPieces, image: VectorImage, tolerance: float, clearance: float = 0.075,
+                    grid: float | None = None) -> BoundaryPieces:
+    """Replace runs of segments of every piece by single cubics while they stay within
+    ``tolerance`` pixels of the exact curve and keep the protected points (module docstring).
+
+    ``clearance``: the least distance kept from a protected point that was farther than
+    that from the exact curve (pixels). ``grid`` rounds the new control points like the rest.
+    """
+    if tolerance <= 0 or pieces.kind.size == 0:
+        return pieces
+    exact = _Exact(pieces)
+    protected = _Protected(pieces, image, exact, tolerance + clearance)
+    # ranges [lo, hi) of exact segments to fit: each piece cut into chunks of at most
+    # _CHUNK segments (a cubic within 0.1 px seldom spans more spans of the spline), then
+    # halved until a cubic fits or one segment is left
+    lo, hi = _chunks(pieces.ptr, _CHUNK)
+    fitted: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
+    while lo.size:
+        c1, c2, ok = _fit(exact, lo, hi, tolerance, grid)
+        ok &= _keeps_sides(exact, protected, lo, hi, c1, c2, clearance)
+        fitted.append((lo[ok], hi[ok], c1[ok], c2[ok]))
+        lo, hi = lo[~ok], hi[~ok]
+        mid = (lo + hi) // 2
+        lo, hi = np.concatenate([lo, mid]), np.concatenate([mid, hi])
+        more = hi - lo > 1
+        lo, hi = lo[more], hi[more]
+    fitted = _merge_neighbours(exact, protected, pieces.ptr, fitted, tolerance, clearance, grid)
+    return _assemble(pieces, fitted)
+
+
+_CHUNK = 8
+
+
+def _chunks(ptr: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """Every piece of more than one segment cut into near-equal runs of at most ``size``."""
+    length = np.diff(ptr)
+    count = np.where(length > 1, -(-length // size), 0)
+    piece = np.repeat(np.arange(length.size), count)
+    k = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
+    lo = ptr[piece] + (length[piece] * k) // count[piece]
+    hi = ptr[piece] + (length[piece] * (k + 1)) // count[piece]
+    return lo, hi
+
+
+def _merge_neighbours(exact, protected, ptr, fitted, tolerance, clearance, grid):
+    """Try once to fit one cubic over two neighbouring fitted ranges of a piece."""
+    if not fitted:
+        return fitted
+    lo = np.concatenate([f[0] for f in fitted])
+    hi = np.concatenate([f[1] for f in fitted])
+    c1 = np.concatenate([f[2] for f in fitted])
+    c2 = np.concatenate([f[3] for f in fitted])
+    order = np.argsort(lo, kind="stable")
+    lo, hi, c1, c2 = lo[order], hi[order], c1[order], c2[order]
+    piece_of = np.searchsorted(ptr, lo, side="right") - 1
+    for parity in (0, 1):
+        if lo.size < 2:
+            break
+        touching = (hi[:-1] == lo[1:]) & (piece_of[:-1] == piece_of[1:])
+        a = np.flatnonzero(touching & (np.arange(lo.size - 1) % 2 == parity))
+        if a.size == 0:
+            continue
+        m1, m2, ok = _fit(exact, lo[a], hi[a + 1], tolerance, grid)
+        ok &= _keeps_sides(exact, protected, lo[a], hi[a + 1], m1, m2, clearance)
+        a, m1, m2 = a[ok], m1[ok], m2[ok]
+        hi[a] = hi[a + 1]
+        c1[a], c2[a] = m1, m2
+        keep = np.ones(lo.size, bool)
+        keep[a + 1] = False
+        lo, hi, c1, c2, piece_of = lo[keep], hi[keep], c1[keep], c2[keep], piece_of[keep]
+    return [(lo, hi, c1, c2)]
+
+
+class _Exact:
+    """The exact segments of every piece: ends, cubic control points, tangents, samples."""
+
+    def __init__(self, pieces: BoundaryPieces) -> None:
+        n = pieces.kind.size
+        piece = np.repeat(np.arange(len(pieces)), np.diff(pieces.ptr))
+        first = pieces.ptr[:-1][piece] == np.arange(n)
+        self.start = np.where(first[:, None], pieces.start[piece], np.roll(pieces.end, 1, axis=0))
+        self.end = pieces.end
+        c1, c2 = _as_cubic(self.start, pieces.kind, pieces.ctrl, pieces.ctrl2, self.end)
+        self.tan_start = _unit(np.where((np.abs(c1 - self.start) > 0).any(axis=1)[:, None], c1 - self.start,
+                                        self.end - self.start))
+        self.tan_end = _unit(np.where((np.abs(self.end - c2) > 0).any(axis=1)[:, None], self.end - c2,
+                                      self.end - self.start))
+        self.samples = _cubic(self.start, c1, c2, self.end, _T_ORIG)  # (K, 4, 2)
+        step = np.linalg.norm(np.diff(np.concatenate([self.samples, self.end[:, None]], axis=1), axis=1), axis=2)
+        self.length = step.sum(axis=1)  # polyline length of each segment
+        self.arc = np.cumsum(step, axis=1) - step  # arc length of each sample within its segment
+        self.arc_before = np.cumsum(self.length) - self.length  # arc length before each segment (global)
+
+
+def _as_cubic(start, kind, ctrl, ctrl2, end) -> tuple[np.ndarray, np.ndarray]:
+    """Cubic control points of line, quadratic and cubic segments (degree elevation)."""
+    quad = (kind == QUAD)[:, None]
+    cubic = (kind == CUBIC)[:, None]
+    c1 = np.where(quad, start + 2.0 / 3.0 * (np.nan_to_num(ctrl) - start), start + (end - start) / 3.0)
+    c2 = np.where(quad, end + 2.0 / 3.0 * (np.nan_to_num(ctrl) - end), end - (end - start) / 3.0)
+    c1 = np.where(cubic, np.nan_to_num(ctrl), c1)
+    c2 = np.where(cubic, np.nan_to_num(ctrl2), c2)
+    return c1, c2
+
+
+class _Protected:
+    """Points the simplified curves must keep on their side, with their signed distance to
+    the exact piece and the exact segment they are nearest to (sorted by it).
+
+    Each point belongs to the cell edges beside it, so only the few exact segments of those
+    edges (the two half spans of each) are searched for its nearest one."""
+
+    def __init__(self, pieces: BoundaryPieces, image: VectorImage, exact: _Exact, reach: float) -> None:
+        cells = image.cells
+        w = cells.shape[1]
+        curved = np.flatnonzero(pieces.edge_piece >= 0)
+        sides = cells.edge_pixels[curved]
+        rows, cols = np.divmod(np.maximum(sides, 0), w)
+        centre = np.stack([cols + 0.5, rows + 0.5], axis=-1)
+        q = cells.nodes[cells.edges[curved]]  # (E', 2 ends, 2)
+        lattice = 4 * np.round(q / 4.0)
+        split = (np.abs(q - lattice) == 1).all(axis=2)
+        xy = np.concatenate([centre[:, 0], centre[:, 1], lattice[:, 0] / 4.0, lattice[:, 1] / 4.0])
+        valid = np.concatenate([sides[:, 0] >= 0, sides[:, 1] >= 0, split[:, 0], split[:, 1]])
+        edge = np.tile(curved, 4)
+        xy, edge = xy[valid], edge[valid]
+        # the exact segments around each edge: those of its piece whose span is one of the
+        # edge's two slots (a simplified-away span cannot occur: these are exact pieces)
+        seg_of = _segments_of_edges(pieces, image, edge)  # (P', 4) candidate segment indices, -1 none
+        poly = np.concatenate([exact.samples, exact.end[:, None]], axis=1)  # (K, 5, 2)
+        cand = np.maximum(seg_of, 0)
+        a, b = poly[cand][:, :, :-1], poly[cand][:, :, 1:]  # (P', 4, 4, 2)
+        d = _segment_distance(xy[:, None, None], a, b)  # (P', 4, 4)
+        d = np.where((seg_of >= 0)[:, :, None], d, np.inf)
+        flat = d.reshape(d.shape[0], -1).argmin(axis=1)
+        which, part = np.divmod(flat, d.shape[2])
+        rows_ = np.arange(xy.shape[0])
+        dist = d[rows_, which, part]
+        pa, pb = a[rows_, which, part], b[rows_, which, part]
+        side = np.sign(_cross(pb - pa, xy - pa))
+        signed = dist * np.where(side == 0, 1.0, side)
+        seg = seg_of[rows_, which]
+        near = np.isfinite(dist) & (dist < reach) & (dist > 1e-9)
+        key = np.unique(np.stack([seg[near], np.round(xy[near, 0] * 8), np.round(xy[near, 1] * 8)], axis=1),
+                        axis=0, return_index=True)[1]
+        pick = np.flatnonzero(near)[key]
+        order = np.argsort(seg[pick], kind="stable")
+        pick = pick[order]
+        self.xy, self.dist, self.seg = xy[pick], signed[pick], seg[pick]
+
+
+def _segments_of_edges(pieces: BoundaryPieces, image: VectorImage, edge: np.ndarray) -> np.ndarray:
+    """(len(edge), 4): indices of the exact segments of each curved edge's two spans (the
+    half spans, or the full span when a joint was merged), -1 where there is none."""
+    curves = image.curves
+    slot = curves.edge_slot[edge]
+    slots = np.stack([slot, curves.next[slot]], axis=1)  # the edge's two slots
+    piece = pieces.edge_piece[edge]
+    seg_slot = pieces.span_slot
+    # segments of every piece sorted by span slot, to look the slots up
+    seg_piece = np.repeat(np.arange(len(pieces)), np.diff(pieces.ptr))
+    key = seg_piece * (seg_slot.max() + 2) + seg_slot
+    order = np.argsort(key, kind="stable")
+    sorted_key = key[order]
+    out = np.full((edge.size, 4), -1, np.int64)
+    for j in range(2):
+        want = piece * (seg_slot.max() + 2) + slots[:, j]
+        lo = np.searchsorted(sorted_key, want)
+        for k in range(2):  # a slot has up to two segments in a piece (its two halves)
+            pos = np.minimum(lo + k, sorted_key.size - 1)
+            hit = (sorted_key[pos] == want) & (slots[:, j] >= 0)
+            out[:, 2 * j + k] = np.where(hit, order[pos], -1)
+    return out
+
+
+def _fit(exact: _Exact, lo: np.ndarray, hi: np.ndarray, tolerance: float, grid: float | None
+         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One cubic per range [lo, hi) of exact segments: control points and whether it fits."""
+    p0, p3 = exact.start[lo], exact.end[hi - 1]
+    t0, t1 = exact.tan_start[lo], exact.tan_end[hi - 1]
+    count = hi - lo
+    owner = np.repeat(np.arange(lo.size), count)
+    seg = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count) + np.repeat(lo, count)
+    pts = exact.samples[seg].reshape(-1, 2)  # (S, 2) all samples of every range
+    sample_owner = np.repeat(owner, _T_ORIG.size)
+    arc = (exact.arc_before[seg][:, None] + exact.arc[seg]).ravel() - exact.arc_before[lo][sample_owner]
+    total = exact.arc_before[hi - 1] + exact.length[hi - 1] - exact.arc_before[lo]
+    u = arc / np.maximum(total[sample_owner], 1e-300)
+    # least squares for the leg lengths a, b: P(u) = B0 p0 + B1 (p0 + a t0) + B2 (p3 - b t1) + B3 p3
+    b0, b1, b2, b3 = (1 - u) ** 3, 3 * u * (1 - u) ** 2, 3 * u**2 * (1 - u), u**3
+    s0, s1 = p0[sample_owner], p3[sample_owner]
+    r = pts - (b0 + b1)[:, None] * s0 - (b2 + b3)[:, None] * s1
+    va, vb = b1[:, None] * t0[sample_owner], -b2[:, None] * t1[sample_owner]
+    n = lo.size
+    m11 = np.bincount(sample_owner, (va * va).sum(axis=1), n)
+    m12 = np.bincount(sample_owner, (va * vb).sum(axis=1), n)
+    m22 = np.bincount(sample_owner, (vb * vb).sum(axis=1), n)
+    r1 = np.bincount(sample_owner, (va * r).sum(axis=1), n)
+    r2 = np.bincount(sample_owner, (vb * r).sum(axis=1), n)
+    det = m11 * m22 - m12 * m12
+    safe = np.where(np.abs(det) > 1e-12, det, 1.0)
+    a = (r1 * m22 - r2 * m12) / safe
+    b = (m11 * r2 - m12 * r1) / safe
+    chord = np.linalg.norm(p3 - p0, axis=1)
+    fallback = ~(np.abs(det) > 1e-12) | (a <= 0) | (b <= 0)
+    a = np.where(fallback, chord / 3.0, a)
+    b = np.where(fallback, chord / 3.0, b)
+    c1 = p0 + a[:, None] * t0
+    c2 = p3 - b[:, None] * t1
+    if grid is not None:
+        c1, c2 = np.round(c1 / grid) * grid, np.round(c2 / grid) * grid
+    # distance of every sample to the cubic: from its chord-length parameter, two Newton
+    # steps towards the nearest point (an upper bound of the distance, so the test is safe)
+    q0, q1, q2, q3 = p0[sample_owner], c1[sample_owner], c2[sample_owner], p3[sample_owner]
+    for _ in range(2):
+        w = 1 - u
+        point = (w**3)[:, None] * q0 + (3 * u * w**2)[:, None] * q1 + (3 * u**2 * w)[:, None] * q2 + (u**3)[:, None] * q3
+        d1 = 3 * ((w**2)[:, None] * (q1 - q0) + (2 * u * w)[:, None] * (q2 - q1) + (u**2)[:, None] * (q3 - q2))
+        d2 = 6 * (w[:, None] * (q2 - 2 * q1 + q0) + u[:, None] * (q3 - 2 * q2 + q1))
+        off = point - pts
+        num = (off * d1).sum(axis=1)
+        den = (d1 * d1).sum(axis=1) + (off * d2).sum(axis=1)
+        u = np.clip(u - num / np.where(np.abs(den) > 1e-12, den, 1e-12), 0.0, 1.0)
+    w = 1 - u
+    point = (w**3)[:, None] * q0 + (3 * u * w**2)[:, None] * q1 + (3 * u**2 * w)[:, None] * q2 + (u**3)[:, None] * q3
+    d = np.sqrt(((point - pts) ** 2).sum(axis=1))
+    worst = np.zeros(n)
+    np.maximum.at(worst, sample_owner, d)
+    curve = _cubic(p0, c1, c2, p3, _T_FIT)  # (N, 17, 2)
+    length = np.sqrt((np.diff(curve, axis=1) ** 2).sum(axis=2)).sum(axis=1)
+    ok = (worst <= tolerance) & (length <= 1.1 * total + 1e-9) & (chord > 0)
+    return c1, c2, ok
+
+
+def _keeps_sides(exact: _Exact, prot: _Protected, lo, hi, c1, c2, clearance: float) -> np.ndarray:
+    """No protected point nearest to the exact segments lo-1 .. hi changes side or comes
+    nearer than min(its distance to the exact curve, clearance)."""
+    first = np.searchsorted(prot.seg, lo - 1)
+    last = np.searchsorted(prot.seg, hi + 1)
+    count = last - first
+    ok = np.ones(lo.size, bool)
+    if count.sum() == 0:
+        return ok
+    owner = np.repeat(np.arange(lo.size), count)
+    idx = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count) + np.repeat(first, count)
+    curve = _cubic(exact.start[lo], c1, c2, exact.end[hi - 1], _T_FIT)[owner]
+    d_new = _signed_distance_to_polylines(prot.xy[idx], curve)
+    d_old = prot.dist[idx]
+    bad = (np.sign(d_new) != np.sign(d_old)) | (np.abs(d_new) < np.minimum(np.abs(d_old), clearance) - 1e-9)
+    ok[np.unique(owner[bad])] = False
+    return ok
+
+
+def _assemble(pieces: BoundaryPieces, fitted) -> BoundaryPieces:
+    """The pieces with each fitted range replaced by its cubic."""
+    n = pieces.kind.size
+    replaced = np.zeros(n, bool)
+    head = np.full(n, -1, np.int64)  # fitted range starting at each exact segment
+    los, his, c1s, c2s = (np.concatenate(x) if x else np.zeros(0) for x in zip(*fitted)) if fitted else \
+        (np.zeros(0, np.int64),) * 2 + (np.zeros((0, 2)),) * 2
+    los, his = los.astype(np.int64), his.astype(np.int64)
+    head[los] = np.arange(los.size)
+    cover = np.zeros(n + 1, np.int64)
+    np.add.at(cover, los, 1)
+    np.add.at(cover, his, -1)
+    replaced = np.cumsum(cover)[:n] > 0
+    keep = ~replaced | (head >= 0)
+    kind = np.where(head >= 0, CUBIC, pieces.kind).astype(np.uint8)
+    ctrl = np.where((head >= 0)[:, None], c1s[np.maximum(head, 0)] if los.size else 0.0, pieces.ctrl)
+    ctrl2 = np.where((head >= 0)[:, None], c2s[np.maximum(head, 0)] if los.size else 0.0, pieces.ctrl2)
+    end = np.where((head >= 0)[:, None], pieces.end[np.maximum(his[np.maximum(head, 0)] - 1, 0)] if los.size else 0.0,
+                   pieces.end)
+    piece = np.repeat(np.arange(len(pieces)), np.diff(pieces.ptr))[keep]
+    ptr = np.searchsorted(piece, np.arange(len(pieces) + 1)).astype(np.int64)
+    return pieces.replace_segments(pieces.start, ptr, kind[keep], ctrl[keep], end[keep], ctrl2[keep])
+
+
+# --- geometry helpers -----------------------------------------------------------------------
+
+
+def _cubic(p0, c1, c2, p3, t: np.ndarray) -> np.ndarray:
+    """Points of cubic Béziers at parameters t: ``(N, 2)`` each × ``(T,)`` → ``(N, T, 2)``."""
+    t = t[None, :, None]
+    s = 1 - t
+    return s**3 * p0[:, None] + 3 * t * s**2 * c1[:, None] + 3 * t**2 * s * c2[:, None] + t**3 * p3[:, None]
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
+
+
+def _segment_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    ab = b - a
+    t = np.clip(((q - a) * ab).sum(axis=-1) / np.maximum((ab * ab).sum(axis=-1), 1e-300), 0.0, 1.0)
+    return np.linalg.norm(q - (a + t[..., None] * ab), axis=-1)
+
+
+def _signed_distance_to_polylines(q: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Distance of points to their polylines, signed by the side (screen right positive) of
+    the nearest piece of the polyline."""
+    a, b = poly[:, :-1], poly[:, 1:]
+    d = _segment_distance(q[:, None], a, b)
+    i = np.argmin(d, axis=1)
+    rows = np.arange(q.shape[0])
+    side = np.sign(_cross(b[rows, i] - a[rows, i], q - a[rows, i]))
+    return d[rows, i] * np.where(side == 0, 1.0, side)

@@ -1,0 +1,175 @@
+"""Which faces each shape covers, and in which order the shapes are drawn.
+
+Part of stage 6 (:mod:`depixel.outlines`). The faces of a vector image (linked cells of one
+colour, :mod:`depixel.vector`), their adjacency, their *depth* (boundaries to cross from
+the image border or a transparent area), the drawing rank that follows from it, and the
+faces a shape stands on in the stacked layout: itself, every opaque neighbour drawn above
+it (so the lower of two touching faces lies beneath their common boundary), and — while
+that shortens the outline — opaque faces drawn above it that its outline would otherwise
+have to go around.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .vector import VectorImage, faces_and_regions
+
+#: shape roles, for the labels of an editor's layers panel
+ROLES = ("backdrop", "outline", "band", "shape")
+
+
+class FaceTopology:
+    """Faces, their adjacency, depth and drawing rank, and the boundary half-edges of each."""
+
+    def __init__(self, image: VectorImage) -> None:
+        cells = image.cells
+        self.cells = cells
+        h, w = cells.shape
+        labels, region = faces_and_regions(cells)
+        self.labels = labels
+        n = int(labels.max()) + 1
+        self.n_faces = n
+        first_pixel = np.full(n, labels.size, np.int64)
+        np.minimum.at(first_pixel, labels, np.arange(labels.size))
+        self.first_pixel = first_pixel
+        self.face_rgba = image.rgba.reshape(-1, 4)[first_pixel]
+        self.face_region = region[first_pixel]
+        self.area = np.bincount(labels, minlength=n)
+        alpha = self.face_rgba[:, 3]
+        self.drawn = alpha > 0
+        self.opaque = alpha == 255
+
+        sides = cells.edge_pixels
+        face_side = np.where(sides >= 0, labels[np.maximum(sides, 0)], -1)  # (E, 2) left, right
+        boundary = np.flatnonzero(face_side[:, 0] != face_side[:, 1])
+        left, right = face_side[boundary, 0], face_side[boundary, 1]
+        u, v = cells.edges[boundary, 0], cells.edges[boundary, 1]
+        # one entry per face side of a boundary edge, oriented with the face on the right
+        has_r, has_l = right >= 0, left >= 0
+        entry_face = np.concatenate([right[has_r], left[has_l]])
+        entry_other = np.concatenate([left[has_r], right[has_l]])
+        entry_from = np.concatenate([u[has_r], v[has_l]])
+        entry_to = np.concatenate([v[has_r], u[has_l]])
+        entry_edge = np.concatenate([boundary[has_r], boundary[has_l]])
+        order = np.argsort(entry_face, kind="stable")
+        self.entry_face, self.entry_other = entry_face[order], entry_other[order]
+        self.entry_from, self.entry_to, self.entry_edge = entry_from[order], entry_to[order], entry_edge[order]
+        self.entry_ptr = np.searchsorted(self.entry_face, np.arange(n + 1))
+
+        inner = has_l & has_r
+        lo, hi = np.minimum(left[inner], right[inner]), np.maximum(left[inner], right[inner])
+        pairs = np.unique(np.stack([lo, hi], axis=1), axis=0) if inner.any() else np.zeros((0, 2), np.int64)
+        self.pairs = np.concatenate([pairs, pairs[:, ::-1]])  # both directions
+        on_border = np.zeros(n, bool)
+        on_border[entry_face[entry_other < 0]] = True
+        self.on_border = on_border
+        self.depth = self._depths()
+        self.rank, self.face_of_rank = self._ranks(region)
+
+    def _depths(self) -> np.ndarray:
+        """(F,) boundaries to cross from outside: 0 for transparent faces, 1 on the border or
+        beside a transparent face, then one more per face boundary (shortest path)."""
+        n = self.n_faces
+        depth = np.full(n, n + 1, np.int64)
+        depth[self.on_border] = 1
+        depth[~self.drawn] = 0
+        a, b = self.pairs[:, 0], self.pairs[:, 1]
+        while True:
+            reach = np.full(n, n + 1, np.int64)
+            np.minimum.at(reach, b, depth[a] + 1)
+            better = np.minimum(depth, reach)
+            if np.array_equal(better, depth):
+                return depth
+            depth = better
+
+    def _ranks(self, region: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Drawing rank of every face, and the face of every rank."""
+        n = self.n_faces
+        region_of = self.face_region
+        region_depth = np.full(int(region.max()) + 1, n + 1, np.int64)
+        np.minimum.at(region_depth, region_of, self.depth)
+        region_area = np.bincount(region_of, weights=self.area)
+        region_key = np.lexsort((np.arange(region_area.size), -region_area, region_depth))
+        region_rank = np.empty_like(region_key)
+        region_rank[region_key] = np.arange(region_key.size)
+        order = np.lexsort((self.first_pixel, -self.area, region_rank[region_of], self.depth))
+        rank = np.empty(n, np.int64)
+        rank[order] = np.arange(n)
+        return rank, order
+
+    def members(self, stacked: bool, edge_cost: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(owner face, member face) pairs, sorted: the faces each drawn face's shape covers
+        before its holes are filled.
+
+        Cutout: the face alone. Stacked: the face and every opaque neighbour drawn above it
+        (so the lower of two touching faces lies beneath their boundary), then, while it
+        shortens the outline (``edge_cost`` per cell edge: what drawing it costs), every
+        opaque face drawn above it whose boundary is mostly shared with the shape already."""
+        own = np.flatnonzero(self.drawn)
+        n = self.n_faces
+        if not stacked or self.pairs.size == 0:
+            return own, own
+        a, b = self.pairs[:, 0], self.pairs[:, 1]
+        under = self.drawn[a] & self.opaque[b] & (self.rank[b] > self.rank[a])
+        keys = np.unique(np.concatenate([own * n + own, a[under] * n + b[under]]))
+        if edge_cost is not None:
+            keys = self._absorb(keys, edge_cost)
+        return keys // n, keys % n
+
+    def _absorb(self, keys: np.ndarray, edge_cost: np.ndarray) -> np.ndarray:
+        """Grow each shape's member set (keys owner * F + member) by the faces that shorten
+        its outline, until none does."""
+        n = self.n_faces
+        other = np.where(self.entry_other >= 0, self.entry_other, n)  # n: outside
+        cost = edge_cost[self.entry_edge]
+        pair_key, pair_inv = np.unique(self.entry_face * (n + 1) + other, return_inverse=True)
+        pair_cost = np.bincount(pair_inv, weights=cost)
+        g, h = pair_key // (n + 1), pair_key % (n + 1)
+        perimeter = np.bincount(g, weights=pair_cost, minlength=n)
+        inner_pairs = h < n
+        g, h, w = g[inner_pairs], h[inner_pairs], pair_cost[inner_pairs]
+        nb_ptr = np.searchsorted(g, np.arange(n + 1))
+        while True:
+            owner, member = keys // n, keys % n
+            count = nb_ptr[member + 1] - nb_ptr[member]
+            idx = np.repeat(nb_ptr[member] - (np.cumsum(count) - count), count) + np.arange(int(count.sum()))
+            f = np.repeat(owner, count)
+            cand = h[idx]
+            ok = self.opaque[cand] & (self.rank[cand] > self.rank[f])
+            cand_key = f[ok] * n + cand[ok]
+            pos = np.minimum(np.searchsorted(keys, cand_key), keys.size - 1)
+            fresh = keys[pos] != cand_key
+            cand_key, weight = cand_key[fresh], w[idx][ok][fresh]
+            if cand_key.size == 0:
+                return keys
+            uniq, inv = np.unique(cand_key, return_inverse=True)
+            shared = np.bincount(inv, weights=weight)
+            gain = 2 * shared - perimeter[uniq % n]
+            add = uniq[gain > 1e-9]
+            if add.size == 0:
+                return keys
+            keys = np.union1d(keys, add)
+
+    def roles(self, faces: np.ndarray) -> np.ndarray:
+        """Role of each face's shape: the lowest shape covering most of the image along its
+        border is the backdrop; a face darker than every face it encloses is an outline;
+        a face sharing its region with others is a shading band."""
+        h, w = self.cells.shape
+        role = np.full(faces.size, ROLES.index("shape"), np.int8)
+        region_faces = np.bincount(self.face_region[self.drawn], minlength=int(self.face_region.max()) + 1)
+        role[region_faces[self.face_region[faces]] > 1] = ROLES.index("band")
+        luma = self.face_rgba[:, :3].astype(np.float64) @ np.array([0.299, 0.587, 0.114])
+        a, b = self.pairs[:, 0], self.pairs[:, 1]
+        deeper = self.depth[b] > self.depth[a]
+        encloses = np.zeros(self.n_faces, bool)
+        encloses[a[deeper]] = True
+        brightest_inside = np.full(self.n_faces, -1.0)
+        np.maximum.at(brightest_inside, a[deeper], luma[b[deeper]])
+        darkest_inside = np.full(self.n_faces, 1e9)
+        np.minimum.at(darkest_inside, a[deeper], luma[b[deeper]])
+        outline = encloses & (luma < darkest_inside) & self.opaque
+        role[outline[faces]] = ROLES.index("outline")
+        lowest = faces[0] if faces.size else -1
+        if lowest >= 0 and self.on_border[lowest] and self.opaque[lowest] and self.area[lowest] * 4 >= h * w:
+            role[0] = ROLES.index("backdrop")
+        return role

@@ -1,0 +1,316 @@
+"""The outline product (depixel/outlines.py): which area each shape covers, in which order,
+and the segments of its boundary — checked on the geometry itself, without parsing SVG."""
+from __future__ import annotations
+
+import io
+
+import numpy as np
+import pytest
+
+from depixel import depixelize, load_image
+from depixel.boundaries import CUBIC, LINE, QUAD
+from depixel.outlines import ROLES, build_outlines
+
+from conftest import art, corpus_pngs, fixture_pngs
+
+SQUARE_IN_SQUARE = """
+......
+......
+..##..
+..##..
+......
+......
+"""
+
+TWO_HALVES = """
+rrrbbb
+rrrbbb
+rrrbbb
+rrrbbb
+"""
+
+
+def outlines_of(text_or_rgba, layout="stacked", grid=None, simplify=0.0, stage="optimized"):
+    rgba = art(text_or_rgba) if isinstance(text_or_rgba, str) else text_or_rgba
+    return build_outlines(depixelize(rgba, stage=stage).vector, layout, grid=grid, simplify=simplify)
+
+
+def loop_area(start, kind, ctrl, ctrl2, end, pieces: int = 64) -> float:
+    """Signed area of a loop (positive: clockwise on screen), curves flattened finely."""
+    t = np.linspace(0.0, 1.0, pieces + 1)[1:, None]
+    pts, current = [start[None]], start
+    for k, c, d, e in zip(kind, ctrl, ctrl2, end):
+        if k == QUAD:
+            pts.append((1 - t) ** 2 * current + 2 * t * (1 - t) * c + t**2 * e)
+        elif k == CUBIC:
+            pts.append((1 - t) ** 3 * current + 3 * t * (1 - t) ** 2 * c + 3 * t**2 * (1 - t) * d + t**3 * e)
+        else:
+            pts.append(e[None])
+        current = e
+    p = np.concatenate(pts)
+    q = np.roll(p, -1, axis=0)
+    return float((p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]).sum() / 2.0)
+
+
+# --- layouts on hand-made images ------------------------------------------------------------
+
+
+@pytest.mark.parametrize("stage", ["cells", "splines", "optimized"])
+def test_square_inside_a_square_stacked_has_no_holes_cutout_has_one(stage):
+    stacked = outlines_of(SQUARE_IN_SQUARE, "stacked", stage=stage)
+    assert len(stacked) == 2
+    assert [len(stacked.loops_of(s)) for s in range(2)] == [1, 1]  # a full rectangle, then the square
+    outer = stacked.loops_of(0)[0]
+    assert loop_area(*outer) == pytest.approx(36.0)  # the lowest shape covers the whole image
+    cutout = outlines_of(SQUARE_IN_SQUARE, "cutout", stage=stage)
+    loops = [len(cutout.loops_of(s)) for s in range(2)]
+    assert sorted(loops) == [1, 2]
+    with_hole = cutout.loops_of(loops.index(2))
+    areas = sorted(loop_area(*lp) for lp in with_hole)
+    inner = loop_area(*cutout.loops_of(loops.index(1))[0])
+    assert areas[0] < 0 < areas[1] and areas[1] == pytest.approx(36.0)
+    assert areas[0] == pytest.approx(-inner, abs=1e-3)  # the hole is exactly the inner shape
+
+
+def test_drawing_order_puts_the_enclosing_shape_first_and_labels_it():
+    out = outlines_of(SQUARE_IN_SQUARE)
+    assert tuple(out.rgba[0][:3]) == (255, 255, 255) and tuple(out.rgba[1][:3]) == (0, 0, 0)
+    assert ROLES[out.role[0]] == "backdrop"
+
+
+def test_image_border_and_straight_runs_are_one_segment_each():
+    out = outlines_of(TWO_HALVES, "cutout")
+    for s in range(len(out)):
+        (start, kind, ctrl, ctrl2, end), = out.loops_of(s)
+        assert (kind == LINE).all() and kind.size == 4, (kind, end)  # a rectangle: four lines
+    stacked = outlines_of(TWO_HALVES, "stacked")
+    (start, kind, _, _, end), = stacked.loops_of(0)
+    assert kind.size == 4 and loop_area(start, kind, *[np.full((4, 2), np.nan)] * 2, end) == pytest.approx(24.0)
+
+
+def test_transparent_area_stays_a_hole_in_the_stacked_layout():
+    ring = art("""
+    #####
+    #   #
+    # # #
+    #   #
+    #####
+    """)
+    out = outlines_of(ring)
+    # the ring keeps its transparent hole; the dot inside is its own shape
+    ring_shape = [s for s in range(len(out)) if len(out.loops_of(s)) == 2]
+    assert len(ring_shape) == 1
+    areas = sorted(loop_area(*lp) for lp in out.loops_of(ring_shape[0]))
+    assert areas[0] < 0 < areas[1]
+
+
+# --- the exact spline: one quadratic per span, the same curve as the cell edges' halves --------
+
+
+@pytest.mark.parametrize("name", ["ghost.png", "heart.png", "chip.png"])
+def test_spans_split_in_half_are_the_cell_edges_pieces(name):
+    """Every quadratic of the exact outlines, split at t = ½ (de Casteljau), gives two
+    half-Béziers that are among the per-edge pieces of the vector image (within 1e-9)."""
+    vector = depixelize(load_image(fixture_pngs_by_name(name))).vector
+    out = build_outlines(vector, "cutout")
+    halves = set()
+    u, v = vector.cells.edges[:, 0], vector.cells.edges[:, 1]
+    for e in np.flatnonzero(vector.curved):
+        a, (c0, c1, c2), b = vector.points[u[e]], vector.controls[e], vector.points[v[e]]
+        for p0, c, p1 in ((a, c0, c1), (c1, c2, b)):
+            halves.add(_key(p0, c, p1))
+            halves.add(_key(p1, c, p0))
+    starts = np.roll(out.end, 1, axis=0)
+    starts[out.loop_ptr[:-1]] = out.loop_starts()
+    quads = np.flatnonzero(out.kind == QUAD)
+    assert quads.size > 0
+    whole = 0
+    for k in quads:
+        p0, c, p1 = starts[k], out.ctrl[k], out.end[k]
+        first, second = _split(p0, c, p1)
+        if _stored(first, halves) and _stored(second, halves):
+            whole += 1
+        else:  # a half span (at a junction) is one edge half, or two quarters (next to an open end)
+            assert _stored((p0, c, p1), halves), (k, p0, c, p1)
+    assert whole > quads.size // 2  # most are whole spans (two edge halves each)
+
+
+def _split(p0, c, p1):
+    """The two halves of a quadratic Bézier (de Casteljau at t = ½)."""
+    mid = (p0 + 2 * c + p1) / 4.0
+    return (p0, (p0 + c) / 2, mid), (mid, (c + p1) / 2, p1)
+
+
+def _stored(bezier, halves) -> bool:
+    """The Bézier is one of the per-edge pieces, or its two halves both are."""
+    return _key(*bezier) in halves or all(_key(*b) in halves for b in _split(*bezier))
+
+
+def _key(*points) -> tuple:
+    return tuple(np.round(np.concatenate(points), 9).tolist())
+
+
+def fixture_pngs_by_name(name):
+    return next(p for p in fixture_pngs() if p.name == name)
+
+
+@pytest.mark.parametrize("layout", ["cutout", "stacked"])
+@pytest.mark.parametrize("simplify", [0.0, 0.1])
+def test_shapes_that_share_a_boundary_write_identical_numbers(layout, simplify):
+    """On the output grid, a boundary segment drawn by several shapes has bit-identical
+    coordinates in each, whichever way it is traversed."""
+    vector = depixelize(load_image(fixture_pngs_by_name("mushroom.png"))).vector
+    out = build_outlines(vector, layout, grid=1e-3, simplify=simplify)
+    starts = np.roll(out.end, 1, axis=0)
+    starts[out.loop_ptr[:-1]] = out.loop_starts()
+    seen: dict[tuple, tuple] = {}
+    repeated = 0
+    for k in range(out.kind.size):
+        p0, p1 = tuple(starts[k]), tuple(out.end[k])
+        forward = p0 <= p1
+        ends = (p0, p1) if forward else (p1, p0)
+        c1, c2 = tuple(np.nan_to_num(out.ctrl[k])), tuple(np.nan_to_num(out.ctrl2[k]))
+        controls = (c1, c2) if forward or out.kind[k] != CUBIC else (c2, c1)
+        if ends in seen:
+            assert seen[ends] == (out.kind[k], controls), ends
+            repeated += 1
+        seen[ends] = (out.kind[k], controls)
+    assert repeated > 5
+
+
+def test_both_sides_of_every_inner_boundary_draw_the_same_curve():
+    """Exact cutout outlines: cut into the per-edge half-Béziers of the vector image, every
+    piece of inner boundary is drawn exactly twice (once by each side), border pieces once."""
+    vector = depixelize(load_image(fixture_pngs_by_name("mushroom.png"))).vector
+    out = build_outlines(vector, "cutout")
+    halves = set()
+    u, v = vector.cells.edges[:, 0], vector.cells.edges[:, 1]
+    for e in np.flatnonzero(vector.curved):
+        a, (c0, c1, c2), b = vector.points[u[e]], vector.controls[e], vector.points[v[e]]
+        for p0, c, p1 in ((a, c0, c1), (c1, c2, b)):
+            halves.add(_key(p0, c, p1))
+    starts = np.roll(out.end, 1, axis=0)
+    starts[out.loop_ptr[:-1]] = out.loop_starts()
+    count: dict[tuple, int] = {}
+    for k in np.flatnonzero(out.kind == QUAD):
+        for piece in _edge_halves((starts[k], out.ctrl[k], out.end[k]), halves):
+            count[piece] = count.get(piece, 0) + 1
+    assert count and set(count.values()) == {2}
+
+
+def _edge_halves(bezier, halves, depth: int = 0) -> list[tuple]:
+    """The stored per-edge halves (orientation-free keys) that make up a quadratic."""
+    key, back = _key(*bezier), _key(*bezier[::-1])
+    if key in halves or back in halves:
+        return [min(key, back)]
+    assert depth < 2, bezier
+    return [k for half in _split(*bezier) for k in _edge_halves(half, halves, depth + 1)]
+
+
+# --- properties of the stacked layout on real images ------------------------------------------
+
+
+def _render_shapes(out, shapes, scale=4):
+    """Alpha of the given shapes drawn together, at the pixel centres (cairosvg)."""
+    import cairosvg
+    from PIL import Image
+
+    from depixel.svg import path_data
+
+    h, w = out.shape
+    data = path_data(out, 3)
+    body = "".join(f'<path d="{data[s]}" fill="#000"/>' for s in shapes)
+    svg = f'<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 {w} {h}" width="{w}" height="{h}">{body}</svg>'
+    png = cairosvg.svg2png(bytestring=svg.encode(), output_width=w * scale, output_height=h * scale)
+    alpha = np.asarray(Image.open(io.BytesIO(png)).convert("RGBA"))[..., 3]
+    return alpha, alpha[scale // 2 :: scale, scale // 2 :: scale][:h, :w]
+
+
+def stacked_cases():
+    names = {"ghost.png", "mushroom.png", "chip.png", "heart_trns.png"}
+    return [p for p in fixture_pngs() if p.name in names] + corpus_pngs()[::9]
+
+
+@pytest.mark.parametrize("path", stacked_cases(), ids=lambda p: p.name)
+def test_every_shape_continues_under_the_shapes_above_it(path):
+    """A face with an opaque neighbour drawn below it lies entirely on a shape drawn below
+    it: hiding or moving it shows a colour, never a gap. And no shape alone encloses a gap
+    over opaque pixels (a hole that is not transparency in the image)."""
+    from scipy import ndimage
+
+    rgba = load_image(path)
+    vector = depixelize(rgba).vector
+    out = build_outlines(vector, "stacked", grid=1e-3)
+    from depixel.vector import faces
+
+    labels = faces(vector.cells).reshape(rgba.shape[:2])
+    opaque = rgba[..., 3] == 255
+    order = {int(f): s for s, f in enumerate(out.face)}
+    for s, face in enumerate(out.face):
+        mine = (labels == face) & opaque
+        if s == 0 or not mine.any():
+            continue
+        below_faces = [int(f) for f in out.face[:s]]
+        touches_lower = any(
+            np.any(_neighbours(labels == face) & (labels == g) & opaque) for g in below_faces
+        )
+        if touches_lower and out.rgba[s][3] == 255:
+            _, centres = _render_shapes(out, range(s))
+            assert (centres[mine] >= 250).all(), f"shape {s} has no underlay at some of its pixels"
+    scale = 4
+    h, w = out.shape
+    centres_mask = np.zeros((h * scale, w * scale), bool)
+    centres_mask[scale // 2 :: scale, scale // 2 :: scale] = rgba[..., 3] >= 128
+    for s in range(len(out)):
+        alpha, _ = _render_shapes(out, [s], scale)
+        gaps, n = ndimage.label(alpha < 128)
+        border = np.unique(np.concatenate([gaps[0], gaps[-1], gaps[:, 0], gaps[:, -1]]))
+        enclosed = (gaps > 0) & ~np.isin(gaps, border)
+        assert not (enclosed & centres_mask).any(), f"shape {s} ({order}) has a hole over opaque pixels"
+
+
+def _neighbours(mask: np.ndarray) -> np.ndarray:
+    grown = mask.copy()
+    grown[1:] |= mask[:-1]
+    grown[:-1] |= mask[1:]
+    grown[:, 1:] |= mask[:, :-1]
+    grown[:, :-1] |= mask[:, 1:]
+    return grown & ~mask
+
+
+# --- the writer formats exactly the outline product ------------------------------------------
+
+
+@pytest.mark.parametrize("precision", [0, 2, 3])
+@pytest.mark.parametrize("layout, simplify", [("stacked", 0.0), ("stacked", 0.1), ("cutout", 0.0)])
+def test_path_data_reads_back_as_the_outlines(layout, simplify, precision):
+    """Each shape's ``d`` (relative or absolute per command, letters left out, T, H/V,
+    compact numbers), read back by an independent SVG 1.1 path parser, gives exactly the
+    segments of the outline product (to the output precision)."""
+    import svgpath
+    from depixel.svg import path_data
+
+    grid = 10.0**-precision
+    for name in ("mushroom.png", "potion_rgba.png"):
+        vector = depixelize(load_image(fixture_pngs_by_name(name))).vector
+        out = build_outlines(vector, layout, grid=grid, simplify=simplify)
+        data = path_data(out, precision)
+        for s in range(len(out)):
+            subpaths = svgpath.parse(data[s])
+            loops = out.loops_of(s)
+            assert len(subpaths) == len(loops)
+            for segments, (start, kind, ctrl, ctrl2, end) in zip(subpaths, loops):
+                # (lines that rounding to a coarse grid shrank to nothing are not compared)
+                segments = [g for g in segments if g[0] != "L" or np.abs(g[1] - g[2]).max() > 1e-9]
+                begin = np.roll(end, 1, axis=0)
+                begin[0] = start
+                solid = (kind != LINE) | (np.abs(end - begin).max(axis=1) > grid / 2)
+                kind, ctrl, ctrl2, end = kind[solid], ctrl[solid], ctrl2[solid], end[solid]
+                assert len(segments) == kind.size
+                for seg, k, c, c2, e in zip(segments, kind, ctrl, ctrl2, end):
+                    assert seg[0] == {LINE: "L", QUAD: "Q", CUBIC: "C"}[int(k)]
+                    assert np.allclose(seg[-1], e, atol=grid / 2)
+                    if k == QUAD:
+                        assert np.allclose(seg[2], c, atol=grid / 2)
+                    elif k == CUBIC:
+                        assert np.allclose(seg[2], c, atol=grid / 2) and np.allclose(seg[3], c2, atol=grid / 2)
