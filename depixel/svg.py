@@ -25,6 +25,9 @@ from .svgtext import Texts, numbers, stack
 from .vector import VectorImage
 
 SVG_HEADER = '<?xml version="1.0" encoding="UTF-8"?>\n'
+#: default tolerance of the simplification (pixels): fewer, longer curves, no visible change
+#: (docs/svg.md has the figures); 0 writes the exact spline, one quadratic per span
+DEFAULT_SIMPLIFY = 0.1
 INKSCAPE_NS = "http://www.inkscape.org/namespaces/inkscape"
 
 # command codes, and their letters (absolute; relative is lower case) and number of arguments
@@ -49,7 +52,7 @@ def _escape(text: str) -> str:
 
 
 def to_svg(image: VectorImage, scale: float = 1.0, precision: int = 3, title: str | None = None,
-           layout: str = "stacked", simplify: float = 0.0) -> str:
+           layout: str = "stacked", simplify: float = DEFAULT_SIMPLIFY) -> str:
     """Write a VectorImage as SVG text; ``scale`` sets width/height, the viewBox stays W×H.
 
     ``layout`` and ``simplify`` are those of :func:`depixel.outlines.build_outlines`."""
