@@ -23,6 +23,7 @@ from depixel.errors import DepixelError, display_name
 from depixel.image import frame_count, load_frames
 from depixel.limits import PEAK_BYTES_PER_PIXEL, WORKER_BASELINE_BYTES
 from depixel.params import Params
+from depixel.svg import DEFAULT_SIMPLIFY
 
 from .options import error_message
 
@@ -45,6 +46,8 @@ class Options:
     force: bool  # reconvert outputs that are up to date
     shading: str = "smooth"  # PNG: the paper's smooth renderer, or "flat" (the SVG rasterized)
     precision: int = 3  # decimals of SVG coordinates
+    layout: str = "stacked"  # SVG: shapes stacked (each continues under those above) or cut out
+    simplify: float = DEFAULT_SIMPLIFY  # SVG: tolerance of the curve simplification, pixels (0: exact)
     width: int | None = None  # output width in pixels (instead of scale)
     height: int | None = None
     max_output_pixels: int | None = None
@@ -125,7 +128,8 @@ def _outputs_to_make(job: Job, out: Outcome) -> dict[int, tuple[Path, dict]]:
     for frame, target in frame_targets(job):
         options = api.file_options(target, opt.params, fmt=opt.fmt, stage=opt.stage, scale=opt.scale,
                                    frame=frame, background=opt.background, shading=opt.shading,
-                                   precision=opt.precision, width=opt.width, height=opt.height)
+                                   precision=opt.precision, width=opt.width, height=opt.height,
+                                   layout=opt.layout, simplify=opt.simplify)
         if not opt.force and api.is_up_to_date(job.source, target, options):
             out.up_to_date.append(target)
         else:

@@ -14,8 +14,10 @@ from depixel import api
 from depixel.errors import DepixelError, OutputError, display_name
 from depixel.image import frame_count, read_source
 from depixel.limits import DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
+from depixel.outlines import LAYOUTS
 from depixel.output import write_atomic
 from depixel.pipeline import STAGES
+from depixel.svg import DEFAULT_SIMPLIFY
 
 from .batch import (
     CANCELLED,
@@ -32,7 +34,17 @@ from .batch import (
     run,
     summary,
 )
-from .options import Exit, add_tuning, colour, error_message, int_range, params_from_args, positive_float, positive_int
+from .options import (
+    Exit,
+    add_tuning,
+    colour,
+    error_message,
+    int_range,
+    params_from_args,
+    positive_float,
+    positive_int,
+    tolerance,
+)
 
 DESCRIPTION = """\
 examples:
@@ -102,6 +114,14 @@ def add_parser(sub) -> None:
                      help="stop at this pipeline stage (default: optimized, the final result)")
     out.add_argument("--precision", type=int_range(0, 12), default=3, metavar="N",
                      help="decimals of the numbers in the SVG (default 3)")
+    out.add_argument("--layout", choices=LAYOUTS, default="stacked",
+                     help="SVG shapes: stacked (default), each drawn over the ones it lies on and continuing "
+                          "under the ones above it, as an illustrator layers them; or cutout, shapes that tile "
+                          "the image exactly (renderers that anti-alias each shape show faint seams)")
+    out.add_argument("--simplify", type=tolerance, default=DEFAULT_SIMPLIFY, metavar="TOL",
+                     help=f"fit fewer curves within TOL pixels of the exact spline, keeping corners, every "
+                          f"pixel centre in its colour and every thin diagonal (default {DEFAULT_SIMPLIFY}; "
+                          f"0 writes the exact spline, one quadratic per span)")
     out.add_argument("--max-pixels", type=positive_int, default=DEFAULT_MAX_PIXELS, metavar="N",
                      help=f"refuse larger images, frames or pages (default {DEFAULT_MAX_PIXELS}; pixel art is small)")
     out.add_argument("--max-output-pixels", type=positive_int, default=DEFAULT_MAX_OUTPUT_PIXELS, metavar="N",
@@ -145,7 +165,8 @@ def run_convert(args: argparse.Namespace) -> int:
         parser.error(str(exc).replace("the format", "--format").replace("give --format", "use --format"))
     options = Options(params_from_args(args), fmt, args.stage, args.scale, args.frames, args.background,
                       args.max_pixels, force=args.force, shading=args.shading, precision=args.precision,
-                      width=args.width, height=args.height, max_output_pixels=args.max_output_pixels)
+                      width=args.width, height=args.height, max_output_pixels=args.max_output_pixels,
+                      layout=args.layout, simplify=args.simplify)
 
     start = time.perf_counter()
     signals = args.signals
@@ -219,7 +240,8 @@ def _convert_stream(source: str, output: str, options: Options) -> Outcome:
                                      scale=options.scale, shading=options.shading, name=name,
                                      title=None if source == "-" else Path(source).name,
                                      precision=options.precision, width=options.width, height=options.height,
-                                     max_pixels=options.max_pixels, max_output_pixels=options.max_output_pixels)
+                                     max_pixels=options.max_pixels, max_output_pixels=options.max_output_pixels,
+                                     layout=options.layout, simplify=options.simplify)
             if target == "-":
                 if options.fmt != "svg" and sys.stdout.isatty():
                     raise OutputError(f"refusing to write binary {options.fmt.upper()} to a terminal")

@@ -54,6 +54,16 @@ def non_negative_float(text: str) -> float:
     return value
 
 
+def tolerance(text: str) -> float:
+    """A simplification tolerance in pixels: 0 (none) up to MAX_SIMPLIFY."""
+    from depixel.svg import MAX_SIMPLIFY  # noqa: PLC0415
+
+    value = non_negative_float(text)
+    if value > MAX_SIMPLIFY:
+        raise argparse.ArgumentTypeError(f"must be at most {MAX_SIMPLIFY:g} pixels: {text!r}")
+    return value
+
+
 def int_range(low: int, high: int | None = None):
     """Argument type: an integer in [low, high]."""
     def parse(text: str) -> int:
@@ -134,6 +144,8 @@ FLAG_OF_PARAMETER = {
     "fmt": "--format",
     "background": "--background",
     "precision": "--precision",
+    "layout": "--layout",
+    "simplify": "--simplify",
     **{name: flag for flag, name, _, _ in TUNING},
 }
 

@@ -19,10 +19,11 @@ from . import validate
 from .errors import OutputError, ParameterError, RenderError, display_name
 from .image import ImageSource, as_rgba, check_pixels, load_image, read_source
 from .limits import DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
+from .outlines import LAYOUTS
 from .output import write_atomic
 from .params import Params
 from .pipeline import STAGES, depixelize
-from .svg import to_svg
+from .svg import DEFAULT_SIMPLIFY, MAX_SIMPLIFY, to_svg
 
 #: Output formats, chosen from the file extension or given explicitly.
 FORMATS = ("svg", "png", "pdf")
@@ -87,9 +88,11 @@ def _scale(shape: tuple[int, ...], scale: float, width: int | None, height: int 
     return float(scale)
 
 
-def _output_options(stage: str, precision: int) -> None:
+def _output_options(stage: str, precision: int, layout: str = "stacked", simplify: float = DEFAULT_SIMPLIFY) -> None:
     validate.choice("stage", stage, STAGES)
     validate.number("precision", precision, low=0, high=12, integer=True)
+    validate.choice("layout", layout, LAYOUTS)
+    validate.number("simplify", simplify, low=0, high=MAX_SIMPLIFY)
 
 
 def flatten(image, colour: Colour | str) -> np.ndarray:
@@ -120,26 +123,32 @@ def load(source: ImageSource, *, frame: int = 0, background: Colour | str | None
 def convert(image, params: Params = Params(), *, stage: str = "optimized", scale: float = 1.0,
             background: Colour | str | None = None, title: str | None = None, precision: int = 3,
             width: int | None = None, height: int | None = None,
-            max_pixels: int | None = DEFAULT_MAX_PIXELS) -> str:
+            max_pixels: int | None = DEFAULT_MAX_PIXELS, layout: str = "stacked",
+            simplify: float = DEFAULT_SIMPLIFY) -> str:
     """Depixelize an image (``(H, W[, C])`` array or PIL image) → SVG text.
 
     ``scale`` sets the SVG's width/height as a multiple of the pixel size (or ``width`` or
     ``height`` in pixels, the other following); the viewBox stays in input pixels.
     ``stage`` stops the pipeline early ("cells", "splines"; "splines" is the result without
     the §3.4 optimization). ``precision`` is the number of decimals of the SVG's
-    coordinates. Images over ``max_pixels`` pixels are refused (``None``: no limit).
+    coordinates. ``layout`` is "stacked" (every shape continues under the shapes drawn
+    above it) or "cutout" (shapes that tile the image); ``simplify`` is the tolerance in
+    pixels within which fewer curves replace the exact spline (0: the exact spline;
+    docs/svg.md). Images over ``max_pixels`` pixels are refused (``None``: no limit).
     """
-    rgba, scale = _prepare(image, params, stage, precision, background, scale, width, height, max_pixels)
+    rgba, scale = _prepare(image, params, stage, precision, background, scale, width, height, max_pixels,
+                           layout=layout, simplify=simplify)
     result = depixelize(rgba, params, stage=stage)
-    return to_svg(result.vector, scale=scale, precision=precision, title=title)
+    return to_svg(result.vector, scale=scale, precision=precision, title=title, layout=layout, simplify=simplify)
 
 
 def _prepare(image, params, stage, precision, background, scale, width, height, max_pixels,
-             name: str = "<image>") -> tuple[np.ndarray, float]:
+             name: str = "<image>", layout: str = "stacked",
+             simplify: float = DEFAULT_SIMPLIFY) -> tuple[np.ndarray, float]:
     """Check every argument of a conversion → the RGBA pixels and the scale to write at."""
     if not isinstance(params, Params):
         raise ParameterError(f"params must be a depixel.Params, not {type(params).__name__}", parameter="params")
-    _output_options(stage, precision)
+    _output_options(stage, precision, layout, simplify)
     colour = _colour(background)
     _pixels(image, name, max_pixels)
     rgba = as_rgba(image) if colour is None else flatten(image, colour)
@@ -161,7 +170,8 @@ def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: 
                   shading: str = "smooth", name: str = "<image>", precision: int = 3,
                   width: int | None = None, height: int | None = None,
                   max_pixels: int | None = DEFAULT_MAX_PIXELS,
-                  max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS) -> bytes:
+                  max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS, layout: str = "stacked",
+                  simplify: float = DEFAULT_SIMPLIFY) -> bytes:
     """Like :func:`convert`, returning the bytes of an SVG, PNG or PDF file.
 
     PNG output is rendered with the paper's smooth shading unless ``shading="flat"``, which
@@ -170,16 +180,18 @@ def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: 
     """
     return _convert_bytes(image, fmt, params, stage=stage, scale=scale, background=background, title=title,
                           shading=shading, name=name, precision=precision, width=width, height=height,
-                          max_pixels=max_pixels, max_output_pixels=max_output_pixels)
+                          max_pixels=max_pixels, max_output_pixels=max_output_pixels, layout=layout,
+                          simplify=simplify)
 
 
 def _convert_bytes(image, fmt, params, *, stage, scale, background, title, shading, name, precision,
-                   width, height, max_pixels, max_output_pixels, stamp: str | None = None) -> bytes:
+                   width, height, max_pixels, max_output_pixels, layout, simplify, stamp: str | None = None) -> bytes:
     """:func:`convert_bytes`, with the options ``stamp`` written into the file when given."""
     validate.choice("format", fmt, FORMATS)
     validate.choice("shading", shading, SHADINGS)
     max_output_pixels = validate.limit("max_output_pixels", max_output_pixels)
-    rgba, scale = _prepare(image, params, stage, precision, background, scale, width, height, max_pixels, name)
+    rgba, scale = _prepare(image, params, stage, precision, background, scale, width, height, max_pixels, name,
+                           layout, simplify)
     if fmt == "png":
         size = max(1, round(rgba.shape[1] * scale)), max(1, round(rgba.shape[0] * scale))
         if max_output_pixels is not None and size[0] * size[1] > max_output_pixels:
@@ -198,7 +210,7 @@ def _convert_bytes(image, fmt, params, *, stage, scale, background, title, shadi
         Image.fromarray(render_smooth(vector, scale, params=params), "RGBA").save(buffer, format="PNG")
         blob = buffer.getvalue()
     else:
-        svg = to_svg(vector, scale=scale, precision=precision, title=title)
+        svg = to_svg(vector, scale=scale, precision=precision, title=title, layout=layout, simplify=simplify)
         keywords = None if stamp is None else f"{stamps.KEY}:{stamp}"
         blob = encode(svg, fmt, name=name, keywords=keywords)
     return blob if stamp is None else stamps.embed(blob, fmt, stamp)
@@ -236,7 +248,8 @@ def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: P
                  background: Colour | str | None = None, shading: str = "smooth",
                  max_pixels: int | None = DEFAULT_MAX_PIXELS, precision: int = 3,
                  width: int | None = None, height: int | None = None,
-                 max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS) -> Path:
+                 max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS, layout: str = "stacked",
+                 simplify: float = DEFAULT_SIMPLIFY) -> Path:
     """Convert one image file (one frame of it) to an SVG, PNG or PDF file; returns the output path.
 
     The output is written atomically and never replaces ``source``. PNG output uses the
@@ -244,7 +257,8 @@ def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: P
     made it (:mod:`depixel.stamp`), which :func:`is_up_to_date` compares.
     """
     options = file_options(output, params, fmt=fmt, stage=stage, scale=scale, frame=frame, background=background,
-                           shading=shading, precision=precision, width=width, height=height)
+                           shading=shading, precision=precision, width=width, height=height, layout=layout,
+                           simplify=simplify)
     rgba = load(source, frame=frame, max_pixels=max_pixels)
     write_converted(rgba, source, output, options, max_pixels=max_pixels, max_output_pixels=max_output_pixels)
     return Path(output)
@@ -253,22 +267,24 @@ def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: P
 def file_options(output: str | os.PathLike, params: Params = Params(), *, fmt: str | None = None,
                  stage: str = "optimized", scale: float = 1.0, frame: int = 0,
                  background: Colour | str | None = None, shading: str = "smooth", precision: int = 3,
-                 width: int | None = None, height: int | None = None) -> dict:
+                 width: int | None = None, height: int | None = None, layout: str = "stacked",
+                 simplify: float = DEFAULT_SIMPLIFY) -> dict:
     """The checked options of :func:`convert_file` that decide the output's bytes, with
     their ``stamp``; the arguments of :func:`write_converted` and :func:`is_up_to_date`."""
     if not isinstance(params, Params):
         raise ParameterError(f"params must be a depixel.Params, not {type(params).__name__}", parameter="params")
     validate.number("frame", frame, low=0, integer=True)
     validate.positive("scale", scale)
-    _output_options(stage, precision)
+    _output_options(stage, precision, layout, simplify)
     options = {"fmt": output_format(output, fmt), "stage": stage, "scale": float(scale), "frame": int(frame),
                "background": _colour(background), "shading": validate.choice("shading", shading, SHADINGS),
-               "precision": int(precision), "width": width, "height": height, "params": params}
-    # only what changes the bytes: shading is for PNG, which ignores the SVG's precision when smooth
+               "precision": int(precision), "width": width, "height": height, "params": params,
+               "layout": layout, "simplify": float(simplify)}
+    # only what changes the bytes: shading is for PNG, which ignores the SVG's settings when smooth
     smooth_png = options["fmt"] == "png" and shading == "smooth"
     stamp = stamps.options_stamp(**{**options, "params": dataclasses.asdict(params),
                                     "shading": shading if options["fmt"] == "png" else None,
-                                    "precision": None if smooth_png else options["precision"]})
+                                    **({"precision": None, "layout": None, "simplify": None} if smooth_png else {})})
     return {**options, "stamp": stamp}
 
 
@@ -281,6 +297,7 @@ def write_converted(rgba: np.ndarray, source: str | os.PathLike, output: str | o
                           stage=options["stage"], scale=options["scale"], background=None,
                           title=Path(source).name, shading=options["shading"], name=display_name(source),
                           precision=options["precision"], width=options["width"], height=options["height"],
+                          layout=options["layout"], simplify=options["simplify"],
                           max_pixels=max_pixels, max_output_pixels=max_output_pixels, stamp=options["stamp"])
     write_atomic(output, blob, protect=(Path(source),))
 

@@ -53,7 +53,7 @@ class BoundaryPieces:
         return int(self.ptr.size - 1)
 
     def replace_segments(self, start: np.ndarray, ptr: np.ndarray, kind: np.ndarray, ctrl: np.ndarray,
-                         end: np.ndarray, ctrl2: np.ndarray) -> "BoundaryPieces":
+                         end: np.ndarray, ctrl2: np.ndarray) -> BoundaryPieces:
         """The same pieces with other segments (e.g. simplified)."""
         return BoundaryPieces(start, ptr, kind, ctrl, end, self.edge_piece, self.edge_first, self.edge_last,
                               np.full(kind.size, -1, np.int64),

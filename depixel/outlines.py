@@ -40,8 +40,8 @@ import numpy as np
 
 from .boundaries import CUBIC, LINE, QUAD, BoundaryPieces, build_pieces, junction_nodes
 from .loops import Loops, trace_loops
-from .stacking import ROLES, FaceTopology
 from .simplify import simplify_pieces
+from .stacking import FaceTopology
 from .vector import VectorImage
 
 LAYOUTS = ("stacked", "cutout")
@@ -131,7 +131,7 @@ def build_outlines(image: VectorImage, layout: str = "stacked", grid: float | No
 
     shape_rank = loops.owner[keep]
     drawn = np.unique(shape_rank)
-    shape_ptr = np.searchsorted(shape_rank, np.r_[drawn, np.iinfo(np.int64).max]).astype(np.int64)
+    shape_ptr = np.asarray(np.searchsorted(shape_rank, np.r_[drawn, np.iinfo(np.int64).max]), dtype=np.int64)
     face = topo.face_of_rank[drawn]
     return Outlines(
         shape=(h, w), layout=layout, grid=grid, face=face, rgba=topo.face_rgba[face],

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .boundaries import CUBIC, LINE, QUAD, BoundaryPieces
+from .boundaries import CUBIC, QUAD, BoundaryPieces
 from .vector import VectorImage
 
 _T_ORIG = np.array([0.0, 0.25, 0.5, 0.75])  # samples of each exact segment
@@ -187,6 +187,7 @@ def _segments_of_edges(pieces: BoundaryPieces, image: VectorImage, edge: np.ndar
     """(len(edge), 4): indices of the exact segments of each curved edge's two spans (the
     half spans, or the full span when a joint was merged), -1 where there is none."""
     curves = image.curves
+    assert curves is not None  # pieces exist only where there are curves
     slot = curves.edge_slot[edge]
     slots = np.stack([slot, curves.next[slot]], axis=1)  # the edge's two slots
     piece = pieces.edge_piece[edge]
@@ -245,19 +246,14 @@ def _fit(exact: _Exact, lo: np.ndarray, hi: np.ndarray, tolerance: float, grid: 
         c1, c2 = np.round(c1 / grid) * grid, np.round(c2 / grid) * grid
     # distance of every sample to the cubic: from its chord-length parameter, two Newton
     # steps towards the nearest point (an upper bound of the distance, so the test is safe)
-    q0, q1, q2, q3 = p0[sample_owner], c1[sample_owner], c2[sample_owner], p3[sample_owner]
+    q = (p0[sample_owner], c1[sample_owner], c2[sample_owner], p3[sample_owner])
     for _ in range(2):
-        w = 1 - u
-        point = (w**3)[:, None] * q0 + (3 * u * w**2)[:, None] * q1 + (3 * u**2 * w)[:, None] * q2 + (u**3)[:, None] * q3
-        d1 = 3 * ((w**2)[:, None] * (q1 - q0) + (2 * u * w)[:, None] * (q2 - q1) + (u**2)[:, None] * (q3 - q2))
-        d2 = 6 * (w[:, None] * (q2 - 2 * q1 + q0) + u[:, None] * (q3 - 2 * q2 + q1))
+        point, d1, d2 = _cubic_derivatives(*q, u)
         off = point - pts
         num = (off * d1).sum(axis=1)
         den = (d1 * d1).sum(axis=1) + (off * d2).sum(axis=1)
         u = np.clip(u - num / np.where(np.abs(den) > 1e-12, den, 1e-12), 0.0, 1.0)
-    w = 1 - u
-    point = (w**3)[:, None] * q0 + (3 * u * w**2)[:, None] * q1 + (3 * u**2 * w)[:, None] * q2 + (u**3)[:, None] * q3
-    d = np.sqrt(((point - pts) ** 2).sum(axis=1))
+    d = np.sqrt(((_cubic_derivatives(*q, u)[0] - pts) ** 2).sum(axis=1))
     worst = np.zeros(n)
     np.maximum.at(worst, sample_owner, d)
     curve = _cubic(p0, c1, c2, p3, _T_FIT)  # (N, 17, 2)
@@ -317,6 +313,16 @@ def _cubic(p0, c1, c2, p3, t: np.ndarray) -> np.ndarray:
     t = t[None, :, None]
     s = 1 - t
     return s**3 * p0[:, None] + 3 * t * s**2 * c1[:, None] + 3 * t**2 * s * c2[:, None] + t**3 * p3[:, None]
+
+
+def _cubic_derivatives(q0, q1, q2, q3, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Point, first and second derivative of cubic Béziers, each at its own parameter:
+    control points ``(N, 2)`` each, ``u`` ``(N,)``."""
+    w, v = (1 - u)[:, None], u[:, None]
+    point = w**3 * q0 + 3 * v * w**2 * q1 + 3 * v**2 * w * q2 + v**3 * q3
+    d1 = 3 * (w**2 * (q1 - q0) + 2 * v * w * (q2 - q1) + v**2 * (q3 - q2))
+    d2 = 6 * (w * (q2 - 2 * q1 + q0) + v * (q3 - 2 * q2 + q1))
+    return point, d1, d2
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:

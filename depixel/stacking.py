@@ -26,6 +26,7 @@ class FaceTopology:
         self.cells = cells
         h, w = cells.shape
         labels, region = faces_and_regions(cells)
+        assert region is not None
         self.labels = labels
         n = int(labels.max()) + 1
         self.n_faces = n

@@ -20,7 +20,8 @@ from __future__ import annotations
 import numpy as np
 
 from .boundaries import CUBIC, LINE, QUAD
-from .outlines import ROLES, Outlines, build_outlines
+from .outlines import Outlines, build_outlines
+from .stacking import ROLES
 from .svgtext import Texts, numbers, stack
 from .vector import VectorImage
 
@@ -28,6 +29,8 @@ SVG_HEADER = '<?xml version="1.0" encoding="UTF-8"?>\n'
 #: default tolerance of the simplification (pixels): fewer, longer curves, no visible change
 #: (docs/svg.md has the figures); 0 writes the exact spline, one quadratic per span
 DEFAULT_SIMPLIFY = 0.1
+#: the largest tolerance accepted: beyond about a pixel a curve could stray over a feature
+MAX_SIMPLIFY = 2.0
 INKSCAPE_NS = "http://www.inkscape.org/namespaces/inkscape"
 
 # command codes, and their letters (absolute; relative is lower case) and number of arguments

@@ -7,8 +7,8 @@ concatenating columns and writing a token sequence are whole-array numpy operati
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
@@ -28,14 +28,14 @@ class Texts:
         return int(self.start.size)
 
     @classmethod
-    def of(cls, strings: Sequence[str]) -> "Texts":
+    def of(cls, strings: Sequence[str]) -> Texts:
         """A table from Python strings (for constants and short lists)."""
         encoded = [s.encode("ascii") for s in strings]
         length = np.array([len(b) for b in encoded], dtype=np.int64)
         data = np.frombuffer(b"".join(encoded), dtype=np.uint8)
         return cls(data, np.cumsum(length) - length, length)
 
-    def take(self, index: np.ndarray) -> "Texts":
+    def take(self, index: np.ndarray) -> Texts:
         """The strings at ``index``, sharing this table's buffer."""
         return Texts(self.data, self.start[index], self.length[index])
 
@@ -64,21 +64,6 @@ def stack(tables: Sequence[Texts]) -> tuple[Texts, list[int]]:
     length = np.concatenate([t.length for t in tables])
     first_rows = np.cumsum([0] + [len(t) for t in tables[:-1]]).tolist()
     return Texts(np.concatenate(buffers), start, length), first_rows
-
-
-def concat(*columns: Texts | str) -> Texts:
-    """Row-wise concatenation: row i is the join of every column's row i (a ``str`` column
-    is the same for every row). All ``Texts`` columns must have the same length."""
-    n = next(len(c) for c in columns if isinstance(c, Texts))
-    tables = [c if isinstance(c, Texts) else Texts.of([c]) for c in columns]
-    table, first = stack(tables)
-    segment = np.empty((n, len(columns)), dtype=np.int64)
-    for j, (col, row0) in enumerate(zip(columns, first)):
-        segment[:, j] = row0 if isinstance(col, str) else row0 + np.arange(n)
-    segment = segment.ravel()
-    data = _copy_segments(table.data, table.start[segment], table.length[segment])
-    length = table.length[segment].reshape(n, len(columns)).sum(axis=1)
-    return Texts(data, np.cumsum(length) - length, length)
 
 
 def numbers(values: np.ndarray, precision: int, prefix: str = "", compact: bool = False) -> Texts:

@@ -9,7 +9,8 @@ import pytest
 
 from depixel import depixelize, load_image
 from depixel.boundaries import CUBIC, LINE, QUAD
-from depixel.outlines import ROLES, build_outlines
+from depixel.outlines import build_outlines
+from depixel.stacking import ROLES
 
 from conftest import art, corpus_pngs, fixture_pngs
 
@@ -70,6 +71,27 @@ def test_square_inside_a_square_stacked_has_no_holes_cutout_has_one(stage):
     inner = loop_area(*cutout.loops_of(loops.index(1))[0])
     assert areas[0] < 0 < areas[1] and areas[1] == pytest.approx(36.0)
     assert areas[0] == pytest.approx(-inner, abs=1e-3)  # the hole is exactly the inner shape
+
+
+def test_a_shape_is_filled_under_everything_it_encloses():
+    """Three nested squares: the outer one is not next to the inner one, yet its shape is a
+    plain rectangle (the hole its union with its neighbour leaves is filled), and each shape
+    is one loop drawn in nesting order."""
+    nested = art("""
+    ........
+    .######.
+    .#rrrr#.
+    .#rrrr#.
+    .#rrrr#.
+    .#rrrr#.
+    .######.
+    ........
+    """)
+    for stage in ("cells", "optimized"):
+        out = outlines_of(nested, stage=stage)
+        assert [tuple(c[:3]) for c in out.rgba] == [(255, 255, 255), (0, 0, 0), (220, 30, 30)]
+        assert [len(out.loops_of(s)) for s in range(3)] == [1, 1, 1]
+        assert loop_area(*out.loops_of(0)[0]) == pytest.approx(64.0)
 
 
 def test_drawing_order_puts_the_enclosing_shape_first_and_labels_it():

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from depixel.loops import trace_loops
-from depixel.svgtext import Texts, concat, numbers, stack
+from depixel.svgtext import Texts, numbers, stack
 
 
 def reference_number(value: float, precision: int) -> str:
@@ -28,10 +28,14 @@ def test_numbers_rows_joined_with_spaces_and_prefix():
     assert numbers(np.zeros((0, 4)), 3).tolist() == []
 
 
-def test_concat_stack_and_take():
+def test_compact_numbers_drop_the_leading_zero():
+    values = np.array([0.5, -0.25, 0.0, 1.5, -3.0, 0.004, -0.0004])
+    assert numbers(values, 3, compact=True).tolist() == [".5", "-.25", "0", "1.5", "-3", ".004", "0"]
+
+
+def test_stack_and_take():
     a = Texts.of(["ab", "", "c"])
     b = numbers(np.array([1, 2, 3]), 0)
-    assert concat("<", a, "|", b, ">").tolist() == ["<ab|1>", "<|2>", "<c|3>"]
     table, first = stack([a, b, a.take(np.array([2, 0]))])
     assert first == [0, 3, 6]
     assert table.tolist() == ["ab", "", "c", "1", "2", "3", "c", "ab"]
@@ -92,3 +96,40 @@ def test_trace_loops_matches_reference_walk():
 def test_trace_loops_rejects_open_chains():
     with pytest.raises(ValueError):
         trace_loops(np.zeros(2, np.int64), np.array([0, 1]), np.array([1, 2]))
+
+
+def _square_halfedges(cells: list[tuple[int, int]]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Boundary half-edges (clockwise on screen, y down) of the union of unit squares
+    ``cells`` (x, y), with node ids from a 10-wide grid and the grid as points."""
+    edges = set()
+    for x, y in cells:
+        corners = [(x, y), (x + 1, y), (x + 1, y + 1), (x, y + 1)]
+        for a, b in zip(corners, corners[1:] + corners[:1]):
+            if (b, a) in edges:
+                edges.discard((b, a))
+            else:
+                edges.add((a, b))
+    uv = sorted(edges)
+    u = np.array([a[1] * 10 + a[0] for a, _ in uv])
+    v = np.array([b[1] * 10 + b[0] for _, b in uv])
+    return u, v, np.array([(i % 10, i // 10) for i in range(100)])
+
+
+def _area(loop_nodes: np.ndarray, points: np.ndarray) -> float:
+    p = points[loop_nodes].astype(float)
+    q = np.roll(p, -1, axis=0)
+    return float((p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]).sum() / 2)
+
+
+@pytest.mark.parametrize("cells, areas", [
+    ([(0, 0), (1, 1)], [2.0]),  # squares touching at a corner: one outer boundary round both
+    ([(x, y) for x in range(3) for y in range(3) if (x, y) not in ((1, 1), (2, 2))], [-1.0, 8.0]),  # hole at a notch
+])
+def test_trace_loops_with_points_keeps_touching_loops_apart(cells, areas):
+    """Where a boundary touches itself at a node, the angle rule keeps the outside on the
+    left: every loop is an outer boundary (clockwise, area > 0) or a hole (area < 0), never
+    a mix — a hole that touches the outline at a corner is a loop of its own."""
+    u, v, points = _square_halfedges(cells)
+    loops = trace_loops(np.zeros(u.size, np.int64), u, v, points=points)
+    got = sorted(_area(u[loops.halfedges[a:b]], points) for a, b in zip(loops.ptr[:-1], loops.ptr[1:]))
+    assert got == areas
