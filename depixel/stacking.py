@@ -61,11 +61,33 @@ class FaceTopology:
         lo, hi = np.minimum(left[inner], right[inner]), np.maximum(left[inner], right[inner])
         pairs = np.unique(np.stack([lo, hi], axis=1), axis=0) if inner.any() else np.zeros((0, 2), np.int64)
         self.pairs = np.concatenate([pairs, pairs[:, ::-1]])  # both directions
+
         on_border = np.zeros(n, bool)
         on_border[entry_face[entry_other < 0]] = True
         self.on_border = on_border
         self.depth = self._depths()
         self.rank, self.face_of_rank = self._ranks(region)
+        self.corners = self._corner_pairs(labels)
+
+    def _corner_pairs(self, labels: np.ndarray) -> np.ndarray:
+        """(K, 2) (lowest face at a node, another face at that node) for every node where
+        three or more faces meet: faces that touch there only at a corner (the diagonal ones
+        where four meet) are not neighbours, yet unless the lowest of them lies under all the
+        others a seam opens at that point."""
+        cells = self.cells
+        face_at = labels[np.repeat(np.arange(labels.size), np.diff(cells.cell_ptr))]
+        node = cells.cell_nodes
+        drawn_first = self.rank[face_at] + self.n_faces * ~self.drawn[face_at]  # the lowest drawn face first
+        order = np.lexsort((drawn_first, node))
+        node, face_at = node[order], face_at[order]
+        fresh = np.r_[True, (node[1:] != node[:-1]) | (face_at[1:] != face_at[:-1])]
+        node, face_at = node[fresh], face_at[fresh]
+        start = np.flatnonzero(np.r_[True, node[1:] != node[:-1]])
+        count = np.diff(np.r_[start, node.size])
+        group = np.repeat(np.arange(start.size), count)
+        lowest = face_at[start][group]  # sorted by rank within each node
+        crowded = (count >= 3)[group] & (face_at != lowest)
+        return np.stack([lowest[crowded], face_at[crowded]], axis=1)
 
     def _depths(self) -> np.ndarray:
         """(F,) boundaries to cross from outside: 0 for transparent faces, 1 on the border or
@@ -110,7 +132,8 @@ class FaceTopology:
         n = self.n_faces
         if not stacked or self.pairs.size == 0:
             return own, own
-        a, b = self.pairs[:, 0], self.pairs[:, 1]
+        a = np.concatenate([self.pairs[:, 0], self.corners[:, 0]])
+        b = np.concatenate([self.pairs[:, 1], self.corners[:, 1]])
         under = self.drawn[a] & self.opaque[b] & (self.rank[b] > self.rank[a])
         keys = np.unique(np.concatenate([own * n + own, a[under] * n + b[under]]))
         if edge_cost is not None:
