@@ -20,15 +20,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import FIXTURES
 from lxml import etree
 from PIL import Image
 
 from depixel.raster import render_rgba
+from depixel.svg import DEFAULT_SIMPLIFY
 from depixel_cli import inkscape as installer
 from depixel_cli.main import main
 from depixel_cli.options import Exit
-
-from conftest import FIXTURES
 
 SCRIPT = installer.SOURCE / "depixel_inkscape.py"
 SVG = "http://www.w3.org/2000/svg"
@@ -518,4 +518,4 @@ def test_inx_describes_the_script_and_its_options():
     for name in params:
         assert f'"--{name}"' in script, name
     assert params["stage"].find("i:option", ns).get("value") == "optimized"  # the CLI's default first
-    assert params["seed"].text == "0" and params["simplify"].text == "0" and params["pixel_size"].text == "auto"
+    assert params["seed"].text == "0" and float(params["simplify"].text) == DEFAULT_SIMPLIFY and params["pixel_size"].text == "auto"
