@@ -86,24 +86,6 @@ class Outlines:
             out.append((starts[loop], self.kind[a:b], self.ctrl[a:b], self.ctrl2[a:b], self.end[a:b]))
         return out
 
-    def polylines(self, s: int, pieces: int = 8) -> list[np.ndarray]:
-        """Shape ``s``'s loops flattened to closed polylines, ``pieces`` per quadratic."""
-        t = np.linspace(0.0, 1.0, pieces + 1)[1:, None]
-        out = []
-        for start, kind, ctrl, ctrl2, end in self.loops_of(s):
-            points = [start[None]]
-            current = start
-            for k, c, d, e in zip(kind, ctrl, ctrl2, end):
-                if k == QUAD:
-                    points.append((1 - t) ** 2 * current + 2 * t * (1 - t) * c + t**2 * e)
-                elif k == CUBIC:
-                    points.append((1 - t) ** 3 * current + 3 * t * (1 - t) ** 2 * c + 3 * t**2 * (1 - t) * d + t**3 * e)
-                else:
-                    points.append(e[None])
-                current = e
-            out.append(np.concatenate(points))
-        return out
-
 
 def build_outlines(image: VectorImage, layout: str = "stacked", grid: float | None = None,
                    simplify: float = 0.0) -> Outlines:
