@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .boundaries import CUBIC, LINE, QUAD, BoundaryPieces, build_pieces, junction_nodes
+from .boundaries import CUBIC, LINE, BoundaryPieces, build_pieces, junction_nodes
 from .loops import Loops, trace_loops
 from .simplify import simplify_pieces
 from .stacking import FaceTopology
