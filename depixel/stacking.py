@@ -115,10 +115,27 @@ class FaceTopology:
         region_key = np.lexsort((np.arange(region_area.size), -region_area, region_depth))
         region_rank = np.empty_like(region_key)
         region_rank[region_key] = np.arange(region_key.size)
-        order = np.lexsort((self.first_pixel, -self.area, region_rank[region_of], self.depth))
+        order = np.lexsort((self.first_pixel, -self.area, region_rank[region_of], self._pockets(), self.depth))
         rank = np.empty(n, np.int64)
         rank[order] = np.arange(n)
         return rank, order
+
+    def _pockets(self) -> np.ndarray:
+        """(F,) bool: the face has a pixel whose four neighbours all belong to one other face
+        of the same depth — a pocket reached only through a diagonal link, which at any
+        zoom looks enclosed by that face. Such faces are drawn after the others of their
+        depth, so the enclosing face covers them instead of showing a hole there."""
+        h, w = self.cells.shape
+        labels = self.labels.reshape(h, w)
+        pocket = np.zeros(self.n_faces, bool)
+        if h < 3 or w < 3:
+            return pocket
+        centre = labels[1:-1, 1:-1]
+        up, down, left, right = labels[:-2, 1:-1], labels[2:, 1:-1], labels[1:-1, :-2], labels[1:-1, 2:]
+        around = (up == down) & (up == left) & (up == right) & (up != centre)
+        around &= self.depth[up] == self.depth[centre]
+        pocket[centre[around]] = True
+        return pocket
 
     def members(self, stacked: bool, edge_cost: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(owner face, member face) pairs, sorted: the faces each drawn face's shape covers

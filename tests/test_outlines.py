@@ -336,3 +336,30 @@ def test_path_data_reads_back_as_the_outlines(layout, simplify, precision):
                         assert np.allclose(seg[2], c, atol=grid / 2)
                     elif k == CUBIC:
                         assert np.allclose(seg[2], c, atol=grid / 2) and np.allclose(seg[3], c2, atol=grid / 2)
+
+
+def test_a_pixel_reached_only_through_a_diagonal_is_covered_by_the_face_around_it():
+    """The r pixel at (3, 3) is surrounded by g on four sides and joined to the other r
+    pixels only through a diagonal link: the g shape is drawn first and lies under it, so
+    drawn alone it has no hole there (at any zoom the diagonal corridor looks closed)."""
+    pocket = art("""
+    ..............
+    .gggg.........
+    .ggggg........
+    .ggrgg........
+    .gggrrrrrrrrr.
+    ..gg.rrrrrrrr.
+    .....rrrrrrrr.
+    ..............
+    """)
+    vector = depixelize(pocket).vector
+    from depixel.vector import faces
+
+    labels = faces(vector.cells).reshape(pocket.shape[:2])
+    out = build_outlines(vector, "stacked", grid=1e-3)
+    rank = {int(f): s for s, f in enumerate(out.face)}
+    g, r = rank[int(labels[1, 1])], rank[int(labels[3, 3])]
+    assert labels[3, 3] == labels[4, 4]  # one r face, through the diagonal link, larger than g
+    assert g < r
+    _, centres = _render_shapes(out, [g])
+    assert centres[3, 3] >= 250  # the g shape covers the pocket
