@@ -6,13 +6,12 @@ import io
 
 import numpy as np
 import pytest
+from conftest import art, corpus_pngs, fixture_pngs
 
 from depixel import depixelize, load_image
 from depixel.boundaries import CUBIC, LINE, QUAD
 from depixel.outlines import build_outlines
 from depixel.stacking import ROLES
-
-from conftest import art, corpus_pngs, fixture_pngs
 
 SQUARE_IN_SQUARE = """
 ......
@@ -310,6 +309,7 @@ def test_path_data_reads_back_as_the_outlines(layout, simplify, precision):
     compact numbers), read back by an independent SVG 1.1 path parser, gives exactly the
     segments of the outline product (to the output precision)."""
     import svgpath
+
     from depixel.svg import path_data
 
     grid = 10.0**-precision
