@@ -11,8 +11,9 @@ from .errors import DepixelError, InputError, OutputError, RenderError
 from .image import load_image
 from .params import Params
 from .pipeline import STAGES, Result, depixelize
+from .prepare import PreparedImage
 from .svg import to_svg
-from .api import convert, convert_bytes, convert_file, flatten, render_file  # noqa: E402 (uses the above)
+from .api import convert, convert_bytes, convert_file, flatten, prepare_input, render_file  # noqa: E402 (uses the above)
 
 __all__ = [
     "__version__",
@@ -24,6 +25,8 @@ __all__ = [
     "STAGES",
     "Result",
     "depixelize",
+    "PreparedImage",
+    "prepare_input",
     "load_image",
     "to_svg",
     "convert",

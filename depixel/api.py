@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -18,6 +19,7 @@ from .image import DEFAULT_MAX_PIXELS, ImageSource, as_rgba, frame_count, load_i
 from .output import write_atomic
 from .params import Params
 from .pipeline import depixelize
+from .prepare import AUTO, PixelSize, PreparedImage, lossy_format, overlay_raster, overlay_svg, pil_lossy, prepare
 from .svg import to_svg
 
 #: Output formats, chosen from the file extension or given explicitly.
@@ -64,17 +66,36 @@ def load(source: ImageSource, *, frame: int = 0, background: Colour | str | None
 
 
 def convert(image, params: Params = Params(), *, stage: str = "optimized", scale: float = 1.0,
-            background: Colour | str | None = None, title: str | None = None, precision: int = 3) -> str:
-    """Depixelize an image (``(H, W[, C])`` array or PIL image) → SVG text.
+            background: Colour | str | None = None, title: str | None = None, precision: int = 3,
+            pixel_size: PixelSize = AUTO, denoise: bool | None = None,
+            transparent: Colour | str | None = None) -> str:
+    """Depixelize an image (``(H, W[, C])`` array, PIL image or :class:`PreparedImage`) → SVG text.
 
-    ``scale`` sets the SVG's width/height as a multiple of the pixel size; the viewBox stays
-    in input pixels. ``stage`` stops the pipeline early ("cells", "splines"; "splines" is
+    ``scale`` sets the SVG's width/height as a multiple of the input's size; the viewBox
+    is in art pixels. ``stage`` stops the pipeline early ("cells", "splines"; "splines" is
     the result without the §3.4 optimization). ``precision`` is the number of decimals of
-    the SVG's coordinates.
+    the SVG's coordinates. ``pixel_size``, ``denoise`` and ``transparent`` prepare the
+    input first (:func:`depixel.prepare.prepare`): upscaled art is converted at 1× and laid
+    exactly over the input.
     """
-    rgba = as_rgba(image) if background is None else flatten(image, background)
-    result = depixelize(rgba, params, stage=stage)
-    return to_svg(result.vector, scale=scale, precision=precision, title=title)
+    prepared = prepare_input(image, background=background, pixel_size=pixel_size, denoise=denoise,
+                             transparent=transparent)
+    result = depixelize(prepared.rgba, params, stage=stage)
+    svg = to_svg(result.vector, scale=scale, precision=precision, title=title)
+    return overlay_svg(svg, prepared, scale)
+
+
+def prepare_input(image, *, background: Colour | str | None = None, pixel_size: PixelSize = AUTO,
+                  denoise: bool | None = None, transparent: Colour | str | None = None,
+                  lossy: str | None = None) -> PreparedImage:
+    """:func:`depixel.prepare.prepare` after flattening over ``background`` (when given);
+    a :class:`PreparedImage` is returned as it is."""
+    if isinstance(image, PreparedImage):
+        return image
+    if background is not None:
+        lossy = lossy or pil_lossy(image)
+        image = flatten(image, background)
+    return prepare(image, pixel_size=pixel_size, denoise=denoise, transparent=transparent, lossy=lossy)
 
 
 def encode(svg: str, fmt: str = "svg", *, name: str = "<svg>") -> bytes:
@@ -88,7 +109,9 @@ def encode(svg: str, fmt: str = "svg", *, name: str = "<svg>") -> bytes:
 
 def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: str = "optimized",
                   scale: float = 1.0, background: Colour | str | None = None, title: str | None = None,
-                  shading: str = "smooth", name: str = "<image>", precision: int = 3) -> bytes:
+                  shading: str = "smooth", name: str = "<image>", precision: int = 3,
+                  pixel_size: PixelSize = AUTO, denoise: bool | None = None,
+                  transparent: Colour | str | None = None) -> bytes:
     """Like :func:`convert`, returning the bytes of an SVG, PNG or PDF file.
 
     PNG output is rendered with the paper's smooth shading unless ``shading="flat"``, which
@@ -97,6 +120,8 @@ def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: 
     _check_format(fmt)
     if shading not in SHADINGS:
         raise ValueError(f"unknown shading {shading!r}; choose one of {', '.join(SHADINGS)}")
+    prepared = prepare_input(image, background=background, pixel_size=pixel_size, denoise=denoise,
+                             transparent=transparent)
     if fmt == "png" and shading == "smooth":
         import io  # noqa: PLC0415
 
@@ -104,13 +129,13 @@ def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: 
 
         from .shading import render_smooth  # noqa: PLC0415
 
-        rgba = as_rgba(image) if background is None else flatten(image, background)
-        pixels = render_smooth(depixelize(rgba, params, stage=stage).vector, scale, params=params)
+        vector = depixelize(prepared.rgba, params, stage=stage).vector
+        # rendered at the art's grid, then laid over the input like the SVG
+        pixels = render_smooth(vector, scale * max(prepared.pixel_size), params=params)
         buffer = io.BytesIO()
-        Image.fromarray(pixels, "RGBA").save(buffer, format="PNG")
+        Image.fromarray(overlay_raster(pixels, prepared, scale), "RGBA").save(buffer, format="PNG")
         return buffer.getvalue()
-    svg = convert(image, params, stage=stage, scale=scale, background=background, title=title,
-                  precision=precision)
+    svg = convert(prepared, params, stage=stage, scale=scale, title=title, precision=precision)
     return encode(svg, fmt, name=name)
 
 
@@ -135,15 +160,23 @@ def frame_outputs(output: str | os.PathLike, n_frames: int) -> list[Path]:
 def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: Params = Params(), *,
                  fmt: str | None = None, stage: str = "optimized", scale: float = 1.0, frame: int = 0,
                  background: Colour | str | None = None, shading: str = "smooth",
-                 max_pixels: int | None = DEFAULT_MAX_PIXELS, precision: int = 3) -> Path:
+                 max_pixels: int | None = DEFAULT_MAX_PIXELS, precision: int = 3,
+                 pixel_size: PixelSize = AUTO, denoise: bool | None = None,
+                 transparent: Colour | str | None = None,
+                 on_prepared: Callable[[PreparedImage], None] | None = None) -> Path:
     """Convert one image file (one frame of it) to an SVG, PNG or PDF file; returns the output path.
 
     The output is written atomically and never replaces ``source``. PNG output uses the
-    smooth renderer unless ``shading="flat"``.
+    smooth renderer unless ``shading="flat"``. ``denoise=None`` denoises JPEG and lossy
+    WebP files; ``on_prepared`` is called with what the preparation found (to report it).
     """
     fmt = output_format(output, fmt)
-    rgba = load(source, frame=frame, background=background, max_pixels=max_pixels)
-    blob = convert_bytes(rgba, fmt, params, stage=stage, scale=scale, title=Path(source).name,
+    rgba = load(source, frame=frame, max_pixels=max_pixels)
+    prepared = prepare_input(rgba, background=background, pixel_size=pixel_size, denoise=denoise,
+                             transparent=transparent, lossy=lossy_format(read_source(source)))
+    if on_prepared is not None:
+        on_prepared(prepared)
+    blob = convert_bytes(prepared, fmt, params, stage=stage, scale=scale, title=Path(source).name,
                          shading=shading, name=display_name(source), precision=precision)
     write_atomic(output, blob, protect=(Path(source),))
     return Path(output)
