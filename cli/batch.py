@@ -41,6 +41,9 @@ class Options:
     force: bool  # replace existing outputs
     shading: str = "smooth"  # PNG: the paper's smooth renderer, or "flat" (the SVG rasterized)
     precision: int = 3  # decimals of SVG coordinates
+    pixel_size: str | tuple[int, int] = "auto"  # input preparation (depixel/prepare.py)
+    denoise: bool | None = None
+    transparent: str | tuple[int, int, int] | None = None
 
 
 @dataclass(frozen=True)
@@ -56,6 +59,7 @@ class Outcome:
     written: list[Path] = field(default_factory=list)
     skipped: list[Path] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    prepared: list[dict] = field(default_factory=list)  # what preparing each frame found, when anything
     error: str | None = None
     traceback: str | None = None
 
@@ -76,7 +80,9 @@ def run_job(job: Job) -> Outcome:
                 continue
             api.convert_file(job.source, target, opt.params, fmt=opt.fmt, stage=opt.stage, scale=opt.scale,
                              frame=frame, background=opt.background, shading=opt.shading,
-                             max_pixels=opt.max_pixels, precision=opt.precision)
+                             max_pixels=opt.max_pixels, precision=opt.precision, pixel_size=opt.pixel_size,
+                             denoise=opt.denoise, transparent=opt.transparent,
+                             on_prepared=lambda p, t=target: record_prepared(out, p, job.source, t))
             out.written.append(target)
         if opt.frames == "first" and out.written and (n := frame_count(job.source)) > 1:
             out.notes.append(f"{display_name(job.source)}: has {n} frames, converted the first (--frames all converts each)")
@@ -86,6 +92,14 @@ def run_job(job: Job) -> Outcome:
         out.error = f"{display_name(job.source)}: internal error ({type(exc).__name__}: {exc})"
         out.traceback = traceback.format_exc()
     return out
+
+
+def record_prepared(out: Outcome, prepared, source: Path | str, target: Path | str) -> None:
+    """Note what preparing a frame found (a one-line note and a --json entry), if anything."""
+    line = prepared.describe(display_name(source))
+    if line is not None:
+        out.notes.append(line)
+        out.prepared.append({"input": str(source), "output": str(target), **prepared.summary()})
 
 
 # --- finding inputs and naming outputs --------------------------------------------------------
@@ -256,5 +270,6 @@ def summary(outcomes: list[Outcome], seconds: float) -> dict:
         "skipped": sum(1 for o in outcomes if not o.error and o.skipped and not o.written),
         "failed": [{"input": str(o.source), "error": o.error} for o in failed],
         "outputs": [str(p) for o in outcomes for p in o.written],
+        "prepared": [entry for o in outcomes for entry in o.prepared],
         "seconds": round(seconds, 3),
     }

@@ -15,9 +15,12 @@ from depixel.errors import DepixelError, OutputError, display_name
 from depixel.image import DEFAULT_MAX_PIXELS, frame_count, read_source
 from depixel.output import write_atomic
 from depixel.pipeline import STAGES
+from depixel.prepare import lossy_format
 
-from .batch import Job, Options, Outcome, Progress, default_jobs, expand_inputs, make_folders, plan, run, summary
-from .options import Exit, add_tuning, error_message, colour, int_range, params_from_args, positive_float, positive_int
+from .batch import Job, Options, Outcome, Progress, default_jobs, expand_inputs, make_folders, plan, \
+    record_prepared, run, summary
+from .options import Exit, add_input_options, add_tuning, error_message, colour, int_range, params_from_args, \
+    positive_float, positive_int
 
 DESCRIPTION = """\
 examples:
@@ -27,8 +30,11 @@ examples:
   depixel convert 'art/*.gif' --out-dir out --frames all    every frame: name-000.svg, ...
   cat sprite.png | depixel convert - -o - > sprite.svg  stdin to stdout
   depixel convert sprite.png -o cells.svg --stage cells     only the reshaped pixel cells
+  depixel convert boo_x4.jpg -o boo.svg --transparent auto  upscaled JPEG on a backdrop
 
 Convert pixel art to SVG, PNG or PDF (Kopf & Lischinski, Depixelizing Pixel Art, 2011).
+Upscaled pixel art is detected and converted at 1x, the SVG laid over the input (same
+width/height); JPEG noise is snapped to a palette (see the input options and docs/inputs.md).
 The format comes from the output's extension or --format. With --out-dir, outputs keep the
 inputs' relative folders, existing outputs are skipped (--force replaces them), a failed
 file is reported and the rest go on; the exit code is 1 if any file failed.
@@ -56,7 +62,7 @@ def add_parser(sub) -> None:
     out.add_argument("--out-dir", metavar="DIR", type=Path, help="folder for the outputs of many inputs")
     out.add_argument("--format", choices=api.FORMATS, help="output format (default: from -o's extension, else svg)")
     out.add_argument("--scale", type=positive_float, default=1.0,
-                     help="size as a multiple of the pixel size: SVG width/height, PNG pixels, PDF size (default 1)")
+                     help="size as a multiple of the input's size: SVG width/height, PNG pixels, PDF size (default 1)")
     out.add_argument("--background", type=colour, metavar="COLOR",
                      help="flatten the image onto this colour first (#rgb, #rrggbb or a name like white)")
     out.add_argument("--shading", choices=api.SHADINGS, default="smooth",
@@ -76,7 +82,10 @@ def add_parser(sub) -> None:
     batch.add_argument("-j", "--jobs", type=positive_int, default=default_jobs(), metavar="N",
                        help=f"files converted in parallel (default: all {default_jobs()} cores)")
     batch.add_argument("--json", action="store_true",
-                       help="print a JSON summary on stdout (files, ok, skipped, failed with reasons, seconds)")
+                       help="print a JSON summary on stdout (files, ok, skipped, failed with reasons, what "
+                            "the input preparation found, seconds)")
+    batch.add_argument("-q", "--quiet", action="store_true", help="no notes on stderr (errors are still shown)")
+    add_input_options(p)
     add_tuning(p)
     p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
 
@@ -96,7 +105,8 @@ def run_convert(args: argparse.Namespace) -> int:
     except OutputError as exc:
         parser.error(f"{exc}; or use --format")
     options = Options(params_from_args(args), fmt, args.stage, args.scale, args.frames, args.background,
-                      args.max_pixels, force=args.force, shading=args.shading, precision=args.precision)
+                      args.max_pixels, force=args.force, shading=args.shading, precision=args.precision,
+                      pixel_size=args.pixel_size, denoise=args.denoise, transparent=args.transparent)
 
     start = time.perf_counter()
     if args.inputs == ["-"] or args.output == "-":
@@ -149,9 +159,12 @@ def _convert_stream(source: str, output: str, options: Options) -> Outcome:
             targets = [(0 if options.frames == "first" else int(options.frames), output)]
         for frame, target in targets:
             # a file object so that load errors name "<stdin>"; a path so they name the file
-            rgba = api.load(io.BytesIO(data) if source == "-" else source, frame=frame,
-                            background=options.background, max_pixels=options.max_pixels)
-            blob = api.convert_bytes(rgba, options.fmt, options.params, stage=options.stage,
+            rgba = api.load(io.BytesIO(data) if source == "-" else source, frame=frame, max_pixels=options.max_pixels)
+            prepared = api.prepare_input(rgba, background=options.background, pixel_size=options.pixel_size,
+                                         denoise=options.denoise, transparent=options.transparent,
+                                         lossy=lossy_format(data))
+            record_prepared(out, prepared, name, target)
+            blob = api.convert_bytes(prepared, options.fmt, options.params, stage=options.stage,
                                      scale=options.scale, shading=options.shading, name=name,
                                      title=None if source == "-" else Path(source).name,
                                      precision=options.precision)
@@ -171,7 +184,7 @@ def _convert_stream(source: str, output: str, options: Options) -> Outcome:
 
 
 def _report(outcome: Outcome, progress: Progress, args: argparse.Namespace, step: bool = True) -> None:
-    for note in outcome.notes:
+    for note in () if args.quiet else outcome.notes:
         progress.message(f"note: {note}")
     if outcome.error:
         progress.message(f"error: {outcome.error}")

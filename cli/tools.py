@@ -13,8 +13,8 @@ from depixel.image import DEFAULT_MAX_PIXELS, read_source
 from depixel.output import write_atomic
 from depixel.pipeline import STAGES
 
-from .options import Exit, add_tuning, colour, int_range, non_negative_int, params_from_args, positive_float, \
-    positive_int, unit_float
+from .options import Exit, add_input_options, add_tuning, colour, int_range, non_negative_int, params_from_args, \
+    positive_float, positive_int, unit_float
 
 RENDER_DESCRIPTION = """\
 examples:
@@ -41,11 +41,14 @@ INSPECT_DESCRIPTION = """\
 examples:
   depixel inspect sprite.png -o stages.png             every stage in one picture
   depixel inspect sprite.png --out-dir stages/ --zoom 16    one PNG per stage
+  depixel inspect boo_x4.jpg -o stages.png             the input beside the 1x art found in it
 
 Draw every stage of the pipeline, like the paper's Figure 3: the input, the similarity
 graph (blue: diagonals in flat blocks, red: ambiguous crossings), the graph after the
 crossings are resolved (green: kept diagonal, dashed red: removed), the reshaped cells, the
-splines with their control points, the optimized splines and the final render.
+splines with their control points, the optimized splines and the final render. When the
+input is prepared first (upscaled, JPEG, --transparent), the input as given comes first and
+the 1x image the pipeline converted second.
 """
 
 
@@ -98,6 +101,7 @@ def add_parsers(sub) -> None:
     inspect.add_argument("--background", type=colour, metavar="COLOR", help="flatten the image onto this colour first")
     inspect.add_argument("--max-pixels", type=positive_int, default=DEFAULT_MAX_PIXELS, metavar="N",
                          help=f"refuse larger images (default {DEFAULT_MAX_PIXELS})")
+    add_input_options(inspect)
     add_tuning(inspect)
     _debug(inspect)
 
@@ -163,9 +167,13 @@ def run_inspect(args: argparse.Namespace) -> int:
 
     if args.output is None and args.out_dir is None:
         args.parser.error("say where to write: -o PNG and/or --out-dir DIR")
+    from depixel.prepare import lossy_format  # noqa: PLC0415
+
     rgba = api.load(args.input, frame=args.frame, background=args.background, max_pixels=args.max_pixels)
-    result = depixelize(rgba, params_from_args(args), stage=args.stage)
-    panels = stage_panels(result, args.zoom)
+    prepared = api.prepare_input(rgba, pixel_size=args.pixel_size, denoise=args.denoise,
+                                 transparent=args.transparent, lossy=lossy_format(api.read_input(args.input)))
+    result = depixelize(prepared.rgba, params_from_args(args), stage=args.stage)
+    panels = stage_panels(result, args.zoom, prepared, rgba)
     protect = (Path(args.input),)
     if args.out_dir is not None:
         try:
