@@ -504,60 +504,63 @@ _REACH = 2
 def _palette(yuv: np.ndarray, rgb: np.ndarray, counts: np.ndarray, min_count: float,
              shadows: bool) -> np.ndarray:
     """``(K, 3) float64`` RGB palette by mode seeking over a histogram of the colours."""
-    cell = np.floor((yuv + [0.0, 128.0, 128.0]) / _CELL).astype(np.int64) + _REACH  # padded
-    shape = tuple(int(v) for v in cell.max(axis=0) + _REACH + 1)
-    hist = np.zeros(shape)
-    np.add.at(hist, tuple(cell.T), counts)
-    density = _box_sum(hist)
-    taken = np.zeros(len(counts), dtype=bool)
+    r, margin = _REACH, 3 * _REACH + 1  # margin: room for a recount window around any cell
+    cell_of = np.floor(yuv / _CELL).astype(np.int64)
+    cells, colour_cell = np.unique(cell_of, axis=0, return_inverse=True)
+    colour_cell = colour_cell.ravel()
+    cells = cells - cells.min(axis=0) + margin  # grid positions
+    mass = np.bincount(colour_cell, weights=counts, minlength=len(cells))
+    grid = np.zeros(tuple(cells.max(axis=0) + margin + 1), dtype=np.float32)  # pixel counts: exact
+    grid[tuple(cells.T)] = mass
+    # pixels within reach of each cell; only cells that could gather min_count are candidates
+    density = _box_sum(grid)[tuple(cells.T)].astype(np.float64)
+    candidates = np.flatnonzero(density >= min_count)
+    density = density[candidates]
+    at = cells[candidates]
+    alive = np.ones(len(cells), dtype=bool)
     chosen: list[np.ndarray] = []
     chosen_mass: list[tuple[float, float]] = []  # (luma, pixels)
-    while True:
-        flat = int(np.argmax(density))
-        if density.flat[flat] < min_count:
+    while candidates.size:
+        j = int(np.argmax(np.where(alive[candidates], density, -1.0)))
+        if not alive[candidates[j]] or density[j] < min_count:
             break
-        centre = np.array(np.unravel_index(flat, shape))
-        members = ~taken & (np.abs(cell - centre).max(axis=1) <= _REACH)
-        taken |= members
-        lo, hi = np.maximum(centre - _REACH, 0), centre + _REACH + 1
-        hist[lo[0]:hi[0], lo[1]:hi[1], lo[2]:hi[2]] = 0.0
-        # only cells within 2 reaches see the emptied box: recount their density
-        lo2, hi2 = np.maximum(centre - 2 * _REACH, 0), np.minimum(centre + 2 * _REACH + 1, shape)
-        window = tuple(slice(a, b) for a, b in zip(lo2, hi2))
-        density[window] = _box_sum(hist, window)
-        mass = float(counts[members].sum())
-        colour = (rgb[members] * counts[members, None]).sum(axis=0) / mass
+        centre = at[j]
+        gone = alive & (np.abs(cells - centre).max(axis=1) <= r)
+        alive &= ~gone
+        grid[tuple(cells[gone].T)] = 0.0
+        # recount the candidates whose box overlaps the emptied one
+        near = np.abs(at - centre).max(axis=1) <= 2 * r
+        low, high = centre - margin, centre + margin + 1
+        block = grid[low[0]:high[0], low[1]:high[1], low[2]:high[2]]
+        density[near] = _box_sum(block)[tuple((at[near] - low).T)]
+        members = gone[colour_cell]
+        taken = float(counts[members].sum())
+        colour = (rgb[members] * counts[members, None]).sum(axis=0) / taken
         luma = float(rgb_to_yuv(colour)[0])
-        if not shadows or not any(abs(luma - y) <= SHADOW_LUMA and m >= SHADOW_RATIO * mass
+        if not shadows or not any(abs(luma - y) <= SHADOW_LUMA and m >= SHADOW_RATIO * taken
                                   for y, m in chosen_mass):
             chosen.append(colour)
-            chosen_mass.append((luma, mass))
+            chosen_mass.append((luma, taken))
     if not chosen:  # too few pixels for any colour to count: the most common one
         chosen = [rgb[int(np.argmax(counts))]]
     return np.array(chosen, dtype=np.float64)
 
 
-def _box_sum(hist: np.ndarray, window: tuple[slice, ...] | None = None) -> np.ndarray:
-    """Sum of ``hist`` over the (2·_REACH+1)³ box around every cell (of ``window``)."""
-    if window is None:
-        window = tuple(slice(0, n) for n in hist.shape)
+def _box_sum(grid: np.ndarray) -> np.ndarray:
+    """Sum of ``grid`` over the (2·_REACH+1)³ box around each cell at least _REACH + 1
+    cells from its edges (the others get 0)."""
     r = _REACH
-    lo = [max(w.start - r, 0) for w in window]
-    hi = [min(w.stop + r, n) for w, n in zip(window, hist.shape)]
-    block = np.pad(hist[lo[0]:hi[0], lo[1]:hi[1], lo[2]:hi[2]], [(1, 0)] * 3)
-    table = block.cumsum(0).cumsum(1).cumsum(2)  # table[i, j, k] = sum of block[:i, :j, :k]
-    out = np.zeros(tuple(w.stop - w.start for w in window))
-    # box of cell c along an axis: [c - r, c + r] clipped, in table coordinates of the block
-    axes = []
-    for w, l, h in zip(window, lo, hi):
-        c = np.arange(w.start, w.stop)
-        axes.append((np.clip(c - r, l, h) - l, np.clip(c + r + 1, l, h) - l))
-    (a0, b0), (a1, b1), (a2, b2) = axes
-    for s0, i0 in ((1, b0), (-1, a0)):
-        for s1, i1 in ((1, b1), (-1, a1)):
-            for s2, i2 in ((1, b2), (-1, a2)):
-                out += s0 * s1 * s2 * table[np.ix_(i0, i1, i2)]
-    return out
+    for axis in range(3):
+        n = grid.shape[axis]
+
+        def cut(start: int, stop: int) -> tuple[slice, ...]:
+            return tuple(slice(start, stop) if a == axis else slice(None) for a in range(3))
+
+        running = np.cumsum(grid, axis=axis)
+        out = np.zeros_like(grid)
+        np.subtract(running[cut(2 * r + 1, n)], running[cut(0, n - 2 * r - 1)], out=out[cut(r + 1, n - r)])
+        grid = out
+    return grid
 
 
 def _nearest(points: np.ndarray, palette: np.ndarray) -> np.ndarray:
