@@ -30,7 +30,7 @@ examples:
   depixel convert 'art/*.gif' --out-dir out --frames all    every frame: name-000.svg, ...
   cat sprite.png | depixel convert - -o - > sprite.svg  stdin to stdout
   depixel convert sprite.png -o cells.svg --stage cells     only the reshaped pixel cells
-  depixel convert boo_x4.jpg -o boo.svg --transparent auto  upscaled JPEG on a backdrop
+  depixel convert ghost_x4.jpg -o ghost.svg --transparent auto   upscaled JPEG on a backdrop
 
 Convert pixel art to SVG, PNG or PDF (Kopf & Lischinski, Depixelizing Pixel Art, 2011).
 Upscaled pixel art is detected and converted at 1x, the SVG laid over the input (same

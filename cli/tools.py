@@ -41,7 +41,7 @@ INSPECT_DESCRIPTION = """\
 examples:
   depixel inspect sprite.png -o stages.png             every stage in one picture
   depixel inspect sprite.png --out-dir stages/ --zoom 16    one PNG per stage
-  depixel inspect boo_x4.jpg -o stages.png             the input beside the 1x art found in it
+  depixel inspect ghost_x4.jpg -o stages.png           the input beside the 1x art found in it
 
 Draw every stage of the pipeline, like the paper's Figure 3: the input, the similarity
 graph (blue: diagonals in flat blocks, red: ambiguous crossings), the graph after the
