@@ -504,38 +504,46 @@ _REACH = 2
 def _palette(yuv: np.ndarray, rgb: np.ndarray, counts: np.ndarray, min_count: float,
              shadows: bool) -> np.ndarray:
     """``(K, 3) float64`` RGB palette by mode seeking over a histogram of the colours."""
-    r, margin = _REACH, 3 * _REACH + 1  # margin: room for a recount window around any cell
+    r = _REACH
     cell_of = np.floor(yuv / _CELL).astype(np.int64)
     cells, colour_cell = np.unique(cell_of, axis=0, return_inverse=True)
     colour_cell = colour_cell.ravel()
-    cells = cells - cells.min(axis=0) + margin  # grid positions
+    cells = cells - cells.min(axis=0) + 2 * r  # grid positions, with room for a 2r box around each
+    shape = tuple(cells.max(axis=0) + 2 * r + 1)
     mass = np.bincount(colour_cell, weights=counts, minlength=len(cells))
-    grid = np.zeros(tuple(cells.max(axis=0) + margin + 1), dtype=np.float32)  # pixel counts: exact
+    rgb_sum = np.stack([np.bincount(colour_cell, weights=counts * rgb[:, c], minlength=len(cells))
+                        for c in range(3)], axis=1)
+    grid = np.zeros(shape, dtype=np.float32)  # pixel counts: exact
     grid[tuple(cells.T)] = mass
     # pixels within reach of each cell; only cells that could gather min_count are candidates
     density = _box_sum(grid)[tuple(cells.T)].astype(np.float64)
     candidates = np.flatnonzero(density >= min_count)
     density = density[candidates]
-    at = cells[candidates]
-    alive = np.ones(len(cells), dtype=bool)
+    cell_at = np.full(shape, -1)  # which cell, and which candidate, sits at each grid position
+    cell_at[tuple(cells.T)] = np.arange(len(cells))
+    candidate_of = np.full(len(cells), -1)
+    candidate_of[candidates] = np.arange(len(candidates))
+    candidate_at = np.full(shape, -1)
+    candidate_at[tuple(cells[candidates].T)] = np.arange(len(candidates))
     chosen: list[np.ndarray] = []
     chosen_mass: list[tuple[float, float]] = []  # (luma, pixels)
     while candidates.size:
-        j = int(np.argmax(np.where(alive[candidates], density, -1.0)))
-        if not alive[candidates[j]] or density[j] < min_count:
+        j = int(np.argmax(density))
+        if density[j] < min_count:
             break
-        centre = at[j]
-        gone = alive & (np.abs(cells - centre).max(axis=1) <= r)
-        alive &= ~gone
-        grid[tuple(cells[gone].T)] = 0.0
-        # recount the candidates whose box overlaps the emptied one
-        near = np.abs(at - centre).max(axis=1) <= 2 * r
-        low, high = centre - margin, centre + margin + 1
-        block = grid[low[0]:high[0], low[1]:high[1], low[2]:high[2]]
-        density[near] = _box_sum(block)[tuple((at[near] - low).T)]
-        members = gone[colour_cell]
-        taken = float(counts[members].sum())
-        colour = (rgb[members] * counts[members, None]).sum(axis=0) / taken
+        x, y, z = cells[candidates[j]]
+        box = cell_at[x - r:x + r + 1, y - r:y + r + 1, z - r:z + r + 1]
+        gone = box[box >= 0]
+        box[box >= 0] = -1  # taken: these cells are gone for every later box
+        # the candidates whose box overlaps the emptied one lose the pixels taken
+        around = candidate_at[x - 2 * r:x + 2 * r + 1, y - 2 * r:y + 2 * r + 1, z - 2 * r:z + 2 * r + 1]
+        near = around[around >= 0]
+        reach = np.abs(cells[candidates[near]][:, None, :] - cells[gone][None, :, :]).max(axis=2) <= r
+        density[near] -= reach.astype(np.float64) @ mass[gone]
+        dead = candidate_of[gone]
+        density[dead[dead >= 0]] = -1.0  # a candidate whose cell is taken is no centre any more
+        taken = float(mass[gone].sum())
+        colour = rgb_sum[gone].sum(axis=0) / taken
         luma = float(rgb_to_yuv(colour)[0])
         if not shadows or not any(abs(luma - y) <= SHADOW_LUMA and m >= SHADOW_RATIO * taken
                                   for y, m in chosen_mass):
