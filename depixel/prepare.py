@@ -5,9 +5,10 @@ nearest-neighbour (every art pixel a k×k block), saved as JPEG (hundreds of nea
 colours from ringing and chroma subsampling), drawn on a solid backdrop. This stage undoes
 that before the similarity graph (docs/inputs.md has the how and the limits, with figures):
 
-1. denoise (lossy input): snap near-identical colours to a small palette;
-2. pixel grid: find the nearest-neighbour factor and grid offset of each axis, and reduce
-   every block to one pixel;
+1. pixel grid: find the nearest-neighbour factor and grid offset of each axis (from the
+   exact colour changes, or from luma edges for lossy input), and reduce every block to
+   one pixel (its colour, or for lossy input the median of its inner pixels);
+2. denoise (lossy input): snap near-identical colours to a small palette;
 3. backdrop: make one colour fully transparent.
 
 On real 1× art the grid is never found and nothing else is on by default for a lossless
@@ -115,7 +116,7 @@ class PreparedImage:
         if self.upscaled:
             factor = _factor_text(self.pixel_size)
             shift = f", grid offset {self.offset[0]},{self.offset[1]}" if any(self.offset) else ""
-            how = "upscaled pixel art" if self.detected else "pixel art at the given pixel size"
+            how = "upscaled pixel art" if self.detected else "pixel art (pixel size given)"
             parts.append(f"{name} is {factor} {how}{shift}; converted its {self.size[0]}×{self.size[1]} pixels")
         if self.denoised:
             source = f"lossy {self.lossy}" if self.lossy else "denoised"
@@ -125,7 +126,7 @@ class PreparedImage:
         parts.extend(self.notes)
         if not parts:
             return None
-        return parts[0] + "".join(f"; {p}" for p in parts[1:]) if self.upscaled else f"{name}: " + "; ".join(parts)
+        return ("" if self.upscaled else f"{name}: ") + "; ".join(parts)  # the first part names it
 
     def summary(self) -> dict:
         """What was detected and done, for JSON reports."""
@@ -198,10 +199,6 @@ def prepare(image, *, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
 
 
 # --- options ------------------------------------------------------------------------------------
-
-def _distinct_colours(rgba: np.ndarray) -> int:
-    return int(np.unique(colour_keys(rgba)).size)
-
 
 def parse_pixel_size(value: PixelSize) -> str | tuple[int, int]:
     """``"auto"``, ``N``, ``"N"``, ``"NxM"`` or ``(x, y)`` → ``"auto"`` or ``(x, y)``."""
@@ -433,6 +430,10 @@ def _median_agreement(rgba: np.ndarray, luma: np.ndarray, grid: Grid) -> float:
 
 # --- denoising ----------------------------------------------------------------------------------
 
+def _distinct_colours(rgba: np.ndarray) -> int:
+    return int(np.unique(colour_keys(rgba)).size)
+
+
 def snap_colours(rgba: np.ndarray, min_count: float | None = None,
                  shadows: bool = True) -> tuple[np.ndarray, int, int]:
     """Snap the visible pixels' colours to a small palette (alpha is kept).
@@ -625,15 +626,17 @@ def overlay_svg(svg: str, prepared: PreparedImage, scale: float = 1.0) -> str:
 
     width, height = numbers(np.array([prepared.input_size[0] * scale, prepared.input_size[1] * scale]), 3).tolist()
     box = numbers(np.array([prepared.viewbox()]), 6).tolist()[0]
-    stretch = ' preserveAspectRatio="none"' if prepared.pixel_size[0] != prepared.pixel_size[1] else ""
     head = re.search(r"<svg\b[^>]*>", svg)
     if head is None:
         raise ValueError("not an SVG document: no <svg> element")
-    tag = head.group(0)
-    for name, value in (("width", width), ("height", height), ("viewBox", box)):
-        tag = re.sub(rf'\s{name}="[^"]*"', f' {name}="{value}"', tag, count=1)
-    tag = tag[:-1] + stretch + ">"
-    return svg[: head.start()] + tag + svg[head.end():]
+    # the writer's own size and viewBox are replaced; everything else in the tag is kept
+    tag = re.sub(r"""\s(?:width|height|viewBox|preserveAspectRatio)\s*=\s*("[^"]*"|'[^']*')""", "",
+                 head.group(0))
+    size = f' width="{width}" height="{height}" viewBox="{box}"'
+    if prepared.pixel_size[0] != prepared.pixel_size[1]:
+        size += ' preserveAspectRatio="none"'  # non-square art pixels: stretch, do not letterbox
+    closing = 2 if tag.endswith("/>") else 1
+    return svg[: head.start()] + tag[:-closing] + size + tag[-closing:] + svg[head.end():]
 
 
 def overlay_raster(pixels: np.ndarray, prepared: PreparedImage, scale: float) -> np.ndarray:
