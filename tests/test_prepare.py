@@ -9,6 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from PIL import Image
 
+import depixel
 from depixel import load_image
 from depixel.errors import ParameterError
 from depixel.prepare import (PreparedImage, find_grid, lossy_format, parse_pixel_size, parse_transparent,
@@ -172,6 +173,22 @@ def test_corpus_sample_is_never_prepared():
     for path in corpus_pngs()[::5]:
         prepared = prepare(load_image(path))
         assert not prepared.changed, path.name
+
+
+@pytest.mark.parametrize("name", ["heart.png", "leaf.png", "potion_rgba.png", "heart_beat.gif"])
+def test_default_output_is_byte_identical_to_pixel_size_1(name):
+    """The zero-false-positive requirement itself, on the output (benchmarks/check_prepare.py
+    runs it on every fixture, paper sprite and frame)."""
+    rgba = load_image(FIXTURES / name)
+    assert depixel.convert(rgba) == depixel.convert(rgba, pixel_size=1)
+    assert depixel.convert(rgba, stage="cells") == depixel.convert(rgba, stage="cells", pixel_size=1)
+
+
+@needs_corpus
+def test_default_output_is_byte_identical_to_pixel_size_1_on_corpus_sprites():
+    for path in corpus_pngs()[::18]:
+        rgba = load_image(path)
+        assert depixel.convert(rgba, stage="cells") == depixel.convert(rgba, stage="cells", pixel_size=1), path.name
 
 
 # --- lossy input ------------------------------------------------------------------------------
