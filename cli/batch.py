@@ -98,7 +98,8 @@ def record_prepared(out: Outcome, prepared, source: Path | str, target: Path | s
     """Note what preparing a frame found (a one-line note and a --json entry), if anything."""
     line = prepared.describe(display_name(source))
     if line is not None:
-        out.notes.append(line)
+        if line not in out.notes:  # frames of an animation usually say the same: once
+            out.notes.append(line)
         out.prepared.append({"input": str(source), "output": str(target), **prepared.summary()})
 
 
