@@ -60,12 +60,13 @@ def main() -> int:
     rows: dict[str, list[tuple[float, float]]] = {"1x PNG": [], "1x JPEG q85": [], "4x PNG": [], "4x JPEG q90": []}
     for path in sprites:
         clean = load_image(path)
-        convert = timed(lambda: to_svg(depixelize(clean, Params()).vector), args.repeats)
+        convert = timed(lambda clean=clean: to_svg(depixelize(clean, Params()).vector), args.repeats)
         big = clean.repeat(4, axis=0).repeat(4, axis=1)
         inputs = {"1x PNG": (clean, None), "1x JPEG q85": (as_jpeg(clean, 85), "JPEG"),
                   "4x PNG": (big, None), "4x JPEG q90": (as_jpeg(big, 90), "JPEG")}
         for label, (rgba, lossy) in inputs.items():
-            rows[label].append((timed(lambda: prepare(rgba, lossy=lossy), args.repeats), convert))
+            seconds = timed(lambda rgba=rgba, lossy=lossy: prepare(rgba, lossy=lossy), args.repeats)
+            rows[label].append((seconds, convert))
     print(f"{len(sprites)} paper sprites, median of {args.repeats} runs each; preparation time as a share "
           f"of converting the 1x sprite (depixelize + to_svg)")
     print(f"{'input':12} {'prepare ms median':>17} {'max':>7} {'share median':>12} {'max':>7}")

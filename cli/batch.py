@@ -13,12 +13,14 @@ import os
 import sys
 import traceback
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
 from depixel import api
 from depixel.errors import DepixelError, display_name
 from depixel.image import frame_count
 from depixel.params import Params
+from depixel.prepare import PreparedImage
 
 from .options import error_message
 
@@ -82,7 +84,7 @@ def run_job(job: Job) -> Outcome:
                              frame=frame, background=opt.background, shading=opt.shading,
                              max_pixels=opt.max_pixels, precision=opt.precision, pixel_size=opt.pixel_size,
                              denoise=opt.denoise, transparent=opt.transparent,
-                             on_prepared=lambda p, t=target: record_prepared(out, p, job.source, t))
+                             on_prepared=partial(record_prepared, out, source=job.source, target=target))
             out.written.append(target)
         if opt.frames == "first" and out.written and (n := frame_count(job.source)) > 1:
             out.notes.append(f"{display_name(job.source)}: has {n} frames, converted the first (--frames all converts each)")
@@ -94,7 +96,7 @@ def run_job(job: Job) -> Outcome:
     return out
 
 
-def record_prepared(out: Outcome, prepared, source: Path | str, target: Path | str) -> None:
+def record_prepared(out: Outcome, prepared: PreparedImage, source: Path | str, target: Path | str) -> None:
     """Note what preparing a frame found (a one-line note and a --json entry), if anything."""
     line = prepared.describe(display_name(source))
     if line is not None:

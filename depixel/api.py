@@ -9,8 +9,8 @@ imported only when one of them is asked for (:mod:`depixel.raster`).
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 

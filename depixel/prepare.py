@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from typing import Union
 
 import numpy as np
 
@@ -59,7 +58,7 @@ CHROMA_WEIGHT = 0.3
 REFINE_STEPS = 2
 
 AUTO = "auto"
-PixelSize = Union[str, int, tuple[int, int]]
+PixelSize = str | int | tuple[int, int]
 Colour = tuple[int, int, int]
 
 
@@ -308,10 +307,10 @@ def find_grid(rgba: np.ndarray, pixel_size: str | tuple[int, int] = AUTO, lossy:
     else:
         keys = colour_keys(rgba)
         change = (_change_share(keys), _change_share(keys.T))
-    if pixel_size != AUTO:
+    if not isinstance(pixel_size, str):  # forced
         if pixel_size == (1, 1):
             return None
-        return pixel_size, tuple(_best_offset(c, k) for c, k in zip(change, pixel_size))
+        return pixel_size, (_best_offset(change[0], pixel_size[0]), _best_offset(change[1], pixel_size[1]))
     fits = [_fit_axis(c, LOSSY_OFF_GRID if lossy else 0.0) for c in change]
     if fits[0] is None or fits[1] is None:
         return None
@@ -562,7 +561,7 @@ def _box_sum(grid: np.ndarray) -> np.ndarray:
     for axis in range(3):
         n = grid.shape[axis]
 
-        def cut(start: int, stop: int) -> tuple[slice, ...]:
+        def cut(start: int, stop: int, axis: int = axis) -> tuple[slice, ...]:
             return tuple(slice(start, stop) if a == axis else slice(None) for a in range(3))
 
         running = np.cumsum(grid, axis=axis)
@@ -595,16 +594,17 @@ def make_transparent(rgba: np.ndarray, colour: str | Colour, snapped: bool = Fal
             return rgba, None, 0, None  # already on a transparent backdrop
         if not (corners == corners[0]).all() or rgba[0, 0, 3] != 255:
             return rgba, None, 0, "the corners differ, so no backdrop colour was made transparent"
-        target = tuple(int(v) for v in rgba[0, 0, :3])
+        target: Colour = (int(rgba[0, 0, 0]), int(rgba[0, 0, 1]), int(rgba[0, 0, 2]))
     else:
-        target = tuple(int(v) for v in colour)
+        target = (int(colour[0]), int(colour[1]), int(colour[2]))
         if snapped:
             visible = rgba[..., 3] > 0
             present = np.unique(rgba[..., :3][visible], axis=0)
             if present.size:
                 gap = np.abs(rgb_to_yuv(present) - rgb_to_yuv(np.array(target, dtype=np.float64))).max(axis=1)
                 if gap.min() <= SNAP_RADIUS:
-                    target = tuple(int(v) for v in present[int(np.argmin(gap))])
+                    nearest = present[int(np.argmin(gap))]
+                    target = (int(nearest[0]), int(nearest[1]), int(nearest[2]))
     hit = (rgba[..., 3] > 0) & (rgba[..., :3] == np.array(target, dtype=np.uint8)).all(axis=2)
     n = int(hit.sum())
     if n == 0:

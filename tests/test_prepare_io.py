@@ -193,7 +193,8 @@ def test_inspect_shows_the_input_beside_the_prepared_image(upscaled_png, tmp_pat
     assert plain[0] == "input" and len(titles) == len(plain) + 1
     with Image.open(out) as img:
         rows, cols = figure.grid_shape(len(titles))
-        assert img.size == (cols * 72 + (cols + 1) * figure.GAP, rows * (64 + figure.TITLE_HEIGHT) + (rows + 1) * figure.GAP)
+        assert img.size == (cols * 72 + (cols + 1) * figure.GAP,
+                            rows * (64 + figure.TITLE_HEIGHT) + (rows + 1) * figure.GAP)
 
 
 def test_the_input_panel_lies_over_the_art_grid():
