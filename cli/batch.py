@@ -15,6 +15,7 @@ import sys
 import time
 import traceback
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
 from depixel import api
@@ -23,6 +24,7 @@ from depixel.errors import DepixelError, display_name
 from depixel.image import frame_count, load_frames
 from depixel.limits import PEAK_BYTES_PER_PIXEL, WORKER_BASELINE_BYTES
 from depixel.params import Params
+from depixel.prepare import PreparedImage
 from depixel.svg import DEFAULT_SIMPLIFY
 
 from .options import error_message
@@ -51,6 +53,9 @@ class Options:
     width: int | None = None  # output width in pixels (instead of scale)
     height: int | None = None
     max_output_pixels: int | None = None
+    pixel_size: str | tuple[int, int] = "auto"  # input preparation (depixel/prepare.py)
+    denoise: bool | None = None
+    transparent: str | tuple[int, int, int] | None = None
 
 
 @dataclass(frozen=True)
@@ -72,6 +77,7 @@ class Outcome:
     written: list[Path] = field(default_factory=list)
     up_to_date: list[Path] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    prepared: list[dict] = field(default_factory=list)  # what preparing each frame found, when anything
     error: str | None = None
     traceback: str | None = None
     state: str = DONE  # or INTERRUPTED (running when stopped) or CANCELLED (never started)
@@ -102,7 +108,8 @@ def run_job(job: Job) -> Outcome:
                 if frame in todo:
                     target, options = todo[frame]
                     api.write_converted(rgba, job.source, target, options, max_pixels=opt.max_pixels,
-                                        max_output_pixels=opt.max_output_pixels)
+                                        max_output_pixels=opt.max_output_pixels,
+                                        on_prepared=partial(record_prepared, out, source=job.source, target=target))
                     out.written.append(target)
         if opt.frames == "first" and out.written and (n := frame_count(job.source)) > 1:
             out.notes.append(f"{display_name(job.source)}: has {n} frames, converted the first "
@@ -129,7 +136,8 @@ def _outputs_to_make(job: Job, out: Outcome) -> dict[int, tuple[Path, dict]]:
         options = api.file_options(target, opt.params, fmt=opt.fmt, stage=opt.stage, scale=opt.scale,
                                    frame=frame, background=opt.background, shading=opt.shading,
                                    precision=opt.precision, width=opt.width, height=opt.height,
-                                   layout=opt.layout, simplify=opt.simplify)
+                                   layout=opt.layout, simplify=opt.simplify, pixel_size=opt.pixel_size,
+                                   denoise=opt.denoise, transparent=opt.transparent)
         if not opt.force and api.is_up_to_date(job.source, target, options):
             out.up_to_date.append(target)
         else:
@@ -177,6 +185,15 @@ def remove_temporary_files(job: Job) -> None:
                 leftover.unlink(missing_ok=True)
         except (OSError, ValueError):
             pass
+
+
+def record_prepared(out: Outcome, prepared: PreparedImage, source: Path | str, target: Path | str) -> None:
+    """Note what preparing a frame found (a one-line note and a --json entry), if anything."""
+    line = prepared.describe(display_name(source))
+    if line is not None:
+        if line not in out.notes:  # frames of an animation usually say the same: once
+            out.notes.append(line)
+        out.prepared.append({"input": str(source), "output": str(target), **prepared.summary()})
 
 
 # --- finding inputs and naming outputs --------------------------------------------------------
@@ -474,5 +491,6 @@ def summary(outcomes: list[Outcome], seconds: float, interrupted: bool = False) 
         "interrupted": interrupted,
         "not_done": sum(1 for o in outcomes if o.state != DONE),
         "outputs": outputs,
+        "prepared": [entry for o in outcomes for entry in o.prepared],
         "seconds": round(seconds, 3),
     }

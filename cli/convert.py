@@ -17,6 +17,7 @@ from depixel.limits import DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
 from depixel.outlines import LAYOUTS
 from depixel.output import write_atomic
 from depixel.pipeline import STAGES
+from depixel.prepare import lossy_format
 from depixel.svg import DEFAULT_SIMPLIFY
 
 from .batch import (
@@ -31,11 +32,13 @@ from .batch import (
     expand_inputs,
     make_folders,
     plan,
+    record_prepared,
     run,
     summary,
 )
 from .options import (
     Exit,
+    add_input_options,
     add_tuning,
     colour,
     error_message,
@@ -54,8 +57,11 @@ examples:
   depixel convert 'art/*.gif' --out-dir out --frames all    every frame: name-000.svg, ...
   cat sprite.png | depixel convert - -o - > sprite.svg  stdin to stdout
   depixel convert sprite.png -o cells.svg --stage cells     only the reshaped pixel cells
+  depixel convert ghost_x4.jpg -o ghost.svg --transparent auto   upscaled JPEG on a backdrop
 
 Convert pixel art to SVG, PNG or PDF (Kopf & Lischinski, Depixelizing Pixel Art, 2011).
+Upscaled pixel art is detected and converted at 1x, the SVG laid over the input (same
+width/height); JPEG noise is snapped to a palette (see the input options and docs/inputs.md).
 The format comes from the output's extension (--format for a name without .svg/.png/.pdf;
 a format that contradicts the extension is refused). With --out-dir, outputs keep the
 inputs' relative folders; an output newer than its input and made with the same options is
@@ -99,7 +105,8 @@ def add_parser(sub) -> None:
                           "must agree with a .svg/.png/.pdf name")
     size = out.add_mutually_exclusive_group()
     size.add_argument("--scale", type=positive_float, default=1.0,
-                      help="size as a multiple of the pixel size: SVG width/height, PNG pixels, PDF size (default 1)")
+                      help="size as a multiple of the input's size: SVG width/height, PNG pixels, PDF size "
+                           "(default 1)")
     size.add_argument("--width", type=positive_int, metavar="W",
                       help="output width in pixels (SVG width, PNG pixels), height to match")
     size.add_argument("--height", type=positive_int, metavar="H", help="output height in pixels, width to match")
@@ -139,7 +146,9 @@ def add_parser(sub) -> None:
                             "inputs and outputs must be on a filesystem the workers share; pip install 'depixel[dask]'")
     batch.add_argument("--json", action="store_true",
                        help="print a JSON summary on stdout (files, ok, skipped, failed with reasons, every output "
-                            "with its status, interrupted, seconds)")
+                            "with its status, what the input preparation found, interrupted, seconds)")
+    batch.add_argument("-q", "--quiet", action="store_true", help="no notes on stderr (errors are still shown)")
+    add_input_options(p)
     add_tuning(p)
     p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
                    help="show the full traceback on errors")
@@ -166,7 +175,8 @@ def run_convert(args: argparse.Namespace) -> int:
     options = Options(params_from_args(args), fmt, args.stage, args.scale, args.frames, args.background,
                       args.max_pixels, force=args.force, shading=args.shading, precision=args.precision,
                       width=args.width, height=args.height, max_output_pixels=args.max_output_pixels,
-                      layout=args.layout, simplify=args.simplify)
+                      layout=args.layout, simplify=args.simplify, pixel_size=args.pixel_size, denoise=args.denoise,
+                      transparent=args.transparent)
 
     start = time.perf_counter()
     signals = args.signals
@@ -234,9 +244,12 @@ def _convert_stream(source: str, output: str, options: Options) -> Outcome:
             targets = [(0 if options.frames == "first" else int(options.frames), output)]
         for frame, target in targets:
             # a file object so that load errors name "<stdin>"; a path so they name the file
-            rgba = api.load(io.BytesIO(data) if source == "-" else source, frame=frame,
-                            background=options.background, max_pixels=options.max_pixels)
-            blob = api.convert_bytes(rgba, options.fmt, options.params, stage=options.stage,
+            rgba = api.load(io.BytesIO(data) if source == "-" else source, frame=frame, max_pixels=options.max_pixels)
+            prepared = api.prepare_input(rgba, background=options.background, pixel_size=options.pixel_size,
+                                         denoise=options.denoise, transparent=options.transparent,
+                                         lossy=lossy_format(data))
+            record_prepared(out, prepared, name, target)
+            blob = api.convert_bytes(prepared, options.fmt, options.params, stage=options.stage,
                                      scale=options.scale, shading=options.shading, name=name,
                                      title=None if source == "-" else Path(source).name,
                                      precision=options.precision, width=options.width, height=options.height,
@@ -260,7 +273,7 @@ def _convert_stream(source: str, output: str, options: Options) -> Outcome:
 def _report(outcome: Outcome, progress: Progress, args: argparse.Namespace, step: bool = True) -> None:
     if outcome.state != DONE:
         return
-    for note in outcome.notes:
+    for note in () if args.quiet else outcome.notes:
         progress.message(f"note: {note}")
     if outcome.error:
         progress.message(f"error: {outcome.error}")

@@ -97,6 +97,36 @@ def colour(text: str) -> tuple[int, int, int]:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
+def pixel_size(text: str) -> str | tuple[int, int]:
+    """``--pixel-size``: auto, N or NxM."""
+    from depixel.errors import ParameterError  # noqa: PLC0415
+    from depixel.prepare import parse_pixel_size  # noqa: PLC0415
+
+    try:
+        return parse_pixel_size(text)
+    except ParameterError as exc:
+        raise argparse.ArgumentTypeError(str(exc).replace("pixel_size ", "", 1)) from None
+
+
+def transparent_colour(text: str) -> str | tuple[int, int, int]:
+    """``--transparent``: auto or a colour."""
+    return "auto" if text.strip().lower() == "auto" else colour(text)
+
+
+def add_input_options(parser: argparse.ArgumentParser) -> None:
+    """The options that prepare pixel art as people have it (depixel/prepare.py)."""
+    group = parser.add_argument_group("input (pixel art saved upscaled, as JPEG or on a backdrop; docs/inputs.md)")
+    group.add_argument("--pixel-size", type=pixel_size, default="auto", metavar="auto|N|NxM",
+                       help="input pixels per art pixel: auto detects nearest-neighbour upscaling (default), "
+                            "1 takes the pixels as they are, N or NxM (width x height) forces a grid")
+    group.add_argument("--denoise", action=argparse.BooleanOptionalAction, default=None,
+                       help="snap near-identical colours to a small palette (default: on for JPEG and "
+                            "lossy WebP files, off otherwise)")
+    group.add_argument("--transparent", type=transparent_colour, metavar="COLOR|auto",
+                       help="make this backdrop colour fully transparent; auto: the colour of the four "
+                            "corners when they agree")
+
+
 # --- tuning flags: one per Params field a user may want to change -------------------------------
 
 _DEFAULTS = {f.name: f.default for f in fields(Params)}
@@ -146,6 +176,8 @@ FLAG_OF_PARAMETER = {
     "precision": "--precision",
     "layout": "--layout",
     "simplify": "--simplify",
+    "pixel_size": "--pixel-size",
+    "transparent": "--transparent",
     **{name: flag for flag, name, _, _ in TUNING},
 }
 

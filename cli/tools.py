@@ -16,6 +16,7 @@ from depixel.pipeline import STAGES
 
 from .options import (
     Exit,
+    add_input_options,
     add_tuning,
     colour,
     int_range,
@@ -54,11 +55,14 @@ INSPECT_DESCRIPTION = """\
 examples:
   depixel inspect sprite.png -o stages.png             every stage in one picture
   depixel inspect sprite.png --out-dir stages/ --zoom 16    one PNG per stage
+  depixel inspect ghost_x4.jpg -o stages.png           the input beside the 1x art found in it
 
 Draw every stage of the pipeline, like the paper's Figure 3: the input, the similarity
 graph (blue: diagonals in flat blocks, red: ambiguous crossings), the graph after the
 crossings are resolved (green: kept diagonal, dashed red: removed), the reshaped cells, the
-splines with their control points, the optimized splines and the final render.
+splines with their control points, the optimized splines and the final render. When the
+input is prepared first (upscaled, JPEG, --transparent), the input as given comes first and
+the 1x image the pipeline converted second.
 """
 
 
@@ -123,6 +127,7 @@ def add_parsers(sub) -> None:
                          help=f"refuse larger images (default {DEFAULT_MAX_PIXELS})")
     inspect.add_argument("--max-output-pixels", type=positive_int, default=DEFAULT_MAX_OUTPUT_PIXELS, metavar="N",
                          help=f"refuse figures of more pixels (default {DEFAULT_MAX_OUTPUT_PIXELS})")
+    add_input_options(inspect)
     add_tuning(inspect)
     _debug(inspect)
 
@@ -196,10 +201,15 @@ def run_inspect(args: argparse.Namespace) -> int:
 
     if args.output is None and args.out_dir is None:
         args.parser.error("say where to write: -o PNG and/or --out-dir DIR")
+    from depixel.prepare import lossy_format  # noqa: PLC0415
+
     rgba = api.load(args.input, frame=args.frame, background=args.background, max_pixels=args.max_pixels)
-    check_figure_size(rgba.shape[:2], args.zoom, panel_count(args.stage), args.max_output_pixels)
-    result = depixelize(rgba, params_from_args(args), stage=args.stage)
-    panels = stage_panels(result, args.zoom, max_output_pixels=args.max_output_pixels)
+    prepared = api.prepare_input(rgba, pixel_size=args.pixel_size, denoise=args.denoise,
+                                 transparent=args.transparent, lossy=lossy_format(api.read_input(args.input)))
+    check_figure_size(prepared.rgba.shape[:2], args.zoom, panel_count(args.stage) + prepared.changed,
+                      args.max_output_pixels)
+    result = depixelize(prepared.rgba, params_from_args(args), stage=args.stage)
+    panels = stage_panels(result, args.zoom, prepared, rgba, max_output_pixels=args.max_output_pixels)
     protect = (Path(args.input),)
     if args.out_dir is not None:
         try:

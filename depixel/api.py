@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +24,18 @@ from .outlines import LAYOUTS
 from .output import write_atomic
 from .params import Params
 from .pipeline import STAGES, depixelize
+from .prepare import (
+    AUTO,
+    PixelSize,
+    PreparedImage,
+    lossy_format,
+    overlay_raster,
+    overlay_svg,
+    parse_pixel_size,
+    parse_transparent,
+    pil_lossy,
+    prepare,
+)
 from .svg import DEFAULT_SIMPLIFY, MAX_SIMPLIFY, to_svg
 
 #: Output formats, chosen from the file extension or given explicitly.
@@ -124,35 +137,60 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
             background: Colour | str | None = None, title: str | None = None, precision: int = 3,
             width: int | None = None, height: int | None = None,
             max_pixels: int | None = DEFAULT_MAX_PIXELS, layout: str = "stacked",
-            simplify: float = DEFAULT_SIMPLIFY) -> str:
-    """Depixelize an image (``(H, W[, C])`` array or PIL image) → SVG text.
+            simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
+            transparent: Colour | str | None = None) -> str:
+    """Depixelize an image (``(H, W[, C])`` array, PIL image or :class:`PreparedImage`) → SVG text.
 
-    ``scale`` sets the SVG's width/height as a multiple of the pixel size (or ``width`` or
-    ``height`` in pixels, the other following); the viewBox stays in input pixels.
-    ``stage`` stops the pipeline early ("cells", "splines"; "splines" is the result without
-    the §3.4 optimization). ``precision`` is the number of decimals of the SVG's
-    coordinates. ``layout`` is "stacked" (every shape continues under the shapes drawn
-    above it) or "cutout" (shapes that tile the image); ``simplify`` is the tolerance in
-    pixels within which fewer curves replace the exact spline (0: the exact spline;
-    docs/svg.md). Images over ``max_pixels`` pixels are refused (``None``: no limit).
+    ``scale`` sets the SVG's width/height as a multiple of the input's size (or ``width`` or
+    ``height`` in pixels, the other following); the viewBox is in art pixels. ``stage``
+    stops the pipeline early ("cells", "splines"; "splines" is the result without the §3.4
+    optimization). ``precision`` is the number of decimals of the SVG's coordinates.
+    ``layout`` is "stacked" (every shape continues under the shapes drawn above it) or
+    "cutout" (shapes that tile the image); ``simplify`` is the tolerance in pixels within
+    which fewer curves replace the exact spline (0: the exact spline; docs/svg.md).
+    ``pixel_size``, ``denoise`` and ``transparent`` prepare the input first
+    (:func:`depixel.prepare.prepare`, docs/inputs.md): upscaled art is converted at 1× and
+    laid exactly over the input. Images over ``max_pixels`` pixels are refused (``None``:
+    no limit).
     """
-    rgba, scale = _prepare(image, params, stage, precision, background, scale, width, height, max_pixels,
-                           layout=layout, simplify=simplify)
-    result = depixelize(rgba, params, stage=stage)
-    return to_svg(result.vector, scale=scale, precision=precision, title=title, layout=layout, simplify=simplify)
+    prepared, scale = _prepare(image, params, stage, precision, background, scale, width, height, max_pixels,
+                               layout=layout, simplify=simplify, pixel_size=pixel_size, denoise=denoise,
+                               transparent=transparent)
+    result = depixelize(prepared.rgba, params, stage=stage)
+    svg = to_svg(result.vector, scale=scale, precision=precision, title=title, layout=layout, simplify=simplify)
+    return overlay_svg(svg, prepared, scale)
+
+
+def prepare_input(image, *, background: Colour | str | None = None, pixel_size: PixelSize = AUTO,
+                  denoise: bool | None = None, transparent: Colour | str | None = None,
+                  lossy: str | None = None, max_pixels: int | None = DEFAULT_MAX_PIXELS) -> PreparedImage:
+    """:func:`depixel.prepare.prepare` after flattening over ``background`` (when given);
+    a :class:`PreparedImage` is returned as it is. ``lossy`` names the lossy format the
+    pixels came from ("JPEG"; a PIL image says so itself), which turns denoising on."""
+    if isinstance(image, PreparedImage):
+        return image
+    colour = _colour(background)
+    _pixels(image, max_pixels=max_pixels)
+    lossy = lossy or pil_lossy(image)
+    rgba = as_rgba(image) if colour is None else flatten(image, colour)
+    return prepare(rgba, pixel_size=pixel_size, denoise=denoise, transparent=transparent, lossy=lossy)
 
 
 def _prepare(image, params, stage, precision, background, scale, width, height, max_pixels,
-             name: str = "<image>", layout: str = "stacked",
-             simplify: float = DEFAULT_SIMPLIFY) -> tuple[np.ndarray, float]:
-    """Check every argument of a conversion → the RGBA pixels and the scale to write at."""
+             name: str = "<image>", layout: str = "stacked", simplify: float = DEFAULT_SIMPLIFY,
+             pixel_size: PixelSize = AUTO, denoise: bool | None = None, transparent: Colour | str | None = None,
+             lossy: str | None = None) -> tuple[PreparedImage, float]:
+    """Check every argument of a conversion → the prepared 1× art and the scale to write at
+    (relative to the input's size)."""
     if not isinstance(params, Params):
         raise ParameterError(f"params must be a depixel.Params, not {type(params).__name__}", parameter="params")
     _output_options(stage, precision, layout, simplify)
-    colour = _colour(background)
-    _pixels(image, name, max_pixels)
-    rgba = as_rgba(image) if colour is None else flatten(image, colour)
-    return rgba, _scale(rgba.shape, scale, width, height)
+    if not isinstance(image, PreparedImage):
+        _pixels(image, name, max_pixels)
+    prepared = prepare_input(image, background=background, pixel_size=pixel_size, denoise=denoise,
+                             transparent=transparent, lossy=lossy, max_pixels=None)
+    w, h = prepared.input_size
+    return prepared, _scale((h, w), scale, width, height)
 
 
 def encode(svg: str, fmt: str = "svg", *, name: str = "<svg>", keywords: str | None = None) -> bytes:
@@ -171,7 +209,8 @@ def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: 
                   width: int | None = None, height: int | None = None,
                   max_pixels: int | None = DEFAULT_MAX_PIXELS,
                   max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS, layout: str = "stacked",
-                  simplify: float = DEFAULT_SIMPLIFY) -> bytes:
+                  simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
+                  transparent: Colour | str | None = None) -> bytes:
     """Like :func:`convert`, returning the bytes of an SVG, PNG or PDF file.
 
     PNG output is rendered with the paper's smooth shading unless ``shading="flat"``, which
@@ -181,24 +220,28 @@ def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: 
     return _convert_bytes(image, fmt, params, stage=stage, scale=scale, background=background, title=title,
                           shading=shading, name=name, precision=precision, width=width, height=height,
                           max_pixels=max_pixels, max_output_pixels=max_output_pixels, layout=layout,
-                          simplify=simplify)
+                          simplify=simplify, pixel_size=pixel_size, denoise=denoise, transparent=transparent)
 
 
 def _convert_bytes(image, fmt, params, *, stage, scale, background, title, shading, name, precision,
-                   width, height, max_pixels, max_output_pixels, layout, simplify, stamp: str | None = None) -> bytes:
+                   width, height, max_pixels, max_output_pixels, layout, simplify, pixel_size=AUTO,
+                   denoise=None, transparent=None, lossy=None, stamp: str | None = None,
+                   on_prepared: Callable[[PreparedImage], None] | None = None) -> bytes:
     """:func:`convert_bytes`, with the options ``stamp`` written into the file when given."""
     validate.choice("format", fmt, FORMATS)
     validate.choice("shading", shading, SHADINGS)
     max_output_pixels = validate.limit("max_output_pixels", max_output_pixels)
-    rgba, scale = _prepare(image, params, stage, precision, background, scale, width, height, max_pixels, name,
-                           layout, simplify)
+    prepared, scale = _prepare(image, params, stage, precision, background, scale, width, height, max_pixels, name,
+                               layout, simplify, pixel_size, denoise, transparent, lossy)
+    if on_prepared is not None:
+        on_prepared(prepared)
     if fmt == "png":
-        size = max(1, round(rgba.shape[1] * scale)), max(1, round(rgba.shape[0] * scale))
+        size = max(1, round(prepared.input_size[0] * scale)), max(1, round(prepared.input_size[1] * scale))
         if max_output_pixels is not None and size[0] * size[1] > max_output_pixels:
             raise RenderError(f"{name}: a {size[0]}x{size[1]} PNG is {size[0] * size[1]} pixels, over the "
                               f"limit of {max_output_pixels} (raise it with max_output_pixels)",
                               parameter="max_output_pixels")
-    vector = depixelize(rgba, params, stage=stage).vector
+    vector = depixelize(prepared.rgba, params, stage=stage).vector
     if fmt == "png" and shading == "smooth":
         import io  # noqa: PLC0415
 
@@ -206,11 +249,14 @@ def _convert_bytes(image, fmt, params, *, stage, scale, background, title, shadi
 
         from .shading import render_smooth  # noqa: PLC0415
 
+        # rendered at the art's grid, then laid over the input like the SVG
+        pixels = render_smooth(vector, scale * max(prepared.pixel_size), params=params)
         buffer = io.BytesIO()
-        Image.fromarray(render_smooth(vector, scale, params=params), "RGBA").save(buffer, format="PNG")
+        Image.fromarray(overlay_raster(pixels, prepared, scale), "RGBA").save(buffer, format="PNG")
         blob = buffer.getvalue()
     else:
         svg = to_svg(vector, scale=scale, precision=precision, title=title, layout=layout, simplify=simplify)
+        svg = overlay_svg(svg, prepared, scale)
         keywords = None if stamp is None else f"{stamps.KEY}:{stamp}"
         blob = encode(svg, fmt, name=name, keywords=keywords)
     return blob if stamp is None else stamps.embed(blob, fmt, stamp)
@@ -249,18 +295,23 @@ def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: P
                  max_pixels: int | None = DEFAULT_MAX_PIXELS, precision: int = 3,
                  width: int | None = None, height: int | None = None,
                  max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS, layout: str = "stacked",
-                 simplify: float = DEFAULT_SIMPLIFY) -> Path:
+                 simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
+                 transparent: Colour | str | None = None,
+                 on_prepared: Callable[[PreparedImage], None] | None = None) -> Path:
     """Convert one image file (one frame of it) to an SVG, PNG or PDF file; returns the output path.
 
     The output is written atomically and never replaces ``source``. PNG output uses the
     smooth renderer unless ``shading="flat"``. The file carries the stamp of the options that
-    made it (:mod:`depixel.stamp`), which :func:`is_up_to_date` compares.
+    made it (:mod:`depixel.stamp`), which :func:`is_up_to_date` compares. ``denoise=None``
+    denoises JPEG and lossy WebP files; ``on_prepared`` is called with what the preparation
+    found (to report it).
     """
     options = file_options(output, params, fmt=fmt, stage=stage, scale=scale, frame=frame, background=background,
                            shading=shading, precision=precision, width=width, height=height, layout=layout,
-                           simplify=simplify)
+                           simplify=simplify, pixel_size=pixel_size, denoise=denoise, transparent=transparent)
     rgba = load(source, frame=frame, max_pixels=max_pixels)
-    write_converted(rgba, source, output, options, max_pixels=max_pixels, max_output_pixels=max_output_pixels)
+    write_converted(rgba, source, output, options, max_pixels=max_pixels, max_output_pixels=max_output_pixels,
+                    on_prepared=on_prepared)
     return Path(output)
 
 
@@ -268,7 +319,8 @@ def file_options(output: str | os.PathLike, params: Params = Params(), *, fmt: s
                  stage: str = "optimized", scale: float = 1.0, frame: int = 0,
                  background: Colour | str | None = None, shading: str = "smooth", precision: int = 3,
                  width: int | None = None, height: int | None = None, layout: str = "stacked",
-                 simplify: float = DEFAULT_SIMPLIFY) -> dict:
+                 simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
+                 transparent: Colour | str | None = None) -> dict:
     """The checked options of :func:`convert_file` that decide the output's bytes, with
     their ``stamp``; the arguments of :func:`write_converted` and :func:`is_up_to_date`."""
     if not isinstance(params, Params):
@@ -279,7 +331,8 @@ def file_options(output: str | os.PathLike, params: Params = Params(), *, fmt: s
     options = {"fmt": output_format(output, fmt), "stage": stage, "scale": float(scale), "frame": int(frame),
                "background": _colour(background), "shading": validate.choice("shading", shading, SHADINGS),
                "precision": int(precision), "width": width, "height": height, "params": params,
-               "layout": layout, "simplify": float(simplify)}
+               "layout": layout, "simplify": float(simplify), "pixel_size": parse_pixel_size(pixel_size),
+               "denoise": denoise, "transparent": parse_transparent(transparent)}
     # only what changes the bytes: shading is for PNG, which ignores the SVG's settings when smooth
     smooth_png = options["fmt"] == "png" and shading == "smooth"
     stamp = stamps.options_stamp(**{**options, "params": dataclasses.asdict(params),
@@ -290,15 +343,18 @@ def file_options(output: str | os.PathLike, params: Params = Params(), *, fmt: s
 
 def write_converted(rgba: np.ndarray, source: str | os.PathLike, output: str | os.PathLike, options: dict, *,
                     max_pixels: int | None = DEFAULT_MAX_PIXELS,
-                    max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS) -> None:
-    """Convert decoded pixels of ``source`` with :func:`file_options` and write ``output`` atomically."""
-    colour = options["background"]
-    blob = _convert_bytes(rgba if colour is None else flatten(rgba, colour), options["fmt"], options["params"],
-                          stage=options["stage"], scale=options["scale"], background=None,
-                          title=Path(source).name, shading=options["shading"], name=display_name(source),
-                          precision=options["precision"], width=options["width"], height=options["height"],
-                          layout=options["layout"], simplify=options["simplify"],
-                          max_pixels=max_pixels, max_output_pixels=max_output_pixels, stamp=options["stamp"])
+                    max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS,
+                    on_prepared: Callable[[PreparedImage], None] | None = None) -> None:
+    """Convert decoded pixels of ``source`` with :func:`file_options` and write ``output``
+    atomically (the file's own format says whether it is lossy: JPEG and lossy WebP are
+    denoised unless ``denoise`` says otherwise)."""
+    blob = _convert_bytes(rgba, options["fmt"], options["params"], stage=options["stage"], scale=options["scale"],
+                          background=options["background"], title=Path(source).name, shading=options["shading"],
+                          name=display_name(source), precision=options["precision"], width=options["width"],
+                          height=options["height"], max_pixels=max_pixels, max_output_pixels=max_output_pixels,
+                          layout=options["layout"], simplify=options["simplify"], pixel_size=options["pixel_size"],
+                          denoise=options["denoise"], transparent=options["transparent"],
+                          lossy=lossy_format(read_source(source)), stamp=options["stamp"], on_prepared=on_prepared)
     write_atomic(output, blob, protect=(Path(source),))
 
 

@@ -3,7 +3,9 @@ the way it does.
 
 Panels, each the image magnified ``zoom`` times:
 
-1. input — the pixels (transparency as a checkerboard);
+0. input as given — only when preparing it changed something (an upscaled image, JPEG
+   noise, a backdrop made transparent): the original laid over the grid of the art pixels;
+1. input — the pixels (transparency as a checkerboard); "prepared 1x" after panel 0;
 2. similarity graph — links between similar neighbours; crossing diagonals in flat 2×2
    blocks in blue, ambiguous crossings (decided by the heuristics) in red;
 3. crossings resolved — the planar graph; at ambiguous blocks the kept diagonal is thick
@@ -53,9 +55,9 @@ def grid_shape(n_panels: int) -> tuple[int, int]:
     return math.ceil(n_panels / cols), cols
 
 
-def figure(result: Result, zoom: int | None = None):
+def figure(result: Result, zoom: int | None = None, prepared=None, original: np.ndarray | None = None):
     """All stage panels of one run, composed into one PIL image."""
-    return compose(stage_panels(result, zoom))
+    return compose(stage_panels(result, zoom, prepared, original))
 
 
 def compose(panels: list[tuple[str, Image]]):
@@ -92,15 +94,23 @@ def check_figure_size(shape: tuple[int, int], zoom: int | None, n_panels: int,
                           parameter="max_output_pixels")
 
 
-def stage_panels(result: Result, zoom: int | None = None,
+def stage_panels(result: Result, zoom: int | None = None, prepared=None, original: np.ndarray | None = None,
                  max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS) -> list[tuple[str, Image]]:
     """(title, PIL image) for every stage the run reached, in pipeline order. Panels that
-    would hold more than ``max_output_pixels`` pixels together are refused before drawing."""
+    would hold more than ``max_output_pixels`` pixels together are refused before drawing.
+
+    With the :class:`depixel.prepare.PreparedImage` the run converted and the ``original``
+    ``(H, W, 4)`` image it came from, the original comes first when preparing changed it.
+    """
     z = zoom or default_zoom(result.cells.shape)
-    check_figure_size(result.cells.shape, z, 5 + (result.splines is not None) + (result.optimized is not None),
-                      max_output_pixels)
-    panels = [
-        ("input", _input_panel(result, z)),
+    changed = prepared is not None and original is not None and prepared.changed
+    n_panels = 5 + changed + (result.splines is not None) + (result.optimized is not None)
+    check_figure_size(result.cells.shape, z, n_panels, max_output_pixels)
+    before = []
+    if changed and original is not None:
+        before = [("input as given", _original_panel(original, prepared, z))]
+    panels = before + [
+        ("prepared 1x" if before else "input", _input_panel(result, z)),
         ("similarity graph", _similarity_panel(result, z)),
         ("crossings resolved", _resolved_panel(result, z)),
         ("reshaped cells", _cells_panel(result, z)),
@@ -142,6 +152,23 @@ def _pixels(result: Result, z: int, fade: float = 0.0):
 
 def _input_panel(result: Result, z: int):
     return _pixels(result, z)
+
+
+def _original_panel(original: np.ndarray, prepared, z: int):
+    """The image as given, resampled (nearest) onto the panel of the art's grid: each input
+    pixel lands where its art pixel is drawn; the partial blocks cut off a crop stay blank."""
+    from PIL import Image  # noqa: PLC0415
+
+    gh, gw = prepared.rgba.shape[:2]
+    (kx, ky), (ox, oy) = prepared.pixel_size, prepared.offset
+    # panel pixel centre → input pixel: art coordinate × k, less the missing part of the first block
+    x = np.floor((np.arange(gw * z) + 0.5) * kx / z).astype(np.int64) - (kx - ox) % kx
+    y = np.floor((np.arange(gh * z) + 0.5) * ky / z).astype(np.int64) - (ky - oy) % ky
+    inside = (y[:, None] >= 0) & (y[:, None] < original.shape[0]) & (x[None, :] >= 0) & (x[None, :] < original.shape[1])
+    big = original[np.clip(y, 0, original.shape[0] - 1)][:, np.clip(x, 0, original.shape[1] - 1)]
+    rgb = _over(big, _checkerboard(gh, gw, z))
+    rgb[~inside] = PAPER
+    return Image.fromarray(rgb, "RGB")
 
 
 def _centre(index: np.ndarray, w: int, z: int) -> np.ndarray:
