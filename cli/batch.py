@@ -25,7 +25,7 @@ from depixel.image import frame_count, load_frames
 from depixel.limits import PEAK_BYTES_PER_PIXEL, WORKER_BASELINE_BYTES
 from depixel.params import Params
 from depixel.prepare import PreparedImage
-from depixel.svg import DEFAULT_SIMPLIFY
+from depixel.svg import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
 
 from .options import error_message
 
@@ -47,7 +47,7 @@ class Options:
     max_pixels: int | None
     force: bool  # reconvert outputs that are up to date
     shading: str = "smooth"  # PNG: the paper's smooth renderer, or "flat" (the SVG rasterized)
-    precision: int = 3  # decimals of SVG coordinates
+    precision: int = DEFAULT_PRECISION  # decimals of SVG coordinates
     layout: str = "stacked"  # SVG: shapes stacked (each continues under those above) or cut out
     simplify: float = DEFAULT_SIMPLIFY  # SVG: tolerance of the curve simplification, pixels (0: exact)
     width: int | None = None  # output width in pixels (instead of scale)

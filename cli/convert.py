@@ -18,7 +18,7 @@ from depixel.outlines import LAYOUTS
 from depixel.output import write_atomic
 from depixel.pipeline import STAGES
 from depixel.prepare import lossy_format
-from depixel.svg import DEFAULT_SIMPLIFY
+from depixel.svg import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
 
 from .batch import (
     CANCELLED,
@@ -119,8 +119,8 @@ def add_parser(sub) -> None:
                      help="frames of an animated image: the first (default), all (name-000.svg, ...) or frame N")
     out.add_argument("--stage", choices=STAGES, default="optimized",
                      help="stop at this pipeline stage (default: optimized, the final result)")
-    out.add_argument("--precision", type=int_range(0, 12), default=3, metavar="N",
-                     help="decimals of the numbers in the SVG (default 3)")
+    out.add_argument("--precision", type=int_range(0, 12), default=DEFAULT_PRECISION, metavar="N",
+                     help=f"decimals of the numbers in the SVG (default {DEFAULT_PRECISION})")
     out.add_argument("--layout", choices=LAYOUTS, default="stacked",
                      help="SVG shapes: stacked (default), each drawn over the ones it lies on and continuing "
                           "under the ones above it, as an illustrator layers them; or cutout, shapes that tile "

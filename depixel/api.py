@@ -36,7 +36,7 @@ from .prepare import (
     pil_lossy,
     prepare,
 )
-from .svg import DEFAULT_SIMPLIFY, MAX_SIMPLIFY, to_svg
+from .svg import DEFAULT_PRECISION, DEFAULT_SIMPLIFY, MAX_SIMPLIFY, to_svg
 
 #: Output formats, chosen from the file extension or given explicitly.
 FORMATS = ("svg", "png", "pdf")
@@ -134,7 +134,7 @@ def load(source: ImageSource, *, frame: int = 0, background: Colour | str | None
 
 
 def convert(image, params: Params = Params(), *, stage: str = "optimized", scale: float = 1.0,
-            background: Colour | str | None = None, title: str | None = None, precision: int = 3,
+            background: Colour | str | None = None, title: str | None = None, precision: int = DEFAULT_PRECISION,
             width: int | None = None, height: int | None = None,
             max_pixels: int | None = DEFAULT_MAX_PIXELS, layout: str = "stacked",
             simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
@@ -205,7 +205,7 @@ def encode(svg: str, fmt: str = "svg", *, name: str = "<svg>", keywords: str | N
 
 def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: str = "optimized",
                   scale: float = 1.0, background: Colour | str | None = None, title: str | None = None,
-                  shading: str = "smooth", name: str = "<image>", precision: int = 3,
+                  shading: str = "smooth", name: str = "<image>", precision: int = DEFAULT_PRECISION,
                   width: int | None = None, height: int | None = None,
                   max_pixels: int | None = DEFAULT_MAX_PIXELS,
                   max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS, layout: str = "stacked",
@@ -292,7 +292,7 @@ def frame_outputs(output: str | os.PathLike, n_frames: int) -> list[Path]:
 def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: Params = Params(), *,
                  fmt: str | None = None, stage: str = "optimized", scale: float = 1.0, frame: int = 0,
                  background: Colour | str | None = None, shading: str = "smooth",
-                 max_pixels: int | None = DEFAULT_MAX_PIXELS, precision: int = 3,
+                 max_pixels: int | None = DEFAULT_MAX_PIXELS, precision: int = DEFAULT_PRECISION,
                  width: int | None = None, height: int | None = None,
                  max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS, layout: str = "stacked",
                  simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
@@ -317,7 +317,7 @@ def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: P
 
 def file_options(output: str | os.PathLike, params: Params = Params(), *, fmt: str | None = None,
                  stage: str = "optimized", scale: float = 1.0, frame: int = 0,
-                 background: Colour | str | None = None, shading: str = "smooth", precision: int = 3,
+                 background: Colour | str | None = None, shading: str = "smooth", precision: int = DEFAULT_PRECISION,
                  width: int | None = None, height: int | None = None, layout: str = "stacked",
                  simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
                  transparent: Colour | str | None = None) -> dict:

@@ -157,7 +157,6 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
     edge_first[curved_edges] = anchor_or_seed[slot_of_edge]
     edge_last[curved_edges] = anchor_or_seed[nxt[slot_of_edge]]
     kind, seg_ctrl = _straighten(start, ptr, kind, seg_ctrl, seg_end, grid)
-    span_slot[kind == LINE] = -1
     return BoundaryPieces(start, ptr, kind, seg_ctrl, seg_end, edge_piece, edge_first, edge_last, span_slot, ctrl,
                           np.full(seg_ctrl.shape, np.nan))
 

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .boundaries import CUBIC, LINE, BoundaryPieces, build_pieces, junction_nodes
+from .boundaries import CUBIC, LINE, QUAD, BoundaryPieces, build_pieces, junction_nodes
 from .loops import Loops, trace_loops
 from .simplify import simplify_pieces
 from .stacking import FaceTopology
@@ -245,7 +245,8 @@ def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, kee
     seg_loop = loop_of[step]
     # where a loop goes on along its curve through a junction, the two halves of the span
     # there (the end of one piece, the start of the next) are that one span
-    whole = np.flatnonzero((span[:-1] >= 0) & (span[:-1] == span[1:]) & (seg_loop[:-1] == seg_loop[1:]))
+    whole = np.flatnonzero((span[:-1] >= 0) & (span[:-1] == span[1:]) & (seg_loop[:-1] == seg_loop[1:])
+                           & (kind[:-1] == QUAD) & (kind[1:] == QUAD))  # (straight halves merge as lines)
     if whole.size:
         ctrl[whole + 1] = pieces.slot_ctrl[span[whole]]
         keep_seg = np.ones(total, bool)

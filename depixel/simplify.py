@@ -5,18 +5,21 @@ users the same choice. Each piece of boundary between two junctions
 (:mod:`depixel.boundaries`) is simplified on its own, so two shapes that share it still
 draw the same geometry, and its ends (junctions, corners, curve ends) stay where they are.
 
-A run of the piece's exact segments is replaced by one cubic Bézier with the same end
-points and the same tangent directions there (so the result is exactly as smooth as the
-spline at every joint it keeps, and corners stay sharp); the lengths of its two control
-legs are fitted by least squares to points of the run (chord-length parameters). Each piece
-is tried whole, then split at the joint nearest its middle, level by level, all pieces of
-a level at once. A fit is kept only when
+A run of the piece's exact segments is replaced by one Bézier with the same end points and
+the same tangent directions there (so the result is exactly as smooth as the spline at
+every joint it keeps, and corners stay sharp): the quadratic whose control point is where
+the two end tangents meet, when it fits (4 numbers in the file), else the cubic whose two
+control legs are fitted by least squares to points of the run (chord-length parameters).
+Each piece is cut into runs of at most 8 segments, then every run that does not fit is
+halved, level by level, all pieces at once; neighbouring fits are merged once more at the
+end. A fit is kept only when
 
-* every sample of the exact run lies within ``tolerance`` pixels of the cubic, and the
-  cubic is not more than 10 % longer than the run (no loops or bulges between samples),
-* every protected point near it — the centres of the pixels beside the piece and the
-  lattice corners of the diagonal links at its nodes, the points the optimizer keeps clear
-  of (:mod:`depixel.optimize`) — stays on its side of the boundary and no nearer to it than
+* every sample of the exact run lies within ``tolerance`` pixels of the new curve, and it
+  is not more than 10 % longer than the run (no loop or bulge between samples),
+* no protected point near it — the centres of the pixels beside the piece and the lattice
+  corners of the diagonal links at its nodes, the points the optimizer keeps clear of
+  (:mod:`depixel.fidelity`) — lies between the new curve and the run it replaces (which
+  would put it on the other side of the boundary), or comes nearer to the new curve than
   ``min(its distance to the exact spline, clearance)``.
 
 So every pixel centre keeps its colour and every thin diagonal stays connected.
@@ -48,11 +51,10 @@ def simplify_pieces(pieces: BoundaryPieces, image: VectorImage, tolerance: float
     # _CHUNK segments (a cubic within 0.1 px seldom spans more spans of the spline), then
     # halved until a cubic fits or one segment is left
     lo, hi = _chunks(pieces.ptr, _CHUNK)
-    fitted: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
+    fitted: list[tuple[np.ndarray, ...]] = []
     while lo.size:
-        c1, c2, ok = _fit(exact, lo, hi, tolerance, grid)
-        ok &= _keeps_sides(exact, protected, lo, hi, c1, c2, clearance)
-        fitted.append((lo[ok], hi[ok], c1[ok], c2[ok]))
+        kind, c1, c2, ok = _fit(exact, protected, lo, hi, tolerance, clearance, grid)
+        fitted.append((lo[ok], hi[ok], kind[ok], c1[ok], c2[ok]))
         lo, hi = lo[~ok], hi[~ok]
         mid = (lo + hi) // 2
         lo, hi = np.concatenate([lo, mid]), np.concatenate([mid, hi])
@@ -77,15 +79,12 @@ def _chunks(ptr: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _merge_neighbours(exact, protected, ptr, fitted, tolerance, clearance, grid):
-    """Try once to fit one cubic over two neighbouring fitted ranges of a piece."""
+    """Try once to fit one curve over two neighbouring fitted ranges of a piece."""
     if not fitted:
         return fitted
-    lo = np.concatenate([f[0] for f in fitted])
-    hi = np.concatenate([f[1] for f in fitted])
-    c1 = np.concatenate([f[2] for f in fitted])
-    c2 = np.concatenate([f[3] for f in fitted])
+    lo, hi, kinds, c1, c2 = (np.concatenate([f[i] for f in fitted]) for i in range(5))
     order = np.argsort(lo, kind="stable")
-    lo, hi, c1, c2 = lo[order], hi[order], c1[order], c2[order]
+    lo, hi, kinds, c1, c2 = lo[order], hi[order], kinds[order], c1[order], c2[order]
     piece_of = np.searchsorted(ptr, lo, side="right") - 1
     for parity in (0, 1):
         if lo.size < 2:
@@ -94,15 +93,14 @@ def _merge_neighbours(exact, protected, ptr, fitted, tolerance, clearance, grid)
         a = np.flatnonzero(touching & (np.arange(lo.size - 1) % 2 == parity))
         if a.size == 0:
             continue
-        m1, m2, ok = _fit(exact, lo[a], hi[a + 1], tolerance, grid)
-        ok &= _keeps_sides(exact, protected, lo[a], hi[a + 1], m1, m2, clearance)
-        a, m1, m2 = a[ok], m1[ok], m2[ok]
+        mk, m1, m2, ok = _fit(exact, protected, lo[a], hi[a + 1], tolerance, clearance, grid)
+        a, mk, m1, m2 = a[ok], mk[ok], m1[ok], m2[ok]
         hi[a] = hi[a + 1]
-        c1[a], c2[a] = m1, m2
+        kinds[a], c1[a], c2[a] = mk, m1, m2
         keep = np.ones(lo.size, bool)
         keep[a + 1] = False
-        lo, hi, c1, c2, piece_of = lo[keep], hi[keep], c1[keep], c2[keep], piece_of[keep]
-    return [(lo, hi, c1, c2)]
+        lo, hi, kinds, c1, c2, piece_of = lo[keep], hi[keep], kinds[keep], c1[keep], c2[keep], piece_of[keep]
+    return [(lo, hi, kinds, c1, c2)]
 
 
 class _Exact:
@@ -208,35 +206,99 @@ def _segments_of_edges(pieces: BoundaryPieces, image: VectorImage, edge: np.ndar
     return out
 
 
-def _fit(exact: _Exact, lo: np.ndarray, hi: np.ndarray, tolerance: float, grid: float | None
-         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """One cubic per range [lo, hi) of exact segments: control points and whether it fits."""
+def _fit(exact: _Exact, prot: _Protected, lo: np.ndarray, hi: np.ndarray, tolerance: float, clearance: float,
+         grid: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """One curve per range [lo, hi) of exact segments: a quadratic through the meeting point
+    of the end tangents where that one fits (4 numbers in the file), else the least-squares
+    cubic. Returns ``(kind, c1, c2, ok)``: QUAD rows hold the quadratic's control in ``c1``."""
+    samples = _Samples(exact, lo, hi)
+    p0, p3 = exact.start[lo], exact.end[hi - 1]
+    q, has_q = _quadratic_control(exact, lo, hi, grid)
+    q1, q2 = p0 + 2.0 / 3.0 * (q - p0), p3 + 2.0 / 3.0 * (q - p3)  # the same curve as a cubic
+    quad_ok = has_q & samples.within(q1, q2, tolerance) & _keeps_sides(exact, prot, lo, hi, q1, q2, clearance)
+    c1, c2 = _cubic_controls(exact, samples, lo, hi, grid)
+    cubic_ok = ~quad_ok & samples.within(c1, c2, tolerance) & _keeps_sides(exact, prot, lo, hi, c1, c2, clearance)
+    kind = np.where(quad_ok, QUAD, CUBIC).astype(np.uint8)
+    return kind, np.where(quad_ok[:, None], q, c1), np.where(quad_ok[:, None], np.nan, c2), quad_ok | cubic_ok
+
+
+class _Samples:
+    """The sample points of the exact runs [lo, hi), with their chord-length parameters."""
+
+    def __init__(self, exact: _Exact, lo: np.ndarray, hi: np.ndarray) -> None:
+        count = hi - lo
+        owner = np.repeat(np.arange(lo.size), count)
+        seg = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count) + np.repeat(lo, count)
+        self.points = exact.samples[seg].reshape(-1, 2)  # (S, 2) all samples of every range
+        self.owner = np.repeat(owner, _T_ORIG.size)
+        arc = (exact.arc_before[seg][:, None] + exact.arc[seg]).ravel() - exact.arc_before[lo][self.owner]
+        self.total = exact.arc_before[hi - 1] + exact.length[hi - 1] - exact.arc_before[lo]
+        self.u = arc / np.maximum(self.total[self.owner], 1e-300)
+        self.p0, self.p3 = exact.start[lo], exact.end[hi - 1]
+
+    def within(self, c1: np.ndarray, c2: np.ndarray, tolerance: float) -> np.ndarray:
+        """Every sample lies within ``tolerance`` of its cubic (p0, c1, c2, p3), and the cubic
+        is not more than 10 % longer than the run (no loop or bulge between samples)."""
+        o = self.owner
+        q = (self.p0[o], c1[o], c2[o], self.p3[o])
+        # from its chord-length parameter, two Newton steps towards the nearest point: an
+        # upper bound of the distance, so the test is safe
+        u = self.u
+        for _ in range(2):
+            point, d1, d2 = _cubic_derivatives(*q, u)
+            off = point - self.points
+            num = (off * d1).sum(axis=1)
+            den = (d1 * d1).sum(axis=1) + (off * d2).sum(axis=1)
+            u = np.clip(u - num / np.where(np.abs(den) > 1e-12, den, 1e-12), 0.0, 1.0)
+        d = np.sqrt(((_cubic_derivatives(*q, u)[0] - self.points) ** 2).sum(axis=1))
+        worst = np.zeros(self.p0.shape[0])
+        np.maximum.at(worst, o, d)
+        curve = _cubic(self.p0, c1, c2, self.p3, _T_FIT)
+        length = np.sqrt((np.diff(curve, axis=1) ** 2).sum(axis=2)).sum(axis=1)
+        chord = np.sqrt(((self.p3 - self.p0) ** 2).sum(axis=1))
+        return (worst <= tolerance) & (length <= 1.1 * self.total + 1e-9) & (chord > 0)
+
+
+def _quadratic_control(exact: _Exact, lo: np.ndarray, hi: np.ndarray, grid: float | None
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """The control point of the quadratic with the run's end points and end tangents (where
+    the tangent lines meet, in front of both ends), and whether there is one."""
     p0, p3 = exact.start[lo], exact.end[hi - 1]
     t0, t1 = exact.tan_start[lo], exact.tan_end[hi - 1]
-    count = hi - lo
-    owner = np.repeat(np.arange(lo.size), count)
-    seg = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count) + np.repeat(lo, count)
-    pts = exact.samples[seg].reshape(-1, 2)  # (S, 2) all samples of every range
-    sample_owner = np.repeat(owner, _T_ORIG.size)
-    arc = (exact.arc_before[seg][:, None] + exact.arc[seg]).ravel() - exact.arc_before[lo][sample_owner]
-    total = exact.arc_before[hi - 1] + exact.length[hi - 1] - exact.arc_before[lo]
-    u = arc / np.maximum(total[sample_owner], 1e-300)
-    # least squares for the leg lengths a, b: P(u) = B0 p0 + B1 (p0 + a t0) + B2 (p3 - b t1) + B3 p3
+    chord = p3 - p0
+    det = _cross(t0, t1)
+    safe = np.where(np.abs(det) > 1e-9, det, 1.0)
+    s, r = _cross(chord, t1) / safe, _cross(t0, chord) / safe
+    length = np.sqrt((chord**2).sum(axis=1))
+    valid = (np.abs(det) > 1e-9) & (s > 0) & (r > 0) & (s < 2 * length) & (r < 2 * length)
+    q = p0 + s[:, None] * t0
+    if grid is not None:
+        q = np.round(q / grid) * grid
+    return q, valid
+
+
+def _cubic_controls(exact: _Exact, samples: _Samples, lo: np.ndarray, hi: np.ndarray, grid: float | None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """The cubic with the run's end points and end tangents whose two leg lengths fit the
+    samples best (least squares at their chord-length parameters)."""
+    p0, p3 = samples.p0, samples.p3
+    t0, t1 = exact.tan_start[lo], exact.tan_end[hi - 1]
+    o, u = samples.owner, samples.u
+    # P(u) = B0 p0 + B1 (p0 + a t0) + B2 (p3 - b t1) + B3 p3
     b0, b1, b2, b3 = (1 - u) ** 3, 3 * u * (1 - u) ** 2, 3 * u**2 * (1 - u), u**3
-    s0, s1 = p0[sample_owner], p3[sample_owner]
-    r = pts - (b0 + b1)[:, None] * s0 - (b2 + b3)[:, None] * s1
-    va, vb = b1[:, None] * t0[sample_owner], -b2[:, None] * t1[sample_owner]
+    r = samples.points - (b0 + b1)[:, None] * p0[o] - (b2 + b3)[:, None] * p3[o]
+    va, vb = b1[:, None] * t0[o], -b2[:, None] * t1[o]
     n = lo.size
-    m11 = np.bincount(sample_owner, (va * va).sum(axis=1), n)
-    m12 = np.bincount(sample_owner, (va * vb).sum(axis=1), n)
-    m22 = np.bincount(sample_owner, (vb * vb).sum(axis=1), n)
-    r1 = np.bincount(sample_owner, (va * r).sum(axis=1), n)
-    r2 = np.bincount(sample_owner, (vb * r).sum(axis=1), n)
+    m11 = np.bincount(o, (va * va).sum(axis=1), n)
+    m12 = np.bincount(o, (va * vb).sum(axis=1), n)
+    m22 = np.bincount(o, (vb * vb).sum(axis=1), n)
+    r1 = np.bincount(o, (va * r).sum(axis=1), n)
+    r2 = np.bincount(o, (vb * r).sum(axis=1), n)
     det = m11 * m22 - m12 * m12
     safe = np.where(np.abs(det) > 1e-12, det, 1.0)
     a = (r1 * m22 - r2 * m12) / safe
     b = (m11 * r2 - m12 * r1) / safe
-    chord = np.linalg.norm(p3 - p0, axis=1)
+    chord = np.sqrt(((p3 - p0) ** 2).sum(axis=1))
     fallback = ~(np.abs(det) > 1e-12) | (a <= 0) | (b <= 0)
     a = np.where(fallback, chord / 3.0, a)
     b = np.where(fallback, chord / 3.0, b)
@@ -244,22 +306,7 @@ def _fit(exact: _Exact, lo: np.ndarray, hi: np.ndarray, tolerance: float, grid: 
     c2 = p3 - b[:, None] * t1
     if grid is not None:
         c1, c2 = np.round(c1 / grid) * grid, np.round(c2 / grid) * grid
-    # distance of every sample to the cubic: from its chord-length parameter, two Newton
-    # steps towards the nearest point (an upper bound of the distance, so the test is safe)
-    q = (p0[sample_owner], c1[sample_owner], c2[sample_owner], p3[sample_owner])
-    for _ in range(2):
-        point, d1, d2 = _cubic_derivatives(*q, u)
-        off = point - pts
-        num = (off * d1).sum(axis=1)
-        den = (d1 * d1).sum(axis=1) + (off * d2).sum(axis=1)
-        u = np.clip(u - num / np.where(np.abs(den) > 1e-12, den, 1e-12), 0.0, 1.0)
-    d = np.sqrt(((_cubic_derivatives(*q, u)[0] - pts) ** 2).sum(axis=1))
-    worst = np.zeros(n)
-    np.maximum.at(worst, sample_owner, d)
-    curve = _cubic(p0, c1, c2, p3, _T_FIT)  # (N, 17, 2)
-    length = np.sqrt((np.diff(curve, axis=1) ** 2).sum(axis=2)).sum(axis=1)
-    ok = (worst <= tolerance) & (length <= 1.1 * total + 1e-9) & (chord > 0)
-    return c1, c2, ok
+    return c1, c2
 
 
 def _keeps_sides(exact: _Exact, prot: _Protected, lo, hi, c1, c2, clearance: float) -> np.ndarray:
@@ -273,12 +320,48 @@ def _keeps_sides(exact: _Exact, prot: _Protected, lo, hi, c1, c2, clearance: flo
         return ok
     owner = np.repeat(np.arange(lo.size), count)
     idx = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count) + np.repeat(first, count)
-    curve = _cubic(exact.start[lo], c1, c2, exact.end[hi - 1], _T_FIT)[owner]
-    d_new = _signed_distance_to_polylines(prot.xy[idx], curve)
-    d_old = prot.dist[idx]
-    bad = (np.sign(d_new) != np.sign(d_old)) | (np.abs(d_new) < np.minimum(np.abs(d_old), clearance) - 1e-9)
-    ok[np.unique(owner[bad])] = False
+    curves = _cubic(exact.start[lo], c1, c2, exact.end[hi - 1], _T_FIT)
+    xy = prot.xy[idx]
+    d_new = _distance_to_polylines(xy, curves[owner])
+    too_near = d_new < np.minimum(np.abs(prot.dist[idx]), clearance) - 1e-9
+    crossed = _between(xy, owner, curves, lo, hi, exact)
+    ok[np.unique(owner[too_near | crossed])] = False
     return ok
+
+
+def _between(xy: np.ndarray, owner: np.ndarray, curves: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+             exact: _Exact) -> np.ndarray:
+    """Whether each point lies between its candidate curve and the exact run it replaces
+    (inside the closed polygon of the two, which share their end points): the curve has
+    passed over the point, which changes side. Even-odd ray casting towards +x."""
+    n_seg = hi - lo
+    n_exact = n_seg * _T_ORIG.size  # exact polygon edges: the samples, then back to the start
+    n_edges = (curves.shape[1] - 1) + n_exact
+    e_owner = np.repeat(np.arange(lo.size), n_edges)
+    k = np.arange(int(n_edges.sum())) - np.repeat(np.cumsum(n_edges) - n_edges, n_edges)
+    on_curve = k < curves.shape[1] - 1
+    j = np.where(on_curve, 0, k - (curves.shape[1] - 1))  # index along the exact samples
+    seg, part = np.divmod(j, _T_ORIG.size)
+    seg = np.repeat(lo, n_edges) + seg
+    sample = exact.samples[np.minimum(seg, exact.samples.shape[0] - 1), part]
+    last = (part == _T_ORIG.size - 1)
+    nxt = np.where(last[:, None], exact.end[np.minimum(seg, exact.end.shape[0] - 1)],
+                   exact.samples[np.minimum(seg, exact.samples.shape[0] - 1), np.minimum(part + 1, _T_ORIG.size - 1)])
+    kc = np.minimum(k, curves.shape[1] - 2)
+    a = np.where(on_curve[:, None], curves[e_owner, kc], sample)
+    b = np.where(on_curve[:, None], curves[e_owner, kc + 1], nxt)
+    # pairs (point, edge of its candidate's polygon)
+    first = np.cumsum(n_edges) - n_edges
+    per_point = n_edges[owner]
+    p_idx = np.repeat(np.arange(xy.shape[0]), per_point)
+    e_idx = np.arange(int(per_point.sum())) - np.repeat(np.cumsum(per_point) - per_point, per_point) \
+        + np.repeat(first[owner], per_point)
+    q, ea, eb = xy[p_idx], a[e_idx], b[e_idx]
+    straddle = (ea[:, 1] > q[:, 1]) != (eb[:, 1] > q[:, 1])
+    dy = eb[:, 1] - ea[:, 1]
+    x_at = ea[:, 0] + (q[:, 1] - ea[:, 1]) * (eb[:, 0] - ea[:, 0]) / np.where(dy == 0, 1.0, dy)
+    hits = np.bincount(p_idx, weights=straddle & (x_at > q[:, 0]), minlength=xy.shape[0])
+    return hits.astype(np.int64) % 2 == 1
 
 
 def _assemble(pieces: BoundaryPieces, fitted) -> BoundaryPieces:
@@ -286,8 +369,8 @@ def _assemble(pieces: BoundaryPieces, fitted) -> BoundaryPieces:
     n = pieces.kind.size
     replaced = np.zeros(n, bool)
     head = np.full(n, -1, np.int64)  # fitted range starting at each exact segment
-    los, his, c1s, c2s = (np.concatenate(x) if x else np.zeros(0) for x in zip(*fitted)) if fitted else \
-        (np.zeros(0, np.int64),) * 2 + (np.zeros((0, 2)),) * 2
+    los, his, kinds, c1s, c2s = (np.concatenate(x) for x in zip(*fitted)) if fitted else \
+        (np.zeros(0, np.int64),) * 2 + (np.zeros(0, np.uint8),) + (np.zeros((0, 2)),) * 2
     los, his = los.astype(np.int64), his.astype(np.int64)
     head[los] = np.arange(los.size)
     cover = np.zeros(n + 1, np.int64)
@@ -295,7 +378,7 @@ def _assemble(pieces: BoundaryPieces, fitted) -> BoundaryPieces:
     np.add.at(cover, his, -1)
     replaced = np.cumsum(cover)[:n] > 0
     keep = ~replaced | (head >= 0)
-    kind = np.where(head >= 0, CUBIC, pieces.kind).astype(np.uint8)
+    kind = np.where(head >= 0, kinds[np.maximum(head, 0)] if los.size else CUBIC, pieces.kind).astype(np.uint8)
     ctrl = np.where((head >= 0)[:, None], c1s[np.maximum(head, 0)] if los.size else 0.0, pieces.ctrl)
     ctrl2 = np.where((head >= 0)[:, None], c2s[np.maximum(head, 0)] if los.size else 0.0, pieces.ctrl2)
     end = np.where((head >= 0)[:, None], pieces.end[np.maximum(his[np.maximum(head, 0)] - 1, 0)] if los.size else 0.0,
@@ -339,12 +422,6 @@ def _segment_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray
     return np.linalg.norm(q - (a + t[..., None] * ab), axis=-1)
 
 
-def _signed_distance_to_polylines(q: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Distance of points to their polylines, signed by the side (screen right positive) of
-    the nearest piece of the polyline."""
-    a, b = poly[:, :-1], poly[:, 1:]
-    d = _segment_distance(q[:, None], a, b)
-    i = np.argmin(d, axis=1)
-    rows = np.arange(q.shape[0])
-    side = np.sign(_cross(b[rows, i] - a[rows, i], q - a[rows, i]))
-    return d[rows, i] * np.where(side == 0, 1.0, side)
+def _distance_to_polylines(q: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Distance of points ``(M, 2)`` to their polylines ``(M, V, 2)``."""
+    return _segment_distance(q[:, None], poly[:, :-1], poly[:, 1:]).min(axis=1)

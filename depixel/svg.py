@@ -26,9 +26,13 @@ from .svgtext import Texts, numbers, stack
 from .vector import VectorImage
 
 SVG_HEADER = '<?xml version="1.0" encoding="UTF-8"?>\n'
-#: default tolerance of the simplification (pixels): fewer, longer curves, no visible change
-#: (docs/svg.md has the figures); 0 writes the exact spline, one quadratic per span
-DEFAULT_SIMPLIFY = 0.1
+#: default tolerance of the simplification (pixels), like potrace's opttolerance 0.2: fewer,
+#: longer curves, every pixel centre and thin diagonal kept (docs/svg.md has the figures);
+#: 0 writes the exact spline, one quadratic per span
+DEFAULT_SIMPLIFY = 0.25
+#: default decimals of the coordinates: a hundredth of a pixel, invisible at any zoom an
+#: editor offers, and a fifth less text than thousandths
+DEFAULT_PRECISION = 2
 #: the largest tolerance accepted: beyond about a pixel a curve could stray over a feature
 MAX_SIMPLIFY = 2.0
 INKSCAPE_NS = "http://www.inkscape.org/namespaces/inkscape"
@@ -54,7 +58,7 @@ def _escape(text: str) -> str:
     return _xml_text(text).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;").replace('"', "&quot;")
 
 
-def to_svg(image: VectorImage, scale: float = 1.0, precision: int = 3, title: str | None = None,
+def to_svg(image: VectorImage, scale: float = 1.0, precision: int = DEFAULT_PRECISION, title: str | None = None,
            layout: str = "stacked", simplify: float = DEFAULT_SIMPLIFY) -> str:
     """Write a VectorImage as SVG text; ``scale`` sets width/height, the viewBox stays W×H.
 
@@ -63,7 +67,7 @@ def to_svg(image: VectorImage, scale: float = 1.0, precision: int = 3, title: st
     return write_svg(outlines, scale, precision, title)
 
 
-def write_svg(outlines: Outlines, scale: float = 1.0, precision: int = 3, title: str | None = None) -> str:
+def write_svg(outlines: Outlines, scale: float = 1.0, precision: int = DEFAULT_PRECISION, title: str | None = None) -> str:
     """Format outlines (built with ``grid=10**-precision``) as an SVG document."""
     h, w = outlines.shape
     width, height = numbers(np.array([w * scale, h * scale]), 3).tolist()

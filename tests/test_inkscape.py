@@ -387,8 +387,8 @@ def fake_depixel(folder: Path, fail: str = "") -> tuple[Path, Path]:
 
 @pytest.mark.parametrize("options, flags", [
     ([], []),  # the defaults pass no flag: works with a depixel that lacks the newer ones
-    (["--stage=cells", "--layout=cutout", "--simplify=0.25", "--pixel_size=4x3", "--backdrop=auto", "--seed=7"],
-     ["--stage", "cells", "--layout", "cutout", "--simplify", "0.25", "--pixel-size", "4x3",
+    (["--stage=cells", "--layout=cutout", "--simplify=0.5", "--pixel_size=4x3", "--backdrop=auto", "--seed=7"],
+     ["--stage", "cells", "--layout", "cutout", "--simplify", "0.5", "--pixel-size", "4x3",
       "--transparent", "auto", "--seed", "7"]),
     (["--backdrop=colour", "--backdrop_colour=#5c94fc", "--pixel_size=1"],
      ["--pixel-size", "1", "--transparent", "#5c94fc"]),

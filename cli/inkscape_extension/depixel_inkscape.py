@@ -47,7 +47,7 @@ FLAGS = (
     # (option, flag, CLI default, dialog field)
     ("stage", "--stage", "optimized", "Result"),
     ("layout", "--layout", "stacked", "Shapes"),
-    ("simplify", "--simplify", 0.1, "Simplify"),
+    ("simplify", "--simplify", 0.25, "Simplify"),
     ("pixel_size", "--pixel-size", "auto", "Pixel size"),
     ("transparent", "--transparent", "", "Backdrop"),
     ("seed", "--seed", 0, "Random seed"),
@@ -74,7 +74,7 @@ class DepixelizeEffect(inkex.EffectExtension):
         pars.add_argument("--tab", default="options", help="dialog page (ignored)")
         pars.add_argument("--stage", default="optimized", choices=("cells", "splines", "optimized"))
         pars.add_argument("--layout", default="stacked", choices=("stacked", "cutout"))
-        pars.add_argument("--simplify", type=float, default=0.1, help="tolerance in pixels, 0 = the exact spline")
+        pars.add_argument("--simplify", type=float, default=0.25, help="tolerance in pixels, 0 = the exact spline")
         pars.add_argument("--pixel_size", default="auto", help="auto, 1 (as is), N or NxM")
         pars.add_argument("--backdrop", default="keep", choices=("keep", "auto", "colour"))
         pars.add_argument("--backdrop_colour", default="#ffffff", help="colour removed with --backdrop colour")
