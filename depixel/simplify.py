@@ -45,7 +45,7 @@ def simplify_pieces(pieces: BoundaryPieces, image: VectorImage, tolerance: float
     """
     if tolerance <= 0 or pieces.kind.size == 0:
         return pieces
-    exact = _Exact(pieces)
+    exact = _Exact(pieces, tolerance)
     protected = _Protected(pieces, image, exact, tolerance + clearance)
     # ranges [lo, hi) of exact segments to fit: each piece cut into chunks of at most
     # _CHUNK segments (a cubic within 0.1 px seldom spans more spans of the spline), then
@@ -65,6 +65,22 @@ def simplify_pieces(pieces: BoundaryPieces, image: VectorImage, tolerance: float
 
 
 _CHUNK = 8
+#: a piece may deviate by at most this fraction of its size (the diagonal of its bounding
+#: box), so a small closed curve — an eye, a dot — keeps its shape at any tolerance
+_RELATIVE_TOLERANCE = 1 / 16
+
+
+def _piece_tolerance(pieces: BoundaryPieces, exact: _Exact, tolerance: float) -> np.ndarray:
+    """(K,) the tolerance of every exact segment: ``tolerance``, or less on small pieces."""
+    piece = np.repeat(np.arange(len(pieces)), np.diff(pieces.ptr))
+    pts = exact.samples.reshape(-1, 2)
+    owner = np.repeat(piece, exact.samples.shape[1])
+    low = np.full((len(pieces), 2), np.inf)
+    high = np.full((len(pieces), 2), -np.inf)
+    np.minimum.at(low, owner, pts)
+    np.maximum.at(high, owner, pts)
+    size = np.sqrt(((high - low) ** 2).sum(axis=1))
+    return np.minimum(tolerance, _RELATIVE_TOLERANCE * size)[piece]
 
 
 def _chunks(ptr: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
@@ -106,7 +122,7 @@ def _merge_neighbours(exact, protected, ptr, fitted, tolerance, clearance, grid)
 class _Exact:
     """The exact segments of every piece: ends, cubic control points, tangents, samples."""
 
-    def __init__(self, pieces: BoundaryPieces) -> None:
+    def __init__(self, pieces: BoundaryPieces, tolerance: float) -> None:
         n = pieces.kind.size
         piece = np.repeat(np.arange(len(pieces)), np.diff(pieces.ptr))
         first = pieces.ptr[:-1][piece] == np.arange(n)
@@ -122,6 +138,7 @@ class _Exact:
         self.length = step.sum(axis=1)  # polyline length of each segment
         self.arc = np.cumsum(step, axis=1) - step  # arc length of each sample within its segment
         self.arc_before = np.cumsum(self.length) - self.length  # arc length before each segment (global)
+        self.tolerance = _piece_tolerance(pieces, self, tolerance)  # (K,) each segment's own limit
 
 
 def _as_cubic(start, kind, ctrl, ctrl2, end) -> tuple[np.ndarray, np.ndarray]:
@@ -206,7 +223,8 @@ def _segments_of_edges(pieces: BoundaryPieces, image: VectorImage, edge: np.ndar
     return out
 
 
-def _fit(exact: _Exact, prot: _Protected, lo: np.ndarray, hi: np.ndarray, tolerance: float, clearance: float,
+def _fit(exact: _Exact, prot: _Protected, lo: np.ndarray, hi: np.ndarray, tolerance: float | np.ndarray,
+         clearance: float,
          grid: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """One curve per range [lo, hi) of exact segments: a quadratic through the meeting point
     of the end tangents where that one fits (4 numbers in the file), else the least-squares
@@ -215,9 +233,10 @@ def _fit(exact: _Exact, prot: _Protected, lo: np.ndarray, hi: np.ndarray, tolera
     p0, p3 = exact.start[lo], exact.end[hi - 1]
     q, has_q = _quadratic_control(exact, lo, hi, grid)
     q1, q2 = p0 + 2.0 / 3.0 * (q - p0), p3 + 2.0 / 3.0 * (q - p3)  # the same curve as a cubic
-    quad_ok = has_q & samples.within(q1, q2, tolerance) & _keeps_sides(exact, prot, lo, hi, q1, q2, clearance)
+    limit = np.minimum(tolerance, exact.tolerance[lo])  # the run's piece's own limit
+    quad_ok = has_q & samples.within(q1, q2, limit) & _keeps_sides(exact, prot, lo, hi, q1, q2, clearance)
     c1, c2 = _cubic_controls(exact, samples, lo, hi, grid)
-    cubic_ok = ~quad_ok & samples.within(c1, c2, tolerance) & _keeps_sides(exact, prot, lo, hi, c1, c2, clearance)
+    cubic_ok = ~quad_ok & samples.within(c1, c2, limit) & _keeps_sides(exact, prot, lo, hi, c1, c2, clearance)
     kind = np.where(quad_ok, QUAD, CUBIC).astype(np.uint8)
     return kind, np.where(quad_ok[:, None], q, c1), np.where(quad_ok[:, None], np.nan, c2), quad_ok | cubic_ok
 
@@ -236,7 +255,7 @@ class _Samples:
         self.u = arc / np.maximum(self.total[self.owner], 1e-300)
         self.p0, self.p3 = exact.start[lo], exact.end[hi - 1]
 
-    def within(self, c1: np.ndarray, c2: np.ndarray, tolerance: float) -> np.ndarray:
+    def within(self, c1: np.ndarray, c2: np.ndarray, tolerance: np.ndarray) -> np.ndarray:
         """Every sample lies within ``tolerance`` of its cubic (p0, c1, c2, p3), and the cubic
         is not more than 10 % longer than the run (no loop or bulge between samples)."""
         o = self.owner

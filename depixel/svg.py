@@ -67,7 +67,8 @@ def to_svg(image: VectorImage, scale: float = 1.0, precision: int = DEFAULT_PREC
     return write_svg(outlines, scale, precision, title)
 
 
-def write_svg(outlines: Outlines, scale: float = 1.0, precision: int = DEFAULT_PRECISION, title: str | None = None) -> str:
+def write_svg(outlines: Outlines, scale: float = 1.0, precision: int = DEFAULT_PRECISION,
+              title: str | None = None) -> str:
     """Format outlines (built with ``grid=10**-precision``) as an SVG document."""
     h, w = outlines.shape
     width, height = numbers(np.array([w * scale, h * scale]), 3).tolist()

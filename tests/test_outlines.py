@@ -363,3 +363,39 @@ def test_a_pixel_reached_only_through_a_diagonal_is_covered_by_the_face_around_i
     assert g < r
     _, centres = _render_shapes(out, [g])
     assert centres[3, 3] >= 250  # the g shape covers the pocket
+
+
+def test_simplification_keeps_small_shapes_in_shape():
+    """A small closed curve (the ghost's eyes, about 0.6 × 1.6 px) may deviate only by a
+    fraction of its size, whatever the tolerance: its area stays within 10 % of the exact
+    spline's, where 0.25 px would have thinned it to a sliver."""
+    vector = depixelize(load_image(fixture_pngs_by_name("ghost.png"))).vector
+    exact = build_outlines(vector, "stacked")
+    simple = build_outlines(vector, "stacked", simplify=0.25)
+    small = 0
+    for s in range(len(exact)):
+        start, kind, ctrl, ctrl2, end = exact.loops_of(s)[0]
+        extent = np.ptp(np.vstack([start, end]), axis=0)
+        if extent.max() > 2.5 or len(exact.loops_of(s)) != 1:
+            continue
+        small += 1
+        a, b = loop_area(*exact.loops_of(s)[0]), loop_area(*simple.loops_of(s)[0])
+        assert abs(b - a) <= 0.1 * abs(a), (s, a, b)
+    assert small >= 2  # the two eyes
+
+
+@pytest.mark.parametrize("path", [p for p in fixture_pngs() if p.suffix == ".png"]
+                         + [p for p in corpus_pngs() if p.stem in ("sma_toad", "smw_boo", "win31_386")],
+                         ids=lambda p: p.name)
+def test_any_tolerance_keeps_every_pixel_centre(path):
+    """At the largest tolerance accepted, every pixel centre still shows its colour: no
+    simplified curve passes over one (sma_toad lost a centre at 0.25 px before the test
+    became "between the new curve and the old")."""
+    from robust import assert_centres_kept
+
+    import depixel
+
+    rgba = load_image(path)
+    if (rgba[..., 3] % 255 != 0).any():
+        pytest.skip("half-transparent pixels are judged by the alpha tests")
+    assert_centres_kept(rgba, depixel.convert(rgba, simplify=2.0))

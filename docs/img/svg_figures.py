@@ -28,7 +28,7 @@ sys.path.insert(0, str(ROOT))
 
 from depixel import depixelize, load_image, to_svg  # noqa: E402
 from depixel.outlines import build_outlines  # noqa: E402
-from depixel.svg import path_data  # noqa: E402
+from depixel.svg import DEFAULT_SIMPLIFY, path_data  # noqa: E402
 
 OUT = Path(__file__).resolve().parent
 INK = (40, 40, 40, 255)
@@ -81,8 +81,8 @@ def layers(fixture: str, layout: str, zoom: int = 6) -> Image.Image:
     """Every shape alone in its colour over a checkerboard, in drawing order."""
     rgba = load_image(ROOT / "fixtures" / fixture)
     h, w = rgba.shape[:2]
-    out = build_outlines(depixelize(rgba).vector, layout, grid=1e-3, simplify=0.1)
-    data = path_data(out, 3)
+    out = build_outlines(depixelize(rgba).vector, layout, grid=1e-2, simplify=DEFAULT_SIMPLIFY)
+    data = path_data(out, 2)
     ids = re.findall(r'<path id="([^"]*)"', to_svg(depixelize(rgba).vector, layout=layout))
     tiles = []
     for s in range(len(out)):
@@ -166,7 +166,7 @@ def main() -> int:
             bands.append(row([label(render(old, 12, shape), f"{fixture} before"),
                               label(render(to_svg(vector), 12, shape), "after")]))
         row_views.append(node_view(to_svg(vector, simplify=0), shape, zoom, "exact spline (--simplify 0)"))
-        row_views.append(node_view(to_svg(vector), shape, zoom, "default (--simplify 0.1)"))
+        row_views.append(node_view(to_svg(vector), shape, zoom, f"default (--simplify {DEFAULT_SIMPLIFY:g})"))
         views.append(row(row_views))
     column(views).save(OUT / "svg_nodes.png")
     if bands:
