@@ -233,7 +233,7 @@ def test_denoise_is_off_for_lossless_input_and_can_be_forced():
 
 def test_snap_colours_keeps_alpha_and_transparent_pixels():
     rgba = load_image(FIXTURES / "potion_rgba.png")
-    snapped, before, after = snap_colours(rgba)
+    snapped, before, after, _ = snap_colours(rgba)
     np.testing.assert_array_equal(snapped[..., 3], rgba[..., 3])
     assert after <= before
 
