@@ -51,7 +51,8 @@ SWEEPS = 1
 #: a pixel whose luma lies more than this many LUMA_NOISE from its label's is not explained by
 #: the palette; enough such pixels of one luma become a new colour (at most GROW_STEPS a round)
 MISSING = 3.0
-GROW_STEPS = 2
+CHROMA_MISSING = 3.0
+GROW_STEPS = 1
 #: each refitted palette colour is pulled towards its previous value with this weight per pixel
 RIDGE = 0.1
 #: larger images keep the nearest palette colour: the joint labelling holds a few arrays of
@@ -264,20 +265,22 @@ def unmix(rgba: np.ndarray, palette: np.ndarray, grid: ChromaGrid, min_count: fl
     for round_ in range(ROUNDS):
         labels = model.relabel(luma, pal, labels)
         if round_ < ROUNDS - 1:
-            pal, labels = _grow(luma, chroma, pal, labels, min_count, radius)
+            misfit = np.sqrt(((model.rebuilt(pal, labels) - chroma) ** 2).sum(axis=-1))
+            pal, labels = _grow(luma, chroma, misfit, pal, labels, min_count, radius)
             pal = model.refit(luma, pal, labels)
     return labels, np.clip(yuv_to_rgb(pal), 0, 255)
 
 
-def _grow(luma: np.ndarray, chroma: np.ndarray, pal: np.ndarray, labels: np.ndarray, min_count: float,
-          radius: float) -> tuple[np.ndarray, np.ndarray]:
+def _grow(luma: np.ndarray, chroma: np.ndarray, misfit: np.ndarray, pal: np.ndarray, labels: np.ndarray,
+          min_count: float, radius: float) -> tuple[np.ndarray, np.ndarray]:
     """Add palette colours for pixels whose luma no palette colour explains: while at least
     ``min_count`` pixels lie more than ``MISSING`` noise steps from their label's luma, the
     densest luma among them (within ``radius``) becomes a colour (its chroma, the mean of
     theirs, is mixed; the refit unmixes it) and takes them."""
     for _ in range(GROW_STEPS):
         on = labels >= 0
-        lost = on & (np.abs(luma - pal[np.maximum(labels, 0), 0]) > MISSING * LUMA_NOISE)
+        lost = on & ((np.abs(luma - pal[np.maximum(labels, 0), 0]) > MISSING * LUMA_NOISE)
+                     | (misfit > CHROMA_MISSING * CHROMA_NOISE))
         if lost.sum() < min_count:
             break
         reach = int(radius)
@@ -318,11 +321,25 @@ class _Model:
                 along[-1] = 1.0
             self.weight = self.weight * np.expand_dims(along, 1 - axis)
             self.change = self.change * np.expand_dims(along ** 2 * diagonal[np.arange(n) // 2], 1 - axis)
-        offset = grid.up(grid.down(fixed), shape)  # the transparent pixels' share of the decoded chroma
-        self.target = grid.up_adjoint(chroma - offset)  # t, (bh, bw, 2)
+        self.offset = grid.up(grid.down(fixed), shape)  # the transparent pixels' share of the decoded chroma
+        self.target = grid.up_adjoint(chroma - self.offset)  # t, (bh, bw, 2)
+        #: Gᵢᵢ of each sample (the product of the per-axis diagonals)
+        self.sample_diagonal = np.ones(self.target.shape[:2])
+        for axis, diagonal, _ in self.grams:
+            self.sample_diagonal = self.sample_diagonal * np.expand_dims(diagonal, 1 - axis)
         everywhere = bool(visible.all())  # a JPEG: no transparent pixel to leave out
-        self.phase_list = [(pixels, blocks, None if everywhere else visible[pixels])
-                           for pixels, blocks in self.phases()]
+        #: per phase: pixel and sample slices, visible pixels (None: all), weights, |Δ|²
+        #: coefficients, and each pixel's index in the phase
+        self.phase_list = []
+        for pixels, blocks in self.phases():
+            weight = self.weight[pixels]
+            self.phase_list.append((pixels, blocks, None if everywhere else visible[pixels], weight,
+                                    self.change[pixels], np.arange(weight.size).reshape(weight.shape)))
+
+    def rebuilt(self, pal: np.ndarray, labels: np.ndarray) -> np.ndarray:
+        """``(h, w, 2)``: the chroma the decoder would give back for this labelling."""
+        chroma = np.where(self.visible[..., None], pal[labels, 1:], 0.0)
+        return self.grid.up(self.grid.down(chroma), self.shape) + self.offset
 
     def samples(self, pixels: np.ndarray) -> np.ndarray:
         """``(h, w, ...)`` → ``(bh, bw, ...)``: the block means (the encoder's samples)."""
@@ -346,14 +363,17 @@ class _Model:
                 yield pixels, blocks
 
     def relabel(self, luma: np.ndarray, pal: np.ndarray, labels: np.ndarray) -> np.ndarray:
-        """Up to ``SWEEPS`` sweeps of iterated conditional modes over the four phases, each one
-        vectorized step over the ``CANDIDATES`` palette colours nearest in luma to each
-        pixel. A pixel's chroma term is the exact change of the model's error when its label
-        alone changes: with Δ = weight · (new − current chroma), the change of its sample, it
-        is 2 Δ·(G b − t) + |Δ|² Gᵢᵢ."""
-        padded = np.pad(labels, 1, constant_values=-1)  # neighbours off the image take no colour
+        """Up to ``SWEEPS`` sweeps of iterated conditional modes over the four phases, each
+        one vectorized step over the ``CANDIDATES`` palette colours nearest in luma to each
+        pixel. A pixel's chroma term is the change of the model's error when its label alone
+        changes: with Δ = weight · (new − current chroma) the change of its sample, it is
+        2 Δ·(G b − t) + |Δ|² Gᵢᵢ. After a phase, G b − t is brought up to date for the change
+        of each sample itself (Gᵢᵢ Δ); the small share of the neighbouring samples (G's
+        off-diagonal) waits for the next sweep."""
+        padded = np.full((labels.shape[0] + 2, labels.shape[1] + 2), -1)  # neighbours off the image
+        padded[1:-1, 1:-1] = labels  # take no colour
         labels = padded[1:-1, 1:-1]
-        pal_chroma = pal[:, 1:] / CHROMA_NOISE  # chroma in noise units from here on
+        pal_u, pal_v = pal[:, 1] / CHROMA_NOISE, pal[:, 2] / CHROMA_NOISE  # chroma in noise units from here on
         m = min(CANDIDATES, len(pal))
         by_luma = np.argsort(pal[:, 0], kind="stable")
         sorted_luma = pal[by_luma, 0]
@@ -364,44 +384,46 @@ class _Model:
                            np.abs(sorted_luma[start + m - 1] - luma[..., None]))
         first = np.take_along_axis(start, np.argmin(reach, axis=-1)[..., None], axis=-1)
         candidates = by_luma[first + np.arange(m)]  # (h, w, m)
-        cand_u, cand_v = pal_chroma[candidates, 0], pal_chroma[candidates, 1]
+        cand_u, cand_v = pal_u[candidates], pal_v[candidates]
         # the terms that do not depend on the neighbours: luma, and |Δ|² Gᵢᵢ's new-colour part
         fixed_cost = (((luma[..., None] - pal[candidates, 0]) / LUMA_NOISE) ** 2
-                      + self.change[..., None] * (cand_u ** 2 + cand_v ** 2))
-        current = np.where(self.visible[..., None], pal_chroma[labels], 0.0)
-        samples = self.samples(current)
-        target = self.target / CHROMA_NOISE
-        gradient = None
+                      + self.change[..., None] * (cand_u * cand_u + cand_v * cand_v))
+        visible = self.visible
+        current_u = np.where(visible, pal_u[labels], 0.0)
+        current_v = np.where(visible, pal_v[labels], 0.0)
         for _ in range(SWEEPS):
+            samples = self.samples(np.stack([current_u, current_v], axis=-1))
+            gradient = self.gram_times(samples) - self.target / CHROMA_NOISE
+            grad_u, grad_v = gradient[..., 0], gradient[..., 1]
             changed = False
-            for pixels, blocks, visible in self.phase_list:
-                if visible is not None and not visible.any():
+            for pixels, blocks, shown, weight, change, index in self.phase_list:
+                if shown is not None and not shown.any():
                     continue
-                if gradient is None:  # G b − t, again only after the samples changed
-                    gradient = self.gram_times(samples) - target
-                w, a = self.weight[pixels], self.change[pixels]
-                here = current[pixels]
-                linear = 2 * (w[..., None] * gradient[blocks] - a[..., None] * here)
+                here_u, here_v = current_u[pixels], current_v[pixels]
                 u, v = cand_u[pixels], cand_v[pixels]
                 options = candidates[pixels]
                 di, dj = pixels[0].start, pixels[1].start
-                rows, cols = options.shape[:2]
-                agree = sum(padded[oi + di::2, oj + dj::2][:rows, :cols, None] == options
-                            for oi, oj in ((0, 1), (2, 1), (1, 0), (1, 2)))  # up, down, left, right
-                cost = fixed_cost[pixels] + linear[..., 0:1] * u + linear[..., 1:2] * v - SMOOTHNESS * agree
-                pick = (np.argmin(cost, axis=-1) + np.arange(0, options.size, m).reshape(rows, cols),)
+                n_rows, n_cols = index.shape
+                agree = (padded[di::2, dj + 1::2][:n_rows, :n_cols, None] == options).astype(np.float64)
+                for oi, oj in ((2, 1), (1, 0), (1, 2)):  # above (first), below, left, right
+                    agree += padded[oi + di::2, oj + dj::2][:n_rows, :n_cols, None] == options
+                cost = (fixed_cost[pixels] - SMOOTHNESS * agree
+                        + (2 * (weight * grad_u[blocks] - change * here_u))[..., None] * u
+                        + (2 * (weight * grad_v[blocks] - change * here_v))[..., None] * v)
+                pick = np.argmin(cost, axis=-1) + index * m
                 best = options.ravel()[pick]
-                if visible is not None:
-                    best = np.where(visible, best, -1)
+                if shown is not None:
+                    best = np.where(shown, best, -1)
                 if (best != labels[pixels]).any():
                     changed = True
                     labels[pixels] = best
-                    new = np.stack([u.ravel()[pick], v.ravel()[pick]], axis=-1)
-                    if visible is not None:
-                        new = np.where(visible[..., None], new, 0.0)
-                    samples[blocks] += w[..., None] * (new - here)
-                    current[pixels] = new
-                    gradient = None
+                    new_u, new_v = u.ravel()[pick], v.ravel()[pick]
+                    if shown is not None:
+                        new_u, new_v = np.where(shown, new_u, 0.0), np.where(shown, new_v, 0.0)
+                    diagonal = self.sample_diagonal[blocks] * weight
+                    grad_u[blocks] += diagonal * (new_u - here_u)
+                    grad_v[blocks] += diagonal * (new_v - here_v)
+                    current_u[pixels], current_v[pixels] = new_u, new_v
             if not changed:
                 break
         return labels.copy()

@@ -344,9 +344,10 @@ def _edge_share(luma: np.ndarray) -> np.ndarray:
     a step over LOSSY_EDGE that is no smaller than the steps on either side of it (the
     ringing beside an edge is weaker than the edge)."""
     step = np.abs(np.diff(luma, axis=1))
-    before = np.pad(step, ((0, 0), (1, 0)))[:, :-1]
-    after = np.pad(step, ((0, 0), (0, 1)))[:, 1:]
-    return ((step > LOSSY_EDGE) & (step >= before) & (step >= after)).mean(axis=0)
+    edge = step > LOSSY_EDGE
+    edge[:, 1:] &= step[:, 1:] >= step[:, :-1]  # no smaller than the step before it
+    edge[:, :-1] &= step[:, :-1] >= step[:, 1:]  # ... and the step after it
+    return edge.mean(axis=0)
 
 
 def _offset_mass(change: np.ndarray, k: int) -> np.ndarray:
@@ -364,12 +365,21 @@ def _fit_axis(change: np.ndarray, off_grid: float) -> tuple[int, int] | None:
         spacing = int(np.gcd.reduce(np.diff(where)))
         k = max((d for d in range(2, min(MAX_FACTOR, spacing) + 1) if spacing % d == 0), default=1)
         return (k, int(where[0] % k)) if k > 1 else None
+    # every factor at once: the changes at each (k, offset), k = 2 … top, in one bincount
+    top = min(MAX_FACTOR, change.size)
+    factors = np.arange(2, top + 1)
+    first = np.concatenate([[0], np.cumsum(factors)])[:-1]  # where each factor's offsets start
+    position = np.arange(1, change.size + 1)
+    slot = (first[:, None] + position[None, :] % factors[:, None]).ravel()
+    mass = np.bincount(slot, weights=np.tile(change, len(factors)), minlength=int(factors.sum()))
+    evidence = np.bincount(slot, weights=np.tile(change > 0, len(factors)).astype(np.float64),
+                           minlength=int(factors.sum()))
     total = float(change.sum())
-    for k in range(min(MAX_FACTOR, change.size), 1, -1):
-        mass = _offset_mass(change, k)
-        o = int(np.argmax(mass))
-        if total - mass[o] <= off_grid * total and np.count_nonzero(where % k == o) >= MIN_EVIDENCE:
-            return k, o
+    best = np.maximum.reduceat(mass, first)  # each factor's best offset's changes
+    for i in np.flatnonzero(total - best <= off_grid * total)[::-1]:  # the largest fitting factor wins
+        o = int(np.argmax(mass[first[i]:first[i] + factors[i]]))
+        if evidence[first[i] + o] >= MIN_EVIDENCE:
+            return int(factors[i]), o
     return None
 
 
@@ -483,9 +493,9 @@ def snap_colours(rgba: np.ndarray, min_count: float | None = None, shadows: bool
     grid = chroma.chroma_grid(rgb_to_yuv(rgba)) if unmix else None
     if grid is not None and chroma.fits(rgba.shape[:2], len(palette)):
         labels, palette = chroma.unmix(rgba, palette, grid, min_count=min_count, radius=SNAP_RADIUS)
-        snapped = np.clip(np.round(palette), 0, 255).astype(np.uint8)[labels[visible]]
-        out[..., :3][visible] = snapped
-        return out, int(colours.size), int(np.unique(snapped, axis=0).shape[0]), grid.name
+        snapped = np.clip(np.round(palette), 0, 255).astype(np.uint8)
+        out[..., :3][visible] = snapped[labels[visible]]
+        return out, int(colours.size), _distinct_rgb(snapped[np.unique(labels[visible])]), grid.name
 
     weight = np.array([1.0, CHROMA_WEIGHT, CHROMA_WEIGHT])
     nearest = _nearest(colour_yuv * weight, rgb_to_yuv(palette) * weight)
@@ -510,7 +520,12 @@ def snap_colours(rgba: np.ndarray, min_count: float | None = None, shadows: bool
             nearest = _nearest(colour_yuv * weight, rgb_to_yuv(palette) * weight)
     snapped = np.clip(np.round(palette), 0, 255).astype(np.uint8)[nearest]
     out[..., :3][visible] = snapped[inverse]
-    return out, int(colours.size), int(np.unique(snapped, axis=0).shape[0]), None
+    return out, int(colours.size), _distinct_rgb(snapped), None
+
+
+def _distinct_rgb(rgb: np.ndarray) -> int:
+    """How many distinct rows an ``(n, 3) uint8`` array has."""
+    return int(np.unique((rgb[:, 0].astype(np.int64) << 16) | (rgb[:, 1].astype(np.int64) << 8) | rgb[:, 2]).size)
 
 
 def _merge_near(palette: np.ndarray, mass: np.ndarray) -> np.ndarray:
@@ -535,6 +550,10 @@ def _merge_near(palette: np.ndarray, mass: np.ndarray) -> np.ndarray:
 #: 5×5×5 cells around its own, about SNAP_RADIUS either way
 _CELL = SNAP_RADIUS / 2
 _REACH = 2
+#: _BAND[i, a]: whether box cell a (offset a − r from a box's centre) lies within reach of
+#: the cell at offset i − 2r
+_BAND = (np.abs((np.arange(4 * _REACH + 1)[:, None] - 2 * _REACH) - (np.arange(2 * _REACH + 1)[None, :] - _REACH))
+         <= _REACH).astype(np.float64)
 
 
 def _palette(yuv: np.ndarray, rgb: np.ndarray, counts: np.ndarray, min_count: float,
@@ -573,20 +592,16 @@ def _palette(yuv: np.ndarray, rgb: np.ndarray, counts: np.ndarray, min_count: fl
         box = cell_at[x - r:x + r + 1, y - r:y + r + 1, z - r:z + r + 1]
         gone = box[box >= 0]
         box[box >= 0] = -1  # taken: these cells are gone for every later box
-        # the candidates whose box overlaps the emptied one lose the pixels taken: the box
-        # sums, over the 4r+1 cells around it, of what was taken
+        taken_grid = grid[x - r:x + r + 1, y - r:y + r + 1, z - r:z + r + 1]
+        # the candidates whose box overlaps the emptied one lose the pixels taken: the box sum
+        # of what was taken, at each of the (4r+1)³ cells around it (separable: band ⊗ band ⊗ band)
         around = candidate_at[x - 2 * r:x + 2 * r + 1, y - 2 * r:y + 2 * r + 1, z - 2 * r:z + 2 * r + 1]
         here = around >= 0
-        lost = np.zeros((6 * r + 1,) * 3)
-        lost[tuple((cells[gone] - (x - 3 * r, y - 3 * r, z - 3 * r)).T)] = mass[gone]
-        for axis in range(3):
-            n = lost.shape[axis] - 2 * r
-            lead = (slice(None),) * axis
-            summed = lost[lead + (slice(0, n),)].copy()
-            for d in range(1, 2 * r + 1):
-                summed += lost[lead + (slice(d, d + n),)]
-            lost = summed
+        lost = np.einsum("ia,abc->ibc", _BAND, taken_grid)  # one axis at a time (a single
+        lost = np.einsum("jb,ibc->ijc", _BAND, lost)  # four-operand einsum is far slower)
+        lost = np.einsum("kc,ijc->ijk", _BAND, lost)
         density[around[here]] -= lost[here]
+        taken_grid[...] = 0.0
         dead = candidate_of[gone]
         density[dead[dead >= 0]] = -1.0  # a candidate whose cell is taken is no centre any more
         taken = float(mass[gone].sum())
