@@ -53,6 +53,8 @@ SWEEPS = 1
 MISSING = 3.0
 CHROMA_MISSING = 3.0
 GROW_STEPS = 1
+#: weight in the palette refit of a pixel the decoder clipped to RGB's range (its chroma is off)
+CLIPPED_WEIGHT = 0.1
 #: each refitted palette colour is pulled towards its previous value with this weight per pixel
 RIDGE = 0.1
 #: larger images keep the nearest palette colour: the joint labelling holds a few arrays of
@@ -261,11 +263,12 @@ def unmix(rgba: np.ndarray, palette: np.ndarray, grid: ChromaGrid, min_count: fl
     fixed = np.where(visible[..., None], 0.0, chroma)  # transparent pixels' chroma, as decoded
     pal = rgb_to_yuv(np.asarray(palette, dtype=np.float64))
     labels = np.where(visible, np.argmin(np.abs(luma[..., None] - pal[:, 0]), axis=-1), -1)
-    model = _Model(grid, shape, visible, chroma, fixed)
+    clipped = ((rgba[..., :3] == 0) | (rgba[..., :3] == 255)).any(axis=-1)
+    model = _Model(grid, shape, visible, chroma, fixed, clipped)
     for round_ in range(ROUNDS):
         labels = model.relabel(luma, pal, labels)
         if round_ < ROUNDS - 1:
-            misfit = np.sqrt(((model.rebuilt(pal, labels) - chroma) ** 2).sum(axis=-1))
+            misfit = np.sqrt(((model.decoded(pal, labels)[..., 1:] - chroma) ** 2).sum(axis=-1))
             pal, labels = _grow(luma, chroma, misfit, pal, labels, min_count, radius)
             pal = model.refit(luma, pal, labels)
     return labels, np.clip(yuv_to_rgb(pal), 0, 255)
@@ -308,7 +311,7 @@ class _Model:
     """
 
     def __init__(self, grid: ChromaGrid, shape: tuple[int, int], visible: np.ndarray, chroma: np.ndarray,
-                 fixed: np.ndarray) -> None:
+                 fixed: np.ndarray, clipped: np.ndarray) -> None:
         self.grid, self.shape, self.visible = grid, shape, visible
         self.grams = grid.gram(shape)
         #: a pixel's weight in its sample (1/2 per subsampled axis, 1 for a lone edge pixel),
@@ -321,6 +324,9 @@ class _Model:
                 along[-1] = 1.0
             self.weight = self.weight * np.expand_dims(along, 1 - axis)
             self.change = self.change * np.expand_dims(along ** 2 * diagonal[np.arange(n) // 2], 1 - axis)
+        self.chroma = chroma
+        #: how much each pixel's chroma counts in the refit: less where the decoder clipped it
+        self.trust = np.where(clipped, CLIPPED_WEIGHT, 1.0)
         self.offset = grid.up(grid.down(fixed), shape)  # the transparent pixels' share of the decoded chroma
         self.target = grid.up_adjoint(chroma - self.offset)  # t, (bh, bw, 2)
         #: Gᵢᵢ of each sample (the product of the per-axis diagonals)
@@ -336,10 +342,12 @@ class _Model:
             self.phase_list.append((pixels, blocks, None if everywhere else visible[pixels], weight,
                                     self.change[pixels], np.arange(weight.size).reshape(weight.shape)))
 
-    def rebuilt(self, pal: np.ndarray, labels: np.ndarray) -> np.ndarray:
-        """``(h, w, 2)``: the chroma the decoder would give back for this labelling."""
+    def decoded(self, pal: np.ndarray, labels: np.ndarray) -> np.ndarray:
+        """``(h, w, 3)`` YUV: what the decoder would give back for this labelling (each
+        label's luma, the rebuilt chroma, clipped to RGB's range as decoders do)."""
         chroma = np.where(self.visible[..., None], pal[labels, 1:], 0.0)
-        return self.grid.up(self.grid.down(chroma), self.shape) + self.offset
+        yuv = np.concatenate([pal[labels, :1], self.grid.up(self.grid.down(chroma), self.shape) + self.offset], axis=-1)
+        return rgb_to_yuv(np.clip(yuv_to_rgb(yuv), 0, 255))
 
     def samples(self, pixels: np.ndarray) -> np.ndarray:
         """``(h, w, ...)`` → ``(bh, bw, ...)``: the block means (the encoder's samples)."""
@@ -444,12 +452,15 @@ class _Model:
         mass = np.bincount(lab, weights=w_luma, minlength=k)
         new_luma = np.bincount(lab, weights=w_luma * y, minlength=k) / np.maximum(mass, 1e-12)
 
-        shares = self.samples((labels[..., None] == np.arange(k)).astype(np.float64))
-        spread = self.gram_times(shares)
-        shares, spread = shares.reshape(-1, k), spread.reshape(-1, k)
-        # Sᵀ(GS) and Sᵀt by einsum's own loops (not BLAS, see ChromaGrid)
-        normal = np.einsum("bk,bl->kl", shares, spread) + np.diag(RIDGE * count + 1e-9)
-        right = np.einsum("bk,bc->kc", shares, self.target.reshape(-1, 2)) + (RIDGE * count)[:, None] * pal[:, 1:]
+        # decoded chroma ≈ up(down(one-hot)) @ palette chroma, one equation per pixel; pixels the
+        # decoder clipped to RGB's range tell little about the chroma it had (CLIPPED_WEIGHT)
+        design = self.grid.up(self.samples((labels[..., None] == np.arange(k)).astype(np.float64)), self.shape)
+        design = design.reshape(-1, k)
+        weighted = design * self.trust.reshape(-1, 1)
+        # by einsum's own loops (not BLAS, see ChromaGrid)
+        normal = np.einsum("pk,pl->kl", weighted, design) + np.diag(RIDGE * count + 1e-9)
+        right = (np.einsum("pk,pc->kc", weighted, (self.chroma - self.offset).reshape(-1, 2))
+                 + (RIDGE * count)[:, None] * pal[:, 1:])
         new_chroma = np.linalg.solve(normal, right)
 
         out = pal.copy()
