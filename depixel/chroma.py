@@ -327,8 +327,10 @@ class _Model:
         self.chroma = chroma
         #: how much each pixel's chroma counts in the refit: less where the decoder clipped it
         self.trust = np.where(clipped, CLIPPED_WEIGHT, 1.0)
-        self.offset = grid.up(grid.down(fixed), shape)  # the transparent pixels' share of the decoded chroma
-        self.target = grid.up_adjoint(chroma - self.offset)  # t, (bh, bw, 2)
+        # the transparent pixels' share of the decoded chroma (none in a JPEG)
+        self.offset = grid.up(grid.down(fixed), shape) if fixed.any() else np.zeros_like(fixed)
+        target = grid.up_adjoint(chroma - self.offset)
+        self.target = target[..., 0] + 1j * target[..., 1]  # t, (bh, bw), chroma as u + iv
         #: Gᵢᵢ of each sample (the product of the per-axis diagonals)
         self.sample_diagonal = np.ones(self.target.shape[:2])
         for axis, diagonal, _ in self.grams:
@@ -381,7 +383,8 @@ class _Model:
         padded = np.full((labels.shape[0] + 2, labels.shape[1] + 2), -1)  # neighbours off the image
         padded[1:-1, 1:-1] = labels  # take no colour
         labels = padded[1:-1, 1:-1]
-        pal_u, pal_v = pal[:, 1] / CHROMA_NOISE, pal[:, 2] / CHROMA_NOISE  # chroma in noise units from here on
+        # chroma as complex numbers u + iv, in noise units: one array where there would be two
+        pal_chroma = (pal[:, 1] + 1j * pal[:, 2]) / CHROMA_NOISE
         m = min(CANDIDATES, len(pal))
         by_luma = np.argsort(pal[:, 0], kind="stable")
         sorted_luma = pal[by_luma, 0]
@@ -392,32 +395,27 @@ class _Model:
                            np.abs(sorted_luma[start + m - 1] - luma[..., None]))
         first = np.take_along_axis(start, np.argmin(reach, axis=-1)[..., None], axis=-1)
         candidates = by_luma[first + np.arange(m)]  # (h, w, m)
-        cand_u, cand_v = pal_u[candidates], pal_v[candidates]
+        cand = pal_chroma[candidates]
+        cand_conj = cand.conj()  # a·conj(c) has real part a_u c_u + a_v c_v
         # the terms that do not depend on the neighbours: luma, and |Δ|² Gᵢᵢ's new-colour part
         fixed_cost = (((luma[..., None] - pal[candidates, 0]) / LUMA_NOISE) ** 2
-                      + self.change[..., None] * (cand_u * cand_u + cand_v * cand_v))
-        visible = self.visible
-        current_u = np.where(visible, pal_u[labels], 0.0)
-        current_v = np.where(visible, pal_v[labels], 0.0)
+                      + self.change[..., None] * (cand * cand_conj).real)
+        current = np.where(self.visible, pal_chroma[labels], 0.0)
         for _ in range(SWEEPS):
-            samples = self.samples(np.stack([current_u, current_v], axis=-1))
-            gradient = self.gram_times(samples) - self.target / CHROMA_NOISE
-            grad_u, grad_v = gradient[..., 0], gradient[..., 1]
+            gradient = self.gram_times(self.samples(current)) - self.target / CHROMA_NOISE  # G b − t
             changed = False
             for pixels, blocks, shown, weight, change, index in self.phase_list:
                 if shown is not None and not shown.any():
                     continue
-                here_u, here_v = current_u[pixels], current_v[pixels]
-                u, v = cand_u[pixels], cand_v[pixels]
+                here = current[pixels]
                 options = candidates[pixels]
                 di, dj = pixels[0].start, pixels[1].start
                 n_rows, n_cols = index.shape
                 agree = (padded[di::2, dj + 1::2][:n_rows, :n_cols, None] == options).astype(np.float64)
                 for oi, oj in ((2, 1), (1, 0), (1, 2)):  # above (first), below, left, right
                     agree += padded[oi + di::2, oj + dj::2][:n_rows, :n_cols, None] == options
-                cost = (fixed_cost[pixels] - SMOOTHNESS * agree
-                        + (2 * (weight * grad_u[blocks] - change * here_u))[..., None] * u
-                        + (2 * (weight * grad_v[blocks] - change * here_v))[..., None] * v)
+                linear = 2 * (weight * gradient[blocks] - change * here)
+                cost = fixed_cost[pixels] - SMOOTHNESS * agree + (linear[..., None] * cand_conj[pixels]).real
                 pick = np.argmin(cost, axis=-1) + index * m
                 best = options.ravel()[pick]
                 if shown is not None:
@@ -425,13 +423,11 @@ class _Model:
                 if (best != labels[pixels]).any():
                     changed = True
                     labels[pixels] = best
-                    new_u, new_v = u.ravel()[pick], v.ravel()[pick]
+                    new = cand[pixels].ravel()[pick]
                     if shown is not None:
-                        new_u, new_v = np.where(shown, new_u, 0.0), np.where(shown, new_v, 0.0)
-                    diagonal = self.sample_diagonal[blocks] * weight
-                    grad_u[blocks] += diagonal * (new_u - here_u)
-                    grad_v[blocks] += diagonal * (new_v - here_v)
-                    current_u[pixels], current_v[pixels] = new_u, new_v
+                        new = np.where(shown, new, 0.0)
+                    gradient[blocks] += self.sample_diagonal[blocks] * weight * (new - here)
+                    current[pixels] = new
             if not changed:
                 break
         return labels.copy()

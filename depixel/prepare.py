@@ -20,6 +20,7 @@ arrays are ``(row, column)``.
 """
 from __future__ import annotations
 
+import heapq
 import re
 from dataclasses import dataclass
 
@@ -550,10 +551,8 @@ def _merge_near(palette: np.ndarray, mass: np.ndarray) -> np.ndarray:
 #: 5×5×5 cells around its own, about SNAP_RADIUS either way
 _CELL = SNAP_RADIUS / 2
 _REACH = 2
-#: _BAND[i, a]: whether box cell a (offset a − r from a box's centre) lies within reach of
-#: the cell at offset i − 2r
-_BAND = (np.abs((np.arange(4 * _REACH + 1)[:, None] - 2 * _REACH) - (np.arange(2 * _REACH + 1)[None, :] - _REACH))
-         <= _REACH).astype(np.float64)
+#: hqx luma of an RGB colour: colour @ _LUMA
+_LUMA = rgb_to_yuv(np.eye(3))[:, 0]
 
 
 def _palette(yuv: np.ndarray, rgb: np.ndarray, counts: np.ndarray, min_count: float,
@@ -570,47 +569,44 @@ def _palette(yuv: np.ndarray, rgb: np.ndarray, counts: np.ndarray, min_count: fl
     mass = np.bincount(colour_cell, weights=counts, minlength=len(cells))
     rgb_sum = np.stack([np.bincount(colour_cell, weights=counts * rgb[:, c], minlength=len(cells))
                         for c in range(3)], axis=1)
-    grid = np.zeros(shape, dtype=np.float32)  # pixel counts: exact
+    grid = np.zeros(shape, dtype=np.float32)  # pixels per cell not taken yet (counts: exact)
     grid[tuple(cells.T)] = mass
     # pixels within reach of each cell; only cells that could gather min_count are candidates
     density = _box_sums(grid, cells)
     candidates = np.flatnonzero(density >= min_count)
-    density = density[candidates]
-    cell_at = np.full(shape, -1)  # which cell, and which candidate, sits at each grid position
-    cell_at[tuple(cells.T)] = np.arange(len(cells))
-    candidate_of = np.full(len(cells), -1)
-    candidate_of[candidates] = np.arange(len(candidates))
-    candidate_at = np.full(shape, -1)
-    candidate_at[tuple(cells[candidates].T)] = np.arange(len(candidates))
+    cell_at = np.full(shape, -1, dtype=np.int32)  # which cell sits at each grid position
+    cell_at[tuple(cells.T)] = np.arange(len(cells), dtype=np.int32)
+    # lazy greedy: the box sums only shrink as boxes are taken, so a stale sum is an upper
+    # bound; the candidate on top of the heap is the densest (first on ties) once its own sum,
+    # brought up to date, still beats the next stale one
+    heap = [(-float(density[c]), int(c)) for c in candidates]
+    heapq.heapify(heap)
+    live = np.zeros(len(cells), dtype=bool)
+    live[candidates] = True
     chosen: list[np.ndarray] = []
     chosen_mass: list[tuple[float, float]] = []  # (luma, pixels)
-    while candidates.size:
-        j = int(np.argmax(density))
-        if density[j] < min_count:
+    while heap:
+        _, c = heapq.heappop(heap)
+        if not live[c]:
+            continue  # its cell was taken
+        x, y, z = cells[c]
+        box = (slice(x - r, x + r + 1), slice(y - r, y + r + 1), slice(z - r, z + r + 1))
+        now = float(grid[box].sum())
+        if heap and (-now, c) > heap[0]:
+            heapq.heappush(heap, (-now, c))  # not the densest any more: back, with its true sum
+            continue
+        if now < min_count:
             break
-        x, y, z = cells[candidates[j]]
-        box = cell_at[x - r:x + r + 1, y - r:y + r + 1, z - r:z + r + 1]
-        gone = box[box >= 0]
-        box[box >= 0] = -1  # taken: these cells are gone for every later box
-        taken_grid = grid[x - r:x + r + 1, y - r:y + r + 1, z - r:z + r + 1]
-        # the candidates whose box overlaps the emptied one lose the pixels taken: the box sum
-        # of what was taken, at each of the (4r+1)³ cells around it (separable: band ⊗ band ⊗ band)
-        around = candidate_at[x - 2 * r:x + 2 * r + 1, y - 2 * r:y + 2 * r + 1, z - 2 * r:z + 2 * r + 1]
-        here = around >= 0
-        lost = np.einsum("ia,abc->ibc", _BAND, taken_grid)  # one axis at a time (a single
-        lost = np.einsum("jb,ibc->ijc", _BAND, lost)  # four-operand einsum is far slower)
-        lost = np.einsum("kc,ijc->ijk", _BAND, lost)
-        density[around[here]] -= lost[here]
-        taken_grid[...] = 0.0
-        dead = candidate_of[gone]
-        density[dead[dead >= 0]] = -1.0  # a candidate whose cell is taken is no centre any more
-        taken = float(mass[gone].sum())
-        colour = rgb_sum[gone].sum(axis=0) / taken
-        luma = float(rgb_to_yuv(colour)[0])
-        if not shadows or not any(abs(luma - y) <= SHADOW_LUMA and m >= SHADOW_RATIO * taken
+        gone = cell_at[box][cell_at[box] >= 0]
+        cell_at[box] = -1  # taken: these cells are gone for every later box
+        grid[box] = 0.0
+        live[gone] = False
+        colour = rgb_sum[gone].sum(axis=0) / now
+        luma = float(colour @ _LUMA)
+        if not shadows or not any(abs(luma - y) <= SHADOW_LUMA and m >= SHADOW_RATIO * now
                                   for y, m in chosen_mass):
             chosen.append(colour)
-            chosen_mass.append((luma, taken))
+            chosen_mass.append((luma, now))
     if not chosen:  # too few pixels for any colour to count: the most common one
         chosen = [rgb[int(np.argmax(counts))]]
     return np.array(chosen, dtype=np.float64)
