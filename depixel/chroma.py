@@ -35,21 +35,25 @@ SAMPLING_MISFIT = 3.0
 #: ... and must fit at least this much better on the image's own grid than one pixel off it
 #: (4:2:0 JPEGs: median 0.4; 4:4:4 JPEGs and noise: 0.6 to 1.4, median 1.0)
 SAMPLING_CONTRAST = 0.75
-#: noise of the decoded luma and chroma against the art's colours (standard deviations, 0-255):
-#: what a difference of one such step costs, next to one disagreeing neighbour (SMOOTHNESS)
+#: noise of the decoded luma and chroma against the art's colours (0-255; the energy counts
+#: differences in these steps, squared) and the cost of a pixel differing from one of its
+#: four neighbours: chosen on the paper sprites at q70-95 (luma 5-9, chroma 9-16 and
+#: smoothness 2-4 all give a median within 0.03 of the best; luma is off by 9 at the 90th percentile
+#: at q85, docs/inputs.md)
 LUMA_NOISE = 7.0
 CHROMA_NOISE = 12.0
-#: cost of a pixel differing from one of its four neighbours, in units of the squared noise
 SMOOTHNESS = 3.0
 #: a pixel's label is chosen among this many palette colours nearest to its luma (the right
 #: colour is the nearest for 70 % of the pixels of the paper sprites' JPEGs, among the 4
 #: nearest for 99.9 %)
 CANDIDATES = 4
-#: labelling rounds (the palette is refitted between them) and sweeps per round
+#: labelling rounds (the palette grows and is refitted between them) and sweeps per round
+#: (2 rounds: median 0.83 instead of 0.88 at q85; more sweeps or rounds gain nothing)
 ROUNDS = 3
 SWEEPS = 1
-#: a pixel whose luma lies more than this many LUMA_NOISE from its label's is not explained by
-#: the palette; enough such pixels of one luma become a new colour (at most GROW_STEPS a round)
+#: a pixel whose luma lies more than MISSING · LUMA_NOISE from its label's, or whose decoded
+#: chroma lies more than CHROMA_MISSING · CHROMA_NOISE from the model's, is not explained by
+#: the palette; enough such pixels of one luma become a new colour (GROW_STEPS a round)
 MISSING = 3.0
 CHROMA_MISSING = 3.0
 GROW_STEPS = 1
@@ -99,7 +103,7 @@ class ChromaGrid:
 
     @property
     def name(self) -> str:
-        return {(2, 2): "4:2:0", (1, 2): "4:2:2", (2, 1): "4:4:0"}.get(self.block, "4:4:4")
+        return "4:2:0" if self.block == (2, 2) else "4:2:2" if self.block == (1, 2) else "4:4:4"
 
     def _each(self, x: np.ndarray, step, *args) -> np.ndarray:
         """``step`` (an axis-0 operator) applied along every subsampled axis."""
@@ -276,9 +280,10 @@ def unmix(rgba: np.ndarray, palette: np.ndarray, grid: ChromaGrid, min_count: fl
 
 def _grow(luma: np.ndarray, chroma: np.ndarray, misfit: np.ndarray, pal: np.ndarray, labels: np.ndarray,
           min_count: float, radius: float) -> tuple[np.ndarray, np.ndarray]:
-    """Add palette colours for pixels whose luma no palette colour explains: while at least
-    ``min_count`` pixels lie more than ``MISSING`` noise steps from their label's luma, the
-    densest luma among them (within ``radius``) becomes a colour (its chroma, the mean of
+    """Add palette colours for pixels the palette does not explain (luma more than
+    ``MISSING`` noise steps from their label's, or decoded chroma ``misfit`` more than
+    ``CHROMA_MISSING`` from the model's): while at least ``min_count`` of them lie within
+    ``radius`` of one luma, the densest such luma becomes a colour (its chroma, the mean of
     theirs, is mixed; the refit unmixes it) and takes them."""
     for _ in range(GROW_STEPS):
         on = labels >= 0

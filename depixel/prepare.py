@@ -8,7 +8,9 @@ that before the similarity graph (docs/inputs.md has the how and the limits, wit
 1. pixel grid: find the nearest-neighbour factor and grid offset of each axis (from the
    exact colour changes, or from luma edges for lossy input), and reduce every block to
    one pixel (its colour, or for lossy input the median of its inner pixels);
-2. denoise (lossy input): snap near-identical colours to a small palette;
+2. denoise (lossy input): snap near-identical colours to a small palette; for 1× pixels
+   whose chroma was subsampled (4:2:0 JPEG, lossy WebP), label every pixel jointly
+   through the decoder's model instead (depixel/chroma.py);
 3. backdrop: make one colour fully transparent.
 
 On real 1× art the grid is never found and nothing else is on by default for a lossless
