@@ -581,7 +581,7 @@ def _palette(yuv: np.ndarray, rgb: np.ndarray, counts: np.ndarray, min_count: fl
     # lazy greedy: the box sums only shrink as boxes are taken, so a stale sum is an upper
     # bound; the candidate on top of the heap is the densest (first on ties) once its own sum,
     # brought up to date, still beats the next stale one
-    heap = [(-float(density[c]), int(c)) for c in candidates]
+    heap = list(zip((-density[candidates]).tolist(), candidates.tolist()))
     heapq.heapify(heap)
     live = np.zeros(len(cells), dtype=bool)
     live[candidates] = True
@@ -616,15 +616,12 @@ def _palette(yuv: np.ndarray, rgb: np.ndarray, counts: np.ndarray, min_count: fl
 
 def _box_sums(grid: np.ndarray, at: np.ndarray) -> np.ndarray:
     """``(n,) float64``: the sum of ``grid`` over the (2·_REACH+1)³ box around each of the
-    ``(n, 3)`` positions ``at`` (at least _REACH + 1 cells from the edges), by
-    inclusion-exclusion on one summed-area table."""
-    table = grid.cumsum(axis=0).cumsum(axis=1).cumsum(axis=2)
-    low, high = at - _REACH - 1, at + _REACH  # the table's entries just outside and at the box's far corner
-    total = np.zeros(len(at))
-    for corner in range(8):
-        pick = [(high if corner >> axis & 1 else low)[:, axis] for axis in range(3)]
-        total += (-1.0) ** (3 - bin(corner).count("1")) * table[pick[0], pick[1], pick[2]]
-    return total
+    ``(n, 3)`` positions ``at`` (at least _REACH cells from the edges): one gather of every
+    box's cells (cumulative sums along a grid's first axes are slow strided passes)."""
+    r = _REACH
+    strides = np.array([grid.shape[1] * grid.shape[2], grid.shape[2], 1])
+    offset = (np.stack(np.meshgrid(*[np.arange(-r, r + 1)] * 3, indexing="ij"), axis=-1).reshape(-1, 3) @ strides)
+    return grid.ravel()[(at @ strides)[:, None] + offset].sum(axis=1, dtype=np.float64)
 
 
 def _nearest(points: np.ndarray, palette: np.ndarray) -> np.ndarray:
