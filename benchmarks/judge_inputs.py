@@ -7,7 +7,9 @@ options, and judged against the clean 1× PNG:
   x5crop   saved 5×, then cropped by 2, 3, 1 and 4 pixels at the left, top, right, bottom
   x4q90    saved 4×, then as JPEG quality 90
   q85      saved as JPEG quality 85 (1×; Pillow's default 4:2:0 chroma subsampling)
-  q85-444  the same without chroma subsampling
+  q70, q95 the same at quality 70 and 95 (no target: to see that no quality gets worse)
+  q85-422  saved as JPEG quality 85 with 4:2:2 subsampling (no target)
+  q85-444  the same without chroma subsampling (no target)
   key      --transparent auto (sprites whose corners agree), judged against the sprite
            with that colour at alpha 0
 
@@ -41,10 +43,11 @@ from depixel import load_image
 from depixel.prepare import lossy_format, prepare
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared"
-VARIANTS = ("x3", "x5crop", "x4q90", "q85", "q85-444", "key")
+VARIANTS = ("x3", "x5crop", "x4q90", "q85", "q70", "q95", "q85-422", "q85-444", "key")
 #: (centre, diag, cmds ratio) each variant must reach; None: not a target
 TARGETS = {"x3": (0.97, 0.95, 1.5), "x5crop": (0.97, 0.95, 1.5), "x4q90": (0.97, 0.95, 1.5),
-           "q85": (0.97, 0.95, None), "q85-444": (None, None, None), "key": (0.99, None, None)}
+           "q85": (0.97, 0.95, None), "q70": (None, None, None), "q95": (None, None, None),
+           "q85-422": (None, None, None), "q85-444": (None, None, None), "key": (0.99, None, None)}
 
 
 def damaged(clean: np.ndarray, variant: str) -> tuple[bytes, str] | None:
@@ -58,8 +61,10 @@ def damaged(clean: np.ndarray, variant: str) -> tuple[bytes, str] | None:
         img.resize((5 * w, 5 * h), Image.Resampling.NEAREST).crop((2, 3, 5 * w - 1, 5 * h - 4)).save(buffer, "PNG")
     elif variant == "x4q90":
         img.resize((4 * w, 4 * h), Image.Resampling.NEAREST).save(buffer, "JPEG", quality=90)
-    elif variant == "q85":
-        img.save(buffer, "JPEG", quality=85)
+    elif variant in ("q70", "q85", "q95"):
+        img.save(buffer, "JPEG", quality=int(variant[1:]))
+    elif variant == "q85-422":
+        img.save(buffer, "JPEG", quality=85, subsampling=1)
     elif variant == "q85-444":
         img.save(buffer, "JPEG", quality=85, subsampling=0)
     elif variant == "key":

@@ -8,7 +8,9 @@ that before the similarity graph (docs/inputs.md has the how and the limits, wit
 1. pixel grid: find the nearest-neighbour factor and grid offset of each axis (from the
    exact colour changes, or from luma edges for lossy input), and reduce every block to
    one pixel (its colour, or for lossy input the median of its inner pixels);
-2. denoise (lossy input): snap near-identical colours to a small palette;
+2. denoise (lossy input): snap near-identical colours to a small palette; for 1× pixels
+   whose chroma was subsampled (4:2:0 JPEG, lossy WebP), label every pixel jointly
+   through the decoder's model instead (depixel/chroma.py);
 3. backdrop: make one colour fully transparent.
 
 On real 1× art the grid is never found and nothing else is on by default for a lossless
@@ -20,11 +22,13 @@ arrays are ``(row, column)``.
 """
 from __future__ import annotations
 
+import heapq
 import re
 from dataclasses import dataclass
 
 import numpy as np
 
+from . import chroma
 from .errors import ParameterError
 from .image import as_rgba, rgb_to_yuv
 
@@ -54,6 +58,13 @@ MIN_SHARE = 0.005
 #: pixels snap to the nearest palette colour with chroma counted this much: JPEG keeps luma
 #: per pixel but chroma only per 2×2 block (4:2:0), so chroma is the less reliable half
 CHROMA_WEIGHT = 0.3
+#: clean colours (block medians) farther than this many SNAP_RADIUS from their palette colour
+#: are gathered again into colours of their own (a box reaches up to 1.5 radii: sbm4_01's white
+#: lies 17 from its off-white); only for blocks of at least LEFTOVER_BLOCK pixels a side, whose
+#: median is taken over at least 2×2 inner pixels (a 3× block's single inner pixel still
+#: carries JPEG's chroma bleeding: the ghost fixture saved 3× at q85 would gain two stray colours)
+LEFTOVER = 1.5
+LEFTOVER_BLOCK = 4
 #: rounds of moving each palette colour to the mean of the pixels it gathers
 REFINE_STEPS = 2
 
@@ -80,6 +91,7 @@ class PreparedImage:
     lossy: str | None = None  # the lossy format the pixels came from ("JPEG"), if known
     colours_before: int = 0  # distinct colours before denoising (0: not denoised)
     palette: int = 0  # colours after denoising (0: not denoised)
+    subsampling: str | None = None  # the chroma subsampling undone while denoising ("4:2:0"), if any
     transparent: Colour | None = None  # the colour made transparent
     transparent_pixels: int = 0  # art pixels made transparent
     notes: tuple[str, ...] = ()  # what was looked for and not done, one phrase each
@@ -119,7 +131,8 @@ class PreparedImage:
             parts.append(f"{name} is {factor} {how}{shift}; converted its {self.size[0]}×{self.size[1]} pixels")
         if self.denoised:
             source = f"lossy {self.lossy}" if self.lossy else "denoised"
-            parts.append(f"{source}: snapped {self.colours_before} colours to {self.palette}")
+            unmixed = f" ({self.subsampling} chroma unmixed)" if self.subsampling else ""
+            parts.append(f"{source}{unmixed}: snapped {self.colours_before} colours to {self.palette}")
         if self.transparent is not None:
             parts.append(f"made {_hex(self.transparent)} transparent ({self.transparent_pixels} pixels)")
         parts.extend(self.notes)
@@ -138,6 +151,7 @@ class PreparedImage:
             "lossy": self.lossy,
             "colours_before": self.colours_before or None,
             "palette": self.palette or None,
+            "subsampling": self.subsampling,
             "transparent": _hex(self.transparent) if self.transparent is not None else None,
             "transparent_pixels": self.transparent_pixels,
             "notes": list(self.notes),
@@ -175,12 +189,14 @@ def prepare(image, *, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
     grid = find_grid(rgba, size, lossy=lossy_pixels)
     factor, offset = grid if grid is not None else ((1, 1), (0, 0))
     colours_before = palette = 0
+    subsampling = None
     if lossy_pixels:
         colours_before = _distinct_colours(rgba)
         if grid is None:
-            rgba, _, palette = snap_colours(rgba)
+            rgba, _, palette, subsampling = snap_colours(rgba, unmix=True)
         else:  # block medians are clean colours: each art pixel counts, however rare its colour
-            rgba, _, palette = snap_colours(block_medians(rgba, grid), min_count=1.0, shadows=False)
+            rgba, _, palette, _ = snap_colours(block_medians(rgba, grid), min_count=1.0, shadows=False,
+                                               leftovers=min(factor) >= LEFTOVER_BLOCK)
     elif grid is not None:
         rgba = reduce_blocks(rgba, grid)
 
@@ -193,7 +209,8 @@ def prepare(image, *, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
     rgba = np.array(rgba, dtype=np.uint8, order="C")  # a copy: the caller's array stays writable
     rgba.flags.writeable = False
     return PreparedImage(rgba, (width, height), factor, offset, detected=size == AUTO and factor != (1, 1),
-                         lossy=lossy, colours_before=colours_before, palette=palette, transparent=keyed,
+                         lossy=lossy, colours_before=colours_before, palette=palette, subsampling=subsampling,
+                         transparent=keyed,
                          transparent_pixels=n_keyed, notes=tuple(notes))
 
 
@@ -330,9 +347,10 @@ def _edge_share(luma: np.ndarray) -> np.ndarray:
     a step over LOSSY_EDGE that is no smaller than the steps on either side of it (the
     ringing beside an edge is weaker than the edge)."""
     step = np.abs(np.diff(luma, axis=1))
-    before = np.pad(step, ((0, 0), (1, 0)))[:, :-1]
-    after = np.pad(step, ((0, 0), (0, 1)))[:, 1:]
-    return ((step > LOSSY_EDGE) & (step >= before) & (step >= after)).mean(axis=0)
+    edge = step > LOSSY_EDGE
+    edge[:, 1:] &= step[:, 1:] >= step[:, :-1]  # no smaller than the step before it
+    edge[:, :-1] &= step[:, :-1] >= step[:, 1:]  # ... and the step after it
+    return edge.mean(axis=0)
 
 
 def _offset_mass(change: np.ndarray, k: int) -> np.ndarray:
@@ -350,12 +368,21 @@ def _fit_axis(change: np.ndarray, off_grid: float) -> tuple[int, int] | None:
         spacing = int(np.gcd.reduce(np.diff(where)))
         k = max((d for d in range(2, min(MAX_FACTOR, spacing) + 1) if spacing % d == 0), default=1)
         return (k, int(where[0] % k)) if k > 1 else None
+    # every factor at once: the changes at each (k, offset), k = 2 … top, in one bincount
+    top = min(MAX_FACTOR, change.size)
+    factors = np.arange(2, top + 1)
+    first = np.concatenate([[0], np.cumsum(factors)])[:-1]  # where each factor's offsets start
+    position = np.arange(1, change.size + 1)
+    slot = (first[:, None] + position[None, :] % factors[:, None]).ravel()
+    mass = np.bincount(slot, weights=np.tile(change, len(factors)), minlength=int(factors.sum()))
+    evidence = np.bincount(slot, weights=np.tile(change > 0, len(factors)).astype(np.float64),
+                           minlength=int(factors.sum()))
     total = float(change.sum())
-    for k in range(min(MAX_FACTOR, change.size), 1, -1):
-        mass = _offset_mass(change, k)
-        o = int(np.argmax(mass))
-        if total - mass[o] <= off_grid * total and np.count_nonzero(where % k == o) >= MIN_EVIDENCE:
-            return k, o
+    best = np.maximum.reduceat(mass, first)  # each factor's best offset's changes
+    for i in np.flatnonzero(total - best <= off_grid * total)[::-1]:  # the largest fitting factor wins
+        o = int(np.argmax(mass[first[i]:first[i] + factors[i]]))
+        if evidence[first[i] + o] >= MIN_EVIDENCE:
+            return int(factors[i]), o
     return None
 
 
@@ -433,33 +460,46 @@ def _distinct_colours(rgba: np.ndarray) -> int:
     return int(np.unique(colour_keys(rgba)).size)
 
 
-def snap_colours(rgba: np.ndarray, min_count: float | None = None,
-                 shadows: bool = True) -> tuple[np.ndarray, int, int]:
+def snap_colours(rgba: np.ndarray, min_count: float | None = None, shadows: bool = True,
+                 unmix: bool = False, leftovers: bool = False) -> tuple[np.ndarray, int, int, str | None]:
     """Snap the visible pixels' colours to a small palette (alpha is kept).
 
-    Returns the snapped ``(H, W, 4) uint8`` image, the number of distinct colours before
-    and the palette size. The palette is found by mode seeking in hqx YUV: the colour with
-    the most pixels within about ``SNAP_RADIUS`` becomes a palette colour and takes those
-    pixels, and so on while a colour gathers ``min_count`` pixels (default: ``MIN_SHARE``
-    of them, at least 3); with ``shadows``, a candidate is skipped when it is a tinted copy
-    of a more frequent colour of the same luma (``SHADOW_*``: chroma bleeding of 4:2:0
-    subsampling, which block medians no longer have). Each palette colour
-    then moves to the mean of the pixels it gathers, and every pixel takes the nearest
-    palette colour, chroma weighted by ``CHROMA_WEIGHT``.
+    Returns the snapped ``(H, W, 4) uint8`` image, the number of distinct colours before,
+    the palette size and the chroma subsampling that was undone (``"4:2:0"``, or None). The
+    palette is found by mode seeking in hqx YUV: the colour with the most pixels within
+    about ``SNAP_RADIUS`` becomes a palette colour and takes those pixels, and so on while a
+    colour gathers ``min_count`` pixels (default: ``MIN_SHARE`` of them, at least 3); with
+    ``shadows``, a candidate is skipped when it is a tinted copy of a more frequent colour
+    of the same luma (``SHADOW_*``: chroma bleeding of 4:2:0 subsampling, which block
+    medians no longer have). Each palette colour then moves to the mean of the pixels it
+    gathers, and every pixel takes the nearest palette colour, chroma weighted by
+    ``CHROMA_WEIGHT``. With ``leftovers`` (clean colours, like the medians of large blocks),
+    colours left farther than ``LEFTOVER`` radii from their palette colour are gathered again
+    into colours of their own. With ``unmix`` (decoded 1× pixels), when the chroma was subsampled
+    (:func:`depixel.chroma.chroma_grid`), the pixels' colours and the palette are then
+    found jointly through the decoder's model instead (:func:`depixel.chroma.unmix`).
     """
     visible = rgba[..., 3] > 0
     rgb = rgba[..., :3][visible]
     out = rgba.copy()
     if rgb.shape[0] == 0:
-        return out, 0, 0
+        return out, 0, 0, None
     packed = (rgb[:, 0].astype(np.int64) << 16) | (rgb[:, 1].astype(np.int64) << 8) | rgb[:, 2]
     colours, inverse, counts = np.unique(packed, return_inverse=True, return_counts=True)
+    inverse = inverse.ravel()
     colour_rgb = np.stack([colours >> 16, (colours >> 8) & 255, colours & 255], axis=1).astype(np.float64)
     colour_yuv = rgb_to_yuv(colour_rgb)
     if min_count is None:
         min_count = max(3.0, MIN_SHARE * rgb.shape[0])
 
     palette = _palette(colour_yuv, colour_rgb, counts.astype(np.float64), min_count, shadows)
+    grid = chroma.chroma_grid(rgb_to_yuv(rgba)) if unmix else None
+    if grid is not None and chroma.fits(rgba.shape[:2], len(palette)):
+        labels, palette = chroma.unmix(rgba, palette, grid, min_count=min_count, radius=SNAP_RADIUS)
+        snapped = np.clip(np.round(palette), 0, 255).astype(np.uint8)
+        out[..., :3][visible] = snapped[labels[visible]]
+        return out, int(colours.size), _distinct_rgb(snapped[np.unique(labels[visible])]), grid.name
+
     weight = np.array([1.0, CHROMA_WEIGHT, CHROMA_WEIGHT])
     nearest = _nearest(colour_yuv * weight, rgb_to_yuv(palette) * weight)
     for _ in range(REFINE_STEPS):
@@ -472,9 +512,23 @@ def snap_colours(rgba: np.ndarray, min_count: float | None = None,
         palette[moved] = sums[moved] / mass[moved, None]
         palette = _merge_near(palette, np.bincount(nearest, weights=counts, minlength=len(palette)))
         nearest = _nearest(colour_yuv * weight, rgb_to_yuv(palette) * weight)
+    if leftovers:
+        # a colour that a box took in (boxes reach a little beyond the radius) but that lies
+        # far from the colour the box became is a colour of its own
+        far = np.abs(colour_yuv - rgb_to_yuv(palette)[nearest]).max(axis=1) > LEFTOVER * SNAP_RADIUS
+        if counts[far].sum() >= min_count:
+            extra = _palette(colour_yuv[far], colour_rgb[far], counts[far].astype(np.float64), min_count, False)
+            gap = np.abs(rgb_to_yuv(extra)[:, None, :] - rgb_to_yuv(palette)[None, :, :]).max(axis=2).min(axis=1)
+            palette = np.vstack([palette, extra[gap > SNAP_RADIUS]])  # not a smear beside a colour it has
+            nearest = _nearest(colour_yuv * weight, rgb_to_yuv(palette) * weight)
     snapped = np.clip(np.round(palette), 0, 255).astype(np.uint8)[nearest]
-    out[..., :3][visible] = snapped[inverse.ravel()]
-    return out, int(colours.size), int(np.unique(snapped, axis=0).shape[0])
+    out[..., :3][visible] = snapped[inverse]
+    return out, int(colours.size), _distinct_rgb(snapped), None
+
+
+def _distinct_rgb(rgb: np.ndarray) -> int:
+    """How many distinct rows an ``(n, 3) uint8`` array has."""
+    return int(np.unique((rgb[:, 0].astype(np.int64) << 16) | (rgb[:, 1].astype(np.int64) << 8) | rgb[:, 2]).size)
 
 
 def _merge_near(palette: np.ndarray, mass: np.ndarray) -> np.ndarray:
@@ -499,6 +553,8 @@ def _merge_near(palette: np.ndarray, mass: np.ndarray) -> np.ndarray:
 #: 5×5×5 cells around its own, about SNAP_RADIUS either way
 _CELL = SNAP_RADIUS / 2
 _REACH = 2
+#: hqx luma of an RGB colour: colour @ _LUMA
+_LUMA = rgb_to_yuv(np.eye(3))[:, 0]
 
 
 def _palette(yuv: np.ndarray, rgb: np.ndarray, counts: np.ndarray, min_count: float,
@@ -506,69 +562,66 @@ def _palette(yuv: np.ndarray, rgb: np.ndarray, counts: np.ndarray, min_count: fl
     """``(K, 3) float64`` RGB palette by mode seeking over a histogram of the colours."""
     r = _REACH
     cell_of = np.floor(yuv / _CELL).astype(np.int64)
-    cells, colour_cell = np.unique(cell_of, axis=0, return_inverse=True)
+    cell_of -= cell_of.min(axis=0)
+    span = tuple(cell_of.max(axis=0) + 1)
+    keys, colour_cell = np.unique(np.ravel_multi_index(tuple(cell_of.T), span), return_inverse=True)
     colour_cell = colour_cell.ravel()
-    cells = cells - cells.min(axis=0) + 2 * r  # grid positions, with room for a 2r box around each
-    shape = tuple(cells.max(axis=0) + 2 * r + 1)
+    cells = np.stack(np.unravel_index(keys, span), axis=1) + 2 * r  # grid positions, room for a 2r box around each
+    shape = tuple(np.array(span) + 4 * r)
     mass = np.bincount(colour_cell, weights=counts, minlength=len(cells))
     rgb_sum = np.stack([np.bincount(colour_cell, weights=counts * rgb[:, c], minlength=len(cells))
                         for c in range(3)], axis=1)
-    grid = np.zeros(shape, dtype=np.float32)  # pixel counts: exact
+    grid = np.zeros(shape, dtype=np.float32)  # pixels per cell not taken yet (counts: exact)
     grid[tuple(cells.T)] = mass
     # pixels within reach of each cell; only cells that could gather min_count are candidates
-    density = _box_sum(grid)[tuple(cells.T)].astype(np.float64)
+    density = _box_sums(grid, cells)
     candidates = np.flatnonzero(density >= min_count)
-    density = density[candidates]
-    cell_at = np.full(shape, -1)  # which cell, and which candidate, sits at each grid position
-    cell_at[tuple(cells.T)] = np.arange(len(cells))
-    candidate_of = np.full(len(cells), -1)
-    candidate_of[candidates] = np.arange(len(candidates))
-    candidate_at = np.full(shape, -1)
-    candidate_at[tuple(cells[candidates].T)] = np.arange(len(candidates))
+    cell_at = np.full(shape, -1, dtype=np.int32)  # which cell sits at each grid position
+    cell_at[tuple(cells.T)] = np.arange(len(cells), dtype=np.int32)
+    # lazy greedy: the box sums only shrink as boxes are taken, so a stale sum is an upper
+    # bound; the candidate on top of the heap is the densest (first on ties) once its own sum,
+    # brought up to date, still beats the next stale one
+    heap = list(zip((-density[candidates]).tolist(), candidates.tolist()))
+    heapq.heapify(heap)
+    live = np.zeros(len(cells), dtype=bool)
+    live[candidates] = True
     chosen: list[np.ndarray] = []
     chosen_mass: list[tuple[float, float]] = []  # (luma, pixels)
-    while candidates.size:
-        j = int(np.argmax(density))
-        if density[j] < min_count:
+    while heap:
+        _, c = heapq.heappop(heap)
+        if not live[c]:
+            continue  # its cell was taken
+        x, y, z = cells[c]
+        box = (slice(x - r, x + r + 1), slice(y - r, y + r + 1), slice(z - r, z + r + 1))
+        now = float(grid[box].sum())
+        if heap and (-now, c) > heap[0]:
+            heapq.heappush(heap, (-now, c))  # not the densest any more: back, with its true sum
+            continue
+        if now < min_count:
             break
-        x, y, z = cells[candidates[j]]
-        box = cell_at[x - r:x + r + 1, y - r:y + r + 1, z - r:z + r + 1]
-        gone = box[box >= 0]
-        box[box >= 0] = -1  # taken: these cells are gone for every later box
-        # the candidates whose box overlaps the emptied one lose the pixels taken
-        around = candidate_at[x - 2 * r:x + 2 * r + 1, y - 2 * r:y + 2 * r + 1, z - 2 * r:z + 2 * r + 1]
-        near = around[around >= 0]
-        reach = np.abs(cells[candidates[near]][:, None, :] - cells[gone][None, :, :]).max(axis=2) <= r
-        density[near] -= reach.astype(np.float64) @ mass[gone]
-        dead = candidate_of[gone]
-        density[dead[dead >= 0]] = -1.0  # a candidate whose cell is taken is no centre any more
-        taken = float(mass[gone].sum())
-        colour = rgb_sum[gone].sum(axis=0) / taken
-        luma = float(rgb_to_yuv(colour)[0])
-        if not shadows or not any(abs(luma - y) <= SHADOW_LUMA and m >= SHADOW_RATIO * taken
+        gone = cell_at[box][cell_at[box] >= 0]
+        cell_at[box] = -1  # taken: these cells are gone for every later box
+        grid[box] = 0.0
+        live[gone] = False
+        colour = rgb_sum[gone].sum(axis=0) / now
+        luma = float(colour @ _LUMA)
+        if not shadows or not any(abs(luma - y) <= SHADOW_LUMA and m >= SHADOW_RATIO * now
                                   for y, m in chosen_mass):
             chosen.append(colour)
-            chosen_mass.append((luma, taken))
+            chosen_mass.append((luma, now))
     if not chosen:  # too few pixels for any colour to count: the most common one
         chosen = [rgb[int(np.argmax(counts))]]
     return np.array(chosen, dtype=np.float64)
 
 
-def _box_sum(grid: np.ndarray) -> np.ndarray:
-    """Sum of ``grid`` over the (2·_REACH+1)³ box around each cell at least _REACH + 1
-    cells from its edges (the others get 0)."""
+def _box_sums(grid: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """``(n,) float64``: the sum of ``grid`` over the (2·_REACH+1)³ box around each of the
+    ``(n, 3)`` positions ``at`` (at least _REACH cells from the edges): one gather of every
+    box's cells (cumulative sums along a grid's first axes are slow strided passes)."""
     r = _REACH
-    for axis in range(3):
-        n = grid.shape[axis]
-
-        def cut(start: int, stop: int, axis: int = axis) -> tuple[slice, ...]:
-            return tuple(slice(start, stop) if a == axis else slice(None) for a in range(3))
-
-        running = np.cumsum(grid, axis=axis)
-        out = np.zeros_like(grid)
-        np.subtract(running[cut(2 * r + 1, n)], running[cut(0, n - 2 * r - 1)], out=out[cut(r + 1, n - r)])
-        grid = out
-    return grid
+    strides = np.array([grid.shape[1] * grid.shape[2], grid.shape[2], 1])
+    offset = (np.stack(np.meshgrid(*[np.arange(-r, r + 1)] * 3, indexing="ij"), axis=-1).reshape(-1, 3) @ strides)
+    return grid.ravel()[(at @ strides)[:, None] + offset].sum(axis=1, dtype=np.float64)
 
 
 def _nearest(points: np.ndarray, palette: np.ndarray) -> np.ndarray:

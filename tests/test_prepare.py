@@ -12,6 +12,7 @@ from PIL import Image
 import depixel
 from depixel import load_image
 from depixel.errors import ParameterError
+from depixel.image import rgb_to_yuv
 from depixel.prepare import (PreparedImage, find_grid, lossy_format, parse_pixel_size, parse_transparent,
                              prepare, snap_colours)
 
@@ -117,6 +118,95 @@ def test_find_grid_agrees_with_the_slow_reference():
         assert grid in uniform
         (kx, ky), _ = grid
         assert all(gx <= kx or gy <= ky for (gx, gy), _ in uniform if (gx, gy) != (kx, ky)), trial
+
+
+def slow_fit_axis(change: np.ndarray, off_grid: float) -> tuple[int, int] | None:
+    """Slow, obviously correct: the largest k (with its best offset, the first on ties) whose
+    off-grid share of the changes is at most ``off_grid``, with MIN_EVIDENCE changing
+    boundaries on the grid."""
+    total = change.sum()
+    for k in range(min(32, change.size), 1, -1):
+        mass = [sum(change[i] for i in range(change.size) if (i + 1) % k == o) for o in range(k)]
+        o = int(np.argmax(mass))
+        on_grid = sum(1 for i in range(change.size) if change[i] > 0 and (i + 1) % k == o)
+        if total - mass[o] <= off_grid * total and on_grid >= 3:
+            return k, o
+    return None
+
+
+def test_the_lossy_grid_fit_agrees_with_the_slow_reference():
+    """Every factor at once (prepare._fit_axis) against one factor at a time: random edge
+    shares, on a k-grid plus stray edges off it."""
+    from depixel.prepare import LOSSY_OFF_GRID, _fit_axis  # noqa: PLC0415
+
+    rng = np.random.default_rng(7)
+    for trial in range(60):
+        n = int(rng.integers(4, 70))
+        k, o = int(rng.integers(2, 9)), int(rng.integers(0, 8))
+        change = np.where((np.arange(1, n + 1) % k) == o % k, rng.random(n), 0.0)
+        stray = rng.random(n) < rng.uniform(0, 0.4)
+        change = np.where(stray, rng.random(n) * 0.5, change)
+        change[rng.random(n) < 0.3] = 0.0
+        assert _fit_axis(change, LOSSY_OFF_GRID) == slow_fit_axis(change, LOSSY_OFF_GRID), trial
+
+
+def slow_palette(yuv: np.ndarray, rgb: np.ndarray, counts: np.ndarray, min_count: float,
+                 shadows: bool) -> np.ndarray:
+    """Slow, obviously correct mode seeking (prepare._palette): colours in cells of half the
+    snap radius; repeatedly, the live candidate cell with the most pixels within two cells
+    (Chebyshev; the first in cell order on ties) takes every live cell within two cells and
+    becomes their mean colour, unless (with shadows) a colour chosen before of nearly the
+    same luma has at least twice its pixels. Candidates: cells with min_count pixels around
+    them at the start."""
+    from depixel.prepare import _CELL, _REACH, SHADOW_LUMA, SHADOW_RATIO  # noqa: PLC0415
+
+    cell_of = [tuple(c) for c in np.floor(yuv / _CELL).astype(int)]
+    cells = sorted(set(cell_of))
+    mass = {c: 0.0 for c in cells}
+    total = {c: np.zeros(3) for c in cells}
+    for c, n, colour in zip(cell_of, counts, rgb):
+        mass[c] += n
+        total[c] += n * colour
+
+    def near(a, b):
+        return max(abs(x - y) for x, y in zip(a, b)) <= _REACH
+
+    live = set(cells)
+    candidates = [c for c in cells if sum(mass[d] for d in cells if near(c, d)) >= min_count]
+    chosen, chosen_mass = [], []
+    while True:
+        alive = [c for c in candidates if c in live]
+        if not alive:
+            break
+        density = [sum(mass[d] for d in live if near(c, d)) for c in alive]
+        best = int(np.argmax(density))
+        if density[best] < min_count:
+            break
+        gone = [d for d in live if near(alive[best], d)]
+        live -= set(gone)
+        taken = sum(mass[d] for d in gone)
+        colour = sum(total[d] for d in gone) / taken
+        luma = float(rgb_to_yuv(colour)[0])
+        if not shadows or not any(abs(luma - y) <= SHADOW_LUMA and m >= SHADOW_RATIO * taken
+                                  for y, m in chosen_mass):
+            chosen.append(colour)
+            chosen_mass.append((luma, taken))
+    return np.array(chosen) if chosen else rgb[[int(np.argmax(counts))]]
+
+
+@pytest.mark.parametrize("shadows", [True, False])
+def test_palette_mode_seeking_agrees_with_the_slow_reference(shadows):
+    from depixel.prepare import _palette  # noqa: PLC0415
+
+    rng = np.random.default_rng(11)
+    for trial in range(8):
+        centres = rng.integers(0, 256, (int(rng.integers(2, 7)), 3))
+        rgb = np.clip(centres[rng.integers(0, len(centres), 400)] + rng.normal(0, 6, (400, 3)), 0, 255).round()
+        rgb, counts = np.unique(rgb, axis=0, return_counts=True)
+        min_count = float(rng.choice([1.0, 3.0, 8.0]))
+        got = _palette(rgb_to_yuv(rgb), rgb, counts.astype(np.float64), min_count, shadows)
+        np.testing.assert_allclose(got, slow_palette(rgb_to_yuv(rgb), rgb, counts.astype(np.float64), min_count,
+                                                     shadows), err_msg=str(trial))
 
 
 def test_a_sprite_drawn_with_a_two_pixel_outline_is_not_upscaling():
@@ -233,7 +323,7 @@ def test_denoise_is_off_for_lossless_input_and_can_be_forced():
 
 def test_snap_colours_keeps_alpha_and_transparent_pixels():
     rgba = load_image(FIXTURES / "potion_rgba.png")
-    snapped, before, after = snap_colours(rgba)
+    snapped, before, after, _ = snap_colours(rgba)
     np.testing.assert_array_equal(snapped[..., 3], rgba[..., 3])
     assert after <= before
 
@@ -335,3 +425,18 @@ def test_describe_and_summary():
     summary = prepared.summary()
     assert summary["pixel_size"] == [4, 4] and summary["size"] == [9, 8] and summary["input_size"] == [35, 32]
     assert prepare(small).describe("x.png") is None
+
+
+@needs_corpus
+def test_an_upscaled_jpeg_keeps_a_small_colour_beside_a_large_one():
+    """sbm4_01 saved 4× as JPEG q90: its 27 white pixels lie 17 from its 226 off-white ones,
+    within the reach of the off-white's box; gathered again as leftovers they stay white
+    (before: all 27 off-white, centre 0.943)."""
+    path = next((p for p in corpus_pngs() if p.stem == "sbm4_01"), None)
+    if path is None:
+        pytest.skip("sbm4_01 not in the corpus")
+    clean = load_image(path)
+    pixels, data = jpeg(upscale(clean, 4, 4), 90)
+    prepared = prepare(pixels, lossy=lossy_format(data))
+    assert prepared.pixel_size == (4, 4)
+    assert (np.abs(prepared.rgba.astype(int) - clean).max(axis=2) <= 16).all()

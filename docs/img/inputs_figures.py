@@ -94,7 +94,7 @@ def main() -> None:
     stack([
         row([("ghost as JPEG q85", nearest(small, PANEL)),
              ("taken as it is (--no-denoise)", svg_panel(depixel.convert(small, denoise=False), PANEL)),
-             ("default for JPEG: denoised", svg_panel(depixel.convert(small, denoise=True), PANEL))]),
+             ("default: denoised, 4:2:0 unmixed", svg_panel(depixel.convert(small, denoise=True), PANEL))]),
         row([("ghost saved 4x, JPEG q90", nearest(big, PANEL)),
              ("taken as it is", svg_panel(depixel.convert(big, pixel_size=1, denoise=False), PANEL)),
              ("default: 4x found, denoised", svg_panel(depixel.convert(big, denoise=True), PANEL))]),
