@@ -70,7 +70,8 @@ def main(argv: list[str] | None = None) -> int:
     key = args.stage
     if (args.layout, args.simplify) != ("stacked", DEFAULT_SIMPLIFY):
         key = f"{args.stage}/{args.layout}/{args.simplify:g}"
-    current = {name: svg_hash(rgba, args.stage, args.layout, args.simplify) for name, rgba in inputs(args.corpus).items()}
+    current = {name: svg_hash(rgba, args.stage, args.layout, args.simplify)
+               for name, rgba in inputs(args.corpus).items()}
     table = json.loads(args.hashes.read_text()) if args.hashes.exists() else {}
     if args.record:
         table[key] = current

@@ -138,8 +138,9 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
     """
     rgba, scale = _prepare(image, params, stage, precision, background, scale, width, height, max_pixels,
                            layout=layout, simplify=simplify)
-    result = depixelize(rgba, params, stage=stage)
-    return to_svg(result.vector, scale=scale, precision=precision, title=title, layout=layout, simplify=simplify)
+    vector = depixelize(rgba, params, stage=stage).vector  # the other stages' products are freed here
+    del rgba
+    return to_svg(vector, scale=scale, precision=precision, title=title, layout=layout, simplify=simplify)
 
 
 def _prepare(image, params, stage, precision, background, scale, width, height, max_pixels,

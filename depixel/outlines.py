@@ -73,6 +73,18 @@ class Outlines:
     def __len__(self) -> int:
         return int(self.face.size)
 
+    def shapes(self, first: int, stop: int) -> Outlines:
+        """Shapes ``first:stop`` alone (views of these arrays)."""
+        loop_a, loop_b = int(self.shape_ptr[first]), int(self.shape_ptr[stop])
+        seg_a, seg_b = int(self.loop_ptr[loop_a]), int(self.loop_ptr[loop_b])
+        segs = slice(seg_a, seg_b)
+        return Outlines(
+            shape=self.shape, layout=self.layout, grid=self.grid, face=self.face[first:stop],
+            rgba=self.rgba[first:stop], region=self.region[first:stop], role=self.role[first:stop],
+            shape_ptr=self.shape_ptr[first : stop + 1] - loop_a, loop_ptr=self.loop_ptr[loop_a : loop_b + 1] - seg_a,
+            kind=self.kind[segs], ctrl=self.ctrl[segs], ctrl2=self.ctrl2[segs], end=self.end[segs],
+        )
+
     def loop_starts(self) -> np.ndarray:
         """(L, 2) start point of every loop (the end of its last segment)."""
         return self.end[self.loop_ptr[1:] - 1]
@@ -127,7 +139,8 @@ def build_outlines(image: VectorImage, layout: str = "stacked", grid: float | No
     loops = trace_loops(topo.rank[owner_face], u, topo.entry_to[entry], points=topo.cells.nodes)
     halfedge_edge, halfedge_from = topo.entry_edge[entry], u
     keep = _loops_to_keep(topo, loops, halfedge_from, fill_holes=layout == "stacked")
-    kind, ctrl, ctrl2, end, loop_ptr = _loop_segments(image, pieces, loops, keep, halfedge_edge, halfedge_from, grid)
+    kind, ctrl, ctrl2, end, loop_ptr = _segments_in_batches(image, pieces, loops, keep, halfedge_edge,
+                                                            halfedge_from, grid)
 
     shape_rank = loops.owner[keep]
     drawn = np.unique(shape_rank)
@@ -210,6 +223,28 @@ def _loops_to_keep(topo: FaceTopology, loops: Loops, halfedge_from: np.ndarray, 
     blocked = (parity % 2 == 1).any(axis=1)
     keep = (area2 >= 0) | blocked
     return np.flatnonzero(keep)
+
+
+#: loops are turned into segments in batches of about this many half-edges, to bound the
+#: temporary memory (a few hundred bytes a half-edge); the result does not depend on it
+LOOP_BATCH = 1 << 13
+
+
+def _segments_in_batches(image: VectorImage, pieces: BoundaryPieces, loops: Loops, keep: np.ndarray,
+                         halfedge_edge: np.ndarray, halfedge_from: np.ndarray, grid: float | None):
+    """:func:`_loop_segments` of the kept loops, a batch of loops at a time."""
+    size = np.cumsum(np.diff(loops.ptr)[keep])
+    cuts = np.unique(np.r_[0, np.searchsorted(size, np.arange(LOOP_BATCH, int(size[-1]) if size.size else 0,
+                                                               LOOP_BATCH)), keep.size, keep.size])
+    cuts = np.r_[0, cuts] if cuts.size == 1 else cuts  # no loop: one empty batch
+    parts = [_loop_segments(image, pieces, loops, keep[a:b], halfedge_edge, halfedge_from, grid)
+             for a, b in zip(cuts[:-1].tolist(), cuts[1:].tolist())]
+    if len(parts) == 1:
+        return parts[0]
+    kind, ctrl, ctrl2, end, ptrs = zip(*parts)
+    offsets = np.cumsum([0] + [p[-1] for p in ptrs[:-1]])
+    loop_ptr = np.concatenate([ptrs[0][:1]] + [p[1:] + off for p, off in zip(ptrs, offsets)])
+    return np.concatenate(kind), np.concatenate(ctrl), np.concatenate(ctrl2), np.concatenate(end), loop_ptr
 
 
 def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, keep: np.ndarray,
