@@ -24,7 +24,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .bspline import Bezier, flatten, half_turns, span
+from .bspline import Bezier, half_turns, span
 from .fidelity import protected_points, unique_rows
 from .params import Params
 from .splines import SplineSet
@@ -76,26 +76,31 @@ def step(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group,
     size = (group.members.size, params.candidates)
     angle = rng.uniform(0.0, 2.0 * np.pi, size=size)
     radius = params.radius * np.sqrt(rng.uniform(0.0, 1.0, size=size))
-    here = ctrl[group.members][:, None, :]
-    offsets = np.stack([np.cos(angle), np.sin(angle)], axis=-1) * radius[..., None]
-    trial = np.concatenate([here, here + offsets], axis=1)  # (M, K+1, 2), 0 = stay
-    energy = model.energy(ctrl, anchor, group, trial)
-    too_far = ((trial - anchor[group.members][:, None]) ** 2).sum(axis=-1) > params.max_offset**2
+    around = ctrl[group.around]  # (5, M, 2): the member, a, b, a2, b2
+    # trials as x and y planes (M, K+1), column 0 = stay
+    tx = np.empty((size[0], size[1] + 1))
+    ty = np.empty_like(tx)
+    tx[:, :1], ty[:, :1] = around[0, :, :1], around[0, :, 1:]
+    np.add(around[0, :, :1], np.cos(angle) * radius, out=tx[:, 1:])
+    np.add(around[0, :, 1:], np.sin(angle) * radius, out=ty[:, 1:])
+    energy, offset2 = model.energy_planes(around, anchor[group.members], group, tx, ty)
+    too_far = offset2 > params.max_offset**2
     too_far[:, 0] = False
     best = np.argmin(np.where(too_far, np.inf, energy), axis=1)  # ties keep the lower index
     # the best trial must not bring a curve closer to a protected point than allowed
     # (unless it was closer already); only moving slots need the check
     rows = np.flatnonzero(best > 0)
-    chosen = trial[rows, best[rows]][:, None]
-    clear = model.clearance(ctrl, group, chosen, rows)[:, 0]
+    cx, cy = tx[rows, best[rows]][:, None], ty[rows, best[rows]][:, None]
+    clear = model.clearance_planes(around[:, rows], group, cx, cy, rows)[:, 0]
     near = clear < params.centre_clearance
     if near.any():
-        stay = trial[rows[near], 0][:, None]
-        clear_stay = model.clearance(ctrl, group, stay, rows[near])[:, 0]
+        stay = rows[near]
+        clear_stay = model.clearance_planes(around[:, stay], group, tx[stay, :1], ty[stay, :1], stay)[:, 0]
         refuse = np.zeros(rows.size, bool)
         refuse[near] = clear[near] < clear_stay
         best[rows[refuse]] = 0
-    return trial[np.arange(best.size), best]
+    pick = np.arange(best.size)
+    return np.stack([tx[pick, best], ty[pick, best]], axis=1)
 
 
 @dataclass(frozen=True, eq=False)
@@ -103,24 +108,38 @@ class Group:
     """One class of independent slots with every index its evaluation needs, precomputed."""
 
     members: np.ndarray  # (M,) slots being moved
-    a: np.ndarray  # previous slots
-    b: np.ndarray  # next slots
-    a2: np.ndarray  # slot before a (a itself when a is an end)
-    b2: np.ndarray  # slot after b
-    has_a: np.ndarray  # (M,) bool: the span of a exists (a is interior)
-    has_b: np.ndarray
-    end_a: np.ndarray  # (M, 1) bool, broadcastable over candidates
+    around: np.ndarray  # (5, M) the member, its previous slot a, next slot b, the slot
+    #                     before a (a itself when a is an end) a2, the slot after b b2
+    end_a: np.ndarray  # (M, 1) bool: a is an open-curve end (broadcastable over trials)
     end_b: np.ndarray
     end_a2: np.ndarray
     end_b2: np.ndarray
-    keep_own: np.ndarray  # (M, 1, 2) bool: halves of each span counted in E_s
-    keep_a: np.ndarray
-    keep_b: np.ndarray
-    protected: np.ndarray  # (M, 1, 1, Q, 2) points the spans must keep clear of
+    keep: np.ndarray  # (2, 3, M, 1) float 0/1: halves (first, second) of the spans before,
+    #                   own, after counted in E_s (0 for the span of an end a or b)
+    protected: np.ndarray  # (M, 1, Q) x and y of the points the spans must keep clear of
+    protected_y: np.ndarray
+
+    @property
+    def a(self) -> np.ndarray:
+        return self.around[1]
+
+    @property
+    def b(self) -> np.ndarray:
+        return self.around[2]
+
+
+#: t of the points each span is checked at, and the weights of its Bézier points there
+_T = np.arange(CLEARANCE_PIECES + 1) / CLEARANCE_PIECES
+_W0, _W1, _W2 = (1 - _T) ** 2, 2 * _T * (1 - _T), _T**2
 
 
 class Energy:
-    """E_s + E_p of slots and their clearance from protected points, over the curve slots."""
+    """E_s + E_p of slots and their clearance from protected points, over the curve slots.
+
+    The hot path works on x and y planes (every array ``(…, M, K)``) and on the three spans
+    a member shapes stacked on a leading axis, so one step is a few dozen whole-array
+    operations; each number is computed by the same floating-point operations, in the same
+    order, as :func:`depixel.bspline.span` and :func:`depixel.bspline.half_turns` do."""
 
     def __init__(self, splines: SplineSet, excluded: np.ndarray):
         self.prev, self.nxt = splines.neighbours()
@@ -134,47 +153,78 @@ class Energy:
         a2 = np.where(has_a, self.prev[a], a)
         b2 = np.where(has_b, self.nxt[b], b)
         protected = unique_rows(np.concatenate([self.protected[x] for x in (a2, a, members, b)], axis=1))
+        keep = np.stack([self.keep[a] & has_a[:, None], self.keep[members], self.keep[b] & has_b[:, None]])
 
         def col(x: np.ndarray) -> np.ndarray:
             return x[:, None]
 
         return Group(
-            members, a, b, a2, b2, has_a, has_b,
+            members, np.stack([members, a, b, a2, b2]),
             col(self.end[a]), col(self.end[b]), col(self.end[a2]), col(self.end[b2]),
-            col(self.keep[members]), col(self.keep[a]), col(self.keep[b]),
-            protected[:, None, None],
+            np.moveaxis(keep, 2, 0)[..., None].astype(np.float64),
+            protected[:, None, :, 0], protected[:, None, :, 1],
         )
 
-    def _spans(self, ctrl: np.ndarray, g: Group, trial: np.ndarray,
-               rows: np.ndarray | slice = slice(None)) -> tuple[Bezier, Bezier, Bezier]:
-        """The three spans a member shapes: before (of a), own, after (of b)."""
-        c_a, c_b = ctrl[g.a[rows]][:, None], ctrl[g.b[rows]][:, None]
-        c_a2, c_b2 = ctrl[g.a2[rows]][:, None], ctrl[g.b2[rows]][:, None]
-        end_a, end_b = g.end_a[rows][..., None], g.end_b[rows][..., None]
-        end_a2, end_b2 = g.end_a2[rows][..., None], g.end_b2[rows][..., None]
-        own = span(c_a, trial, c_b, end_a, end_b)
-        before = span(c_a2, c_a, trial, end_a2)
-        after = span(trial, c_b, c_b2, after_is_end=end_b2)
-        return before, own, after
+    @staticmethod
+    def _points(around: np.ndarray, g: Group, t: np.ndarray, axis: int,
+                rows: np.ndarray | slice = slice(None)) -> np.ndarray:
+        """One coordinate of the three spans (before, own, after) of each member at trial
+        coordinates ``t`` (M, K): ``(3, 3, M, K)``, [Bézier point P0-P2, span]."""
+        c_a, c_b, c_a2, c_b2 = (around[i, :, axis, None] for i in (1, 2, 3, 4))
+        end_a, end_b, end_a2, end_b2 = g.end_a[rows], g.end_b[rows], g.end_a2[rows], g.end_b2[rows]
+        points = np.empty((3, 3) + np.broadcast_shapes(t.shape, c_a.shape))
+        m_a = (c_a + t) / 2.0  # where the span before meets the own span
+        m_b = (t + c_b) / 2.0  # and the own span the span after
+        points[0, 0] = np.where(end_a2, c_a2, (c_a2 + c_a) / 2.0)
+        points[0, 1] = np.where(end_a, c_a, m_a)
+        points[0, 2] = m_b
+        points[1, 0], points[1, 1], points[1, 2] = c_a, t, c_b
+        points[2, 0] = m_a
+        points[2, 1] = np.where(end_b, c_b, m_b)
+        points[2, 2] = np.where(end_b2, c_b2, (c_b + c_b2) / 2.0)
+        return points
+
+    def energy_planes(self, around: np.ndarray, anchor: np.ndarray, g: Group, tx: np.ndarray,
+                      ty: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(M, K) energy of each member at trial places ``(tx, ty)`` (M, K), and the squared
+        distance of each trial from its anchor; ``around`` is ``ctrl[g.around]``, ``anchor``
+        (M, 2) the members' places before relaxing."""
+        # half_turns of the three spans at once: d0 = P1 - P0, d1 = P2 - P1, dm = d0 + d1
+        # (u: the x coordinate, v: the y coordinate)
+        x, y = self._points(around, g, tx, 0), self._points(around, g, ty, 1)
+        u0, u1, v0, v1 = x[1] - x[0], x[2] - x[1], y[1] - y[0], y[2] - y[1]
+        um, vm = u0 + u1, v0 + v1
+        first = np.abs(np.arctan2(u0 * vm - v0 * um, u0 * um + v0 * vm))
+        second = np.abs(np.arctan2(um * v1 - vm * u1, um * u1 + vm * v1))
+        smooth = first * g.keep[0] + second * g.keep[1]  # (3, M, K): before, own, after
+        dx, dy = tx - anchor[:, :1], ty - anchor[:, 1:]
+        offset2 = dx**2 + dy**2
+        return smooth[1] + smooth[0] + smooth[2] + offset2**2, offset2
 
     def energy(self, ctrl: np.ndarray, anchor: np.ndarray, g: Group, trial: np.ndarray) -> np.ndarray:
-        """(M, K) energy of each member at each trial position."""
-        before, own, after = self._spans(ctrl, g, trial)
-        energy = smoothness(own, g.keep_own)
-        energy = energy + np.where(g.has_a[:, None], smoothness(before, g.keep_a), 0.0)
-        energy = energy + np.where(g.has_b[:, None], smoothness(after, g.keep_b), 0.0)
-        return energy + positional(trial, anchor[g.members][:, None])
+        """(M, K) energy of each member at each trial position ``trial`` (M, K, 2)."""
+        return self.energy_planes(ctrl[g.around], anchor[g.members], g, trial[..., 0], trial[..., 1])[0]
+
+    def clearance_planes(self, around: np.ndarray, g: Group, tx: np.ndarray, ty: np.ndarray,
+                         rows: np.ndarray) -> np.ndarray:
+        """(R, K) smallest distance from the three spans of the members ``rows`` (``around``
+        is ``ctrl[g.around[:, rows]]``) at trial places ``(tx, ty)`` (R, K) to their
+        protected points (pixel centres beside them, diagonal-link corners)."""
+        gap = None
+        for axis, t, protected in ((0, tx, g.protected[rows]), (1, ty, g.protected_y[rows])):
+            p0, p1, p2 = self._points(around, g, t, axis, rows)
+            # the points at t = 0, ¼, ½, ¾, 1 of each span: (3, R, K, 5); the before span
+            # without its last point, the after span without its first (the own span's ends)
+            points = _W0 * p0[..., None] + _W1 * p1[..., None] + _W2 * p2[..., None]
+            points = np.concatenate([points[0, ..., :-1], points[1], points[2, ..., 1:]], axis=-1)
+            d = (points[..., None] - protected[:, :, None, :]) ** 2  # (R, K, 3n+1, Q)
+            gap = d if gap is None else gap + d
+        assert gap is not None
+        return np.sqrt(gap.min(axis=(-1, -2)))
 
     def clearance(self, ctrl: np.ndarray, g: Group, trial: np.ndarray, rows: np.ndarray) -> np.ndarray:
-        """(R, K) smallest distance from the three spans of the members ``rows`` to their
-        protected points (pixel centres beside them, diagonal-link corners), per trial."""
-        before, own, after = self._spans(ctrl, g, trial, rows)
-        n = CLEARANCE_PIECES
-        points = np.concatenate([
-            flatten(*before, n)[..., :-1, :], flatten(*own, n), flatten(*after, n)[..., 1:, :],
-        ], axis=-2)  # (M, K, 3n + 1, 2)
-        gap = ((points[..., None, :] - g.protected[rows]) ** 2).sum(axis=-1).min(axis=(-1, -2))
-        return np.sqrt(gap)
+        """(R, K) :meth:`clearance_planes` at trial positions ``trial`` (R, K, 2)."""
+        return self.clearance_planes(ctrl[g.around[:, rows]], g, trial[..., 0], trial[..., 1], rows)
 
     def total(self, ctrl: np.ndarray, anchor: np.ndarray) -> float:
         """The energy of all the curves: E_s of every span plus E_p of every slot."""
