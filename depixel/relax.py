@@ -88,17 +88,13 @@ def step(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group,
     too_far[:, 0] = False
     best = np.argmin(np.where(too_far, np.inf, energy), axis=1)  # ties keep the lower index
     # the best trial must not bring a curve closer to a protected point than allowed
-    # (unless it was closer already); only moving slots need the check
+    # (unless it was closer already); only moving slots need the check, of the best trial
+    # and of staying
     rows = np.flatnonzero(best > 0)
-    cx, cy = tx[rows, best[rows]][:, None], ty[rows, best[rows]][:, None]
-    clear = model.clearance_planes(around[:, rows], group, cx, cy, rows)[:, 0]
-    near = clear < params.centre_clearance
-    if near.any():
-        stay = rows[near]
-        clear_stay = model.clearance_planes(around[:, stay], group, tx[stay, :1], ty[stay, :1], stay)[:, 0]
-        refuse = np.zeros(rows.size, bool)
-        refuse[near] = clear[near] < clear_stay
-        best[rows[refuse]] = 0
+    pair = np.stack([np.zeros_like(rows), best[rows]], axis=1)
+    clear = model.clearance_planes(around[:, rows], group, tx[rows[:, None], pair], ty[rows[:, None], pair], rows)
+    refuse = (clear[:, 1] < params.centre_clearance) & (clear[:, 1] < clear[:, 0])
+    best[rows[refuse]] = 0
     pick = np.arange(best.size)
     return np.stack([tx[pick, best], ty[pick, best]], axis=1)
 
@@ -170,9 +166,9 @@ class Energy:
                 rows: np.ndarray | slice = slice(None)) -> np.ndarray:
         """One coordinate of the three spans (before, own, after) of each member at trial
         coordinates ``t`` (M, K): ``(3, 3, M, K)``, [Bézier point P0-P2, span]."""
-        c_a, c_b, c_a2, c_b2 = (around[i, :, axis, None] for i in (1, 2, 3, 4))
+        c_a, c_b, c_a2, c_b2 = around[1:, :, axis, None]
         end_a, end_b, end_a2, end_b2 = g.end_a[rows], g.end_b[rows], g.end_a2[rows], g.end_b2[rows]
-        points = np.empty((3, 3) + np.broadcast_shapes(t.shape, c_a.shape))
+        points = np.empty((3, 3) + t.shape)
         m_a = (c_a + t) / 2.0  # where the span before meets the own span
         m_b = (t + c_b) / 2.0  # and the own span the span after
         points[0, 0] = np.where(end_a2, c_a2, (c_a2 + c_a) / 2.0)
