@@ -50,8 +50,7 @@ def simplify_pieces(pieces: BoundaryPieces, image: VectorImage, tolerance: float
     lo, hi = _chunks(pieces.ptr, _CHUNK)
     fitted: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
     while lo.size:
-        c1, c2, ok = _fit(exact, lo, hi, tolerance, grid)
-        ok &= _keeps_sides(exact, protected, lo, hi, c1, c2, clearance)
+        c1, c2, ok = _fit_checked(exact, protected, lo, hi, tolerance, clearance, grid)
         fitted.append((lo[ok], hi[ok], c1[ok], c2[ok]))
         lo, hi = lo[~ok], hi[~ok]
         mid = (lo + hi) // 2
@@ -63,6 +62,28 @@ def simplify_pieces(pieces: BoundaryPieces, image: VectorImage, tolerance: float
 
 
 _CHUNK = 8
+#: ranges are fitted and checked in batches of about this many exact segments, to bound the
+#: temporary memory (a few hundred bytes a sample and a protected point); the result does
+#: not depend on it
+_BATCH = 1 << 12
+
+
+def _fit_checked(exact: _Exact, protected: _Protected, lo: np.ndarray, hi: np.ndarray, tolerance: float,
+                 clearance: float, grid: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_fit` and :func:`_keeps_sides` of every range [lo, hi), a batch at a time."""
+    size = np.cumsum(hi - lo + 2)
+    cuts = np.unique(np.r_[0, np.searchsorted(size, np.arange(_BATCH, int(size[-1]) if size.size else 0, _BATCH)),
+                           lo.size, lo.size])
+    cuts = np.r_[0, cuts] if cuts.size == 1 else cuts
+    parts = []
+    for a, b in zip(cuts[:-1].tolist(), cuts[1:].tolist()):
+        c1, c2, ok = _fit(exact, lo[a:b], hi[a:b], tolerance, grid)
+        ok &= _keeps_sides(exact, protected, lo[a:b], hi[a:b], c1, c2, clearance)
+        parts.append((c1, c2, ok))
+    if len(parts) == 1:
+        return parts[0]
+    c1s, c2s, oks = zip(*parts)
+    return np.concatenate(c1s), np.concatenate(c2s), np.concatenate(oks)
 
 
 def _chunks(ptr: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
@@ -94,8 +115,7 @@ def _merge_neighbours(exact, protected, ptr, fitted, tolerance, clearance, grid)
         a = np.flatnonzero(touching & (np.arange(lo.size - 1) % 2 == parity))
         if a.size == 0:
             continue
-        m1, m2, ok = _fit(exact, lo[a], hi[a + 1], tolerance, grid)
-        ok &= _keeps_sides(exact, protected, lo[a], hi[a + 1], m1, m2, clearance)
+        m1, m2, ok = _fit_checked(exact, protected, lo[a], hi[a + 1], tolerance, clearance, grid)
         a, m1, m2 = a[ok], m1[ok], m2[ok]
         hi[a] = hi[a + 1]
         c1[a], c2[a] = m1, m2
@@ -162,18 +182,10 @@ class _Protected:
         # edge's two slots (a simplified-away span cannot occur: these are exact pieces)
         seg_of = _segments_of_edges(pieces, image, edge)  # (P', 4) candidate segment indices, -1 none
         poly = np.concatenate([exact.samples, exact.end[:, None]], axis=1)  # (K, 5, 2)
-        cand = np.maximum(seg_of, 0)
-        a, b = poly[cand][:, :, :-1], poly[cand][:, :, 1:]  # (P', 4, 4, 2)
-        d = _segment_distance(xy[:, None, None], a, b)  # (P', 4, 4)
-        d = np.where((seg_of >= 0)[:, :, None], d, np.inf)
-        flat = d.reshape(d.shape[0], -1).argmin(axis=1)
-        which, part = np.divmod(flat, d.shape[2])
-        rows_ = np.arange(xy.shape[0])
-        dist = d[rows_, which, part]
-        pa, pb = a[rows_, which, part], b[rows_, which, part]
-        side = np.sign(_cross(pb - pa, xy - pa))
-        signed = dist * np.where(side == 0, 1.0, side)
-        seg = seg_of[rows_, which]
+        dist, signed, seg = np.empty(xy.shape[0]), np.empty(xy.shape[0]), np.empty(xy.shape[0], np.int64)
+        for p0 in range(0, xy.shape[0], _BATCH):  # in batches: (P', 4, 4, 2) arrays are large
+            batch = slice(p0, p0 + _BATCH)
+            dist[batch], signed[batch], seg[batch] = _nearest_segment(xy[batch], seg_of[batch], poly)
         near = np.isfinite(dist) & (dist < reach) & (dist > 1e-9)
         key = np.unique(np.stack([seg[near], np.round(xy[near, 0] * 8), np.round(xy[near, 1] * 8)], axis=1),
                         axis=0, return_index=True)[1]
@@ -181,6 +193,23 @@ class _Protected:
         order = np.argsort(seg[pick], kind="stable")
         pick = pick[order]
         self.xy, self.dist, self.seg = xy[pick], signed[pick], seg[pick]
+
+
+def _nearest_segment(xy: np.ndarray, seg_of: np.ndarray, poly: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Distance of points ``xy`` (P, 2) to the nearest of their candidate segments ``seg_of``
+    (P, 4) (polylines ``poly``), that distance signed by the side, and that segment."""
+    cand = np.maximum(seg_of, 0)
+    a, b = poly[cand][:, :, :-1], poly[cand][:, :, 1:]  # (P, 4, 4, 2)
+    d = _segment_distance(xy[:, None, None], a, b)  # (P, 4, 4)
+    d = np.where((seg_of >= 0)[:, :, None], d, np.inf)
+    flat = d.reshape(d.shape[0], -1).argmin(axis=1)
+    which, part = np.divmod(flat, d.shape[2])
+    rows = np.arange(xy.shape[0])
+    dist = d[rows, which, part]
+    pa, pb = a[rows, which, part], b[rows, which, part]
+    side = np.sign(_cross(pb - pa, xy - pa))
+    return dist, dist * np.where(side == 0, 1.0, side), seg_of[rows, which]
 
 
 def _segments_of_edges(pieces: BoundaryPieces, image: VectorImage, edge: np.ndarray) -> np.ndarray:
