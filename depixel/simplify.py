@@ -140,7 +140,7 @@ class _Exact:
         self.tan_end = _unit(np.where((np.abs(self.end - c2) > 0).any(axis=1)[:, None], self.end - c2,
                                       self.end - self.start))
         self.samples = _cubic(self.start, c1, c2, self.end, _T_ORIG)  # (K, 4, 2)
-        step = np.linalg.norm(np.diff(np.concatenate([self.samples, self.end[:, None]], axis=1), axis=1), axis=2)
+        step = _norm(np.diff(np.concatenate([self.samples, self.end[:, None]], axis=1), axis=1))
         self.length = step.sum(axis=1)  # polyline length of each segment
         self.arc = np.cumsum(step, axis=1) - step  # arc length of each sample within its segment
         self.arc_before = np.cumsum(self.length) - self.length  # arc length before each segment (global)
@@ -256,16 +256,16 @@ def _fit(exact: _Exact, lo: np.ndarray, hi: np.ndarray, tolerance: float, grid: 
     r = pts - (b0 + b1)[:, None] * s0 - (b2 + b3)[:, None] * s1
     va, vb = b1[:, None] * t0[sample_owner], -b2[:, None] * t1[sample_owner]
     n = lo.size
-    m11 = np.bincount(sample_owner, (va * va).sum(axis=1), n)
-    m12 = np.bincount(sample_owner, (va * vb).sum(axis=1), n)
-    m22 = np.bincount(sample_owner, (vb * vb).sum(axis=1), n)
-    r1 = np.bincount(sample_owner, (va * r).sum(axis=1), n)
-    r2 = np.bincount(sample_owner, (vb * r).sum(axis=1), n)
+    m11 = np.bincount(sample_owner, _dot(va, va), n)
+    m12 = np.bincount(sample_owner, _dot(va, vb), n)
+    m22 = np.bincount(sample_owner, _dot(vb, vb), n)
+    r1 = np.bincount(sample_owner, _dot(va, r), n)
+    r2 = np.bincount(sample_owner, _dot(vb, r), n)
     det = m11 * m22 - m12 * m12
     safe = np.where(np.abs(det) > 1e-12, det, 1.0)
     a = (r1 * m22 - r2 * m12) / safe
     b = (m11 * r2 - m12 * r1) / safe
-    chord = np.linalg.norm(p3 - p0, axis=1)
+    chord = _norm(p3 - p0)
     fallback = ~(np.abs(det) > 1e-12) | (a <= 0) | (b <= 0)
     a = np.where(fallback, chord / 3.0, a)
     b = np.where(fallback, chord / 3.0, b)
@@ -279,10 +279,10 @@ def _fit(exact: _Exact, lo: np.ndarray, hi: np.ndarray, tolerance: float, grid: 
     for _ in range(2):
         point, d1, d2 = _cubic_derivatives(*q, u)
         off = point - pts
-        num = (off * d1).sum(axis=1)
-        den = (d1 * d1).sum(axis=1) + (off * d2).sum(axis=1)
+        num = _dot(off, d1)
+        den = _dot(d1, d1) + _dot(off, d2)
         u = np.clip(u - num / np.where(np.abs(den) > 1e-12, den, 1e-12), 0.0, 1.0)
-    d = np.sqrt(((_cubic_derivatives(*q, u)[0] - pts) ** 2).sum(axis=1))
+    d = _norm(_cubic_derivatives(*q, u)[0] - pts)
     worst = np.zeros(n)
     np.maximum.at(worst, sample_owner, d)
     curve = _cubic(p0, c1, c2, p3, _T_FIT)  # (N, 17, 2)
@@ -358,14 +358,25 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
 
 
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Dot products of (..., 2) vectors, written out: the same sum as ``(a * b).sum(axis=-1)``
+    without the cost of a reduction over an axis of two."""
+    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1]
+
+
+def _norm(v: np.ndarray) -> np.ndarray:
+    """Lengths of (..., 2) vectors, the same numbers as ``np.linalg.norm(v, axis=-1)``."""
+    return np.sqrt(_dot(v, v))
+
+
 def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
+    return v / np.maximum(_norm(v)[..., None], 1e-300)
 
 
 def _segment_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     ab = b - a
-    t = np.clip(((q - a) * ab).sum(axis=-1) / np.maximum((ab * ab).sum(axis=-1), 1e-300), 0.0, 1.0)
-    return np.linalg.norm(q - (a + t[..., None] * ab), axis=-1)
+    t = np.clip(_dot(q - a, ab) / np.maximum(_dot(ab, ab), 1e-300), 0.0, 1.0)
+    return _norm(q - (a + t[..., None] * ab))
 
 
 def _signed_distance_to_polylines(q: np.ndarray, poly: np.ndarray) -> np.ndarray:
