@@ -23,7 +23,7 @@ MAX_FILE_BYTES = 256 * 2**20
 #: with benchmarks/memory_per_pixel.py at 6769c95 on the worst case, a checkerboard (8.5 KB at
 #: 128², 8.4 KB at 256², 7.9 KB at 512²; noise 4.7-4.9 KB).
 #: ``-j auto`` divides the available memory by this × the largest input's pixels.
-PEAK_BYTES_PER_PIXEL = 8_500
+PEAK_BYTES_PER_PIXEL = 3_500
 #: Memory of a worker process before its image: 35-38 MB measured with numpy and depixel imported
 #: (memory_per_pixel.py's baseline), plus room for cairo when it renders PNG or PDF.
 WORKER_BASELINE_BYTES = 80 * 2**20

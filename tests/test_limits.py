@@ -243,3 +243,29 @@ def test_out_dir_that_is_a_file_is_one_error(tmp_path, capsys):
         main(["convert", str(FIXTURES / "heart.png"), str(FIXTURES / "leaf.png"), "--out-dir", str(tmp_path / "file")])
     assert info.value.code == Exit.USAGE
     assert "is a file, not a folder" in one_line(capsys.readouterr().err)
+
+
+@pytest.mark.parametrize("kind", ["checkerboard", "noise"])
+def test_peak_memory_per_pixel(kind):
+    """17.11: one conversion's peak RSS above the import baseline stays within
+    PEAK_BYTES_PER_PIXEL a pixel (plus the fixed-size batches of the crossings, outlines and
+    path text), on the worst inputs: a checkerboard (every pixel its own shape, every block
+    a crossing) and RGB noise. It took 8.4 KB a pixel on a checkerboard."""
+    from depixel.limits import PEAK_BYTES_PER_PIXEL
+
+    size = 192
+    code = ("import resource; resource.setrlimit(resource.RLIMIT_AS, ({limit}, {limit}))\n"
+            "import numpy as np, depixel\n"
+            "size = {size}\n"
+            "if '{kind}' == 'checkerboard':\n"
+            "    image = (np.indices((size, size)).sum(axis=0) % 2 * 255).astype(np.uint8)\n"
+            "else:\n"
+            "    image = np.random.default_rng(0).integers(0, 256, (size, size, 3), dtype=np.uint8)\n"
+            "base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss\n"
+            "depixel.convert(image)\n"
+            "print((resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - base) * 1024)\n"
+            ).format(limit=2 * LIMIT, size=size, kind=kind)
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    grown = int(run.stdout)
+    assert grown <= PEAK_BYTES_PER_PIXEL * size * size + 24 * 2**20, f"{grown / size**2:.0f} bytes a pixel"
