@@ -76,14 +76,13 @@ def step(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group,
     size = (group.members.size, params.candidates)
     angle = rng.uniform(0.0, 2.0 * np.pi, size=size)
     radius = params.radius * np.sqrt(rng.uniform(0.0, 1.0, size=size))
-    around = ctrl[group.around]  # (5, M, 2): the member, a, b, a2, b2
-    # trials as x and y planes (M, K+1), column 0 = stay
-    tx = np.empty((size[0], size[1] + 1))
-    ty = np.empty_like(tx)
-    tx[:, :1], ty[:, :1] = around[0, :, :1], around[0, :, 1:]
-    np.add(around[0, :, :1], np.cos(angle) * radius, out=tx[:, 1:])
-    np.add(around[0, :, 1:], np.sin(angle) * radius, out=ty[:, 1:])
-    energy, offset2 = model.energy_planes(around, anchor[group.members], group, tx, ty)
+    around = ctrl[group.around].transpose(0, 2, 1)[..., None]  # (5, 2, M, 1): member, a, b, a2, b2
+    # trials (2, M, K+1): x and y planes, column 0 = stay
+    trial = np.empty((2, size[0], size[1] + 1))
+    trial[:, :, :1] = around[0]
+    np.add(around[0, 0], np.cos(angle) * radius, out=trial[0, :, 1:])
+    np.add(around[0, 1], np.sin(angle) * radius, out=trial[1, :, 1:])
+    energy, offset2, points = model.evaluate(around, anchor[group.members].T[..., None], group, trial)
     too_far = offset2 > params.max_offset**2
     too_far[:, 0] = False
     best = np.argmin(np.where(too_far, np.inf, energy), axis=1)  # ties keep the lower index
@@ -92,11 +91,10 @@ def step(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group,
     # and of staying
     rows = np.flatnonzero(best > 0)
     pair = np.stack([np.zeros_like(rows), best[rows]], axis=1)
-    clear = model.clearance_planes(around[:, rows], group, tx[rows[:, None], pair], ty[rows[:, None], pair], rows)
+    clear = model.clearance_of(points[..., rows[:, None], pair], group, rows)
     refuse = (clear[:, 1] < params.centre_clearance) & (clear[:, 1] < clear[:, 0])
     best[rows[refuse]] = 0
-    pick = np.arange(best.size)
-    return np.stack([tx[pick, best], ty[pick, best]], axis=1)
+    return trial[:, np.arange(best.size), best].T
 
 
 @dataclass(frozen=True, eq=False)
@@ -112,8 +110,7 @@ class Group:
     end_b2: np.ndarray
     keep: np.ndarray  # (2, 3, M, 1) float 0/1: halves (first, second) of the spans before,
     #                   own, after counted in E_s (0 for the span of an end a or b)
-    protected: np.ndarray  # (M, 1, Q) x and y of the points the spans must keep clear of
-    protected_y: np.ndarray
+    protected: np.ndarray  # (2, M, 1, 1, Q) x and y of the points the spans must keep clear of
 
     @property
     def a(self) -> np.ndarray:
@@ -132,10 +129,11 @@ _W0, _W1, _W2 = (1 - _T) ** 2, 2 * _T * (1 - _T), _T**2
 class Energy:
     """E_s + E_p of slots and their clearance from protected points, over the curve slots.
 
-    The hot path works on x and y planes (every array ``(…, M, K)``) and on the three spans
-    a member shapes stacked on a leading axis, so one step is a few dozen whole-array
-    operations; each number is computed by the same floating-point operations, in the same
-    order, as :func:`depixel.bspline.span` and :func:`depixel.bspline.half_turns` do."""
+    The hot path keeps x and y on a leading axis (arrays ``(2, M, K)``) and the three spans
+    a member shapes stacked on another, so one step is a few dozen whole-array operations;
+    each number is computed by the same floating-point operations, in the same order, as
+    :func:`depixel.bspline.span`, :func:`depixel.bspline.half_turns` and
+    :func:`depixel.bspline.flatten` do."""
 
     def __init__(self, splines: SplineSet, excluded: np.ndarray):
         self.prev, self.nxt = splines.neighbours()
@@ -158,69 +156,66 @@ class Energy:
             members, np.stack([members, a, b, a2, b2]),
             col(self.end[a]), col(self.end[b]), col(self.end[a2]), col(self.end[b2]),
             np.moveaxis(keep, 2, 0)[..., None].astype(np.float64),
-            protected[:, None, :, 0], protected[:, None, :, 1],
+            np.moveaxis(protected, 2, 0)[:, :, None, None, :],
         )
 
     @staticmethod
-    def _points(around: np.ndarray, g: Group, t: np.ndarray, axis: int,
-                rows: np.ndarray | slice = slice(None)) -> np.ndarray:
-        """One coordinate of the three spans (before, own, after) of each member at trial
-        coordinates ``t`` (M, K): ``(3, 3, M, K)``, [Bézier point P0-P2, span]."""
-        c_a, c_b, c_a2, c_b2 = around[1:, :, axis, None]
-        end_a, end_b, end_a2, end_b2 = g.end_a[rows], g.end_b[rows], g.end_a2[rows], g.end_b2[rows]
-        points = np.empty((3, 3) + t.shape)
-        m_a = (c_a + t) / 2.0  # where the span before meets the own span
-        m_b = (t + c_b) / 2.0  # and the own span the span after
-        points[0, 0] = np.where(end_a2, c_a2, (c_a2 + c_a) / 2.0)
-        points[0, 1] = np.where(end_a, c_a, m_a)
+    def points(around: np.ndarray, g: Group, trial: np.ndarray) -> np.ndarray:
+        """The three spans (before, own, after) of each member at ``trial`` (2, M, K), for
+        ``around`` = ``ctrl[g.around]`` as (5, 2, M, 1): ``(3, 3, 2, M, K)``, [Bézier point
+        P0-P2, span, coordinate]."""
+        c_a, c_b, c_a2, c_b2 = around[1:]
+        points = np.empty((3, 3) + trial.shape)
+        m_a = (c_a + trial) / 2.0  # where the span before meets the own span
+        m_b = (trial + c_b) / 2.0  # and the own span the span after
+        points[0, 0] = np.where(g.end_a2, c_a2, (c_a2 + c_a) / 2.0)
+        points[0, 1] = np.where(g.end_a, c_a, m_a)
         points[0, 2] = m_b
-        points[1, 0], points[1, 1], points[1, 2] = c_a, t, c_b
+        points[1, 0], points[1, 1], points[1, 2] = c_a, trial, c_b
         points[2, 0] = m_a
-        points[2, 1] = np.where(end_b, c_b, m_b)
-        points[2, 2] = np.where(end_b2, c_b2, (c_b + c_b2) / 2.0)
+        points[2, 1] = np.where(g.end_b, c_b, m_b)
+        points[2, 2] = np.where(g.end_b2, c_b2, (c_b + c_b2) / 2.0)
         return points
 
-    def energy_planes(self, around: np.ndarray, anchor: np.ndarray, g: Group, tx: np.ndarray,
-                      ty: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(M, K) energy of each member at trial places ``(tx, ty)`` (M, K), and the squared
-        distance of each trial from its anchor; ``around`` is ``ctrl[g.around]``, ``anchor``
-        (M, 2) the members' places before relaxing."""
+    def evaluate(self, around: np.ndarray, anchor: np.ndarray, g: Group, trial: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(M, K) energy of each member at ``trial`` (2, M, K), the squared distance of each
+        trial from its ``anchor`` (2, M, 1), and the spans' :meth:`points`."""
+        points = self.points(around, g, trial)
         # half_turns of the three spans at once: d0 = P1 - P0, d1 = P2 - P1, dm = d0 + d1
-        # (u: the x coordinate, v: the y coordinate)
-        x, y = self._points(around, g, tx, 0), self._points(around, g, ty, 1)
-        u0, u1, v0, v1 = x[1] - x[0], x[2] - x[1], y[1] - y[0], y[2] - y[1]
-        um, vm = u0 + u1, v0 + v1
+        d0, d1 = points[1] - points[0], points[2] - points[1]
+        dm = d0 + d1
+        (u0, v0), (u1, v1), (um, vm) = np.moveaxis(d0, 1, 0), np.moveaxis(d1, 1, 0), np.moveaxis(dm, 1, 0)
         first = np.abs(np.arctan2(u0 * vm - v0 * um, u0 * um + v0 * vm))
         second = np.abs(np.arctan2(um * v1 - vm * u1, um * u1 + vm * v1))
         smooth = first * g.keep[0] + second * g.keep[1]  # (3, M, K): before, own, after
-        dx, dy = tx - anchor[:, :1], ty - anchor[:, 1:]
-        offset2 = dx**2 + dy**2
-        return smooth[1] + smooth[0] + smooth[2] + offset2**2, offset2
+        offset = trial - anchor
+        offset2 = offset[0] ** 2 + offset[1] ** 2
+        return smooth[1] + smooth[0] + smooth[2] + offset2**2, offset2, points
 
     def energy(self, ctrl: np.ndarray, anchor: np.ndarray, g: Group, trial: np.ndarray) -> np.ndarray:
         """(M, K) energy of each member at each trial position ``trial`` (M, K, 2)."""
-        return self.energy_planes(ctrl[g.around], anchor[g.members], g, trial[..., 0], trial[..., 1])[0]
+        around = ctrl[g.around].transpose(0, 2, 1)[..., None]
+        return self.evaluate(around, anchor[g.members].T[..., None], g, np.moveaxis(trial, -1, 0))[0]
 
-    def clearance_planes(self, around: np.ndarray, g: Group, tx: np.ndarray, ty: np.ndarray,
-                         rows: np.ndarray) -> np.ndarray:
-        """(R, K) smallest distance from the three spans of the members ``rows`` (``around``
-        is ``ctrl[g.around[:, rows]]``) at trial places ``(tx, ty)`` (R, K) to their
-        protected points (pixel centres beside them, diagonal-link corners)."""
-        gap = None
-        for axis, t, protected in ((0, tx, g.protected[rows]), (1, ty, g.protected_y[rows])):
-            p0, p1, p2 = self._points(around, g, t, axis, rows)
-            # the points at t = 0, ¼, ½, ¾, 1 of each span: (3, R, K, 5); the before span
-            # without its last point, the after span without its first (the own span's ends)
-            points = _W0 * p0[..., None] + _W1 * p1[..., None] + _W2 * p2[..., None]
-            points = np.concatenate([points[0, ..., :-1], points[1], points[2, ..., 1:]], axis=-1)
-            d = (points[..., None] - protected[:, :, None, :]) ** 2  # (R, K, 3n+1, Q)
-            gap = d if gap is None else gap + d
-        assert gap is not None
-        return np.sqrt(gap.min(axis=(-1, -2)))
+    def clearance_of(self, points: np.ndarray, g: Group, rows: np.ndarray) -> np.ndarray:
+        """(R, K) smallest distance from the three spans of the members ``rows``, given by
+        their :meth:`points` (3, 3, 2, R, K), to their protected points (pixel centres
+        beside them, diagonal-link corners)."""
+        p0, p1, p2 = points[..., None]
+        # the points at t = 0, ¼, ½, ¾, 1 of each span (3, 2, R, K, 5); the before span
+        # without its last point, the after span without its first (the own span's ends)
+        flat = _W0 * p0 + _W1 * p1 + _W2 * p2
+        flat = np.concatenate([flat[0, ..., :-1], flat[1], flat[2, ..., 1:]], axis=-1)  # (2, R, K, 3n+1)
+        d = (flat[..., None] - g.protected[:, rows]) ** 2  # (2, R, K, 3n+1, Q)
+        return np.sqrt((d[0] + d[1]).min(axis=(-1, -2)))
 
     def clearance(self, ctrl: np.ndarray, g: Group, trial: np.ndarray, rows: np.ndarray) -> np.ndarray:
-        """(R, K) :meth:`clearance_planes` at trial positions ``trial`` (R, K, 2)."""
-        return self.clearance_planes(ctrl[g.around[:, rows]], g, trial[..., 0], trial[..., 1], rows)
+        """(R, K) :meth:`clearance_of` the members ``rows`` at trial positions ``trial`` (R, K, 2)."""
+        around = ctrl[g.around[:, rows]].transpose(0, 2, 1)[..., None]
+        sub = Group(g.members[rows], g.around[:, rows], g.end_a[rows], g.end_b[rows], g.end_a2[rows],
+                    g.end_b2[rows], g.keep[:, :, rows], g.protected[:, rows])
+        return self.clearance_of(self.points(around, sub, np.moveaxis(trial, -1, 0)), g, rows)
 
     def total(self, ctrl: np.ndarray, anchor: np.ndarray) -> float:
         """The energy of all the curves: E_s of every span plus E_p of every slot."""
