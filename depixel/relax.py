@@ -185,7 +185,7 @@ class Energy:
         # half_turns of the three spans at once: d0 = P1 - P0, d1 = P2 - P1, dm = d0 + d1
         d0, d1 = points[1] - points[0], points[2] - points[1]
         dm = d0 + d1
-        (u0, v0), (u1, v1), (um, vm) = np.moveaxis(d0, 1, 0), np.moveaxis(d1, 1, 0), np.moveaxis(dm, 1, 0)
+        u0, v0, u1, v1, um, vm = d0[:, 0], d0[:, 1], d1[:, 0], d1[:, 1], dm[:, 0], dm[:, 1]  # x: u, y: v
         first = np.abs(np.arctan2(u0 * vm - v0 * um, u0 * um + v0 * vm))
         second = np.abs(np.arctan2(um * v1 - vm * u1, um * u1 + vm * v1))
         smooth = first * g.keep[0] + second * g.keep[1]  # (3, M, K): before, own, after
