@@ -199,8 +199,8 @@ def _nearest_segment(xy: np.ndarray, seg_of: np.ndarray, poly: np.ndarray
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Distance of points ``xy`` (P, 2) to the nearest of their candidate segments ``seg_of``
     (P, 4) (polylines ``poly``), that distance signed by the side, and that segment."""
-    cand = np.maximum(seg_of, 0)
-    a, b = poly[cand][:, :, :-1], poly[cand][:, :, 1:]  # (P, 4, 4, 2)
+    near = poly[np.maximum(seg_of, 0)]  # (P, 4, 5, 2)
+    a, b = near[:, :, :-1], near[:, :, 1:]  # (P, 4, 4, 2)
     d = _segment_distance(xy[:, None, None], a, b)  # (P, 4, 4)
     d = np.where((seg_of >= 0)[:, :, None], d, np.inf)
     flat = d.reshape(d.shape[0], -1).argmin(axis=1)
@@ -282,7 +282,7 @@ def _fit(exact: _Exact, lo: np.ndarray, hi: np.ndarray, tolerance: float, grid: 
         num = _dot(off, d1)
         den = _dot(d1, d1) + _dot(off, d2)
         u = np.clip(u - num / np.where(np.abs(den) > 1e-12, den, 1e-12), 0.0, 1.0)
-    d = _norm(_cubic_derivatives(*q, u)[0] - pts)
+    d = _norm(_cubic_point(*q, u) - pts)
     worst = np.zeros(n)
     np.maximum.at(worst, sample_owner, d)
     curve = _cubic(p0, c1, c2, p3, _T_FIT)  # (N, 17, 2)
@@ -344,11 +344,18 @@ def _cubic(p0, c1, c2, p3, t: np.ndarray) -> np.ndarray:
     return s**3 * p0[:, None] + 3 * t * s**2 * c1[:, None] + 3 * t**2 * s * c2[:, None] + t**3 * p3[:, None]
 
 
+def _cubic_point(q0, q1, q2, q3, u: np.ndarray) -> np.ndarray:
+    """Points of cubic Béziers, each at its own parameter: control points ``(N, 2)`` each,
+    ``u`` ``(N,)``."""
+    w, v = (1 - u)[:, None], u[:, None]
+    return w**3 * q0 + 3 * v * w**2 * q1 + 3 * v**2 * w * q2 + v**3 * q3
+
+
 def _cubic_derivatives(q0, q1, q2, q3, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Point, first and second derivative of cubic Béziers, each at its own parameter:
     control points ``(N, 2)`` each, ``u`` ``(N,)``."""
     w, v = (1 - u)[:, None], u[:, None]
-    point = w**3 * q0 + 3 * v * w**2 * q1 + 3 * v**2 * w * q2 + v**3 * q3
+    point = _cubic_point(q0, q1, q2, q3, u)
     d1 = 3 * (w**2 * (q1 - q0) + 2 * v * w * (q2 - q1) + v**2 * (q3 - q2))
     d2 = 6 * (w * (q2 - 2 * q1 + q0) + v * (q3 - 2 * q2 + q1))
     return point, d1, d2
