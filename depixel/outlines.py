@@ -38,6 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .arrays import unique
 from .boundaries import CUBIC, LINE, QUAD, BoundaryPieces, build_pieces, junction_nodes
 from .loops import Loops, trace_loops
 from .simplify import simplify_pieces
@@ -143,7 +144,7 @@ def build_outlines(image: VectorImage, layout: str = "stacked", grid: float | No
                                                             halfedge_from, grid)
 
     shape_rank = loops.owner[keep]
-    drawn = np.unique(shape_rank)
+    drawn = unique(shape_rank)
     shape_ptr = np.asarray(np.searchsorted(shape_rank, np.r_[drawn, np.iinfo(np.int64).max]), dtype=np.int64)
     face = topo.face_of_rank[drawn]
     return Outlines(
@@ -234,7 +235,7 @@ def _segments_in_batches(image: VectorImage, pieces: BoundaryPieces, loops: Loop
                          halfedge_edge: np.ndarray, halfedge_from: np.ndarray, grid: float | None):
     """:func:`_loop_segments` of the kept loops, a batch of loops at a time."""
     size = np.cumsum(np.diff(loops.ptr)[keep])
-    cuts = np.unique(np.r_[0, np.searchsorted(size, np.arange(LOOP_BATCH, int(size[-1]) if size.size else 0,
+    cuts = unique(np.r_[0, np.searchsorted(size, np.arange(LOOP_BATCH, int(size[-1]) if size.size else 0,
                                                                LOOP_BATCH)), keep.size, keep.size])
     cuts = np.r_[0, cuts] if cuts.size == 1 else cuts  # no loop: one empty batch
     parts = [_loop_segments(image, pieces, loops, keep[a:b], halfedge_edge, halfedge_from, grid)

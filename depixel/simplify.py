@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .arrays import unique
 from .boundaries import CUBIC, QUAD, BoundaryPieces
 from .vector import VectorImage
 
@@ -72,7 +73,7 @@ def _fit_checked(exact: _Exact, protected: _Protected, lo: np.ndarray, hi: np.nd
                  clearance: float, grid: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`_fit` and :func:`_keeps_sides` of every range [lo, hi), a batch at a time."""
     size = np.cumsum(hi - lo + 2)
-    cuts = np.unique(np.r_[0, np.searchsorted(size, np.arange(_BATCH, int(size[-1]) if size.size else 0, _BATCH)),
+    cuts = unique(np.r_[0, np.searchsorted(size, np.arange(_BATCH, int(size[-1]) if size.size else 0, _BATCH)),
                            lo.size, lo.size])
     cuts = np.r_[0, cuts] if cuts.size == 1 else cuts
     parts = []
@@ -306,7 +307,7 @@ def _keeps_sides(exact: _Exact, prot: _Protected, lo, hi, c1, c2, clearance: flo
     d_new = _signed_distance_to_polylines(prot.xy[idx], curve)
     d_old = prot.dist[idx]
     bad = (np.sign(d_new) != np.sign(d_old)) | (np.abs(d_new) < np.minimum(np.abs(d_old), clearance) - 1e-9)
-    ok[np.unique(owner[bad])] = False
+    ok[unique(owner[bad])] = False
     return ok
 
 

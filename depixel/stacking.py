@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .arrays import union, unique
 from .vector import VectorImage, faces_and_regions
 
 #: shape roles, for the labels of an editor's layers panel
@@ -59,7 +60,7 @@ class FaceTopology:
 
         inner = has_l & has_r
         lo, hi = np.minimum(left[inner], right[inner]), np.maximum(left[inner], right[inner])
-        pairs = np.unique(np.stack([lo, hi], axis=1), axis=0) if inner.any() else np.zeros((0, 2), np.int64)
+        pairs = unique(np.stack([lo, hi], axis=1), axis=0) if inner.any() else np.zeros((0, 2), np.int64)
         self.pairs = np.concatenate([pairs, pairs[:, ::-1]])  # both directions
 
         on_border = np.zeros(n, bool)
@@ -135,7 +136,7 @@ class FaceTopology:
         a = np.concatenate([self.pairs[:, 0], self.corners[:, 0]])
         b = np.concatenate([self.pairs[:, 1], self.corners[:, 1]])
         under = self.drawn[a] & self.opaque[b] & (self.rank[b] > self.rank[a])
-        keys = np.unique(np.concatenate([own * n + own, a[under] * n + b[under]]))
+        keys = unique(np.concatenate([own * n + own, a[under] * n + b[under]]))
         if edge_cost is not None:
             keys = self._absorb(keys, edge_cost)
         return keys // n, keys % n
@@ -172,7 +173,7 @@ class FaceTopology:
             add = uniq[gain > 1e-9]
             if add.size == 0:
                 return keys
-            keys = np.union1d(keys, add)
+            keys = union(keys, add)
 
     def roles(self, faces: np.ndarray) -> np.ndarray:
         """Role of each face's shape: the lowest shape covering most of the image along its
