@@ -112,14 +112,6 @@ class Group:
     #                   own, after counted in E_s (0 for the span of an end a or b)
     protected: np.ndarray  # (2, M, 1, 1, Q) x and y of the points the spans must keep clear of
 
-    @property
-    def a(self) -> np.ndarray:
-        return self.around[1]
-
-    @property
-    def b(self) -> np.ndarray:
-        return self.around[2]
-
 
 #: t of the points each span is checked at, and the weights of its Bézier points there
 _T = np.arange(CLEARANCE_PIECES + 1) / CLEARANCE_PIECES
