@@ -167,8 +167,19 @@ def _edge_costs(image: VectorImage, pieces: BoundaryPieces) -> np.ndarray:
 
 
 def _member_entries(topo: FaceTopology, members: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """(owner face, boundary entry) of every shape's union of member faces."""
+    """(owner face, boundary entry) of every shape's union of member faces, a batch of
+    :data:`LOOP_BATCH` members at a time (the result does not depend on it)."""
     owner, member = members
+    n = topo.n_faces + 1
+    member_key = owner * n + member
+    parts = [_batch_entries(topo, owner[i : i + LOOP_BATCH], member[i : i + LOOP_BATCH], member_key)
+             for i in range(0, max(owner.size, 1), LOOP_BATCH)]
+    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+
+
+def _batch_entries(topo: FaceTopology, owner: np.ndarray, member: np.ndarray, member_key: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_member_entries` of some (owner, member) pairs; ``member_key`` of all of them."""
     counts = topo.entry_ptr[member + 1] - topo.entry_ptr[member]
     which = np.repeat(np.arange(owner.size), counts)
     entry = np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts) + topo.entry_ptr[member][which]
@@ -176,7 +187,6 @@ def _member_entries(topo: FaceTopology, members: tuple[np.ndarray, np.ndarray]) 
     other = topo.entry_other[entry]
     # a half-edge bounds the union unless the face across is a member of the same shape
     n = topo.n_faces + 1
-    member_key = owner * n + member
     other_key = shape_face * n + other
     pos = np.minimum(np.searchsorted(member_key, other_key), member_key.size - 1)
     inside = (other >= 0) & (member_key[pos] == other_key)
