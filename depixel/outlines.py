@@ -217,23 +217,48 @@ def _loops_to_keep(topo: FaceTopology, loops: Loops, halfedge_from: np.ndarray, 
     row, col = np.divmod(topo.first_pixel[clear], w)
     probe = np.stack([4 * col + 2, 4 * row + 2], axis=1)  # a pixel centre of each, quarter units
     hole_edges = np.flatnonzero(np.isin(loop_of, holes))
-    a, b = p[hole_edges], q[hole_edges]
-    # even-odd ray casting towards +x, every (hole edge, probe) pair at once, in chunks
-    parity = np.zeros((len(loops), probe.shape[0]), np.int64)
-    py, px = probe[None, :, 1], probe[None, :, 0]
-    chunk = max(1, (1 << 22) // probe.shape[0])
-    for c0 in range(0, hole_edges.size, chunk):
-        ea, eb = a[c0 : c0 + chunk, None, :], b[c0 : c0 + chunk, None, :]
-        straddle = (ea[..., 1] > py) != (eb[..., 1] > py)
-        dy = eb[..., 1] - ea[..., 1]
-        # the crossing lies right of the probe: (px - ax) * dy < (py - ay) * (bx - ax), sign of dy
-        lhs = (px - ea[..., 0]) * dy
-        rhs = (py - ea[..., 1]) * (eb[..., 0] - ea[..., 0])
-        hit = straddle & np.where(dy > 0, lhs < rhs, lhs > rhs)
-        np.add.at(parity, loop_of[hole_edges[c0 : c0 + chunk]], hit.astype(np.int64))
-    blocked = (parity % 2 == 1).any(axis=1)
+    blocked = _holds_a_probe(p[hole_edges], q[hole_edges], loop_of[hole_edges], probe, len(loops), w)
     keep = (area2 >= 0) | blocked
     return np.flatnonzero(keep)
+
+
+def _holds_a_probe(a: np.ndarray, b: np.ndarray, loop: np.ndarray, probe: np.ndarray, n_loops: int,
+                   width: int) -> np.ndarray:
+    """(n_loops,) bool: the loops (edges a→b (E, 2) of loop ``loop``, quarter-pixel units)
+    that hold a probe (pixel centres (P, 2)) by the even-odd rule, a ray towards +x counting
+    the edges that straddle the probe's row (half-open in y) and cross it strictly right.
+
+    Row by row instead of every (edge, probe) pair: a probe row y = 4r + 2 meets each loop
+    at crossings x_c; a probe at integer x has odd parity exactly when it lies in
+    [C1, C2), [C3, C4), … of that loop's crossings rounded up, C = ceil(x_c), sorted (x_c > x
+    if and only if C > x). So the cost is the edges' crossings and a binary search per
+    span, linear in the image, where the pairs cost edges × probes."""
+    ay, by = a[:, 1], b[:, 1]
+    lo, hi = np.minimum(ay, by), np.maximum(ay, by)
+    # the probe rows each edge straddles: lo <= 4r + 2 < hi
+    r0, r1 = -((2 - lo) // 4), -((2 - hi) // 4)  # ceil((lo - 2) / 4), ceil((hi - 2) / 4)
+    count = np.maximum(r1 - r0, 0)
+    edge = np.repeat(np.arange(a.shape[0]), count)
+    row = np.repeat(r0, count) + np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
+    ax, ay, bx, by = a[edge, 0], a[edge, 1], b[edge, 0], b[edge, 1]
+    py, dy = 4 * row + 2, by - ay
+    # x_c = ax + (py - ay)(bx - ax) / dy, rounded up exactly in integers (dy made positive)
+    num = ax * dy + (py - ay) * (bx - ax)
+    num, den = np.where(dy < 0, -num, num), np.abs(dy)
+    ceil = -((-num) // den)
+    span = 4 * width + 8  # x keys per row: every crossing and probe x lies in [0, 4W + 4]
+    ceil = np.clip(ceil, 0, span - 1)
+    order = np.lexsort((ceil, row, loop[edge]))
+    group = loop[edge][order] * (row.max(initial=0) + 1) + row[order]
+    rank = np.arange(order.size) - np.searchsorted(group, group)  # position within (loop, row)
+    first = order[rank % 2 == 0]
+    second = order[rank % 2 == 1]  # each (loop, row) has an even number of crossings
+    probe_key = np.sort((probe[:, 1] - 2) // 4 * span + probe[:, 0])
+    start = np.searchsorted(probe_key, row[first] * span + ceil[first])
+    stop = np.searchsorted(probe_key, row[second] * span + ceil[second])
+    held = np.zeros(n_loops, bool)
+    held[loop[edge][first][stop > start]] = True
+    return held
 
 
 #: loops are turned into segments in batches of about this many half-edges, to bound the
