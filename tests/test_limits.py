@@ -276,12 +276,12 @@ def test_holes_with_transparent_pixels_cost_linear_memory():
     holes × transparent faces (a loops × faces table): a lattice of 3x3 rings with
     transparent centres took 32 KB a pixel (4.8 GB) at 384x384. Converted here under the
     address-space cap of the other limited tests."""
-    code = ("import resource; resource.setrlimit(resource.RLIMIT_AS, ({limit}, {limit}))\n"
+    code = (f"import resource; resource.setrlimit(resource.RLIMIT_AS, ({LIMIT}, {LIMIT}))\n"
             "import numpy as np, depixel\n"
             "tile = np.zeros((3, 3, 4), np.uint8)\n"
             "tile[..., 0], tile[..., 3], tile[1, 1, 3] = 200, 255, 0\n"
             "svg = depixel.convert(np.tile(tile, (96, 96, 1)))\n"
-            "print(svg.count('<path'))\n").format(limit=LIMIT)
+            "print(svg.count('<path'))\n")
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr[-400:]
     assert int(run.stdout) >= 1
