@@ -12,7 +12,14 @@ the whole-process time of ``depixel convert``.
    for sizes larger than a frame), median seconds and microseconds per pixel, and the peak
    RSS of a fresh process that runs the pipeline once on that input.
 3. ``depixel convert SPRITE -o out.svg`` as a subprocess (import cost included), median of
-   ``--convert-runs`` runs.
+   ``--convert-runs`` runs, beside ``python -c "import numpy, PIL.Image"`` (the floor any
+   numpy + Pillow tool pays). The children may write bytecode (``PYTHONDONTWRITEBYTECODE``
+   is dropped for them): an installed package has it, and compiling ~40 modules per run
+   would be measured instead.
+
+When ``vtracer`` (a Rust tracer, ``pip install vtracer``; not a dependency) is importable,
+its time on the same inputs (the PNG bytes, default settings) is printed beside ours, so
+the ratio can be read on any machine.
 
 Everything runs single-threaded: BLAS/OpenMP thread counts are pinned to 1 before numpy
 is imported, here and in every child process.
@@ -73,6 +80,37 @@ def timed(rgba: np.ndarray, stage: str, repeats: int) -> dict[str, float]:
     out = {key: PER_IMAGE(r[key] for r in runs) for key in runs[0]}
     out["total"] = PER_IMAGE(sum(r.values()) for r in runs)
     return out
+
+
+def vtracer_module():
+    """The vtracer module, or None when it is not installed."""
+    try:
+        import vtracer  # noqa: PLC0415
+    except ImportError:
+        return None
+    return vtracer
+
+
+def png_bytes(rgba: np.ndarray) -> bytes:
+    from io import BytesIO  # noqa: PLC0415
+
+    from PIL import Image  # noqa: PLC0415
+
+    buffer = BytesIO()
+    Image.fromarray(rgba, "RGBA").save(buffer, "PNG")
+    return buffer.getvalue()
+
+
+def vtracer_seconds(vtracer, rgba: np.ndarray, repeats: int) -> float:
+    """vtracer's time on one image (PNG bytes in, SVG text out), after one warm-up run."""
+    data = png_bytes(rgba)
+    vtracer.convert_raw_image_to_svg(data, img_format="png")
+    times = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        vtracer.convert_raw_image_to_svg(data, img_format="png")
+        times.append(time.perf_counter() - t)
+    return PER_IMAGE(times)
 
 
 def row_value(timings: dict[str, float], keys: tuple[str, ...]) -> float | None:
@@ -148,13 +186,15 @@ def probe_memory(spec: str, stage: str) -> None:
     print(f"{high_water_mb():.1f} {before:.1f}")
 
 
-def scaling(frames: list[Path], sizes: list[tuple[int, int]], stage: str, repeats: int) -> None:
+def scaling(frames: list[Path], sizes: list[tuple[int, int]], stage: str, repeats: int, vtracer=None) -> None:
     print("\n### Scaling on game frames (centre crops; tiled above the frame size)\n")
     print("| size | pixels | median s | µs/pixel | per stage ms (sim+cross / cells / splines / opt / svg) "
           "| peak RSS MB (after imports) |")
     print("|---|---:|---:|---:|---|---:|")
     loaded = [load_image(p) for p in frames]
-    per_pixel = {}
+    per_pixel: dict[tuple[int, int], float] = {}
+    theirs: dict[tuple[int, int], float] = {}
+    ratios: dict[tuple[int, int], float] = {}
     for h, w in sizes:
         runs = [timed(crop_or_tile(f, h, w), stage, max(1, repeats if h * w < 128 * 128 else repeats // 2))
                 for f in loaded]
@@ -168,10 +208,16 @@ def scaling(frames: list[Path], sizes: list[tuple[int, int]], stage: str, repeat
         peak, base = max(r[0] for r in rss), max(r[1] for r in rss)
         print(f"| {w}×{h} | {h * w} | {total:.3f} | {per_pixel[(h, w)]:.1f} | {' / '.join(parts)} "
               f"| {peak:.0f} ({base:.0f}) |")
+        if vtracer is not None:
+            theirs[(h, w)] = statistics.median(vtracer_seconds(vtracer, crop_or_tile(f, h, w), repeats) for f in loaded)
+            ratios[(h, w)] = total / theirs[(h, w)]
     small, large = min(per_pixel, key=lambda s: s[0] * s[1]), max(per_pixel, key=lambda s: s[0] * s[1])
     if small != large:
         print(f"\nµs/pixel at {large[1]}×{large[0]} / at {small[1]}×{small[0]}: "
               f"{per_pixel[large] / per_pixel[small]:.2f}")
+    if ratios:
+        print("\nvtracer on the same crops: " + ", ".join(
+            f"{w}×{h} {theirs[(h, w)] * 1e3:.1f} ms (depixel {ratios[(h, w)]:.1f}×)" for h, w in ratios))
 
 
 def convert_command() -> list[str]:
@@ -181,23 +227,31 @@ def convert_command() -> list[str]:
 
 def whole_process(sprite: Path, stage: str, runs: int) -> None:
     print(f"\n### Whole process: `depixel convert {sprite.name} -o out.svg --stage {stage}`\n")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "out.svg"
         commands = {
             "python -c pass": [sys.executable, "-c", "pass"],
+            "python -c 'import numpy, PIL.Image'": [sys.executable, "-c", "import numpy, PIL.Image"],
             "python -c 'import depixel'": [sys.executable, "-c", "import depixel"],
             "depixel convert": convert_command() + ["convert", str(sprite), "-o", str(out), "--stage", stage],
         }
+        for cmd in commands.values():  # warm the file cache and write the bytecode
+            subprocess.run(cmd, check=True, capture_output=True, env=env)
+        times: dict[str, list[float]] = {label: [] for label in commands}
+        for _ in range(runs):  # interleaved, so a change of load hits every command alike
+            for label, cmd in commands.items():
+                t = time.perf_counter()
+                subprocess.run(cmd, check=True, capture_output=True, env=env)
+                times[label].append(time.perf_counter() - t)
         print("| command | median s | min s | max s |")
         print("|---|---:|---:|---:|")
-        for label, cmd in commands.items():
-            subprocess.run(cmd, check=True, capture_output=True)  # warm the file cache
-            times = []
-            for _ in range(runs):
-                t = time.perf_counter()
-                subprocess.run(cmd, check=True, capture_output=True)
-                times.append(time.perf_counter() - t)
-            print(f"| {label} | {statistics.median(times):.3f} | {min(times):.3f} | {max(times):.3f} |")
+        for label, values in times.items():
+            print(f"| {label} | {statistics.median(values):.3f} | {min(values):.3f} | {max(values):.3f} |")
+        ours, floor = times["depixel convert"], times["python -c 'import numpy, PIL.Image'"]
+        ratio = statistics.median(ours) / statistics.median(floor)
+        print(f"\n`depixel convert` / `import numpy, PIL.Image`: {ratio:.2f}× (medians; minimums "
+              f"{min(ours) / min(floor):.2f}×)")
 
 
 def machine() -> str:
@@ -245,11 +299,18 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"stage {args.stage} is not available yet ({exc}); try --stage cells")
 
     print(f"# depixel benchmark, stage {args.stage}\n\n{machine()}")
+    vtracer = vtracer_module()
     if "table" not in args.skip:
         per_image = [timed(load_image(p), args.stage, args.repeats) for p in paper]
         print_table(f"Paper corpus: {len(paper)} images, {args.per_image} of {args.repeats} runs each", per_image)
+        if vtracer is not None:
+            ours = np.array([t["total"] for t in per_image]) * 1e3
+            theirs = np.array([vtracer_seconds(vtracer, load_image(p), args.repeats) for p in paper]) * 1e3
+            print(f"\nvtracer on the same sprites: median {np.median(theirs):.2f} ms, max {theirs.max():.2f} ms; "
+                  f"depixel / vtracer: median {np.median(ours) / np.median(theirs):.1f}×, "
+                  f"max {ours.max() / theirs.max():.1f}×")
     if "scaling" not in args.skip and frames:
-        scaling(frames, parse_sizes(args.sizes), args.stage, args.repeats)
+        scaling(frames, parse_sizes(args.sizes), args.stage, args.repeats, vtracer)
     if "convert" not in args.skip:
         sprite = args.sprite or next((p for p in paper if p.name == "smw_yoshi.png"), ROOT / "fixtures" / "ghost.png")
         whole_process(sprite, args.stage, args.convert_runs)

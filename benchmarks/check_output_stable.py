@@ -8,6 +8,7 @@ against the output it started from::
 
     python benchmarks/check_output_stable.py --stage cells --record   # before optimizing
     python benchmarks/check_output_stable.py --stage cells            # after: exit 1 on any change
+    python benchmarks/check_output_stable.py --layout cutout --simplify 0   # other SVG options
 
 Images under ``../shared`` are skipped (with a note) when that folder is absent.
 """
@@ -23,6 +24,8 @@ import numpy as np
 
 import depixel
 from depixel import Params, depixelize, load_image, to_svg
+from depixel.outlines import LAYOUTS
+from depixel.svg import DEFAULT_SIMPLIFY
 
 ROOT = Path(__file__).resolve().parents[1]
 HASHES = ROOT / "benchmarks" / "output_hashes.json"
@@ -46,14 +49,16 @@ def inputs(corpus: Path) -> dict[str, np.ndarray]:
     return images
 
 
-def svg_hash(rgba: np.ndarray, stage: str) -> str:
-    svg = to_svg(depixelize(rgba, Params(), stage=stage).vector)
+def svg_hash(rgba: np.ndarray, stage: str, layout: str = "stacked", simplify: float = DEFAULT_SIMPLIFY) -> str:
+    svg = to_svg(depixelize(rgba, Params(), stage=stage).vector, layout=layout, simplify=simplify)
     return hashlib.sha256(svg.encode("utf-8")).hexdigest()
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--stage", choices=depixel.STAGES, default="cells")
+    parser.add_argument("--layout", choices=LAYOUTS, default="stacked")
+    parser.add_argument("--simplify", type=float, default=DEFAULT_SIMPLIFY, help="tolerance of to_svg (0: exact)")
     parser.add_argument("--record", action="store_true", help="store the current hashes instead of comparing")
     parser.add_argument("--corpus", type=Path, default=DEFAULT_CORPUS, help="folder with paper/ and frames/")
     parser.add_argument("--hashes", type=Path, default=HASHES, help=f"hash file (default {HASHES.relative_to(ROOT)})")
@@ -61,16 +66,21 @@ def main(argv: list[str] | None = None) -> int:
     if not args.corpus.is_dir():
         print(f"note: {args.corpus} not found; checking the fixtures only", file=sys.stderr)
 
-    current = {name: svg_hash(rgba, args.stage) for name, rgba in inputs(args.corpus).items()}
+    # the default SVG options are stored under the stage's name, others under stage/layout/simplify
+    key = args.stage
+    if (args.layout, args.simplify) != ("stacked", DEFAULT_SIMPLIFY):
+        key = f"{args.stage}/{args.layout}/{args.simplify:g}"
+    current = {name: svg_hash(rgba, args.stage, args.layout, args.simplify)
+               for name, rgba in inputs(args.corpus).items()}
     table = json.loads(args.hashes.read_text()) if args.hashes.exists() else {}
     if args.record:
-        table[args.stage] = current
+        table[key] = current
         args.hashes.write_text(json.dumps(table, indent=1, sort_keys=True) + "\n")
-        print(f"recorded {len(current)} hashes for stage {args.stage} in {args.hashes}")
+        print(f"recorded {len(current)} hashes for {key} in {args.hashes}")
         return 0
-    stored = table.get(args.stage)
+    stored = table.get(key)
     if stored is None:
-        print(f"no hashes stored for stage {args.stage}; run with --record first", file=sys.stderr)
+        print(f"no hashes stored for {key}; run with --record first", file=sys.stderr)
         return 2
     changed = sorted(name for name in current if name in stored and stored[name] != current[name])
     missing = sorted(set(stored) - set(current))
@@ -78,7 +88,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"CHANGED {name}")
     if len(changed) > 10:
         print(f"... and {len(changed) - 10} more")
-    print(f"{len(current) - len(changed)} of {len(current)} outputs unchanged at stage {args.stage}"
+    print(f"{len(current) - len(changed)} of {len(current)} outputs unchanged at {key}"
           + (f" ({len(missing)} stored images not found)" if missing else ""))
     return 1 if changed else 0
 

@@ -9,7 +9,6 @@ from __future__ import annotations
 import argparse
 import json
 import shutil
-import subprocess
 import sys
 from pathlib import Path
 
@@ -62,6 +61,8 @@ def extensions_folder(given: Path | None) -> Path:
     hint = "give the folder with --dir (Inkscape: Edit > Preferences > System > User extensions shows it)"
     if inkscape is None:
         raise OutputError(f"inkscape is not on PATH; {hint}")
+    import subprocess  # noqa: PLC0415 (~10 ms at startup, and only `inkscape install` runs a program)
+
     try:
         done = subprocess.run([inkscape, "--user-data-directory"], capture_output=True, text=True, timeout=120,
                               stdin=subprocess.DEVNULL)

@@ -10,7 +10,6 @@ import argparse
 import difflib
 import re
 import sys
-from importlib import metadata
 from typing import NoReturn, cast
 
 import depixel
@@ -49,6 +48,8 @@ class _Version(argparse.Action):
         super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
 
     def __call__(self, parser, namespace, values, option_string=None):
+        from importlib import metadata  # noqa: PLC0415 (~40 ms of email parsing: only for --version)
+
         lines = [f"depixel {depixel.__version__}"]
         for name in ("numpy", "pillow", "cairosvg", "tqdm"):
             try:

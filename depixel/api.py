@@ -156,8 +156,8 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
     prepared, scale = _prepare(image, params, stage, precision, background, scale, width, height, max_pixels,
                                layout=layout, simplify=simplify, pixel_size=pixel_size, denoise=denoise,
                                transparent=transparent)
-    result = depixelize(prepared.rgba, params, stage=stage)
-    svg = to_svg(result.vector, scale=scale, precision=precision, title=title, layout=layout, simplify=simplify)
+    vector = depixelize(prepared.rgba, params, stage=stage).vector  # the other stages' products are freed here
+    svg = to_svg(vector, scale=scale, precision=precision, title=title, layout=layout, simplify=simplify)
     return overlay_svg(svg, prepared, scale)
 
 

@@ -145,28 +145,32 @@ def detect_run_corners(splines: SplineSet, params: Params = Params()) -> np.ndar
 
     def run(step: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Vector from each slot's node to the far end of its straight run along ``step``,
-        and the slot of that far end (-1 for none)."""
+        and the slot of that far end (-1 for none). Only the runs still growing are
+        carried from one step to the next."""
         chord = np.zeros_like(here)
         far_slot = np.full(node.size, -1, dtype=np.int64)
-        alive = interior.copy()
-        walk = np.arange(node.size)
-        visited: list[np.ndarray] = []
-        for _ in range(steps):
-            walk = np.where(alive, step[np.maximum(walk, 0)], -1)
-            alive &= walk >= 0
-            far = q[node[np.maximum(walk, 0)]]
-            candidate = far - here
+        rows = np.flatnonzero(interior)  # the runs still growing
+        walk = rows
+        passed = np.empty((rows.size, steps, 2))  # the far node of every earlier step
+        for i in range(steps):
+            walk = step[walk]
+            go = walk >= 0
+            rows, walk, passed = rows[go], walk[go], passed[go]
+            far = q[node[walk]]
+            start = here[rows]
+            candidate = far - start
             length = np.linalg.norm(candidate, axis=1)
-            ok = alive.copy()
-            for mid in visited:  # every node passed must stay near the new chord
-                rel = mid - here
-                cross = np.abs(candidate[:, 0] * rel[:, 1] - candidate[:, 1] * rel[:, 0])
-                ok &= cross <= tolerance * np.maximum(length, 1e-9)
-            alive &= ok
-            chord = np.where(alive[:, None], candidate, chord)
-            far_slot = np.where(alive, walk, far_slot)
-            alive &= length < params.run_reach
-            visited.append(far)
+            # every node passed must stay near the new chord
+            rel = passed[:, :i] - start[:, None]
+            cross = np.abs(candidate[:, None, 0] * rel[..., 1] - candidate[:, None, 1] * rel[..., 0])
+            ok = (cross <= (tolerance * np.maximum(length, 1e-9))[:, None]).all(axis=1)
+            chord[rows[ok]] = candidate[ok]
+            far_slot[rows[ok]] = walk[ok]
+            go = ok & (length < params.run_reach)
+            passed[:, i] = far
+            rows, walk, passed = rows[go], walk[go], passed[go]
+            if rows.size == 0:
+                break
         return chord, far_slot
 
     def turn(u: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -27,6 +27,11 @@ from .graph import component_roots
 from .params import Params
 from .similarity import SimilarityGraph
 
+#: crossings whose 8×8 windows are evaluated together: bounds the temporary memory of the
+#: window batches (~20 MB at 64 nodes a window) whatever the number of crossings (a
+#: checkerboard has one per pixel)
+WINDOW_BATCH = 2048
+
 
 @dataclass(frozen=True, eq=False)
 class CrossingResolution:
@@ -105,6 +110,9 @@ def _colour_frequency_vote(graph: SimilarityGraph, rows: np.ndarray, cols: np.nd
     heuristic models, measured by colour rather than by connected component). +1 keeps
     the "\\" diagonal, -1 the "/" one, 0 (equal counts) still removes both.
     """
+    if rows.size > WINDOW_BATCH:
+        return np.concatenate([_colour_frequency_vote(graph, rows[i : i + WINDOW_BATCH], cols[i : i + WINDOW_BATCH],
+                                                      params) for i in range(0, rows.size, WINDOW_BATCH)])
     from .similarity import similar
 
     if rows.size == 0:
@@ -152,16 +160,25 @@ def _window_component_sizes(graph: SimilarityGraph, rows: np.ndarray, cols: np.n
     """Sizes of the components holding each diagonal, within a window around each block.
 
     The K windows are the disjoint parts of one graph of ``K * window²`` nodes (only links
-    with both ends in a window count), labelled in one pass.
+    with both ends in a window count), labelled in one pass per :data:`WINDOW_BATCH` windows.
     """
-    h, w = graph.shape
-    before = window // 2 - 1  # window rows/cols before the block's top-left pixel (3 for 8)
     pad = window
     # Pad every link array so that window offsets never fall outside.
     right = np.pad(graph.right, ((pad, pad), (pad, pad + 1)))
     down = np.pad(graph.down, ((pad, pad + 1), (pad, pad)))
     main = np.pad(graph.diag_main, ((pad, pad + 1), (pad, pad + 1)))
     anti = np.pad(graph.diag_anti, ((pad, pad + 1), (pad, pad + 1)))
+    sizes = [_batch_component_sizes((right, down, main, anti), rows[i : i + WINDOW_BATCH],
+                                    cols[i : i + WINDOW_BATCH], window, pad)
+             for i in range(0, rows.size, WINDOW_BATCH)]
+    return np.concatenate([s[0] for s in sizes]), np.concatenate([s[1] for s in sizes])
+
+
+def _batch_component_sizes(links: tuple[np.ndarray, ...], rows: np.ndarray, cols: np.ndarray, window: int,
+                           pad: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_window_component_sizes` of one batch of windows, on link arrays padded by ``pad``."""
+    right, down, main, anti = links
+    before = window // 2 - 1  # window rows/cols before the block's top-left pixel (3 for 8)
     offs = np.arange(window) - before
     wr = (rows[:, None] + offs[None, :] + pad)[:, :, None]  # (K, window, 1)
     wc = (cols[:, None] + offs[None, :] + pad)[:, None, :]  # (K, 1, window)

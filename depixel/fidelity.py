@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .arrays import union, unique
 from .bspline import flatten_edges
 from .splines import SplineSet
 from .vector import VectorImage
@@ -142,12 +143,12 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
             break
         bad = np.flatnonzero(~ok)
         touched = np.isin(cells.edge_pixels, bad).any(axis=1)
-        nodes = np.unique(cells.edges[touched])
+        nodes = unique(cells.edges[touched])
         # widen to the whole neighbourhood on the curves through those nodes
         on = np.isin(splines.curve_nodes, nodes)
         for step in (prev, nxt):
             near = step[on & (step >= 0)]
             on[near] = True
-        nodes = np.union1d(nodes, splines.curve_nodes[on])
+        nodes = union(nodes, splines.curve_nodes[on])
         positions[nodes] = start[nodes]
     return positions

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .arrays import unique
 from .graph import cycle_leaders
 
 
@@ -69,7 +70,7 @@ def _pair_by_angle(nxt: np.ndarray, owner: np.ndarray, u: np.ndarray, v: np.ndar
     crowded = np.flatnonzero(key[1:] == key[:-1])
     if crowded.size == 0:
         return
-    for group in np.unique(key[crowded]).tolist():
+    for group in unique(key[crowded]).tolist():
         lo, hi = np.searchsorted(key, [group, group + 1])
         outs, ins = out_order[lo:hi], in_order[lo:hi]
         node = points[u[outs[0]]].astype(np.float64)

@@ -38,6 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .arrays import unique
 from .boundaries import CUBIC, LINE, QUAD, BoundaryPieces, build_pieces, junction_nodes
 from .loops import Loops, trace_loops
 from .simplify import simplify_pieces
@@ -72,6 +73,18 @@ class Outlines:
 
     def __len__(self) -> int:
         return int(self.face.size)
+
+    def shapes(self, first: int, stop: int) -> Outlines:
+        """Shapes ``first:stop`` alone (views of these arrays)."""
+        loop_a, loop_b = int(self.shape_ptr[first]), int(self.shape_ptr[stop])
+        seg_a, seg_b = int(self.loop_ptr[loop_a]), int(self.loop_ptr[loop_b])
+        segs = slice(seg_a, seg_b)
+        return Outlines(
+            shape=self.shape, layout=self.layout, grid=self.grid, face=self.face[first:stop],
+            rgba=self.rgba[first:stop], region=self.region[first:stop], role=self.role[first:stop],
+            shape_ptr=self.shape_ptr[first : stop + 1] - loop_a, loop_ptr=self.loop_ptr[loop_a : loop_b + 1] - seg_a,
+            kind=self.kind[segs], ctrl=self.ctrl[segs], ctrl2=self.ctrl2[segs], end=self.end[segs],
+        )
 
     def loop_starts(self) -> np.ndarray:
         """(L, 2) start point of every loop (the end of its last segment)."""
@@ -109,10 +122,11 @@ def build_outlines(image: VectorImage, layout: str = "stacked", grid: float | No
     loops = trace_loops(topo.rank[owner_face], u, topo.entry_to[entry], points=topo.cells.nodes)
     halfedge_edge, halfedge_from = topo.entry_edge[entry], u
     keep = _loops_to_keep(topo, loops, halfedge_from, fill_holes=layout == "stacked")
-    kind, ctrl, ctrl2, end, loop_ptr = _loop_segments(image, pieces, loops, keep, halfedge_edge, halfedge_from, grid)
+    kind, ctrl, ctrl2, end, loop_ptr = _segments_in_batches(image, pieces, loops, keep, halfedge_edge,
+                                                            halfedge_from, grid)
 
     shape_rank = loops.owner[keep]
-    drawn = np.unique(shape_rank)
+    drawn = unique(shape_rank)
     shape_ptr = np.asarray(np.searchsorted(shape_rank, np.r_[drawn, np.iinfo(np.int64).max]), dtype=np.int64)
     face = topo.face_of_rank[drawn]
     return Outlines(
@@ -135,8 +149,19 @@ def _edge_costs(image: VectorImage, pieces: BoundaryPieces) -> np.ndarray:
 
 
 def _member_entries(topo: FaceTopology, members: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """(owner face, boundary entry) of every shape's union of member faces."""
+    """(owner face, boundary entry) of every shape's union of member faces, a batch of
+    :data:`LOOP_BATCH` members at a time (the result does not depend on it)."""
     owner, member = members
+    n = topo.n_faces + 1
+    member_key = owner * n + member
+    parts = [_batch_entries(topo, owner[i : i + LOOP_BATCH], member[i : i + LOOP_BATCH], member_key)
+             for i in range(0, max(owner.size, 1), LOOP_BATCH)]
+    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+
+
+def _batch_entries(topo: FaceTopology, owner: np.ndarray, member: np.ndarray, member_key: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_member_entries` of some (owner, member) pairs; ``member_key`` of all of them."""
     counts = topo.entry_ptr[member + 1] - topo.entry_ptr[member]
     which = np.repeat(np.arange(owner.size), counts)
     entry = np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts) + topo.entry_ptr[member][which]
@@ -144,7 +169,6 @@ def _member_entries(topo: FaceTopology, members: tuple[np.ndarray, np.ndarray]) 
     other = topo.entry_other[entry]
     # a half-edge bounds the union unless the face across is a member of the same shape
     n = topo.n_faces + 1
-    member_key = owner * n + member
     other_key = shape_face * n + other
     pos = np.minimum(np.searchsorted(member_key, other_key), member_key.size - 1)
     inside = (other >= 0) & (member_key[pos] == other_key)
@@ -175,23 +199,70 @@ def _loops_to_keep(topo: FaceTopology, loops: Loops, halfedge_from: np.ndarray, 
     row, col = np.divmod(topo.first_pixel[clear], w)
     probe = np.stack([4 * col + 2, 4 * row + 2], axis=1)  # a pixel centre of each, quarter units
     hole_edges = np.flatnonzero(np.isin(loop_of, holes))
-    a, b = p[hole_edges], q[hole_edges]
-    # even-odd ray casting towards +x, every (hole edge, probe) pair at once, in chunks
-    parity = np.zeros((len(loops), probe.shape[0]), np.int64)
-    py, px = probe[None, :, 1], probe[None, :, 0]
-    chunk = max(1, (1 << 22) // probe.shape[0])
-    for c0 in range(0, hole_edges.size, chunk):
-        ea, eb = a[c0 : c0 + chunk, None, :], b[c0 : c0 + chunk, None, :]
-        straddle = (ea[..., 1] > py) != (eb[..., 1] > py)
-        dy = eb[..., 1] - ea[..., 1]
-        # the crossing lies right of the probe: (px - ax) * dy < (py - ay) * (bx - ax), sign of dy
-        lhs = (px - ea[..., 0]) * dy
-        rhs = (py - ea[..., 1]) * (eb[..., 0] - ea[..., 0])
-        hit = straddle & np.where(dy > 0, lhs < rhs, lhs > rhs)
-        np.add.at(parity, loop_of[hole_edges[c0 : c0 + chunk]], hit.astype(np.int64))
-    blocked = (parity % 2 == 1).any(axis=1)
+    blocked = _holds_a_probe(p[hole_edges], q[hole_edges], loop_of[hole_edges], probe, len(loops), w)
     keep = (area2 >= 0) | blocked
     return np.flatnonzero(keep)
+
+
+def _holds_a_probe(a: np.ndarray, b: np.ndarray, loop: np.ndarray, probe: np.ndarray, n_loops: int,
+                   width: int) -> np.ndarray:
+    """(n_loops,) bool: the loops (edges a→b (E, 2) of loop ``loop``, quarter-pixel units)
+    that hold a probe (pixel centres (P, 2)) by the even-odd rule, a ray towards +x counting
+    the edges that straddle the probe's row (half-open in y) and cross it strictly right.
+
+    Row by row instead of every (edge, probe) pair: a probe row y = 4r + 2 meets each loop
+    at crossings x_c; a probe at integer x has odd parity exactly when it lies in
+    [C1, C2), [C3, C4), … of that loop's crossings rounded up, C = ceil(x_c), sorted (x_c > x
+    if and only if C > x). So the cost is the edges' crossings and a binary search per
+    span, linear in the image, where the pairs cost edges × probes."""
+    ay, by = a[:, 1], b[:, 1]
+    lo, hi = np.minimum(ay, by), np.maximum(ay, by)
+    # the probe rows each edge straddles: lo <= 4r + 2 < hi
+    r0, r1 = -((2 - lo) // 4), -((2 - hi) // 4)  # ceil((lo - 2) / 4), ceil((hi - 2) / 4)
+    count = np.maximum(r1 - r0, 0)
+    edge = np.repeat(np.arange(a.shape[0]), count)
+    row = np.repeat(r0, count) + np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
+    ax, ay, bx, by = a[edge, 0], a[edge, 1], b[edge, 0], b[edge, 1]
+    py, dy = 4 * row + 2, by - ay
+    # x_c = ax + (py - ay)(bx - ax) / dy, rounded up exactly in integers (dy made positive)
+    num = ax * dy + (py - ay) * (bx - ax)
+    num, den = np.where(dy < 0, -num, num), np.abs(dy)
+    ceil = -((-num) // den)
+    span = 4 * width + 8  # x keys per row: every crossing and probe x lies in [0, 4W + 4]
+    ceil = np.clip(ceil, 0, span - 1)
+    order = np.lexsort((ceil, row, loop[edge]))
+    group = loop[edge][order] * (row.max(initial=0) + 1) + row[order]
+    rank = np.arange(order.size) - np.searchsorted(group, group)  # position within (loop, row)
+    first = order[rank % 2 == 0]
+    second = order[rank % 2 == 1]  # each (loop, row) has an even number of crossings
+    probe_key = np.sort((probe[:, 1] - 2) // 4 * span + probe[:, 0])
+    start = np.searchsorted(probe_key, row[first] * span + ceil[first])
+    stop = np.searchsorted(probe_key, row[second] * span + ceil[second])
+    held = np.zeros(n_loops, bool)
+    held[loop[edge][first][stop > start]] = True
+    return held
+
+
+#: loops are turned into segments in batches of about this many half-edges, to bound the
+#: temporary memory (a few hundred bytes a half-edge); the result does not depend on it
+LOOP_BATCH = 1 << 13
+
+
+def _segments_in_batches(image: VectorImage, pieces: BoundaryPieces, loops: Loops, keep: np.ndarray,
+                         halfedge_edge: np.ndarray, halfedge_from: np.ndarray, grid: float | None):
+    """:func:`_loop_segments` of the kept loops, a batch of loops at a time."""
+    size = np.cumsum(np.diff(loops.ptr)[keep])
+    cuts = unique(np.r_[0, np.searchsorted(size, np.arange(LOOP_BATCH, int(size[-1]) if size.size else 0,
+                                                               LOOP_BATCH)), keep.size, keep.size])
+    cuts = np.r_[0, cuts] if cuts.size == 1 else cuts  # no loop: one empty batch
+    parts = [_loop_segments(image, pieces, loops, keep[a:b], halfedge_edge, halfedge_from, grid)
+             for a, b in zip(cuts[:-1].tolist(), cuts[1:].tolist())]
+    if len(parts) == 1:
+        return parts[0]
+    kind, ctrl, ctrl2, end, ptrs = zip(*parts)
+    offsets = np.cumsum([0] + [p[-1] for p in ptrs[:-1]])
+    loop_ptr = np.concatenate([ptrs[0][:1]] + [p[1:] + off for p, off in zip(ptrs, offsets)])
+    return np.concatenate(kind), np.concatenate(ctrl), np.concatenate(ctrl2), np.concatenate(end), loop_ptr
 
 
 def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, keep: np.ndarray,

@@ -24,7 +24,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .bspline import Bezier, flatten, half_turns, span
+from .bspline import Bezier, half_turns, span
 from .fidelity import protected_points, unique_rows
 from .params import Params
 from .splines import SplineSet
@@ -76,26 +76,25 @@ def step(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group,
     size = (group.members.size, params.candidates)
     angle = rng.uniform(0.0, 2.0 * np.pi, size=size)
     radius = params.radius * np.sqrt(rng.uniform(0.0, 1.0, size=size))
-    here = ctrl[group.members][:, None, :]
-    offsets = np.stack([np.cos(angle), np.sin(angle)], axis=-1) * radius[..., None]
-    trial = np.concatenate([here, here + offsets], axis=1)  # (M, K+1, 2), 0 = stay
-    energy = model.energy(ctrl, anchor, group, trial)
-    too_far = ((trial - anchor[group.members][:, None]) ** 2).sum(axis=-1) > params.max_offset**2
+    around = ctrl[group.around].transpose(0, 2, 1)[..., None]  # (5, 2, M, 1): member, a, b, a2, b2
+    # trials (2, M, K+1): x and y planes, column 0 = stay
+    trial = np.empty((2, size[0], size[1] + 1))
+    trial[:, :, :1] = around[0]
+    np.add(around[0, 0], np.cos(angle) * radius, out=trial[0, :, 1:])
+    np.add(around[0, 1], np.sin(angle) * radius, out=trial[1, :, 1:])
+    energy, offset2, points = model.evaluate(around, anchor[group.members].T[..., None], group, trial)
+    too_far = offset2 > params.max_offset**2
     too_far[:, 0] = False
     best = np.argmin(np.where(too_far, np.inf, energy), axis=1)  # ties keep the lower index
     # the best trial must not bring a curve closer to a protected point than allowed
-    # (unless it was closer already); only moving slots need the check
+    # (unless it was closer already); only moving slots need the check, of the best trial
+    # and of staying
     rows = np.flatnonzero(best > 0)
-    chosen = trial[rows, best[rows]][:, None]
-    clear = model.clearance(ctrl, group, chosen, rows)[:, 0]
-    near = clear < params.centre_clearance
-    if near.any():
-        stay = trial[rows[near], 0][:, None]
-        clear_stay = model.clearance(ctrl, group, stay, rows[near])[:, 0]
-        refuse = np.zeros(rows.size, bool)
-        refuse[near] = clear[near] < clear_stay
-        best[rows[refuse]] = 0
-    return trial[np.arange(best.size), best]
+    pair = np.stack([np.zeros_like(rows), best[rows]], axis=1)
+    clear = model.clearance_of(points[..., rows[:, None], pair], group, rows)
+    refuse = (clear[:, 1] < params.centre_clearance) & (clear[:, 1] < clear[:, 0])
+    best[rows[refuse]] = 0
+    return trial[:, np.arange(best.size), best].T
 
 
 @dataclass(frozen=True, eq=False)
@@ -103,24 +102,30 @@ class Group:
     """One class of independent slots with every index its evaluation needs, precomputed."""
 
     members: np.ndarray  # (M,) slots being moved
-    a: np.ndarray  # previous slots
-    b: np.ndarray  # next slots
-    a2: np.ndarray  # slot before a (a itself when a is an end)
-    b2: np.ndarray  # slot after b
-    has_a: np.ndarray  # (M,) bool: the span of a exists (a is interior)
-    has_b: np.ndarray
-    end_a: np.ndarray  # (M, 1) bool, broadcastable over candidates
+    around: np.ndarray  # (5, M) the member, its previous slot a, next slot b, the slot
+    #                     before a (a itself when a is an end) a2, the slot after b b2
+    end_a: np.ndarray  # (M, 1) bool: a is an open-curve end (broadcastable over trials)
     end_b: np.ndarray
     end_a2: np.ndarray
     end_b2: np.ndarray
-    keep_own: np.ndarray  # (M, 1, 2) bool: halves of each span counted in E_s
-    keep_a: np.ndarray
-    keep_b: np.ndarray
-    protected: np.ndarray  # (M, 1, 1, Q, 2) points the spans must keep clear of
+    keep: np.ndarray  # (2, 3, M, 1) float 0/1: halves (first, second) of the spans before,
+    #                   own, after counted in E_s (0 for the span of an end a or b)
+    protected: np.ndarray  # (2, M, 1, 1, Q) x and y of the points the spans must keep clear of
+
+
+#: t of the points each span is checked at, and the weights of its Bézier points there
+_T = np.arange(CLEARANCE_PIECES + 1) / CLEARANCE_PIECES
+_W0, _W1, _W2 = (1 - _T) ** 2, 2 * _T * (1 - _T), _T**2
 
 
 class Energy:
-    """E_s + E_p of slots and their clearance from protected points, over the curve slots."""
+    """E_s + E_p of slots and their clearance from protected points, over the curve slots.
+
+    The hot path keeps x and y on a leading axis (arrays ``(2, M, K)``) and the three spans
+    a member shapes stacked on another, so one step is a few dozen whole-array operations;
+    each number is computed by the same floating-point operations, in the same order, as
+    :func:`depixel.bspline.span`, :func:`depixel.bspline.half_turns` and
+    :func:`depixel.bspline.flatten` do."""
 
     def __init__(self, splines: SplineSet, excluded: np.ndarray):
         self.prev, self.nxt = splines.neighbours()
@@ -134,47 +139,75 @@ class Energy:
         a2 = np.where(has_a, self.prev[a], a)
         b2 = np.where(has_b, self.nxt[b], b)
         protected = unique_rows(np.concatenate([self.protected[x] for x in (a2, a, members, b)], axis=1))
+        keep = np.stack([self.keep[a] & has_a[:, None], self.keep[members], self.keep[b] & has_b[:, None]])
 
         def col(x: np.ndarray) -> np.ndarray:
             return x[:, None]
 
         return Group(
-            members, a, b, a2, b2, has_a, has_b,
+            members, np.stack([members, a, b, a2, b2]),
             col(self.end[a]), col(self.end[b]), col(self.end[a2]), col(self.end[b2]),
-            col(self.keep[members]), col(self.keep[a]), col(self.keep[b]),
-            protected[:, None, None],
+            np.moveaxis(keep, 2, 0)[..., None].astype(np.float64),
+            np.moveaxis(protected, 2, 0)[:, :, None, None, :],
         )
 
-    def _spans(self, ctrl: np.ndarray, g: Group, trial: np.ndarray,
-               rows: np.ndarray | slice = slice(None)) -> tuple[Bezier, Bezier, Bezier]:
-        """The three spans a member shapes: before (of a), own, after (of b)."""
-        c_a, c_b = ctrl[g.a[rows]][:, None], ctrl[g.b[rows]][:, None]
-        c_a2, c_b2 = ctrl[g.a2[rows]][:, None], ctrl[g.b2[rows]][:, None]
-        end_a, end_b = g.end_a[rows][..., None], g.end_b[rows][..., None]
-        end_a2, end_b2 = g.end_a2[rows][..., None], g.end_b2[rows][..., None]
-        own = span(c_a, trial, c_b, end_a, end_b)
-        before = span(c_a2, c_a, trial, end_a2)
-        after = span(trial, c_b, c_b2, after_is_end=end_b2)
-        return before, own, after
+    @staticmethod
+    def points(around: np.ndarray, g: Group, trial: np.ndarray) -> np.ndarray:
+        """The three spans (before, own, after) of each member at ``trial`` (2, M, K), for
+        ``around`` = ``ctrl[g.around]`` as (5, 2, M, 1): ``(3, 3, 2, M, K)``, [Bézier point
+        P0-P2, span, coordinate]."""
+        c_a, c_b, c_a2, c_b2 = around[1:]
+        points = np.empty((3, 3) + trial.shape)
+        m_a = (c_a + trial) / 2.0  # where the span before meets the own span
+        m_b = (trial + c_b) / 2.0  # and the own span the span after
+        points[0, 0] = np.where(g.end_a2, c_a2, (c_a2 + c_a) / 2.0)
+        points[0, 1] = np.where(g.end_a, c_a, m_a)
+        points[0, 2] = m_b
+        points[1, 0], points[1, 1], points[1, 2] = c_a, trial, c_b
+        points[2, 0] = m_a
+        points[2, 1] = np.where(g.end_b, c_b, m_b)
+        points[2, 2] = np.where(g.end_b2, c_b2, (c_b + c_b2) / 2.0)
+        return points
+
+    def evaluate(self, around: np.ndarray, anchor: np.ndarray, g: Group, trial: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(M, K) energy of each member at ``trial`` (2, M, K), the squared distance of each
+        trial from its ``anchor`` (2, M, 1), and the spans' :meth:`points`."""
+        points = self.points(around, g, trial)
+        # half_turns of the three spans at once: d0 = P1 - P0, d1 = P2 - P1, dm = d0 + d1
+        d0, d1 = points[1] - points[0], points[2] - points[1]
+        dm = d0 + d1
+        u0, v0, u1, v1, um, vm = d0[:, 0], d0[:, 1], d1[:, 0], d1[:, 1], dm[:, 0], dm[:, 1]  # x: u, y: v
+        first = np.abs(np.arctan2(u0 * vm - v0 * um, u0 * um + v0 * vm))
+        second = np.abs(np.arctan2(um * v1 - vm * u1, um * u1 + vm * v1))
+        smooth = first * g.keep[0] + second * g.keep[1]  # (3, M, K): before, own, after
+        offset = trial - anchor
+        offset2 = offset[0] ** 2 + offset[1] ** 2
+        return smooth[1] + smooth[0] + smooth[2] + offset2**2, offset2, points
 
     def energy(self, ctrl: np.ndarray, anchor: np.ndarray, g: Group, trial: np.ndarray) -> np.ndarray:
-        """(M, K) energy of each member at each trial position."""
-        before, own, after = self._spans(ctrl, g, trial)
-        energy = smoothness(own, g.keep_own)
-        energy = energy + np.where(g.has_a[:, None], smoothness(before, g.keep_a), 0.0)
-        energy = energy + np.where(g.has_b[:, None], smoothness(after, g.keep_b), 0.0)
-        return energy + positional(trial, anchor[g.members][:, None])
+        """(M, K) energy of each member at each trial position ``trial`` (M, K, 2)."""
+        around = ctrl[g.around].transpose(0, 2, 1)[..., None]
+        return self.evaluate(around, anchor[g.members].T[..., None], g, np.moveaxis(trial, -1, 0))[0]
+
+    def clearance_of(self, points: np.ndarray, g: Group, rows: np.ndarray) -> np.ndarray:
+        """(R, K) smallest distance from the three spans of the members ``rows``, given by
+        their :meth:`points` (3, 3, 2, R, K), to their protected points (pixel centres
+        beside them, diagonal-link corners)."""
+        p0, p1, p2 = points[..., None]
+        # the points at t = 0, ¼, ½, ¾, 1 of each span (3, 2, R, K, 5); the before span
+        # without its last point, the after span without its first (the own span's ends)
+        flat = _W0 * p0 + _W1 * p1 + _W2 * p2
+        flat = np.concatenate([flat[0, ..., :-1], flat[1], flat[2, ..., 1:]], axis=-1)  # (2, R, K, 3n+1)
+        d = (flat[..., None] - g.protected[:, rows]) ** 2  # (2, R, K, 3n+1, Q)
+        return np.sqrt((d[0] + d[1]).min(axis=(-1, -2)))
 
     def clearance(self, ctrl: np.ndarray, g: Group, trial: np.ndarray, rows: np.ndarray) -> np.ndarray:
-        """(R, K) smallest distance from the three spans of the members ``rows`` to their
-        protected points (pixel centres beside them, diagonal-link corners), per trial."""
-        before, own, after = self._spans(ctrl, g, trial, rows)
-        n = CLEARANCE_PIECES
-        points = np.concatenate([
-            flatten(*before, n)[..., :-1, :], flatten(*own, n), flatten(*after, n)[..., 1:, :],
-        ], axis=-2)  # (M, K, 3n + 1, 2)
-        gap = ((points[..., None, :] - g.protected[rows]) ** 2).sum(axis=-1).min(axis=(-1, -2))
-        return np.sqrt(gap)
+        """(R, K) :meth:`clearance_of` the members ``rows`` at trial positions ``trial`` (R, K, 2)."""
+        around = ctrl[g.around[:, rows]].transpose(0, 2, 1)[..., None]
+        sub = Group(g.members[rows], g.around[:, rows], g.end_a[rows], g.end_b[rows], g.end_a2[rows],
+                    g.end_b2[rows], g.keep[:, :, rows], g.protected[:, rows])
+        return self.clearance_of(self.points(around, sub, np.moveaxis(trial, -1, 0)), g, rows)
 
     def total(self, ctrl: np.ndarray, anchor: np.ndarray) -> float:
         """The energy of all the curves: E_s of every span plus E_p of every slot."""

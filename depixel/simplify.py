@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .arrays import unique
 from .boundaries import CUBIC, QUAD, BoundaryPieces
 from .vector import VectorImage
 
@@ -53,7 +54,7 @@ def simplify_pieces(pieces: BoundaryPieces, image: VectorImage, tolerance: float
     lo, hi = _chunks(pieces.ptr, _CHUNK)
     fitted: list[tuple[np.ndarray, ...]] = []
     while lo.size:
-        kind, c1, c2, ok = _fit(exact, protected, lo, hi, tolerance, clearance, grid)
+        kind, c1, c2, ok = _fit_checked(exact, protected, lo, hi, tolerance, clearance, grid)
         fitted.append((lo[ok], hi[ok], kind[ok], c1[ok], c2[ok]))
         lo, hi = lo[~ok], hi[~ok]
         mid = (lo + hi) // 2
@@ -81,6 +82,25 @@ def _piece_tolerance(pieces: BoundaryPieces, exact: _Exact, tolerance: float) ->
     np.maximum.at(high, owner, pts)
     size = np.sqrt(((high - low) ** 2).sum(axis=1))
     return np.minimum(tolerance, _RELATIVE_TOLERANCE * size)[piece]
+#: ranges are fitted and checked in batches of about this many exact segments, to bound the
+#: temporary memory (a few hundred bytes a sample and a protected point); the result does
+#: not depend on it
+_BATCH = 1 << 12
+
+
+def _fit_checked(exact: _Exact, protected: _Protected, lo: np.ndarray, hi: np.ndarray, tolerance: float,
+                 clearance: float, grid: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_fit` of every range [lo, hi), a batch at a time."""
+    size = np.cumsum(hi - lo + 2)
+    cuts = unique(np.r_[0, np.searchsorted(size, np.arange(_BATCH, int(size[-1]) if size.size else 0, _BATCH)),
+                           lo.size, lo.size])
+    cuts = np.r_[0, cuts] if cuts.size == 1 else cuts
+    parts = [_fit(exact, protected, lo[a:b], hi[a:b], tolerance, clearance, grid)
+             for a, b in zip(cuts[:-1].tolist(), cuts[1:].tolist())]
+    if len(parts) == 1:
+        return parts[0]
+    kinds, c1s, c2s, oks = zip(*parts)
+    return np.concatenate(kinds), np.concatenate(c1s), np.concatenate(c2s), np.concatenate(oks)
 
 
 def _chunks(ptr: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
@@ -109,7 +129,7 @@ def _merge_neighbours(exact, protected, ptr, fitted, tolerance, clearance, grid)
         a = np.flatnonzero(touching & (np.arange(lo.size - 1) % 2 == parity))
         if a.size == 0:
             continue
-        mk, m1, m2, ok = _fit(exact, protected, lo[a], hi[a + 1], tolerance, clearance, grid)
+        mk, m1, m2, ok = _fit_checked(exact, protected, lo[a], hi[a + 1], tolerance, clearance, grid)
         a, mk, m1, m2 = a[ok], mk[ok], m1[ok], m2[ok]
         hi[a] = hi[a + 1]
         kinds[a], c1[a], c2[a] = mk, m1, m2
@@ -134,7 +154,7 @@ class _Exact:
         self.tan_end = _unit(np.where((np.abs(self.end - c2) > 0).any(axis=1)[:, None], self.end - c2,
                                       self.end - self.start))
         self.samples = _cubic(self.start, c1, c2, self.end, _T_ORIG)  # (K, 4, 2)
-        step = np.linalg.norm(np.diff(np.concatenate([self.samples, self.end[:, None]], axis=1), axis=1), axis=2)
+        step = _norm(np.diff(np.concatenate([self.samples, self.end[:, None]], axis=1), axis=1))
         self.length = step.sum(axis=1)  # polyline length of each segment
         self.arc = np.cumsum(step, axis=1) - step  # arc length of each sample within its segment
         self.arc_before = np.cumsum(self.length) - self.length  # arc length before each segment (global)
@@ -177,18 +197,10 @@ class _Protected:
         # edge's two slots (a simplified-away span cannot occur: these are exact pieces)
         seg_of = _segments_of_edges(pieces, image, edge)  # (P', 4) candidate segment indices, -1 none
         poly = np.concatenate([exact.samples, exact.end[:, None]], axis=1)  # (K, 5, 2)
-        cand = np.maximum(seg_of, 0)
-        a, b = poly[cand][:, :, :-1], poly[cand][:, :, 1:]  # (P', 4, 4, 2)
-        d = _segment_distance(xy[:, None, None], a, b)  # (P', 4, 4)
-        d = np.where((seg_of >= 0)[:, :, None], d, np.inf)
-        flat = d.reshape(d.shape[0], -1).argmin(axis=1)
-        which, part = np.divmod(flat, d.shape[2])
-        rows_ = np.arange(xy.shape[0])
-        dist = d[rows_, which, part]
-        pa, pb = a[rows_, which, part], b[rows_, which, part]
-        side = np.sign(_cross(pb - pa, xy - pa))
-        signed = dist * np.where(side == 0, 1.0, side)
-        seg = seg_of[rows_, which]
+        dist, signed, seg = np.empty(xy.shape[0]), np.empty(xy.shape[0]), np.empty(xy.shape[0], np.int64)
+        for p0 in range(0, xy.shape[0], _BATCH):  # in batches: (P', 4, 4, 2) arrays are large
+            batch = slice(p0, p0 + _BATCH)
+            dist[batch], signed[batch], seg[batch] = _nearest_segment(xy[batch], seg_of[batch], poly)
         near = np.isfinite(dist) & (dist < reach) & (dist > 1e-9)
         key = np.unique(np.stack([seg[near], np.round(xy[near, 0] * 8), np.round(xy[near, 1] * 8)], axis=1),
                         axis=0, return_index=True)[1]
@@ -196,6 +208,23 @@ class _Protected:
         order = np.argsort(seg[pick], kind="stable")
         pick = pick[order]
         self.xy, self.dist, self.seg = xy[pick], signed[pick], seg[pick]
+
+
+def _nearest_segment(xy: np.ndarray, seg_of: np.ndarray, poly: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Distance of points ``xy`` (P, 2) to the nearest of their candidate segments ``seg_of``
+    (P, 4) (polylines ``poly``), that distance signed by the side, and that segment."""
+    near = poly[np.maximum(seg_of, 0)]  # (P, 4, 5, 2)
+    a, b = near[:, :, :-1], near[:, :, 1:]  # (P, 4, 4, 2)
+    d = _segment_distance(xy[:, None, None], a, b)  # (P, 4, 4)
+    d = np.where((seg_of >= 0)[:, :, None], d, np.inf)
+    flat = d.reshape(d.shape[0], -1).argmin(axis=1)
+    which, part = np.divmod(flat, d.shape[2])
+    rows = np.arange(xy.shape[0])
+    dist = d[rows, which, part]
+    pa, pb = a[rows, which, part], b[rows, which, part]
+    side = np.sign(_cross(pb - pa, xy - pa))
+    return dist, dist * np.where(side == 0, 1.0, side), seg_of[rows, which]
 
 
 def _segments_of_edges(pieces: BoundaryPieces, image: VectorImage, edge: np.ndarray) -> np.ndarray:
@@ -417,11 +446,18 @@ def _cubic(p0, c1, c2, p3, t: np.ndarray) -> np.ndarray:
     return s**3 * p0[:, None] + 3 * t * s**2 * c1[:, None] + 3 * t**2 * s * c2[:, None] + t**3 * p3[:, None]
 
 
+def _cubic_point(q0, q1, q2, q3, u: np.ndarray) -> np.ndarray:
+    """Points of cubic Béziers, each at its own parameter: control points ``(N, 2)`` each,
+    ``u`` ``(N,)``."""
+    w, v = (1 - u)[:, None], u[:, None]
+    return w**3 * q0 + 3 * v * w**2 * q1 + 3 * v**2 * w * q2 + v**3 * q3
+
+
 def _cubic_derivatives(q0, q1, q2, q3, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Point, first and second derivative of cubic Béziers, each at its own parameter:
     control points ``(N, 2)`` each, ``u`` ``(N,)``."""
     w, v = (1 - u)[:, None], u[:, None]
-    point = w**3 * q0 + 3 * v * w**2 * q1 + 3 * v**2 * w * q2 + v**3 * q3
+    point = _cubic_point(q0, q1, q2, q3, u)
     d1 = 3 * (w**2 * (q1 - q0) + 2 * v * w * (q2 - q1) + v**2 * (q3 - q2))
     d2 = 6 * (w * (q2 - 2 * q1 + q0) + v * (q3 - 2 * q2 + q1))
     return point, d1, d2
@@ -431,14 +467,25 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
 
 
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Dot products of (..., 2) vectors, written out: the same sum as ``(a * b).sum(axis=-1)``
+    without the cost of a reduction over an axis of two."""
+    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1]
+
+
+def _norm(v: np.ndarray) -> np.ndarray:
+    """Lengths of (..., 2) vectors, the same numbers as ``np.linalg.norm(v, axis=-1)``."""
+    return np.sqrt(_dot(v, v))
+
+
 def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
+    return v / np.maximum(_norm(v)[..., None], 1e-300)
 
 
 def _segment_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     ab = b - a
-    t = np.clip(((q - a) * ab).sum(axis=-1) / np.maximum((ab * ab).sum(axis=-1), 1e-300), 0.0, 1.0)
-    return np.linalg.norm(q - (a + t[..., None] * ab), axis=-1)
+    t = np.clip(_dot(q - a, ab) / np.maximum(_dot(ab, ab), 1e-300), 0.0, 1.0)
+    return _norm(q - (a + t[..., None] * ab))
 
 
 def _distance_to_polylines(q: np.ndarray, poly: np.ndarray) -> np.ndarray:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .arrays import unique
 from .boundaries import CUBIC, LINE, QUAD
 from .outlines import Outlines, build_outlines
 from .stacking import ROLES
@@ -121,8 +122,25 @@ def _ids(outlines: Outlines) -> list[str]:
     return out
 
 
+#: shapes are formatted in batches of about this many segments, to bound temporary memory
+#: (formatting costs a few hundred bytes a segment); the text does not depend on the batches
+PATH_BATCH = 1 << 12
+
+
 def path_data(outlines: Outlines, precision: int) -> list[str]:
     """The ``d`` attribute of every shape."""
+    n = len(outlines)
+    segments_before = outlines.loop_ptr[outlines.shape_ptr]  # (S+1,) segments before each shape
+    cuts = unique(np.r_[0, np.searchsorted(segments_before, np.arange(PATH_BATCH, int(segments_before[-1]),
+                                                                          PATH_BATCH)), n])
+    out: list[str] = []
+    for a, b in zip(cuts[:-1].tolist(), cuts[1:].tolist()):
+        out += _path_data(outlines.shapes(a, b), precision)
+    return out
+
+
+def _path_data(outlines: Outlines, precision: int) -> list[str]:
+    """:func:`path_data` of one batch of shapes."""
     unit = 10.0**precision
     cmd, args = _commands(outlines, unit)
     n_cmd = cmd.size

@@ -243,3 +243,45 @@ def test_out_dir_that_is_a_file_is_one_error(tmp_path, capsys):
         main(["convert", str(FIXTURES / "heart.png"), str(FIXTURES / "leaf.png"), "--out-dir", str(tmp_path / "file")])
     assert info.value.code == Exit.USAGE
     assert "is a file, not a folder" in one_line(capsys.readouterr().err)
+
+
+@pytest.mark.parametrize("kind", ["checkerboard", "noise"])
+def test_peak_memory_per_pixel(kind):
+    """17.11: one conversion's peak RSS above the import baseline stays within
+    PEAK_BYTES_PER_PIXEL a pixel (plus the fixed-size batches of the crossings, outlines and
+    path text), on the worst inputs: a checkerboard (every pixel its own shape, every block
+    a crossing) and RGB noise. It took 8.4 KB a pixel on a checkerboard."""
+    from depixel.limits import PEAK_BYTES_PER_PIXEL
+
+    size = 192
+    code = ("import resource; resource.setrlimit(resource.RLIMIT_AS, ({limit}, {limit}))\n"
+            "import numpy as np, depixel\n"
+            "size = {size}\n"
+            "if '{kind}' == 'checkerboard':\n"
+            "    image = (np.indices((size, size)).sum(axis=0) % 2 * 255).astype(np.uint8)\n"
+            "else:\n"
+            "    image = np.random.default_rng(0).integers(0, 256, (size, size, 3), dtype=np.uint8)\n"
+            "base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss\n"
+            "depixel.convert(image)\n"
+            "print((resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - base) * 1024)\n"
+            ).format(limit=2 * LIMIT, size=size, kind=kind)
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    grown = int(run.stdout)
+    assert grown <= PEAK_BYTES_PER_PIXEL * size * size + 24 * 2**20, f"{grown / size**2:.0f} bytes a pixel"
+
+
+def test_holes_with_transparent_pixels_cost_linear_memory():
+    """17.11 (found while measuring): the stacked layout's hole test was quadratic in the
+    holes × transparent faces (a loops × faces table): a lattice of 3x3 rings with
+    transparent centres took 32 KB a pixel (4.8 GB) at 384x384. Converted here under the
+    address-space cap of the other limited tests."""
+    code = (f"import resource; resource.setrlimit(resource.RLIMIT_AS, ({LIMIT}, {LIMIT}))\n"
+            "import numpy as np, depixel\n"
+            "tile = np.zeros((3, 3, 4), np.uint8)\n"
+            "tile[..., 0], tile[..., 3], tile[1, 1, 3] = 200, 255, 0\n"
+            "svg = depixel.convert(np.tile(tile, (96, 96, 1)))\n"
+            "print(svg.count('<path'))\n")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr[-400:]
+    assert int(run.stdout) >= 1

@@ -125,6 +125,84 @@ def test_transparent_area_stays_a_hole_in_the_stacked_layout():
     assert areas[0] < 0 < areas[1]
 
 
+def _holds_a_probe_reference(a, b, loop, probe, n_loops, width):
+    """The slow, obviously-correct even-odd test: every (edge, probe) pair."""
+    ea, eb = a[:, None, :], b[:, None, :]
+    py, px = probe[None, :, 1], probe[None, :, 0]
+    straddle = (ea[..., 1] > py) != (eb[..., 1] > py)
+    dy = eb[..., 1] - ea[..., 1]
+    lhs, rhs = (px - ea[..., 0]) * dy, (py - ea[..., 1]) * (eb[..., 0] - ea[..., 0])
+    hit = straddle & np.where(dy > 0, lhs < rhs, lhs > rhs)  # the crossing lies right of the probe
+    parity = np.zeros((n_loops, probe.shape[0]), np.int64)
+    np.add.at(parity, loop, hit.astype(np.int64))
+    return (parity % 2 == 1).any(axis=1)
+
+
+def _holes_test_images():
+    rng = np.random.default_rng(1)
+    for _ in range(60):
+        h, w = rng.integers(3, 24, 2)
+        img = rng.integers(0, 3, (h, w, 4), dtype=np.uint8) * 100
+        img[..., 3] = np.where(rng.random((h, w)) < rng.random() * 0.5, 0,
+                               np.where(rng.random((h, w)) < 0.1, 128, 255))
+        yield img
+    for size in (7, 12, 20):  # nested square rings with transparent ones between, and a lattice
+        yy, xx = np.indices((size, size))
+        ring = np.maximum(abs(yy - size // 2), abs(xx - size // 2)) % 3
+        img = np.zeros((size, size, 4), np.uint8)
+        img[..., 0], img[..., 3] = ring * 80, np.where(ring == 2, 0, 255)
+        yield img
+        tile = np.zeros((3, 3, 4), np.uint8)
+        tile[..., 0], tile[..., 3], tile[1, 1, 3] = 200, 255, 0
+        yield np.tile(tile, (size // 3 + 1, size // 3 + 1, 1))[:size, :size]
+
+
+def test_the_row_by_row_hole_test_matches_the_pairwise_test_on_random_polygons():
+    """Random closed polygons on the quarter-pixel grid (any slope, so crossings fall
+    between probe columns; self-intersecting ones too) against random pixel centres."""
+    from depixel.outlines import _holds_a_probe
+
+    rng = np.random.default_rng(7)
+    held = 0
+    for _ in range(200):
+        width, height, n_loops = int(rng.integers(1, 12)), int(rng.integers(1, 12)), int(rng.integers(1, 6))
+        a_list, b_list, loop_list = [], [], []
+        for k in range(n_loops):
+            size = int(rng.integers(3, 9))
+            pts = np.stack([rng.integers(0, 4 * width + 1, size), rng.integers(0, 4 * height + 1, size)], axis=1)
+            a_list.append(pts)
+            b_list.append(np.roll(pts, -1, axis=0))
+            loop_list.append(np.full(size, k))
+        a, b, loop = np.concatenate(a_list), np.concatenate(b_list), np.concatenate(loop_list)
+        cells = rng.choice(width * height, size=int(rng.integers(1, width * height + 1)), replace=False)
+        row, col = np.divmod(cells, width)
+        probe = np.stack([4 * col + 2, 4 * row + 2], axis=1)
+        want = _holds_a_probe_reference(a, b, loop, probe, n_loops, width)
+        assert np.array_equal(_holds_a_probe(a, b, loop, probe, n_loops, width), want)
+        held += int(want.sum())
+    assert 0 < held < 200 * 3  # both answers were met
+
+
+def test_holes_holding_a_transparent_pixel_match_the_pairwise_test(monkeypatch):
+    """The row-by-row hole test (linear) decides exactly like testing every pair of hole
+    edge and transparent-face centre (quadratic: a lattice of rings took 4.8 GB at 384²)."""
+    import depixel.outlines as outlines
+
+    fast = outlines._holds_a_probe
+    seen = []
+
+    def both(*args):
+        got, want = fast(*args), _holds_a_probe_reference(*args)
+        seen.append((int(got.sum()), int(want.sum()), bool(np.array_equal(got, want))))
+        return got
+
+    monkeypatch.setattr(outlines, "_holds_a_probe", both)
+    for img in _holes_test_images():
+        build_outlines(depixelize(img).vector, "stacked")
+    assert len(seen) > 20 and all(same for _, _, same in seen), [s for s in seen if not s[2]]
+    assert sum(want for _, want, _ in seen) > 20  # holes that hold a transparent pixel were met
+
+
 # --- the exact spline: one quadratic per span, the same curve as the cell edges' halves --------
 
 
