@@ -258,16 +258,26 @@ def _fit(exact: _Exact, prot: _Protected, lo: np.ndarray, hi: np.ndarray, tolera
     """One curve per range [lo, hi) of exact segments: a quadratic through the meeting point
     of the end tangents where that one fits (4 numbers in the file), else the least-squares
     cubic. Returns ``(kind, c1, c2, ok)``: QUAD rows hold the quadratic's control in ``c1``."""
+    # Every test below is per range, so each runs only on the ranges still in question: the
+    # side test (the costly one) after the distance test, the cubic where no quadratic fits.
     samples = _Samples(exact, lo, hi)
     p0, p3 = exact.start[lo], exact.end[hi - 1]
     q, has_q = _quadratic_control(exact, lo, hi, grid)
     q1, q2 = p0 + 2.0 / 3.0 * (q - p0), p3 + 2.0 / 3.0 * (q - p3)  # the same curve as a cubic
     limit = np.minimum(tolerance, exact.tolerance[lo])  # the run's piece's own limit
-    quad_ok = has_q & samples.within(q1, q2, limit) & _keeps_sides(exact, prot, lo, hi, q1, q2, clearance)
-    c1, c2 = _cubic_controls(exact, samples, lo, hi, grid)
-    cubic_ok = ~quad_ok & samples.within(c1, c2, limit) & _keeps_sides(exact, prot, lo, hi, c1, c2, clearance)
+    quad_ok = has_q & samples.within(q1, q2, limit)
+    quad_ok[quad_ok] = _keeps_sides(exact, prot, lo[quad_ok], hi[quad_ok], q1[quad_ok], q2[quad_ok], clearance)
     kind = np.where(quad_ok, QUAD, CUBIC).astype(np.uint8)
-    return kind, np.where(quad_ok[:, None], q, c1), np.where(quad_ok[:, None], np.nan, c2), quad_ok | cubic_ok
+    c1, c2, ok = q.copy(), np.full_like(q, np.nan), quad_ok.copy()
+    rest = ~quad_ok
+    if rest.any():
+        lo_r, hi_r = lo[rest], hi[rest]
+        rest_samples = _Samples(exact, lo_r, hi_r)
+        r1, r2 = _cubic_controls(exact, rest_samples, lo_r, hi_r, grid)
+        fits = rest_samples.within(r1, r2, limit[rest])
+        fits[fits] = _keeps_sides(exact, prot, lo_r[fits], hi_r[fits], r1[fits], r2[fits], clearance)
+        c1[rest], c2[rest], ok[rest] = r1, r2, fits
+    return kind, c1, c2, ok
 
 
 class _Samples:
