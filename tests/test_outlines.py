@@ -477,3 +477,52 @@ def test_any_tolerance_keeps_every_pixel_centre(path):
     if (rgba[..., 3] % 255 != 0).any():
         pytest.skip("half-transparent pixels are judged by the alpha tests")
     assert_centres_kept(rgba, depixel.convert(rgba, simplify=2.0))
+
+
+# --- shading bands (issue 11, item 4) -------------------------------------------------------
+
+#: two tones of one region (similar in YUV: Y differs by 16, U and V by 0) meeting along a
+#: staircase, inside a dark frame
+BANDS = """
+kkkkkkkkkk
+kaaaaaaaak
+kaaaaaaabk
+kaaaaaabbk
+kaaaaabbbk
+kaaaabbbbk
+kaaabbbbbk
+kaabbbbbbk
+kabbbbbbbk
+kkkkkkkkkk
+"""
+BAND_COLOURS = {"k": (20, 20, 20, 255), "a": (200, 40, 40, 255), "b": (216, 56, 56, 255)}
+
+
+def _band_boundary_kinds(stage: str) -> np.ndarray:
+    """Kinds of the segments of the light band's shape that lie inside the frame (its
+    boundary with the dark band), cutout layout, exact spline."""
+    rgba = art(BANDS, BAND_COLOURS)
+    out = outlines_of(rgba, layout="cutout", stage=stage)
+    light = [s for s in range(len(out.face)) if tuple(out.rgba[s][:3]) == BAND_COLOURS["b"][:3]]
+    assert len(light) == 1
+    kinds = []
+    for start, kind, _, _, end in out.loops_of(light[0]):
+        before = np.vstack([start[None], end[:-1]])
+        inside = ((np.minimum(before, end) > 1.25) & (np.maximum(before, end) < 8.75)).all(axis=1)
+        kinds.append(kind[inside])
+    return np.concatenate(kinds)
+
+
+def test_shading_bands_are_curves_not_staircases():
+    """The boundary between two tones of one region is a smooth curve (as contours are), not
+    the cells' staircase of straight pieces; every pixel centre keeps its tone."""
+    from robust import assert_centres_kept
+
+    import depixel
+
+    assert (_band_boundary_kinds("cells") == LINE).all()  # the mosaic the curves replace
+    curved = _band_boundary_kinds("optimized")
+    assert curved.size and ((curved == QUAD) | (curved == CUBIC)).all()
+    rgba = art(BANDS, BAND_COLOURS)
+    for simplify in (0.0, 0.25):
+        assert_centres_kept(rgba, depixel.convert(rgba, simplify=simplify))
