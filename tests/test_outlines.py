@@ -526,3 +526,36 @@ def test_shading_bands_are_curves_not_staircases():
     rgba = art(BANDS, BAND_COLOURS)
     for simplify in (0.0, 0.25):
         assert_centres_kept(rgba, depixel.convert(rgba, simplify=simplify))
+
+
+# --- structure for an editor's layers panel (issue 11, item 5) ------------------------------
+
+
+@pytest.mark.parametrize("path", fixture_pngs() + [p for p in corpus_pngs() if p.stem in ("smw_boo", "sma_toad")],
+                         ids=lambda p: p.name)
+def test_layers_panel_structure(path):
+    """A ``<g>`` only around a region of several shapes; every shape has a unique id and a
+    label naming its role and colour; document order is the drawing order."""
+    import xml.etree.ElementTree as ET
+
+    from robust import SVG_NS
+
+    import depixel
+    from depixel.svg import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
+
+    label = "{http://www.inkscape.org/namespaces/inkscape}label"
+    rgba = load_image(path)
+    root = ET.fromstring(depixel.convert(rgba))
+    for group in root.iter(SVG_NS + "g"):
+        assert len(group.findall(SVG_NS + "path")) >= 2, f"group {group.get('id')} holds one shape"
+        assert group.get(label).startswith("shading #")
+    shapes = list(root.iter(SVG_NS + "path"))
+    ids = [p.get("id") for p in shapes]
+    assert len(set(ids)) == len(ids)
+    for p in shapes:
+        role, colour = p.get(label).split(" ")
+        assert role in ROLES and colour == p.get("fill") and p.get("id").startswith(role + "-")
+    out = build_outlines(depixelize(rgba).vector, "stacked", grid=10.0**-DEFAULT_PRECISION,
+                         simplify=DEFAULT_SIMPLIFY)
+    drawn = [p.get("fill") for p in shapes]
+    assert drawn == ["#%02x%02x%02x" % tuple(int(v) for v in c[:3]) for c in out.rgba if c[3] > 0]
