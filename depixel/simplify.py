@@ -30,6 +30,7 @@ import numpy as np
 
 from .arrays import unique
 from .boundaries import CUBIC, QUAD, BoundaryPieces
+from .bspline import cubic_derivatives, cubic_weights, elevate, flatten_cubic
 from .vector import VectorImage
 
 _T_ORIG = np.array([0.0, 0.25, 0.5, 0.75])  # samples of each exact segment
@@ -153,7 +154,7 @@ class _Exact:
                                         self.end - self.start))
         self.tan_end = _unit(np.where((np.abs(self.end - c2) > 0).any(axis=1)[:, None], self.end - c2,
                                       self.end - self.start))
-        self.samples = _cubic(self.start, c1, c2, self.end, _T_ORIG)  # (K, 4, 2)
+        self.samples = flatten_cubic(self.start, c1, c2, self.end, _T_ORIG)  # (K, 4, 2)
         step = _norm(np.diff(np.concatenate([self.samples, self.end[:, None]], axis=1), axis=1))
         self.length = step.sum(axis=1)  # polyline length of each segment
         self.arc = np.cumsum(step, axis=1) - step  # arc length of each sample within its segment
@@ -165,8 +166,9 @@ def _as_cubic(start, kind, ctrl, ctrl2, end) -> tuple[np.ndarray, np.ndarray]:
     """Cubic control points of line, quadratic and cubic segments (degree elevation)."""
     quad = (kind == QUAD)[:, None]
     cubic = (kind == CUBIC)[:, None]
-    c1 = np.where(quad, start + 2.0 / 3.0 * (np.nan_to_num(ctrl) - start), start + (end - start) / 3.0)
-    c2 = np.where(quad, end + 2.0 / 3.0 * (np.nan_to_num(ctrl) - end), end - (end - start) / 3.0)
+    q1, q2 = elevate(start, np.nan_to_num(ctrl), end)
+    c1 = np.where(quad, q1, start + (end - start) / 3.0)
+    c2 = np.where(quad, q2, end - (end - start) / 3.0)
     c1 = np.where(cubic, np.nan_to_num(ctrl), c1)
     c2 = np.where(cubic, np.nan_to_num(ctrl2), c2)
     return c1, c2
@@ -261,7 +263,7 @@ def _fit(exact: _Exact, prot: _Protected, lo: np.ndarray, hi: np.ndarray, tolera
     samples = _Samples(exact, lo, hi)
     p0, p3 = exact.start[lo], exact.end[hi - 1]
     q, has_q = _quadratic_control(exact, lo, hi, grid)
-    q1, q2 = p0 + 2.0 / 3.0 * (q - p0), p3 + 2.0 / 3.0 * (q - p3)  # the same curve as a cubic
+    q1, q2 = elevate(p0, q, p3)  # the same curve as a cubic
     limit = np.minimum(tolerance, exact.tolerance[lo])  # the run's piece's own limit
     quad_ok = has_q & samples.within(q1, q2, limit) & _keeps_sides(exact, prot, lo, hi, q1, q2, clearance)
     c1, c2 = _cubic_controls(exact, samples, lo, hi, grid)
@@ -293,15 +295,15 @@ class _Samples:
         # upper bound of the distance, so the test is safe
         u = self.u
         for _ in range(2):
-            point, d1, d2 = _cubic_derivatives(*q, u)
+            point, d1, d2 = cubic_derivatives(*q, u[:, None])
             off = point - self.points
             num = (off * d1).sum(axis=1)
             den = (d1 * d1).sum(axis=1) + (off * d2).sum(axis=1)
             u = np.clip(u - num / np.where(np.abs(den) > 1e-12, den, 1e-12), 0.0, 1.0)
-        d = np.sqrt(((_cubic_derivatives(*q, u)[0] - self.points) ** 2).sum(axis=1))
+        d = np.sqrt(((cubic_derivatives(*q, u[:, None])[0] - self.points) ** 2).sum(axis=1))
         worst = np.zeros(self.p0.shape[0])
         np.maximum.at(worst, o, d)
-        curve = _cubic(self.p0, c1, c2, self.p3, _T_FIT)
+        curve = flatten_cubic(self.p0, c1, c2, self.p3, _T_FIT)
         length = np.sqrt((np.diff(curve, axis=1) ** 2).sum(axis=2)).sum(axis=1)
         chord = np.sqrt(((self.p3 - self.p0) ** 2).sum(axis=1))
         return (worst <= tolerance) & (length <= 1.1 * self.total + 1e-9) & (chord > 0)
@@ -333,7 +335,7 @@ def _cubic_controls(exact: _Exact, samples: _Samples, lo: np.ndarray, hi: np.nda
     t0, t1 = exact.tan_start[lo], exact.tan_end[hi - 1]
     o, u = samples.owner, samples.u
     # P(u) = B0 p0 + B1 (p0 + a t0) + B2 (p3 - b t1) + B3 p3
-    b0, b1, b2, b3 = (1 - u) ** 3, 3 * u * (1 - u) ** 2, 3 * u**2 * (1 - u), u**3
+    b0, b1, b2, b3 = cubic_weights(u)
     r = samples.points - (b0 + b1)[:, None] * p0[o] - (b2 + b3)[:, None] * p3[o]
     va, vb = b1[:, None] * t0[o], -b2[:, None] * t1[o]
     n = lo.size
@@ -368,7 +370,7 @@ def _keeps_sides(exact: _Exact, prot: _Protected, lo, hi, c1, c2, clearance: flo
         return ok
     owner = np.repeat(np.arange(lo.size), count)
     idx = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count) + np.repeat(first, count)
-    curves = _cubic(exact.start[lo], c1, c2, exact.end[hi - 1], _T_FIT)
+    curves = flatten_cubic(exact.start[lo], c1, c2, exact.end[hi - 1], _T_FIT)
     xy = prot.xy[idx]
     d_new = _distance_to_polylines(xy, curves[owner])
     too_near = d_new < np.minimum(np.abs(prot.dist[idx]), clearance) - 1e-9
@@ -437,30 +439,6 @@ def _assemble(pieces: BoundaryPieces, fitted) -> BoundaryPieces:
 
 
 # --- geometry helpers -----------------------------------------------------------------------
-
-
-def _cubic(p0, c1, c2, p3, t: np.ndarray) -> np.ndarray:
-    """Points of cubic Béziers at parameters t: ``(N, 2)`` each × ``(T,)`` → ``(N, T, 2)``."""
-    t = t[None, :, None]
-    s = 1 - t
-    return s**3 * p0[:, None] + 3 * t * s**2 * c1[:, None] + 3 * t**2 * s * c2[:, None] + t**3 * p3[:, None]
-
-
-def _cubic_point(q0, q1, q2, q3, u: np.ndarray) -> np.ndarray:
-    """Points of cubic Béziers, each at its own parameter: control points ``(N, 2)`` each,
-    ``u`` ``(N,)``."""
-    w, v = (1 - u)[:, None], u[:, None]
-    return w**3 * q0 + 3 * v * w**2 * q1 + 3 * v**2 * w * q2 + v**3 * q3
-
-
-def _cubic_derivatives(q0, q1, q2, q3, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Point, first and second derivative of cubic Béziers, each at its own parameter:
-    control points ``(N, 2)`` each, ``u`` ``(N,)``."""
-    w, v = (1 - u)[:, None], u[:, None]
-    point = _cubic_point(q0, q1, q2, q3, u)
-    d1 = 3 * (w**2 * (q1 - q0) + 2 * v * w * (q2 - q1) + v**2 * (q3 - q2))
-    d2 = 6 * (w * (q2 - 2 * q1 + q0) + v * (q3 - 2 * q2 + q1))
-    return point, d1, d2
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
