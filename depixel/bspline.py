@@ -11,7 +11,8 @@ instead of the midpoint. S_j, the span's point at t = ½, is the *curve point* o
 Everything is vectorized over leading axes: points are ``(..., 2)`` float64 arrays (x, y).
 
 The formulas below are written once and used by the spline stage, the optimizer, the smooth
-renderer and the stage figure; their floating-point evaluation order is part of the output
+renderer, the stage figure and the SVG writer (its boundary pieces, and the cubic Béziers of
+``--simplify`` at the end of this module); their floating-point evaluation order is part of the output
 (SVG bytes are compared in ``benchmarks/check_output_stable.py``), so keep it as it is.
 """
 from __future__ import annotations
