@@ -1,4 +1,4 @@
-"""Converting many files: finding the inputs, naming the outputs, running them in parallel.
+"""Converting many files: the jobs, what one job does, and the report of a batch.
 
 Every file is one :class:`Job`, converted by :func:`run_job` in a worker process
 (:mod:`depixel_cli.pool`), in this process for ``-j 1``, or as a Dask task
@@ -6,13 +6,14 @@ Every file is one :class:`Job`, converted by :func:`run_job` in a worker process
 the files written, those already up to date and, on failure, a one-line reason, so one bad
 file never stops the batch. Each file's output depends only on the file and the options,
 so the results are the same whatever runs them.
+
+Finding the inputs and naming the outputs is :mod:`depixel_cli.batch_inputs`; running the
+jobs (how many workers, the run loop, the progress bar) is :mod:`depixel_cli.batch_run`.
 """
 from __future__ import annotations
 
 import glob
 import os
-import sys
-import time
 import traceback
 from dataclasses import dataclass, field
 from functools import partial
@@ -22,16 +23,11 @@ from depixel import api
 from depixel import stamp as stamps
 from depixel.errors import DepixelError, display_name
 from depixel.image import frame_count, load_frames
-from depixel.limits import PEAK_BYTES_PER_PIXEL, WORKER_BASELINE_BYTES
 from depixel.params import Params
 from depixel.prepare import PreparedImage
 from depixel.svg import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
 
 from .options import error_message
-
-#: File extensions taken from folders and globs (explicitly named files are always tried).
-IMAGE_SUFFIXES = frozenset({".png", ".gif", ".bmp", ".webp", ".tga", ".tif", ".tiff", ".ppm", ".pgm",
-                            ".pbm", ".pcx", ".ico", ".jpg", ".jpeg", ".qoi"})
 
 
 @dataclass(frozen=True)
@@ -157,7 +153,7 @@ def already_done(job: Job) -> Outcome | None:
         return None  # the job itself will report it
 
 
-def _abandoned(job: Job, begun: int) -> Outcome:
+def abandoned(job: Job, begun: int) -> Outcome:
     """The outcome of a job stopped while running: the outputs it completed (renamed into
     place, with their stamp, since ``begun``) are listed as written; with all of them done,
     the job is simply done."""
@@ -195,280 +191,6 @@ def record_prepared(out: Outcome, prepared: PreparedImage, source: Path | str, t
             out.notes.append(line)
         out.prepared.append({"input": str(source), "output": str(target), **prepared.summary()})
 
-
-# --- finding inputs and naming outputs --------------------------------------------------------
-
-def expand_inputs(args: list[str], recursive: bool,
-                  exclude: Path | None = None) -> tuple[list[tuple[Path, Path]], list[tuple[str, str]]]:
-    """Files to convert as (path, path relative to its folder or glob base), and the
-    arguments that gave none as (argument, message).
-
-    A folder contributes the images directly in it (all its subfolders with ``recursive``),
-    a glob its matches; hidden files and anything under ``exclude`` (the output folder) are
-    left out. A file named twice is converted once.
-    """
-    found: list[tuple[Path, Path]] = []
-    problems: list[tuple[str, str]] = []
-    seen: set[Path] = set()
-
-    def add(path: Path, rel: Path) -> None:
-        key = path.resolve()
-        if key not in seen:
-            seen.add(key)
-            found.append((path, rel))
-
-    def wanted(path: Path, base: Path) -> bool:
-        rel = path.relative_to(base)
-        hidden = any(part.startswith(".") for part in rel.parts)
-        # the output folder, when it lies inside an input folder, is not an input
-        excluded = exclude is not None and exclude.resolve() in path.resolve().parents and \
-            exclude.resolve() != base.resolve()
-        return path.is_file() and path.suffix.lower() in IMAGE_SUFFIXES and not hidden and not excluded
-
-    for arg in args:
-        path = Path(arg)
-        if path.is_dir():
-            files = sorted(f for f in path.glob("**/*" if recursive else "*") if wanted(f, path))
-            if not files:
-                hint = "" if recursive else " (-r looks in subfolders)"
-                problems.append((arg, f"{display_name(arg)}: no images in this folder{hint}"))
-            for f in files:
-                add(f, f.relative_to(path))
-        elif glob.has_magic(arg) and not path.exists():
-            base = _glob_base(arg)
-            matches = sorted(Path(m) for m in glob.glob(arg, recursive=True))
-            files = [m for m in matches if wanted(m, base)]
-            if not files:
-                problems.append((arg, f"{display_name(arg)}: no image matches"))
-            for f in files:
-                add(f, f.relative_to(base))
-        else:
-            add(path, Path(path.name))
-    return found, problems
-
-
-def _glob_base(pattern: str) -> Path:
-    """The folder part of a glob before its first wildcard ("icons/**/*.png" → icons)."""
-    parts = Path(pattern).parts
-    fixed = []
-    for part in parts[:-1]:
-        if glob.has_magic(part):
-            break
-        fixed.append(part)
-    return Path(*fixed) if fixed else Path(".")
-
-
-def plan(found: list[tuple[Path, Path]], out_dir: Path, options: Options) -> tuple[list[Job], list[Outcome]]:
-    """One job per input, its output under ``out_dir`` at the same relative place.
-
-    With ``frames="all"`` the frames of each input are counted here, so the names compared
-    are the real ones (an animation gives ``name-000.svg``, … and a still image
-    ``name.svg``). Inputs whose outputs would be another input or another input's output
-    fail here; the first input (in the order given) keeps the name.
-    """
-    inputs = {p.resolve() for p, _ in found}
-    owner: dict[Path, Path] = {}
-    jobs, failed = [], []
-    for path, rel in found:
-        output = out_dir / rel.with_suffix("." + options.fmt)
-        n_frames = 1
-        if options.frames == "all":
-            try:
-                n_frames = frame_count(path)
-            except DepixelError as exc:
-                failed.append(Outcome(path, output, error=error_message(exc)))
-                continue
-        job = Job(path, output, options, n_frames)
-        keys = [target.resolve() for _, target in frame_targets(job)]
-        clash = next((k for k in keys if k in inputs or k in owner), None)
-        if clash is not None:
-            shown = display_name(out_dir / clash.relative_to(out_dir.resolve())) if clash.is_relative_to(
-                out_dir.resolve()) else display_name(clash)
-            reason = "would overwrite an input" if clash in inputs else \
-                f"is already the output of {display_name(owner[clash])}"
-            failed.append(Outcome(path, output, error=f"{display_name(path)}: output {shown} {reason}"))
-            continue
-        owner.update((k, path) for k in keys)
-        jobs.append(job)
-    return jobs, failed
-
-
-def make_folders(jobs: list[Job]) -> tuple[list[Job], list[Outcome]]:
-    """Create the output folders; jobs whose folder cannot be made fail."""
-    ready, failed = [], []
-    for job in jobs:
-        try:
-            job.output.parent.mkdir(parents=True, exist_ok=True)
-            ready.append(job)
-        except OSError as exc:
-            failed.append(Outcome(job.source, job.output,
-                                  error=f"{display_name(job.output.parent)}: cannot create folder "
-                                        f"({exc.strerror or exc})"))
-    return ready, failed
-
-
-# --- running ------------------------------------------------------------------------------------
-
-def run(jobs: list[Job], workers: int, report, signals, progress: Progress | None = None) -> list[Outcome]:
-    """Run the jobs, ``workers`` processes at a time (this process for one), until done or
-    stopped by ``signals``; ``report(outcome)`` is called as each one ends. Returns the
-    outcomes in the order of ``jobs``; after a stop, the unfinished ones are INTERRUPTED or
-    CANCELLED."""
-    from .pool import Finished, Interrupted, run_jobs  # noqa: PLC0415
-
-    outcomes: dict[int, Outcome] = {}
-    begun = time.time_ns()
-
-    def finished(done: Finished) -> None:
-        job = jobs[done.index]
-        if done.interrupted:
-            outcome = _abandoned(job, begun)
-        elif done.cancelled:
-            outcome = Outcome(job.source, job.output, state=CANCELLED)
-        elif done.died:
-            outcome = Outcome(job.source, job.output,
-                              error=f"{display_name(job.source)}: worker process died ({done.died}), also when retried")
-        else:
-            outcome = done.result
-            if done.retried:
-                outcome.notes.append(f"{display_name(job.source)}: worker process died ({done.retried}); "
-                                     "converted on the retry")
-        outcomes[done.index] = outcome
-        report(outcome)
-
-    def started(index: int) -> None:
-        if progress is not None:
-            progress.current(jobs[index].source)
-
-    for index, job in enumerate(jobs):
-        if (done := already_done(job)) is not None:
-            finished(Finished(index, done))
-    todo = [i for i in range(len(jobs)) if i not in outcomes]
-    if workers <= 1 or len(todo) <= 1:
-        for index in todo:
-            job = jobs[index]
-            if signals.signum is not None:
-                finished(Finished(index, cancelled=True))
-                continue
-            started(index)
-            signals.raising = True  # a signal now abandons the file at once (the writer removes its temporary file)
-            try:
-                result = run_job(job)
-            except Interrupted:
-                result = None
-            finally:
-                signals.raising = False
-            if result is None:
-                remove_temporary_files(job)
-                finished(Finished(index, interrupted=True))
-            else:
-                finished(Finished(index, result))
-    else:
-        signals.raising = False
-
-        def renumbered(done: Finished) -> None:  # run_jobs numbers the jobs of ``todo``
-            finished(Finished(todo[done.index], done.result, done.died, done.retried, done.interrupted,
-                              done.cancelled))
-
-        run_jobs([jobs[i] for i in todo], workers, run_job, renumbered, signals, cleanup=remove_temporary_files,
-                 started=lambda i: started(todo[i]))
-    return [outcomes[i] for i in range(len(jobs))]
-
-
-class Progress:
-    """A tqdm bar on stderr for two or more files when stderr is a terminal, showing the file
-    being converted; messages print above it. A terminal that reports no width (a pty
-    under ``script``) gets an 80-column bar."""
-
-    def __init__(self, total: int) -> None:
-        self.bar = None
-        if total >= 2 and sys.stderr.isatty():
-            from tqdm import tqdm  # noqa: PLC0415
-
-            try:
-                columns, lines = os.get_terminal_size(sys.stderr.fileno())
-            except OSError:
-                columns = lines = 0
-            # tqdm draws nothing on a terminal of 0 columns or 0 lines: assume 80x24 there
-            size = {"dynamic_ncols": True} if columns > 0 else {"ncols": 80}
-            self.bar = tqdm(total=total, unit="file", file=sys.stderr, leave=False, nrows=lines or 24, **size)
-
-    def message(self, text: str) -> None:
-        if self.bar is not None:
-            self.bar.write(f"depixel: {text}", file=sys.stderr)
-        else:
-            print(f"depixel: {text}", file=sys.stderr, flush=True)
-
-    def current(self, path: Path) -> None:
-        if self.bar is not None:
-            self.bar.set_postfix_str(display_name(path.name), refresh=True)
-
-    def step(self) -> None:
-        if self.bar is not None:
-            self.bar.update(1)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.close()
-
-
-def cores() -> int:
-    """The cores this process may run on."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except (AttributeError, OSError):
-        return os.cpu_count() or 1
-
-
-def available_memory() -> int | None:
-    """Bytes of memory available to new processes (Linux MemAvailable), None if unknown."""
-    try:
-        with open("/proc/meminfo", "rb") as fh:
-            for line in fh:
-                if line.startswith(b"MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):
-        return None
-
-
-def largest_image(jobs: list[Job]) -> tuple[int, Path | None]:
-    """Pixels of the largest input (from the headers, nothing decoded) and its path."""
-    from PIL import Image  # noqa: PLC0415
-
-    best, where = 0, None
-    for job in jobs:
-        try:
-            with Image.open(job.source) as img:
-                pixels = img.size[0] * img.size[1]
-        except Exception:  # unreadable: the job reports it
-            continue
-        if pixels > best:
-            best, where = pixels, job.source
-    return best, where
-
-
-def auto_jobs(jobs: list[Job], memory: int | None = None) -> tuple[int, str | None]:
-    """``-j auto``: one worker per core, but no more than the available memory holds when
-    each converts the largest image (PEAK_BYTES_PER_PIXEL per pixel, measured). Returns the
-    count and, when memory is what limits it, a note saying so."""
-    count = max(1, min(cores(), len(jobs)))
-    if count == 1:
-        return 1, None
-    memory = available_memory() if memory is None else memory
-    pixels, where = largest_image(jobs)
-    if memory is None or where is None:
-        return count, None
-    need = WORKER_BASELINE_BYTES + PEAK_BYTES_PER_PIXEL * pixels
-    fits = max(1, memory // need)
-    if fits >= count:
-        return count, None
-    return fits, (f"-j auto: {fits} worker{'s' if fits > 1 else ''}, not {count}: converting "
-                  f"{display_name(where)} ({pixels} pixels) takes about {need / 2**30:.1f} GiB and "
-                  f"{memory / 2**30:.1f} GiB is available")
 
 
 def summary(outcomes: list[Outcome], seconds: float, interrupted: bool = False) -> dict:

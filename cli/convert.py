@@ -20,22 +20,9 @@ from depixel.pipeline import STAGES
 from depixel.prepare import lossy_format
 from depixel.svg import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
 
-from .batch import (
-    CANCELLED,
-    DONE,
-    Job,
-    Options,
-    Outcome,
-    Progress,
-    auto_jobs,
-    cores,
-    expand_inputs,
-    make_folders,
-    plan,
-    record_prepared,
-    run,
-    summary,
-)
+from .batch import CANCELLED, DONE, Job, Options, Outcome, record_prepared, summary
+from .batch_inputs import expand_inputs, make_folders, plan
+from .batch_run import Progress, auto_jobs, cores, run
 from .options import (
     Exit,
     add_input_options,

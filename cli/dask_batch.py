@@ -20,7 +20,8 @@ from pathlib import Path
 
 from depixel.errors import DepixelError, display_name
 
-from .batch import CANCELLED, INTERRUPTED, Job, Outcome, Progress, already_done, frame_targets, run_job
+from .batch import CANCELLED, INTERRUPTED, Job, Outcome, already_done, frame_targets, run_job
+from .batch_run import Progress
 
 #: Seconds between two looks at the signals while waiting for tasks.
 POLL_SECONDS = 0.2
@@ -32,7 +33,7 @@ class DaskError(DepixelError):
 
 def run_dask(jobs: list[Job], address: str, report, signals, progress: Progress | None = None) -> list[Outcome]:
     """Run the jobs as tasks on the Dask scheduler at ``address``; like
-    :func:`depixel_cli.batch.run`, returns the outcomes in the order of ``jobs``."""
+    :func:`depixel_cli.batch_run.run`, returns the outcomes in the order of ``jobs``."""
     try:
         from distributed import Client, as_completed  # noqa: PLC0415
     except ImportError:

@@ -19,7 +19,7 @@ from .options import Exit
 
 #: The extension's own files, shipped in the package.
 SOURCE = Path(__file__).resolve().parent / "inkscape_extension"
-SHIPPED = ("depixel_inkscape.inx", "depixel_inkscape.py")
+SHIPPED = ("depixel_inkscape.inx", "depixel_inkscape.py", "depixel_inkscape_place.py")
 #: Written at install: {"command": [...]} runs the depixel that installed the extension (the
 #: script reads it under the same name, depixel_inkscape.py: RECORDED_COMMAND).
 RECORDED_COMMAND = "depixel_inkscape.json"

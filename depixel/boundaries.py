@@ -21,6 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .bspline import joint as leg_joint
+from .bspline import split_half
 from .vector import VectorImage
 
 #: segment kinds: a line, a quadratic Bézier (the spline's spans), a cubic Bézier (simplified)
@@ -89,11 +91,12 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
     end = curves.is_end()
     ctrl = curves.ctrl if grid is None else np.round(curves.ctrl / (2 * grid)) * (2 * grid)
     b = np.maximum(nxt, 0)
-    joint = np.where(end[:, None], point[node], np.where(end[b][:, None], point[node[b]], (ctrl + ctrl[b]) / 2.0))
+    joint = np.where(end[:, None], point[node], np.where(end[b][:, None], point[node[b]], leg_joint(ctrl, ctrl[b])))
     joint[nxt < 0] = np.nan  # joint[s]: between slot s and the next one
     joint_before = np.where((prev >= 0)[:, None], joint[np.maximum(prev, 0)], np.nan)
-    half_next = _on_grid((ctrl + joint) / 2.0, grid)  # control of the half of span s towards next
-    half_prev = _on_grid((ctrl + joint_before) / 2.0, grid)
+    first_half, second_half = split_half(joint_before, ctrl, joint)  # span s (joint before, ctrl, joint) halved
+    half_next = _on_grid(second_half.p1, grid)  # control of the half of span s towards next
+    half_prev = _on_grid(first_half.p1, grid)
 
     # slots that bound pieces; a closed curve with none gets its first slot, where its
     # piece starts and ends at a joint instead of a curve point

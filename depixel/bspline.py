@@ -11,7 +11,8 @@ instead of the midpoint. S_j, the span's point at t = ½, is the *curve point* o
 Everything is vectorized over leading axes: points are ``(..., 2)`` float64 arrays (x, y).
 
 The formulas below are written once and used by the spline stage, the optimizer, the smooth
-renderer and the stage figure; their floating-point evaluation order is part of the output
+renderer, the stage figure and the SVG writer (its boundary pieces, and the cubic Béziers of
+``--simplify`` at the end of this module); their floating-point evaluation order is part of the output
 (SVG bytes are compared in ``benchmarks/check_output_stable.py``), so keep it as it is.
 """
 from __future__ import annotations
@@ -38,13 +39,19 @@ def span(before: np.ndarray, control: np.ndarray, after: np.ndarray,
     neighbours that are open-curve end points: the span then starts (ends) at them instead of
     at the midpoint of the control leg.
     """
-    start = (before + control) / 2.0
-    stop = (control + after) / 2.0
+    start = joint(before, control)
+    stop = joint(control, after)
     if before_is_end is not False:
         start = np.where(before_is_end, before, start)
     if after_is_end is not False:
         stop = np.where(after_is_end, after, stop)
     return Bezier(start, control, stop)
+
+
+def joint(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Where the spans of consecutive interior control points ``a``, ``b`` meet: the
+    midpoint of their control leg (the implied on-curve point)."""
+    return (a + b) / 2.0
 
 
 def slot_spans(ctrl: np.ndarray, prev: np.ndarray, nxt: np.ndarray, end: np.ndarray) -> Bezier:
@@ -122,7 +129,7 @@ def between_curve_points(c_a: np.ndarray, c_b: np.ndarray, s_a: np.ndarray, s_b:
     starts or stops there instead of at S): the one Bézier (C_a or S_a, m, S_b or C_b) split
     at t = ½. Either way the result is exactly the B-spline; at most one of the two may be
     an end (an open curve of one edge is a straight segment)."""
-    mid = (c_a + c_b) / 2.0
+    mid = joint(c_a, c_b)
     inner = np.stack([(c_a + mid) / 2.0, mid, (mid + c_b) / 2.0], axis=1)
     start = np.where(a_is_end[:, None], c_a, s_a)
     stop = np.where(b_is_end[:, None], c_b, s_b)
@@ -143,3 +150,41 @@ def flatten_edges(start: np.ndarray, controls: np.ndarray, stop: np.ndarray, pie
     """``(E, 2 * pieces + 1, 2)`` polylines of curved cell edges, ``pieces`` per Bézier."""
     first, second = edge_halves(start, controls, stop)
     return np.concatenate([flatten(*first, pieces), flatten(*second, pieces)[:, 1:]], axis=1)
+
+
+# --- cubic Béziers: the SVG writer's simplified curves (depixel/curvefit.py) ---------------------
+
+def elevate(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The inner control points ``(c1, c2)`` of the cubic Bézier that draws the quadratic
+    Bézier ``(p0, p1, p2)`` exactly (degree elevation)."""
+    return p0 + 2.0 / 3.0 * (p1 - p0), p2 + 2.0 / 3.0 * (p1 - p2)
+
+
+def cubic_weights(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The Bernstein weights ``(B0, B1, B2, B3)`` of cubic Béziers at parameters ``t``."""
+    s = 1 - t
+    return s**3, 3 * t * s**2, 3 * t**2 * s, t**3
+
+
+def evaluate_cubic(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, p3: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Points of cubic Béziers at parameters ``t`` (all five broadcast together; give ``t`` a
+    trailing axis of 1 for the coordinates)."""
+    b0, b1, b2, b3 = cubic_weights(t)
+    return b0 * p0 + b1 * p1 + b2 * p2 + b3 * p3
+
+
+def flatten_cubic(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, p3: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """``(..., T, 2)``: the points of cubic Béziers ``(..., 2)`` at each of the parameters
+    ``t`` ``(T,)``."""
+    return evaluate_cubic(p0[..., None, :], p1[..., None, :], p2[..., None, :], p3[..., None, :], t[:, None])
+
+
+def cubic_derivatives(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, p3: np.ndarray, t: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Point, first and second derivative of cubic Béziers at parameters ``t`` (broadcast
+    like :func:`evaluate_cubic`)."""
+    s = 1 - t
+    point = evaluate_cubic(p0, p1, p2, p3, t)
+    d1 = 3 * (s**2 * (p1 - p0) + 2 * t * s * (p2 - p1) + t**2 * (p3 - p2))
+    d2 = 6 * (s * (p2 - 2 * p1 + p0) + t * (p3 - 2 * p2 + p1))
+    return point, d1, d2

@@ -10,8 +10,13 @@ that before the similarity graph (docs/inputs.md has the how and the limits, wit
    one pixel (its colour, or for lossy input the median of its inner pixels);
 2. denoise (lossy input): snap near-identical colours to a small palette; for 1× pixels
    whose chroma was subsampled (4:2:0 JPEG, lossy WebP), label every pixel jointly
-   through the decoder's model instead (depixel/chroma.py);
+   through the decoder's model instead (depixel/chroma.py, depixel/chroma_unmix.py);
 3. backdrop: make one colour fully transparent.
+
+Each step is its own module (:mod:`depixel.pixelgrid`, :mod:`depixel.palette` with
+:mod:`depixel.chroma` and :mod:`depixel.chroma_unmix`, :mod:`depixel.backdrop`); this one holds
+the driver :func:`prepare`, its product :class:`PreparedImage`, the options and the
+SVG/raster overlay of the result on the input.
 
 On real 1× art the grid is never found and nothing else is on by default for a lossless
 file, so the prepared image *is* the input and the output is byte-identical to
@@ -22,55 +27,18 @@ arrays are ``(row, column)``.
 """
 from __future__ import annotations
 
-import heapq
 import re
 from dataclasses import dataclass
 
 import numpy as np
 
-from . import chroma
+from .backdrop import Colour, hex_code, make_transparent
 from .errors import ParameterError
-from .image import as_rgba, rgb_to_yuv
+from .image import as_rgba
+from .palette import LEFTOVER_BLOCK, distinct_colours, snap_colours
+from .pixelgrid import AUTO, MAX_FACTOR, block_medians, find_grid, reduce_blocks
 
-# --- constants (none is in the paper: this stage is not part of it) ----------------------------
-#: largest nearest-neighbour factor looked for or accepted, per axis
-MAX_FACTOR = 32
-#: a detected axis needs at least this many block boundaries where the art changes colour,
-#: so a few coincidentally aligned edges (a lone rectangle) are never taken for a grid
-MIN_EVIDENCE = 3
-#: lossy input: a luma step (0-255) over this between neighbours is an edge, if the steps
-#: on either side are no larger (ringing beside an edge is weaker than the edge)
-LOSSY_EDGE = 24.0
-#: lossy input: at most this share of the edges may lie off the grid; measured on the paper
-#: sprites at 2×–8× with random offsets, JPEG q70–95: ≤ 0.15; the best grid of any 1× JPEG
-#: leaves ≥ 0.32 off it (docs/inputs.md)
-LOSSY_OFF_GRID = 0.25
-#: lossy input: at least this share of pixels must lie within LOSSY_EDGE luma of their block's median
-LOSSY_BLOCK_AGREEMENT = 0.9
-#: colours within this distance (hqx YUV, largest component, 0-255) are one palette colour
-SNAP_RADIUS = 10.0
-#: a palette candidate within this luma distance of a candidate SHADOW_RATIO times as
-#: frequent is chroma bleeding from 4:2:0 subsampling (a tinted copy), not a colour of its own
-SHADOW_LUMA = 10.0
-SHADOW_RATIO = 2.0
-#: a palette colour covers at least this share of the visible pixels (and at least 3 pixels)
-MIN_SHARE = 0.005
-#: pixels snap to the nearest palette colour with chroma counted this much: JPEG keeps luma
-#: per pixel but chroma only per 2×2 block (4:2:0), so chroma is the less reliable half
-CHROMA_WEIGHT = 0.3
-#: clean colours (block medians) farther than this many SNAP_RADIUS from their palette colour
-#: are gathered again into colours of their own (a box reaches up to 1.5 radii: sbm4_01's white
-#: lies 17 from its off-white); only for blocks of at least LEFTOVER_BLOCK pixels a side, whose
-#: median is taken over at least 2×2 inner pixels (a 3× block's single inner pixel still
-#: carries JPEG's chroma bleeding: the ghost fixture saved 3× at q85 would gain two stray colours)
-LEFTOVER = 1.5
-LEFTOVER_BLOCK = 4
-#: rounds of moving each palette colour to the mean of the pixels it gathers
-REFINE_STEPS = 2
-
-AUTO = "auto"
 PixelSize = str | int | tuple[int, int]
-Colour = tuple[int, int, int]
 
 
 @dataclass(frozen=True, eq=False)
@@ -134,7 +102,7 @@ class PreparedImage:
             unmixed = f" ({self.subsampling} chroma unmixed)" if self.subsampling else ""
             parts.append(f"{source}{unmixed}: snapped {self.colours_before} colours to {self.palette}")
         if self.transparent is not None:
-            parts.append(f"made {_hex(self.transparent)} transparent ({self.transparent_pixels} pixels)")
+            parts.append(f"made {hex_code(self.transparent)} transparent ({self.transparent_pixels} pixels)")
         parts.extend(self.notes)
         if not parts:
             return None
@@ -152,7 +120,7 @@ class PreparedImage:
             "colours_before": self.colours_before or None,
             "palette": self.palette or None,
             "subsampling": self.subsampling,
-            "transparent": _hex(self.transparent) if self.transparent is not None else None,
+            "transparent": hex_code(self.transparent) if self.transparent is not None else None,
             "transparent_pixels": self.transparent_pixels,
             "notes": list(self.notes),
         }
@@ -191,7 +159,7 @@ def prepare(image, *, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
     colours_before = palette = 0
     subsampling = None
     if lossy_pixels:
-        colours_before = _distinct_colours(rgba)
+        colours_before = distinct_colours(rgba)
         if grid is None:
             rgba, _, palette, subsampling = snap_colours(rgba, unmix=True)
         else:  # block medians are clean colours: each art pixel counts, however rare its colour
@@ -293,379 +261,6 @@ def lossy_format(data: bytes) -> str | None:
     return None
 
 
-# --- the pixel grid ---------------------------------------------------------------------------
-
-def colour_keys(rgba: np.ndarray) -> np.ndarray:
-    """``(H, W) int64``: equal exactly when two pixels look the same (RGBA equal, or both
-    fully transparent whatever RGB they hide)."""
-    q = rgba.astype(np.int64)
-    keys = (q[..., 0] << 24) | (q[..., 1] << 16) | (q[..., 2] << 8) | q[..., 3]
-    return np.where(q[..., 3] == 0, 0, keys)
-
-
-Grid = tuple[tuple[int, int], tuple[int, int]]  # ((kx, ky), (ox, oy))
-
-
-def find_grid(rgba: np.ndarray, pixel_size: str | tuple[int, int] = AUTO, lossy: bool = False) -> Grid | None:
-    """The nearest-neighbour grid of an ``(H, W, 4)`` image, ``((kx, ky), (ox, oy))``, or None.
-
-    Across a block boundary the art may change colour; inside a block it may not. So a
-    factor k with offset o fits an axis when every colour change between neighbouring
-    pixels along it lies at a position p ≡ o (mod k) (p: the pixel after the change), and
-    the largest fitting k ≤ 32 with ``MIN_EVIDENCE`` changing boundaries is taken; both
-    axes must fit. For ``lossy`` input a change is a luma edge (``LOSSY_EDGE``), up to
-    ``LOSSY_OFF_GRID`` of them may lie off the grid, and ``LOSSY_BLOCK_AGREEMENT`` of the
-    pixels must be close to their block's median. A forced ``(kx, ky)`` gets the offset
-    whose boundaries carry the most changes.
-    """
-    if lossy:
-        luma = rgb_to_yuv(rgba)[..., 0]
-        change = (_edge_share(luma), _edge_share(luma.T))
-    else:
-        keys = colour_keys(rgba)
-        change = (_change_share(keys), _change_share(keys.T))
-    if not isinstance(pixel_size, str):  # forced
-        if pixel_size == (1, 1):
-            return None
-        return pixel_size, (_best_offset(change[0], pixel_size[0]), _best_offset(change[1], pixel_size[1]))
-    fits = [_fit_axis(c, LOSSY_OFF_GRID if lossy else 0.0) for c in change]
-    if fits[0] is None or fits[1] is None:
-        return None
-    grid = (fits[0][0], fits[1][0]), (fits[0][1], fits[1][1])
-    if lossy and _median_agreement(rgba, luma, grid) < LOSSY_BLOCK_AGREEMENT:
-        return None
-    return grid
-
-
-def _change_share(keys: np.ndarray) -> np.ndarray:
-    """For each boundary between columns i and i+1, the share of rows where the colour changes."""
-    return (keys[:, 1:] != keys[:, :-1]).mean(axis=0)
-
-
-def _edge_share(luma: np.ndarray) -> np.ndarray:
-    """Like :func:`_change_share` for lossy pixels: the share of rows with a luma edge,
-    a step over LOSSY_EDGE that is no smaller than the steps on either side of it (the
-    ringing beside an edge is weaker than the edge)."""
-    step = np.abs(np.diff(luma, axis=1))
-    edge = step > LOSSY_EDGE
-    edge[:, 1:] &= step[:, 1:] >= step[:, :-1]  # no smaller than the step before it
-    edge[:, :-1] &= step[:, :-1] >= step[:, 1:]  # ... and the step after it
-    return edge.mean(axis=0)
-
-
-def _offset_mass(change: np.ndarray, k: int) -> np.ndarray:
-    """``(k,)``: the colour changes at boundary positions p ≡ o (mod k), for each o.
-    Boundary i lies before pixel p = i + 1."""
-    return np.bincount(np.arange(1, change.size + 1) % k, weights=change, minlength=k)
-
-
-def _fit_axis(change: np.ndarray, off_grid: float) -> tuple[int, int] | None:
-    """(k, o) of the largest factor that fits one axis, or None (see :func:`find_grid`)."""
-    where = np.flatnonzero(change) + 1  # positions with a colour change before them
-    if off_grid == 0.0:  # exact: every change on the grid, so k divides all their spacings
-        if where.size < MIN_EVIDENCE:
-            return None
-        spacing = int(np.gcd.reduce(np.diff(where)))
-        k = max((d for d in range(2, min(MAX_FACTOR, spacing) + 1) if spacing % d == 0), default=1)
-        return (k, int(where[0] % k)) if k > 1 else None
-    # every factor at once: the changes at each (k, offset), k = 2 … top, in one bincount
-    top = min(MAX_FACTOR, change.size)
-    factors = np.arange(2, top + 1)
-    first = np.concatenate([[0], np.cumsum(factors)])[:-1]  # where each factor's offsets start
-    position = np.arange(1, change.size + 1)
-    slot = (first[:, None] + position[None, :] % factors[:, None]).ravel()
-    mass = np.bincount(slot, weights=np.tile(change, len(factors)), minlength=int(factors.sum()))
-    evidence = np.bincount(slot, weights=np.tile(change > 0, len(factors)).astype(np.float64),
-                           minlength=int(factors.sum()))
-    total = float(change.sum())
-    best = np.maximum.reduceat(mass, first)  # each factor's best offset's changes
-    for i in np.flatnonzero(total - best <= off_grid * total)[::-1]:  # the largest fitting factor wins
-        o = int(np.argmax(mass[first[i]:first[i] + factors[i]]))
-        if evidence[first[i] + o] >= MIN_EVIDENCE:
-            return int(factors[i]), o
-    return None
-
-
-def _best_offset(change: np.ndarray, k: int) -> int:
-    """The offset whose boundaries carry the most colour changes (0 on ties)."""
-    return int(np.argmax(_offset_mass(change, k))) if k > 1 else 0
-
-
-def _blocks(shape: tuple[int, int], grid: Grid) -> tuple[np.ndarray, tuple[int, int]]:
-    """The block of every pixel, ``(H*W,)`` in scanline order, and the blocks' grid shape.
-    A partial block at an edge is a block."""
-    (kx, ky), (ox, oy) = grid
-    bx = (np.arange(shape[1]) + (kx - ox) % kx) // kx
-    by = (np.arange(shape[0]) + (ky - oy) % ky) // ky
-    grid_shape = (int(by[-1]) + 1, int(bx[-1]) + 1)
-    return (by[:, None] * grid_shape[1] + bx[None, :]).ravel(), grid_shape
-
-
-def reduce_blocks(rgba: np.ndarray, grid: Grid) -> np.ndarray:
-    """``(h, w, 4)``: one pixel per block, of the block's most common colour (ties: the
-    lower colour key)."""
-    block, (gh, gw) = _blocks(rgba.shape[:2], grid)
-    colours, first_pixel, colour_id = np.unique(colour_keys(rgba).ravel(), return_index=True,
-                                                return_inverse=True)
-    pairs, counts = np.unique(block * colours.size + colour_id.ravel(), return_counts=True)
-    pair_block = pairs // colours.size
-    order = np.lexsort((-counts, pair_block))  # per block, the most common colour first
-    first = order[np.r_[True, pair_block[order][1:] != pair_block[order][:-1]]]
-    return rgba.reshape(-1, 4)[first_pixel[pairs[first] % colours.size]].reshape(gh, gw, 4)
-
-
-def block_medians(rgba: np.ndarray, grid: Grid) -> np.ndarray:
-    """``(h, w, 4)``: one pixel per block, each channel the (lower) median of the block's
-    inner pixels (all of them when the block is too thin to have any): the block's colour
-    without the ringing and the chroma blur along its edges."""
-    (kx, ky), (ox, oy) = grid
-    block, (gh, gw) = _blocks(rgba.shape[:2], grid)
-    inner_x = _inner(rgba.shape[1], kx, ox)
-    inner_y = _inner(rgba.shape[0], ky, oy)
-    inner = (inner_y[:, None] & inner_x[None, :]).ravel()
-    has_inner = np.bincount(block[inner], minlength=gh * gw) > 0
-    use = inner | ~has_inner[block]
-    return _medians(rgba.reshape(-1, 4)[use], block[use], gh * gw).reshape(gh, gw, 4)
-
-
-def _inner(n: int, k: int, o: int) -> np.ndarray:
-    """``(n,)`` bool: pixels not on the first or last line of their block (blocks of k ≥ 3)."""
-    if k < 3:
-        return np.ones(n, dtype=bool)
-    place = (np.arange(n) + (k - o) % k) % k
-    return (place > 0) & (place < k - 1)
-
-
-def _medians(pixels: np.ndarray, group: np.ndarray, n_groups: int) -> np.ndarray:
-    """``(n_groups, 4) uint8``: per group the (lower) median of each channel of ``pixels``."""
-    size = np.bincount(group, minlength=n_groups)
-    middle = np.cumsum(size) - size + (size - 1) // 2
-    out = np.empty((n_groups, 4), dtype=np.uint8)
-    for c in range(4):
-        ordered = np.sort(group * 256 + pixels[:, c])  # by group, then by value
-        out[:, c] = ordered[middle] & 255
-    return out
-
-
-def _median_agreement(rgba: np.ndarray, luma: np.ndarray, grid: Grid) -> float:
-    """Share of pixels whose luma lies within LOSSY_EDGE of their block median's."""
-    block, _ = _blocks(rgba.shape[:2], grid)
-    block_luma = rgb_to_yuv(block_medians(rgba, grid).reshape(-1, 4))[:, 0]
-    return float(np.mean(np.abs(luma.ravel() - block_luma[block]) <= LOSSY_EDGE))
-
-
-# --- denoising ----------------------------------------------------------------------------------
-
-def _distinct_colours(rgba: np.ndarray) -> int:
-    return int(np.unique(colour_keys(rgba)).size)
-
-
-def snap_colours(rgba: np.ndarray, min_count: float | None = None, shadows: bool = True,
-                 unmix: bool = False, leftovers: bool = False) -> tuple[np.ndarray, int, int, str | None]:
-    """Snap the visible pixels' colours to a small palette (alpha is kept).
-
-    Returns the snapped ``(H, W, 4) uint8`` image, the number of distinct colours before,
-    the palette size and the chroma subsampling that was undone (``"4:2:0"``, or None). The
-    palette is found by mode seeking in hqx YUV: the colour with the most pixels within
-    about ``SNAP_RADIUS`` becomes a palette colour and takes those pixels, and so on while a
-    colour gathers ``min_count`` pixels (default: ``MIN_SHARE`` of them, at least 3); with
-    ``shadows``, a candidate is skipped when it is a tinted copy of a more frequent colour
-    of the same luma (``SHADOW_*``: chroma bleeding of 4:2:0 subsampling, which block
-    medians no longer have). Each palette colour then moves to the mean of the pixels it
-    gathers, and every pixel takes the nearest palette colour, chroma weighted by
-    ``CHROMA_WEIGHT``. With ``leftovers`` (clean colours, like the medians of large blocks),
-    colours left farther than ``LEFTOVER`` radii from their palette colour are gathered again
-    into colours of their own. With ``unmix`` (decoded 1× pixels), when the chroma was subsampled
-    (:func:`depixel.chroma.chroma_grid`), the pixels' colours and the palette are then
-    found jointly through the decoder's model instead (:func:`depixel.chroma.unmix`).
-    """
-    visible = rgba[..., 3] > 0
-    rgb = rgba[..., :3][visible]
-    out = rgba.copy()
-    if rgb.shape[0] == 0:
-        return out, 0, 0, None
-    packed = (rgb[:, 0].astype(np.int64) << 16) | (rgb[:, 1].astype(np.int64) << 8) | rgb[:, 2]
-    colours, inverse, counts = np.unique(packed, return_inverse=True, return_counts=True)
-    inverse = inverse.ravel()
-    colour_rgb = np.stack([colours >> 16, (colours >> 8) & 255, colours & 255], axis=1).astype(np.float64)
-    colour_yuv = rgb_to_yuv(colour_rgb)
-    if min_count is None:
-        min_count = max(3.0, MIN_SHARE * rgb.shape[0])
-
-    palette = _palette(colour_yuv, colour_rgb, counts.astype(np.float64), min_count, shadows)
-    grid = chroma.chroma_grid(rgb_to_yuv(rgba)) if unmix else None
-    if grid is not None and chroma.fits(rgba.shape[:2], len(palette)):
-        labels, palette = chroma.unmix(rgba, palette, grid, min_count=min_count, radius=SNAP_RADIUS)
-        snapped = np.clip(np.round(palette), 0, 255).astype(np.uint8)
-        out[..., :3][visible] = snapped[labels[visible]]
-        return out, int(colours.size), _distinct_rgb(snapped[np.unique(labels[visible])]), grid.name
-
-    weight = np.array([1.0, CHROMA_WEIGHT, CHROMA_WEIGHT])
-    nearest = _nearest(colour_yuv * weight, rgb_to_yuv(palette) * weight)
-    for _ in range(REFINE_STEPS):
-        # each palette colour moves to the mean of the colours it gathers within the radius
-        close = np.abs(colour_yuv - rgb_to_yuv(palette)[nearest]).max(axis=1) <= SNAP_RADIUS
-        mass = np.bincount(nearest[close], weights=counts[close], minlength=len(palette))
-        sums = np.stack([np.bincount(nearest[close], weights=counts[close] * colour_rgb[close, c],
-                                     minlength=len(palette)) for c in range(3)], axis=1)
-        moved = mass > 0
-        palette[moved] = sums[moved] / mass[moved, None]
-        palette = _merge_near(palette, np.bincount(nearest, weights=counts, minlength=len(palette)))
-        nearest = _nearest(colour_yuv * weight, rgb_to_yuv(palette) * weight)
-    if leftovers:
-        # a colour that a box took in (boxes reach a little beyond the radius) but that lies
-        # far from the colour the box became is a colour of its own
-        far = np.abs(colour_yuv - rgb_to_yuv(palette)[nearest]).max(axis=1) > LEFTOVER * SNAP_RADIUS
-        if counts[far].sum() >= min_count:
-            extra = _palette(colour_yuv[far], colour_rgb[far], counts[far].astype(np.float64), min_count, False)
-            gap = np.abs(rgb_to_yuv(extra)[:, None, :] - rgb_to_yuv(palette)[None, :, :]).max(axis=2).min(axis=1)
-            palette = np.vstack([palette, extra[gap > SNAP_RADIUS]])  # not a smear beside a colour it has
-            nearest = _nearest(colour_yuv * weight, rgb_to_yuv(palette) * weight)
-    snapped = np.clip(np.round(palette), 0, 255).astype(np.uint8)[nearest]
-    out[..., :3][visible] = snapped[inverse]
-    return out, int(colours.size), _distinct_rgb(snapped), None
-
-
-def _distinct_rgb(rgb: np.ndarray) -> int:
-    """How many distinct rows an ``(n, 3) uint8`` array has."""
-    return int(np.unique((rgb[:, 0].astype(np.int64) << 16) | (rgb[:, 1].astype(np.int64) << 8) | rgb[:, 2]).size)
-
-
-def _merge_near(palette: np.ndarray, mass: np.ndarray) -> np.ndarray:
-    """Merge palette colours closer than SNAP_RADIUS (the closest pair first, into their
-    mass-weighted mean), so that no two colours of the result are near-identical."""
-    palette, mass = palette.copy(), mass.astype(np.float64).copy()
-    while len(palette) > 1:
-        yuv = rgb_to_yuv(palette)
-        gap = np.abs(yuv[:, None, :] - yuv[None, :, :]).max(axis=2)
-        np.fill_diagonal(gap, np.inf)
-        i, j = np.unravel_index(int(np.argmin(gap)), gap.shape)
-        if gap[i, j] > SNAP_RADIUS:
-            break
-        total = max(mass[i] + mass[j], 1e-9)
-        palette[i] = (palette[i] * mass[i] + palette[j] * mass[j]) / total
-        mass[i] = mass[i] + mass[j]
-        palette, mass = np.delete(palette, j, axis=0), np.delete(mass, j)
-    return palette
-
-
-#: mode seeking counts pixels in cells of half the radius: a colour's neighbourhood is the
-#: 5×5×5 cells around its own, about SNAP_RADIUS either way
-_CELL = SNAP_RADIUS / 2
-_REACH = 2
-#: hqx luma of an RGB colour: colour @ _LUMA
-_LUMA = rgb_to_yuv(np.eye(3))[:, 0]
-
-
-def _palette(yuv: np.ndarray, rgb: np.ndarray, counts: np.ndarray, min_count: float,
-             shadows: bool) -> np.ndarray:
-    """``(K, 3) float64`` RGB palette by mode seeking over a histogram of the colours."""
-    r = _REACH
-    cell_of = np.floor(yuv / _CELL).astype(np.int64)
-    cell_of -= cell_of.min(axis=0)
-    span = tuple(cell_of.max(axis=0) + 1)
-    keys, colour_cell = np.unique(np.ravel_multi_index(tuple(cell_of.T), span), return_inverse=True)
-    colour_cell = colour_cell.ravel()
-    cells = np.stack(np.unravel_index(keys, span), axis=1) + 2 * r  # grid positions, room for a 2r box around each
-    shape = tuple(np.array(span) + 4 * r)
-    mass = np.bincount(colour_cell, weights=counts, minlength=len(cells))
-    rgb_sum = np.stack([np.bincount(colour_cell, weights=counts * rgb[:, c], minlength=len(cells))
-                        for c in range(3)], axis=1)
-    grid = np.zeros(shape, dtype=np.float32)  # pixels per cell not taken yet (counts: exact)
-    grid[tuple(cells.T)] = mass
-    # pixels within reach of each cell; only cells that could gather min_count are candidates
-    density = _box_sums(grid, cells)
-    candidates = np.flatnonzero(density >= min_count)
-    cell_at = np.full(shape, -1, dtype=np.int32)  # which cell sits at each grid position
-    cell_at[tuple(cells.T)] = np.arange(len(cells), dtype=np.int32)
-    # lazy greedy: the box sums only shrink as boxes are taken, so a stale sum is an upper
-    # bound; the candidate on top of the heap is the densest (first on ties) once its own sum,
-    # brought up to date, still beats the next stale one
-    heap = list(zip((-density[candidates]).tolist(), candidates.tolist()))
-    heapq.heapify(heap)
-    live = np.zeros(len(cells), dtype=bool)
-    live[candidates] = True
-    chosen: list[np.ndarray] = []
-    chosen_mass: list[tuple[float, float]] = []  # (luma, pixels)
-    while heap:
-        _, c = heapq.heappop(heap)
-        if not live[c]:
-            continue  # its cell was taken
-        x, y, z = cells[c]
-        box = (slice(x - r, x + r + 1), slice(y - r, y + r + 1), slice(z - r, z + r + 1))
-        now = float(grid[box].sum())
-        if heap and (-now, c) > heap[0]:
-            heapq.heappush(heap, (-now, c))  # not the densest any more: back, with its true sum
-            continue
-        if now < min_count:
-            break
-        gone = cell_at[box][cell_at[box] >= 0]
-        cell_at[box] = -1  # taken: these cells are gone for every later box
-        grid[box] = 0.0
-        live[gone] = False
-        colour = rgb_sum[gone].sum(axis=0) / now
-        luma = float(colour @ _LUMA)
-        if not shadows or not any(abs(luma - y) <= SHADOW_LUMA and m >= SHADOW_RATIO * now
-                                  for y, m in chosen_mass):
-            chosen.append(colour)
-            chosen_mass.append((luma, now))
-    if not chosen:  # too few pixels for any colour to count: the most common one
-        chosen = [rgb[int(np.argmax(counts))]]
-    return np.array(chosen, dtype=np.float64)
-
-
-def _box_sums(grid: np.ndarray, at: np.ndarray) -> np.ndarray:
-    """``(n,) float64``: the sum of ``grid`` over the (2·_REACH+1)³ box around each of the
-    ``(n, 3)`` positions ``at`` (at least _REACH cells from the edges): one gather of every
-    box's cells (cumulative sums along a grid's first axes are slow strided passes)."""
-    r = _REACH
-    strides = np.array([grid.shape[1] * grid.shape[2], grid.shape[2], 1])
-    offset = (np.stack(np.meshgrid(*[np.arange(-r, r + 1)] * 3, indexing="ij"), axis=-1).reshape(-1, 3) @ strides)
-    return grid.ravel()[(at @ strides)[:, None] + offset].sum(axis=1, dtype=np.float64)
-
-
-def _nearest(points: np.ndarray, palette: np.ndarray) -> np.ndarray:
-    """Index of the nearest palette row (Euclidean) for every point."""
-    d = ((points[:, None, :] - palette[None, :, :]) ** 2).sum(axis=2)
-    return np.argmin(d, axis=1)
-
-
-# --- backdrop ------------------------------------------------------------------------------------
-
-def make_transparent(rgba: np.ndarray, colour: str | Colour, snapped: bool = False):
-    """Make every visible pixel of one colour fully transparent.
-
-    ``colour`` is an ``(r, g, b)`` triple or ``"auto"``: the colour of the four corners
-    when all four are that same opaque colour. On a ``snapped`` (denoised) image the
-    palette colour nearest to a given colour is taken when it lies within SNAP_RADIUS.
-    Returns ``(rgba, colour made transparent or None, pixels changed, note or None)``.
-    """
-    keys = colour_keys(rgba)
-    if colour == AUTO:
-        corners = keys[[0, 0, -1, -1], [0, -1, 0, -1]]
-        if corners[0] == 0 and (corners == 0).all():
-            return rgba, None, 0, None  # already on a transparent backdrop
-        if not (corners == corners[0]).all() or rgba[0, 0, 3] != 255:
-            return rgba, None, 0, "the corners differ, so no backdrop colour was made transparent"
-        target: Colour = (int(rgba[0, 0, 0]), int(rgba[0, 0, 1]), int(rgba[0, 0, 2]))
-    else:
-        target = (int(colour[0]), int(colour[1]), int(colour[2]))
-        if snapped:
-            visible = rgba[..., 3] > 0
-            present = np.unique(rgba[..., :3][visible], axis=0)
-            if present.size:
-                gap = np.abs(rgb_to_yuv(present) - rgb_to_yuv(np.array(target, dtype=np.float64))).max(axis=1)
-                if gap.min() <= SNAP_RADIUS:
-                    nearest = present[int(np.argmin(gap))]
-                    target = (int(nearest[0]), int(nearest[1]), int(nearest[2]))
-    hit = (rgba[..., 3] > 0) & (rgba[..., :3] == np.array(target, dtype=np.uint8)).all(axis=2)
-    n = int(hit.sum())
-    if n == 0:
-        return rgba, None, 0, f"no pixel is {_hex(target)}, so nothing was made transparent"
-    out = rgba.copy()
-    out[hit, 3] = 0
-    return out, target, n, None
-
 
 # --- output that overlays the input ---------------------------------------------------------------
 
@@ -713,6 +308,3 @@ def overlay_raster(pixels: np.ndarray, prepared: PreparedImage, scale: float) ->
 def _factor_text(pair: tuple[int, int]) -> str:
     return f"{pair[0]}×" if pair[0] == pair[1] else f"{pair[0]}×{pair[1]}"
 
-
-def _hex(colour: Colour) -> str:
-    return "#{:02x}{:02x}{:02x}".format(*colour)

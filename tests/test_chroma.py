@@ -1,4 +1,4 @@
-"""Undoing chroma subsampling on lossy 1× pixel art (depixel/chroma.py): the decoder's model,
+"""Undoing chroma subsampling on lossy 1× pixel art (depixel/chroma.py, chroma_unmix.py): the decoder's model,
 its detection from the pixels, and the joint labelling."""
 from __future__ import annotations
 
@@ -9,7 +9,8 @@ import pytest
 from PIL import Image
 
 from depixel import load_image
-from depixel.chroma import ChromaGrid, chroma_grid, unmix, yuv_to_rgb
+from depixel.chroma import ChromaGrid, chroma_grid, yuv_to_rgb
+from depixel.chroma_unmix import unmix
 from depixel.image import rgb_to_yuv
 from depixel.prepare import prepare
 

@@ -221,17 +221,17 @@ def test_frames_all_reads_the_file_once(tmp_path, monkeypatch):
 def test_auto_jobs_fit_the_memory(tmp_path):
     """17 (memory-aware -j auto): the largest pending image decides how many workers fit."""
     from depixel.limits import PEAK_BYTES_PER_PIXEL, WORKER_BASELINE_BYTES
-    from depixel_cli import batch
+    from depixel_cli import batch, batch_run
 
     big = tmp_path / "big.png"
     Image.new("RGB", (1000, 1000)).save(big)
     jobs = [batch.Job(big, tmp_path / "a.svg", None)] + [batch.Job(FIXTURES / "heart.png", tmp_path / f"{i}.svg", None)
                                                            for i in range(7)]
     per_worker = WORKER_BASELINE_BYTES + PEAK_BYTES_PER_PIXEL * 1_000_000
-    cores = min(batch.cores(), 8)
-    count, note = batch.auto_jobs(jobs, memory=per_worker * 100)
+    cores = min(batch_run.cores(), 8)
+    count, note = batch_run.auto_jobs(jobs, memory=per_worker * 100)
     assert count == cores and note is None
-    count, note = batch.auto_jobs(jobs, memory=int(per_worker * 1.5))
+    count, note = batch_run.auto_jobs(jobs, memory=int(per_worker * 1.5))
     assert count == 1 or cores == 1
     if cores > 1:
         assert "big.png (1000000 pixels)" in note and "-j auto: 1 worker, not" in note

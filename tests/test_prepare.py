@@ -135,9 +135,9 @@ def slow_fit_axis(change: np.ndarray, off_grid: float) -> tuple[int, int] | None
 
 
 def test_the_lossy_grid_fit_agrees_with_the_slow_reference():
-    """Every factor at once (prepare._fit_axis) against one factor at a time: random edge
+    """Every factor at once (pixelgrid._fit_axis) against one factor at a time: random edge
     shares, on a k-grid plus stray edges off it."""
-    from depixel.prepare import LOSSY_OFF_GRID, _fit_axis  # noqa: PLC0415
+    from depixel.pixelgrid import LOSSY_OFF_GRID, _fit_axis  # noqa: PLC0415
 
     rng = np.random.default_rng(7)
     for trial in range(60):
@@ -152,13 +152,13 @@ def test_the_lossy_grid_fit_agrees_with_the_slow_reference():
 
 def slow_palette(yuv: np.ndarray, rgb: np.ndarray, counts: np.ndarray, min_count: float,
                  shadows: bool) -> np.ndarray:
-    """Slow, obviously correct mode seeking (prepare._palette): colours in cells of half the
+    """Slow, obviously correct mode seeking (palette._palette): colours in cells of half the
     snap radius; repeatedly, the live candidate cell with the most pixels within two cells
     (Chebyshev; the first in cell order on ties) takes every live cell within two cells and
     becomes their mean colour, unless (with shadows) a colour chosen before of nearly the
     same luma has at least twice its pixels. Candidates: cells with min_count pixels around
     them at the start."""
-    from depixel.prepare import _CELL, _REACH, SHADOW_LUMA, SHADOW_RATIO  # noqa: PLC0415
+    from depixel.palette import _CELL, _REACH, SHADOW_LUMA, SHADOW_RATIO  # noqa: PLC0415
 
     cell_of = [tuple(c) for c in np.floor(yuv / _CELL).astype(int)]
     cells = sorted(set(cell_of))
@@ -196,7 +196,7 @@ def slow_palette(yuv: np.ndarray, rgb: np.ndarray, counts: np.ndarray, min_count
 
 @pytest.mark.parametrize("shadows", [True, False])
 def test_palette_mode_seeking_agrees_with_the_slow_reference(shadows):
-    from depixel.prepare import _palette  # noqa: PLC0415
+    from depixel.palette import _palette  # noqa: PLC0415
 
     rng = np.random.default_rng(11)
     for trial in range(8):

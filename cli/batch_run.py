@@ -1,0 +1,181 @@
+"""Converting many files, the last step: running the jobs, ``-j`` processes at a time
+(:mod:`depixel_cli.pool`), with a progress bar, and choosing ``-j auto`` from the cores and
+the memory.
+
+Its own module because the scheduling (worker count, interrupts, progress) is apart from
+what one job does (:mod:`depixel_cli.batch`).
+"""
+from __future__ import annotations
+
+import os
+import sys
+import time
+from pathlib import Path
+
+from depixel.errors import display_name
+from depixel.limits import PEAK_BYTES_PER_PIXEL, WORKER_BASELINE_BYTES
+
+from .batch import CANCELLED, Job, Outcome, abandoned, already_done, remove_temporary_files, run_job
+
+
+def run(jobs: list[Job], workers: int, report, signals, progress: Progress | None = None) -> list[Outcome]:
+    """Run the jobs, ``workers`` processes at a time (this process for one), until done or
+    stopped by ``signals``; ``report(outcome)`` is called as each one ends. Returns the
+    outcomes in the order of ``jobs``; after a stop, the unfinished ones are INTERRUPTED or
+    CANCELLED."""
+    from .pool import Finished, Interrupted, run_jobs  # noqa: PLC0415
+
+    outcomes: dict[int, Outcome] = {}
+    begun = time.time_ns()
+
+    def finished(done: Finished) -> None:
+        job = jobs[done.index]
+        if done.interrupted:
+            outcome = abandoned(job, begun)
+        elif done.cancelled:
+            outcome = Outcome(job.source, job.output, state=CANCELLED)
+        elif done.died:
+            outcome = Outcome(job.source, job.output,
+                              error=f"{display_name(job.source)}: worker process died ({done.died}), also when retried")
+        else:
+            outcome = done.result
+            if done.retried:
+                outcome.notes.append(f"{display_name(job.source)}: worker process died ({done.retried}); "
+                                     "converted on the retry")
+        outcomes[done.index] = outcome
+        report(outcome)
+
+    def started(index: int) -> None:
+        if progress is not None:
+            progress.current(jobs[index].source)
+
+    for index, job in enumerate(jobs):
+        if (done := already_done(job)) is not None:
+            finished(Finished(index, done))
+    todo = [i for i in range(len(jobs)) if i not in outcomes]
+    if workers <= 1 or len(todo) <= 1:
+        for index in todo:
+            job = jobs[index]
+            if signals.signum is not None:
+                finished(Finished(index, cancelled=True))
+                continue
+            started(index)
+            signals.raising = True  # a signal now abandons the file at once (the writer removes its temporary file)
+            try:
+                result = run_job(job)
+            except Interrupted:
+                result = None
+            finally:
+                signals.raising = False
+            if result is None:
+                remove_temporary_files(job)
+                finished(Finished(index, interrupted=True))
+            else:
+                finished(Finished(index, result))
+    else:
+        signals.raising = False
+
+        def renumbered(done: Finished) -> None:  # run_jobs numbers the jobs of ``todo``
+            finished(Finished(todo[done.index], done.result, done.died, done.retried, done.interrupted,
+                              done.cancelled))
+
+        run_jobs([jobs[i] for i in todo], workers, run_job, renumbered, signals, cleanup=remove_temporary_files,
+                 started=lambda i: started(todo[i]))
+    return [outcomes[i] for i in range(len(jobs))]
+
+
+class Progress:
+    """A tqdm bar on stderr for two or more files when stderr is a terminal, showing the file
+    being converted; messages print above it. A terminal that reports no width (a pty
+    under ``script``) gets an 80-column bar."""
+
+    def __init__(self, total: int) -> None:
+        self.bar = None
+        if total >= 2 and sys.stderr.isatty():
+            from tqdm import tqdm  # noqa: PLC0415
+
+            try:
+                columns, lines = os.get_terminal_size(sys.stderr.fileno())
+            except OSError:
+                columns = lines = 0
+            # tqdm draws nothing on a terminal of 0 columns or 0 lines: assume 80x24 there
+            size = {"dynamic_ncols": True} if columns > 0 else {"ncols": 80}
+            self.bar = tqdm(total=total, unit="file", file=sys.stderr, leave=False, nrows=lines or 24, **size)
+
+    def message(self, text: str) -> None:
+        if self.bar is not None:
+            self.bar.write(f"depixel: {text}", file=sys.stderr)
+        else:
+            print(f"depixel: {text}", file=sys.stderr, flush=True)
+
+    def current(self, path: Path) -> None:
+        if self.bar is not None:
+            self.bar.set_postfix_str(display_name(path.name), refresh=True)
+
+    def step(self) -> None:
+        if self.bar is not None:
+            self.bar.update(1)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def cores() -> int:
+    """The cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def available_memory() -> int | None:
+    """Bytes of memory available to new processes (Linux MemAvailable), None if unknown."""
+    try:
+        with open("/proc/meminfo", "rb") as fh:
+            for line in fh:
+                if line.startswith(b"MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def largest_image(jobs: list[Job]) -> tuple[int, Path | None]:
+    """Pixels of the largest input (from the headers, nothing decoded) and its path."""
+    from PIL import Image  # noqa: PLC0415
+
+    best, where = 0, None
+    for job in jobs:
+        try:
+            with Image.open(job.source) as img:
+                pixels = img.size[0] * img.size[1]
+        except Exception:  # unreadable: the job reports it
+            continue
+        if pixels > best:
+            best, where = pixels, job.source
+    return best, where
+
+
+def auto_jobs(jobs: list[Job], memory: int | None = None) -> tuple[int, str | None]:
+    """``-j auto``: one worker per core, but no more than the available memory holds when
+    each converts the largest image (PEAK_BYTES_PER_PIXEL per pixel, measured). Returns the
+    count and, when memory is what limits it, a note saying so."""
+    count = max(1, min(cores(), len(jobs)))
+    if count == 1:
+        return 1, None
+    memory = available_memory() if memory is None else memory
+    pixels, where = largest_image(jobs)
+    if memory is None or where is None:
+        return count, None
+    need = WORKER_BASELINE_BYTES + PEAK_BYTES_PER_PIXEL * pixels
+    fits = max(1, memory // need)
+    if fits >= count:
+        return count, None
+    return fits, (f"-j auto: {fits} worker{'s' if fits > 1 else ''}, not {count}: converting "
+                  f"{display_name(where)} ({pixels} pixels) takes about {need / 2**30:.1f} GiB and "
+                  f"{memory / 2**30:.1f} GiB is available")
+

@@ -1,0 +1,363 @@
+"""One Bézier over each run of exact segments, and the checks it must pass — the fitting
+half of the SVG writer's optional simplification (:mod:`depixel.simplify` has the method
+and drives it: which runs are tried, in which order).
+
+For a batch of runs [lo, hi) of the exact segments of the boundary pieces, :func:`fit`
+returns the quadratic through the meeting point of the end tangents where that one fits,
+else the least-squares cubic, and whether the curve is kept: within the tolerance of the
+exact run (:class:`Exact`: the segments as cubics, sampled) and keeping every protected
+point on its side (:class:`Protected`: pixel centres and the lattice corners of diagonal
+links). Its own module because these are the numerics (samples, Newton steps, ray casting),
+apart from the bookkeeping of pieces and runs. Curve formulas come from
+:mod:`depixel.bspline`.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .boundaries import CUBIC, QUAD, BoundaryPieces
+from .bspline import cubic_derivatives, cubic_weights, elevate, flatten_cubic
+from .vector import VectorImage
+
+_T_ORIG = np.array([0.0, 0.25, 0.5, 0.75])  # samples of each exact segment
+_T_FIT = np.linspace(0.0, 1.0, 17)  # samples of a fitted cubic (its polyline)
+#: a piece may deviate by at most this fraction of its size (the diagonal of its bounding
+#: box), so a small closed curve — an eye, a dot — keeps its shape at any tolerance
+_RELATIVE_TOLERANCE = 1 / 16
+
+
+def _piece_tolerance(pieces: BoundaryPieces, exact: Exact, tolerance: float) -> np.ndarray:
+    """(K,) the tolerance of every exact segment: ``tolerance``, or less on small pieces."""
+    piece = np.repeat(np.arange(len(pieces)), np.diff(pieces.ptr))
+    pts = exact.samples.reshape(-1, 2)
+    owner = np.repeat(piece, exact.samples.shape[1])
+    low = np.full((len(pieces), 2), np.inf)
+    high = np.full((len(pieces), 2), -np.inf)
+    np.minimum.at(low, owner, pts)
+    np.maximum.at(high, owner, pts)
+    size = np.sqrt(((high - low) ** 2).sum(axis=1))
+    return np.minimum(tolerance, _RELATIVE_TOLERANCE * size)[piece]
+
+
+#: ranges are fitted and checked in batches of about this many exact segments, to bound the
+#: temporary memory (a few hundred bytes a sample and a protected point); the result does
+#: not depend on it
+BATCH = 1 << 12
+
+
+class Exact:
+    """The exact segments of every piece: ends, cubic control points, tangents, samples."""
+
+    def __init__(self, pieces: BoundaryPieces, tolerance: float) -> None:
+        n = pieces.kind.size
+        piece = np.repeat(np.arange(len(pieces)), np.diff(pieces.ptr))
+        first = pieces.ptr[:-1][piece] == np.arange(n)
+        self.start = np.where(first[:, None], pieces.start[piece], np.roll(pieces.end, 1, axis=0))
+        self.end = pieces.end
+        c1, c2 = _as_cubic(self.start, pieces.kind, pieces.ctrl, pieces.ctrl2, self.end)
+        self.tan_start = _unit(np.where((np.abs(c1 - self.start) > 0).any(axis=1)[:, None], c1 - self.start,
+                                        self.end - self.start))
+        self.tan_end = _unit(np.where((np.abs(self.end - c2) > 0).any(axis=1)[:, None], self.end - c2,
+                                      self.end - self.start))
+        self.samples = flatten_cubic(self.start, c1, c2, self.end, _T_ORIG)  # (K, 4, 2)
+        step = _norm(np.diff(np.concatenate([self.samples, self.end[:, None]], axis=1), axis=1))
+        self.length = step.sum(axis=1)  # polyline length of each segment
+        self.arc = np.cumsum(step, axis=1) - step  # arc length of each sample within its segment
+        self.arc_before = np.cumsum(self.length) - self.length  # arc length before each segment (global)
+        self.tolerance = _piece_tolerance(pieces, self, tolerance)  # (K,) each segment's own limit
+
+
+def _as_cubic(start, kind, ctrl, ctrl2, end) -> tuple[np.ndarray, np.ndarray]:
+    """Cubic control points of line, quadratic and cubic segments (degree elevation)."""
+    quad = (kind == QUAD)[:, None]
+    cubic = (kind == CUBIC)[:, None]
+    q1, q2 = elevate(start, np.nan_to_num(ctrl), end)
+    c1 = np.where(quad, q1, start + (end - start) / 3.0)
+    c2 = np.where(quad, q2, end - (end - start) / 3.0)
+    c1 = np.where(cubic, np.nan_to_num(ctrl), c1)
+    c2 = np.where(cubic, np.nan_to_num(ctrl2), c2)
+    return c1, c2
+
+
+class Protected:
+    """Points the simplified curves must keep on their side, with their signed distance to
+    the exact piece and the exact segment they are nearest to (sorted by it).
+
+    Each point belongs to the cell edges beside it, so only the few exact segments of those
+    edges (the two half spans of each) are searched for its nearest one."""
+
+    def __init__(self, pieces: BoundaryPieces, image: VectorImage, exact: Exact, reach: float) -> None:
+        cells = image.cells
+        w = cells.shape[1]
+        curved = np.flatnonzero(pieces.edge_piece >= 0)
+        sides = cells.edge_pixels[curved]
+        rows, cols = np.divmod(np.maximum(sides, 0), w)
+        centre = np.stack([cols + 0.5, rows + 0.5], axis=-1)
+        q = cells.nodes[cells.edges[curved]]  # (E', 2 ends, 2)
+        lattice = 4 * np.round(q / 4.0)
+        split = (np.abs(q - lattice) == 1).all(axis=2)
+        xy = np.concatenate([centre[:, 0], centre[:, 1], lattice[:, 0] / 4.0, lattice[:, 1] / 4.0])
+        valid = np.concatenate([sides[:, 0] >= 0, sides[:, 1] >= 0, split[:, 0], split[:, 1]])
+        edge = np.tile(curved, 4)
+        xy, edge = xy[valid], edge[valid]
+        # the exact segments around each edge: those of its piece whose span is one of the
+        # edge's two slots (a simplified-away span cannot occur: these are exact pieces)
+        seg_of = _segments_of_edges(pieces, image, edge)  # (P', 4) candidate segment indices, -1 none
+        poly = np.concatenate([exact.samples, exact.end[:, None]], axis=1)  # (K, 5, 2)
+        dist, signed, seg = np.empty(xy.shape[0]), np.empty(xy.shape[0]), np.empty(xy.shape[0], np.int64)
+        for p0 in range(0, xy.shape[0], BATCH):  # in batches: (P', 4, 4, 2) arrays are large
+            batch = slice(p0, p0 + BATCH)
+            dist[batch], signed[batch], seg[batch] = _nearest_segment(xy[batch], seg_of[batch], poly)
+        near = np.isfinite(dist) & (dist < reach) & (dist > 1e-9)
+        key = np.unique(np.stack([seg[near], np.round(xy[near, 0] * 8), np.round(xy[near, 1] * 8)], axis=1),
+                        axis=0, return_index=True)[1]
+        pick = np.flatnonzero(near)[key]
+        order = np.argsort(seg[pick], kind="stable")
+        pick = pick[order]
+        self.xy, self.dist, self.seg = xy[pick], signed[pick], seg[pick]
+
+
+def _nearest_segment(xy: np.ndarray, seg_of: np.ndarray, poly: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Distance of points ``xy`` (P, 2) to the nearest of their candidate segments ``seg_of``
+    (P, 4) (polylines ``poly``), that distance signed by the side, and that segment."""
+    near = poly[np.maximum(seg_of, 0)]  # (P, 4, 5, 2)
+    a, b = near[:, :, :-1], near[:, :, 1:]  # (P, 4, 4, 2)
+    d = _segment_distance(xy[:, None, None], a, b)  # (P, 4, 4)
+    d = np.where((seg_of >= 0)[:, :, None], d, np.inf)
+    flat = d.reshape(d.shape[0], -1).argmin(axis=1)
+    which, part = np.divmod(flat, d.shape[2])
+    rows = np.arange(xy.shape[0])
+    dist = d[rows, which, part]
+    pa, pb = a[rows, which, part], b[rows, which, part]
+    side = np.sign(_cross(pb - pa, xy - pa))
+    return dist, dist * np.where(side == 0, 1.0, side), seg_of[rows, which]
+
+
+def _segments_of_edges(pieces: BoundaryPieces, image: VectorImage, edge: np.ndarray) -> np.ndarray:
+    """(len(edge), 4): indices of the exact segments of each curved edge's two spans (the
+    half spans, or the full span when a joint was merged), -1 where there is none."""
+    curves = image.curves
+    assert curves is not None  # pieces exist only where there are curves
+    slot = curves.edge_slot[edge]
+    slots = np.stack([slot, curves.next[slot]], axis=1)  # the edge's two slots
+    piece = pieces.edge_piece[edge]
+    seg_slot = pieces.span_slot
+    # segments of every piece sorted by span slot, to look the slots up
+    seg_piece = np.repeat(np.arange(len(pieces)), np.diff(pieces.ptr))
+    key = seg_piece * (seg_slot.max() + 2) + seg_slot
+    order = np.argsort(key, kind="stable")
+    sorted_key = key[order]
+    out = np.full((edge.size, 4), -1, np.int64)
+    for j in range(2):
+        want = piece * (seg_slot.max() + 2) + slots[:, j]
+        lo = np.searchsorted(sorted_key, want)
+        for k in range(2):  # a slot has up to two segments in a piece (its two halves)
+            pos = np.minimum(lo + k, sorted_key.size - 1)
+            hit = (sorted_key[pos] == want) & (slots[:, j] >= 0)
+            out[:, 2 * j + k] = np.where(hit, order[pos], -1)
+    return out
+
+
+def fit(exact: Exact, prot: Protected, lo: np.ndarray, hi: np.ndarray, tolerance: float | np.ndarray,
+         clearance: float,
+         grid: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """One curve per range [lo, hi) of exact segments: a quadratic through the meeting point
+    of the end tangents where that one fits (4 numbers in the file), else the least-squares
+    cubic. Returns ``(kind, c1, c2, ok)``: QUAD rows hold the quadratic's control in ``c1``."""
+    # Every test below is per range, so each runs only on the ranges still in question: the
+    # side test (the costly one) after the distance test, the cubic where no quadratic fits.
+    samples = _Samples(exact, lo, hi)
+    p0, p3 = exact.start[lo], exact.end[hi - 1]
+    q, has_q = _quadratic_control(exact, lo, hi, grid)
+    q1, q2 = elevate(p0, q, p3)  # the same curve as a cubic
+    limit = np.minimum(tolerance, exact.tolerance[lo])  # the run's piece's own limit
+    quad_ok = has_q & samples.within(q1, q2, limit)
+    quad_ok[quad_ok] = _keeps_sides(exact, prot, lo[quad_ok], hi[quad_ok], q1[quad_ok], q2[quad_ok], clearance)
+    kind = np.where(quad_ok, QUAD, CUBIC).astype(np.uint8)
+    c1, c2, ok = q.copy(), np.full_like(q, np.nan), quad_ok.copy()
+    rest = ~quad_ok
+    if rest.any():
+        lo_r, hi_r = lo[rest], hi[rest]
+        rest_samples = _Samples(exact, lo_r, hi_r)
+        r1, r2 = _cubic_controls(exact, rest_samples, lo_r, hi_r, grid)
+        fits = rest_samples.within(r1, r2, limit[rest])
+        fits[fits] = _keeps_sides(exact, prot, lo_r[fits], hi_r[fits], r1[fits], r2[fits], clearance)
+        c1[rest], c2[rest], ok[rest] = r1, r2, fits
+    return kind, c1, c2, ok
+
+
+class _Samples:
+    """The sample points of the exact runs [lo, hi), with their chord-length parameters."""
+
+    def __init__(self, exact: Exact, lo: np.ndarray, hi: np.ndarray) -> None:
+        count = hi - lo
+        owner = np.repeat(np.arange(lo.size), count)
+        seg = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count) + np.repeat(lo, count)
+        self.points = exact.samples[seg].reshape(-1, 2)  # (S, 2) all samples of every range
+        self.owner = np.repeat(owner, _T_ORIG.size)
+        arc = (exact.arc_before[seg][:, None] + exact.arc[seg]).ravel() - exact.arc_before[lo][self.owner]
+        self.total = exact.arc_before[hi - 1] + exact.length[hi - 1] - exact.arc_before[lo]
+        self.u = arc / np.maximum(self.total[self.owner], 1e-300)
+        self.p0, self.p3 = exact.start[lo], exact.end[hi - 1]
+
+    def within(self, c1: np.ndarray, c2: np.ndarray, tolerance: np.ndarray) -> np.ndarray:
+        """Every sample lies within ``tolerance`` of its cubic (p0, c1, c2, p3), and the cubic
+        is not more than 10 % longer than the run (no loop or bulge between samples)."""
+        o = self.owner
+        q = (self.p0[o], c1[o], c2[o], self.p3[o])
+        # from its chord-length parameter, two Newton steps towards the nearest point: an
+        # upper bound of the distance, so the test is safe
+        u = self.u
+        for _ in range(2):
+            point, d1, d2 = cubic_derivatives(*q, u[:, None])
+            off = point - self.points
+            num = (off * d1).sum(axis=1)
+            den = (d1 * d1).sum(axis=1) + (off * d2).sum(axis=1)
+            u = np.clip(u - num / np.where(np.abs(den) > 1e-12, den, 1e-12), 0.0, 1.0)
+        d = np.sqrt(((cubic_derivatives(*q, u[:, None])[0] - self.points) ** 2).sum(axis=1))
+        worst = np.zeros(self.p0.shape[0])
+        np.maximum.at(worst, o, d)
+        curve = flatten_cubic(self.p0, c1, c2, self.p3, _T_FIT)
+        length = np.sqrt((np.diff(curve, axis=1) ** 2).sum(axis=2)).sum(axis=1)
+        chord = np.sqrt(((self.p3 - self.p0) ** 2).sum(axis=1))
+        return (worst <= tolerance) & (length <= 1.1 * self.total + 1e-9) & (chord > 0)
+
+
+def _quadratic_control(exact: Exact, lo: np.ndarray, hi: np.ndarray, grid: float | None
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """The control point of the quadratic with the run's end points and end tangents (where
+    the tangent lines meet, in front of both ends), and whether there is one."""
+    p0, p3 = exact.start[lo], exact.end[hi - 1]
+    t0, t1 = exact.tan_start[lo], exact.tan_end[hi - 1]
+    chord = p3 - p0
+    det = _cross(t0, t1)
+    safe = np.where(np.abs(det) > 1e-9, det, 1.0)
+    s, r = _cross(chord, t1) / safe, _cross(t0, chord) / safe
+    length = np.sqrt((chord**2).sum(axis=1))
+    valid = (np.abs(det) > 1e-9) & (s > 0) & (r > 0) & (s < 2 * length) & (r < 2 * length)
+    q = p0 + s[:, None] * t0
+    if grid is not None:
+        q = np.round(q / grid) * grid
+    return q, valid
+
+
+def _cubic_controls(exact: Exact, samples: _Samples, lo: np.ndarray, hi: np.ndarray, grid: float | None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """The cubic with the run's end points and end tangents whose two leg lengths fit the
+    samples best (least squares at their chord-length parameters)."""
+    p0, p3 = samples.p0, samples.p3
+    t0, t1 = exact.tan_start[lo], exact.tan_end[hi - 1]
+    o, u = samples.owner, samples.u
+    # P(u) = B0 p0 + B1 (p0 + a t0) + B2 (p3 - b t1) + B3 p3
+    b0, b1, b2, b3 = cubic_weights(u)
+    r = samples.points - (b0 + b1)[:, None] * p0[o] - (b2 + b3)[:, None] * p3[o]
+    va, vb = b1[:, None] * t0[o], -b2[:, None] * t1[o]
+    n = lo.size
+    m11 = np.bincount(o, (va * va).sum(axis=1), n)
+    m12 = np.bincount(o, (va * vb).sum(axis=1), n)
+    m22 = np.bincount(o, (vb * vb).sum(axis=1), n)
+    r1 = np.bincount(o, (va * r).sum(axis=1), n)
+    r2 = np.bincount(o, (vb * r).sum(axis=1), n)
+    det = m11 * m22 - m12 * m12
+    safe = np.where(np.abs(det) > 1e-12, det, 1.0)
+    a = (r1 * m22 - r2 * m12) / safe
+    b = (m11 * r2 - m12 * r1) / safe
+    chord = np.sqrt(((p3 - p0) ** 2).sum(axis=1))
+    fallback = ~(np.abs(det) > 1e-12) | (a <= 0) | (b <= 0)
+    a = np.where(fallback, chord / 3.0, a)
+    b = np.where(fallback, chord / 3.0, b)
+    c1 = p0 + a[:, None] * t0
+    c2 = p3 - b[:, None] * t1
+    if grid is not None:
+        c1, c2 = np.round(c1 / grid) * grid, np.round(c2 / grid) * grid
+    return c1, c2
+
+
+def _keeps_sides(exact: Exact, prot: Protected, lo, hi, c1, c2, clearance: float) -> np.ndarray:
+    """No protected point nearest to the exact segments lo-1 .. hi changes side or comes
+    nearer than min(its distance to the exact curve, clearance)."""
+    first = np.searchsorted(prot.seg, lo - 1)
+    last = np.searchsorted(prot.seg, hi + 1)
+    count = last - first
+    ok = np.ones(lo.size, bool)
+    if count.sum() == 0:
+        return ok
+    owner = np.repeat(np.arange(lo.size), count)
+    idx = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count) + np.repeat(first, count)
+    curves = flatten_cubic(exact.start[lo], c1, c2, exact.end[hi - 1], _T_FIT)
+    xy = prot.xy[idx]
+    d_new = _distance_to_polylines(xy, curves[owner])
+    too_near = d_new < np.minimum(np.abs(prot.dist[idx]), clearance) - 1e-9
+    crossed = _between(xy, owner, curves, lo, hi, exact)
+    ok[np.unique(owner[too_near | crossed])] = False
+    return ok
+
+
+def _between(xy: np.ndarray, owner: np.ndarray, curves: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+             exact: Exact) -> np.ndarray:
+    """Whether each point lies between its candidate curve and the exact run it replaces
+    (inside the closed polygon of the two, which share their end points): the curve has
+    passed over the point, which changes side. Even-odd ray casting towards +x."""
+    n_seg = hi - lo
+    n_exact = n_seg * _T_ORIG.size  # exact polygon edges: the samples, then back to the start
+    n_edges = (curves.shape[1] - 1) + n_exact
+    e_owner = np.repeat(np.arange(lo.size), n_edges)
+    k = np.arange(int(n_edges.sum())) - np.repeat(np.cumsum(n_edges) - n_edges, n_edges)
+    on_curve = k < curves.shape[1] - 1
+    j = np.where(on_curve, 0, k - (curves.shape[1] - 1))  # index along the exact samples
+    seg, part = np.divmod(j, _T_ORIG.size)
+    seg = np.repeat(lo, n_edges) + seg
+    sample = exact.samples[np.minimum(seg, exact.samples.shape[0] - 1), part]
+    last = (part == _T_ORIG.size - 1)
+    nxt = np.where(last[:, None], exact.end[np.minimum(seg, exact.end.shape[0] - 1)],
+                   exact.samples[np.minimum(seg, exact.samples.shape[0] - 1), np.minimum(part + 1, _T_ORIG.size - 1)])
+    kc = np.minimum(k, curves.shape[1] - 2)
+    a = np.where(on_curve[:, None], curves[e_owner, kc], sample)
+    b = np.where(on_curve[:, None], curves[e_owner, kc + 1], nxt)
+    # pairs (point, edge of its candidate's polygon)
+    first = np.cumsum(n_edges) - n_edges
+    per_point = n_edges[owner]
+    p_idx = np.repeat(np.arange(xy.shape[0]), per_point)
+    e_idx = np.arange(int(per_point.sum())) - np.repeat(np.cumsum(per_point) - per_point, per_point) \
+        + np.repeat(first[owner], per_point)
+    q, ea, eb = xy[p_idx], a[e_idx], b[e_idx]
+    straddle = (ea[:, 1] > q[:, 1]) != (eb[:, 1] > q[:, 1])
+    dy = eb[:, 1] - ea[:, 1]
+    x_at = ea[:, 0] + (q[:, 1] - ea[:, 1]) * (eb[:, 0] - ea[:, 0]) / np.where(dy == 0, 1.0, dy)
+    hits = np.bincount(p_idx, weights=straddle & (x_at > q[:, 0]), minlength=xy.shape[0])
+    return hits.astype(np.int64) % 2 == 1
+
+
+
+# --- geometry helpers -----------------------------------------------------------------------
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Dot products of (..., 2) vectors, written out: the same sum as ``(a * b).sum(axis=-1)``
+    without the cost of a reduction over an axis of two."""
+    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1]
+
+
+def _norm(v: np.ndarray) -> np.ndarray:
+    """Lengths of (..., 2) vectors, the same numbers as ``np.linalg.norm(v, axis=-1)``."""
+    return np.sqrt(_dot(v, v))
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.maximum(_norm(v)[..., None], 1e-300)
+
+
+def _segment_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    ab = b - a
+    t = np.clip(_dot(q - a, ab) / np.maximum(_dot(ab, ab), 1e-300), 0.0, 1.0)
+    return _norm(q - (a + t[..., None] * ab))
+
+
+def _distance_to_polylines(q: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Distance of points ``(M, 2)`` to their polylines ``(M, V, 2)``."""
+    return _segment_distance(q[:, None], poly[:, :-1], poly[:, 1:]).min(axis=1)
