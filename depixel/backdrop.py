@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .arrays import unique
 from .image import rgb_to_yuv
 from .palette import SNAP_RADIUS
 from .pixelgrid import AUTO, colour_keys
@@ -36,7 +37,7 @@ def make_transparent(rgba: np.ndarray, colour: str | Colour, snapped: bool = Fal
         target = (int(colour[0]), int(colour[1]), int(colour[2]))
         if snapped:
             visible = rgba[..., 3] > 0
-            present = np.unique(rgba[..., :3][visible], axis=0)
+            present = unique(rgba[..., :3][visible], axis=0)
             if present.size:
                 gap = np.abs(rgb_to_yuv(present) - rgb_to_yuv(np.array(target, dtype=np.float64))).max(axis=1)
                 if gap.min() <= SNAP_RADIUS:

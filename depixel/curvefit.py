@@ -290,7 +290,7 @@ def _keeps_sides(exact: Exact, prot: Protected, lo, hi, c1, c2, clearance: float
     d_new = _distance_to_polylines(xy, curves[owner])
     too_near = d_new < np.minimum(np.abs(prot.dist[idx]), clearance) - 1e-9
     crossed = _between(xy, owner, curves, lo, hi, exact)
-    ok[np.unique(owner[too_near | crossed])] = False
+    ok[owner[too_near | crossed]] = False
     return ok
 
 

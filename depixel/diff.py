@@ -20,6 +20,7 @@ import numpy as np
 
 from . import validate
 from .api import Colour, flatten, read_input
+from .arrays import unique
 from .errors import InputError
 from .image import check_pixels, load_image
 from .limits import DEFAULT_MAX_DIFF_PIXELS
@@ -145,7 +146,7 @@ def pick_background(images: list[np.ndarray], candidates: tuple[Colour, ...] = B
     used = set()
     for rgba in images:
         visible = rgba[rgba[..., 3] > 0][:, :3].astype(np.int64)
-        used.update(np.unique((visible[:, 0] << 16) | (visible[:, 1] << 8) | visible[:, 2]).tolist())
+        used.update(unique((visible[:, 0] << 16) | (visible[:, 1] << 8) | visible[:, 2]).tolist())
     for c in candidates:
         if (c[0] << 16) | (c[1] << 8) | c[2] not in used:
             return c

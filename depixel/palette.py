@@ -14,6 +14,7 @@ import heapq
 import numpy as np
 
 from . import chroma, chroma_unmix
+from .arrays import unique
 from .image import rgb_to_yuv
 from .pixelgrid import colour_keys
 
@@ -41,7 +42,7 @@ REFINE_STEPS = 2
 
 
 def distinct_colours(rgba: np.ndarray) -> int:
-    return int(np.unique(colour_keys(rgba)).size)
+    return int(unique(colour_keys(rgba)).size)
 
 
 def snap_colours(rgba: np.ndarray, min_count: float | None = None, shadows: bool = True,
@@ -82,7 +83,7 @@ def snap_colours(rgba: np.ndarray, min_count: float | None = None, shadows: bool
         labels, palette = chroma_unmix.unmix(rgba, palette, grid, min_count=min_count, radius=SNAP_RADIUS)
         snapped = np.clip(np.round(palette), 0, 255).astype(np.uint8)
         out[..., :3][visible] = snapped[labels[visible]]
-        return out, int(colours.size), _distinct_rgb(snapped[np.unique(labels[visible])]), grid.name
+        return out, int(colours.size), _distinct_rgb(snapped[unique(labels[visible])]), grid.name
 
     weight = np.array([1.0, CHROMA_WEIGHT, CHROMA_WEIGHT])
     nearest = _nearest(colour_yuv * weight, rgb_to_yuv(palette) * weight)
@@ -112,7 +113,7 @@ def snap_colours(rgba: np.ndarray, min_count: float | None = None, shadows: bool
 
 def _distinct_rgb(rgb: np.ndarray) -> int:
     """How many distinct rows an ``(n, 3) uint8`` array has."""
-    return int(np.unique((rgb[:, 0].astype(np.int64) << 16) | (rgb[:, 1].astype(np.int64) << 8) | rgb[:, 2]).size)
+    return int(unique((rgb[:, 0].astype(np.int64) << 16) | (rgb[:, 1].astype(np.int64) << 8) | rgb[:, 2]).size)
 
 
 def _merge_near(palette: np.ndarray, mass: np.ndarray) -> np.ndarray:

@@ -277,11 +277,14 @@ def test_installed_script_stdin_to_stdout(tmp_path):
     assert bad.stderr.decode().startswith("depixel: error: <stdin>:")
 
 
-def test_svg_conversion_does_not_load_cairo(tmp_path):
+@pytest.mark.parametrize("name", ["ghost.png", "inputs/ghost_x4.jpg"])
+def test_svg_conversion_loads_only_what_it_needs(tmp_path, name):
+    """Start-up cost of every process: SVG output needs no cairo, the graph kernels no scipy,
+    and numpy 2's ``np.unique`` would import ``numpy.ma`` (~45 ms; depixel/arrays.py)."""
     code = (
         "import sys; from depixel_cli.main import main; "
-        f"rc = main(['convert', {str(FIXTURES / 'heart.png')!r}, '-o', {str(tmp_path / 'h.svg')!r}]); "
-        "print(rc, 'cairosvg' in sys.modules, 'cairocffi' in sys.modules)"
+        f"rc = main(['convert', {str(FIXTURES / name)!r}, '-o', {str(tmp_path / 'h.svg')!r}, '-q']); "
+        "print(rc, *(m in sys.modules for m in ('cairosvg', 'cairocffi', 'scipy', 'numpy.ma')))"
     )
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
-    assert run.stdout.split() == ["0", "False", "False"], run.stderr
+    assert run.stdout.split() == ["0", "False", "False", "False", "False"], run.stderr
