@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from .boundaries import CUBIC, QUAD, BoundaryPieces
-from .bspline import cubic_derivatives, cubic_weights, elevate, flatten_cubic
+from .bspline import cubic_derivatives, cubic_weights, elevate, evaluate_cubic, flatten_cubic
 from .vector import VectorImage
 
 _T_ORIG = np.array([0.0, 0.25, 0.5, 0.75])  # samples of each exact segment
@@ -204,24 +204,27 @@ class _Samples:
     def within(self, c1: np.ndarray, c2: np.ndarray, tolerance: np.ndarray) -> np.ndarray:
         """Every sample lies within ``tolerance`` of its cubic (p0, c1, c2, p3), and the cubic
         is not more than 10 % longer than the run (no loop or bulge between samples)."""
-        o = self.owner
-        q = (self.p0[o], c1[o], c2[o], self.p3[o])
-        # from its chord-length parameter, two Newton steps towards the nearest point: an
-        # upper bound of the distance, so the test is safe
-        u = self.u
-        for _ in range(2):
-            point, d1, d2 = cubic_derivatives(*q, u[:, None])
-            off = point - self.points
-            num = (off * d1).sum(axis=1)
-            den = (d1 * d1).sum(axis=1) + (off * d2).sum(axis=1)
-            u = np.clip(u - num / np.where(np.abs(den) > 1e-12, den, 1e-12), 0.0, 1.0)
-        d = np.sqrt(((cubic_derivatives(*q, u[:, None])[0] - self.points) ** 2).sum(axis=1))
-        worst = np.zeros(self.p0.shape[0])
-        np.maximum.at(worst, o, d)
+        # the shape test first (one polyline per range), then the samples of the ranges
+        # that pass it: the costly part, each sample on its own
         curve = flatten_cubic(self.p0, c1, c2, self.p3, _T_FIT)
         length = np.sqrt((np.diff(curve, axis=1) ** 2).sum(axis=2)).sum(axis=1)
         chord = np.sqrt(((self.p3 - self.p0) ** 2).sum(axis=1))
-        return (worst <= tolerance) & (length <= 1.1 * self.total + 1e-9) & (chord > 0)
+        ok = (length <= 1.1 * self.total + 1e-9) & (chord > 0)
+        keep = ok[self.owner]
+        o, points, u = self.owner[keep], self.points[keep], self.u[keep]
+        q = (self.p0[o], c1[o], c2[o], self.p3[o])
+        # from its chord-length parameter, two Newton steps towards the nearest point: an
+        # upper bound of the distance, so the test is safe
+        for _ in range(2):
+            point, d1, d2 = cubic_derivatives(*q, u[:, None])
+            off = point - points
+            num = (off * d1).sum(axis=1)
+            den = (d1 * d1).sum(axis=1) + (off * d2).sum(axis=1)
+            u = np.clip(u - num / np.where(np.abs(den) > 1e-12, den, 1e-12), 0.0, 1.0)
+        d = np.sqrt(((evaluate_cubic(*q, u[:, None]) - points) ** 2).sum(axis=1))
+        worst = np.zeros(self.p0.shape[0])
+        np.maximum.at(worst, o, d)
+        return ok & (worst <= tolerance)
 
 
 def _quadratic_control(exact: Exact, lo: np.ndarray, hi: np.ndarray, grid: float | None
