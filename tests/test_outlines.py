@@ -212,13 +212,7 @@ def test_spans_split_in_half_are_the_cell_edges_pieces(name):
     half-Béziers that are among the per-edge pieces of the vector image (within 1e-9)."""
     vector = depixelize(load_image(fixture_pngs_by_name(name))).vector
     out = build_outlines(vector, "cutout")
-    halves = set()
-    u, v = vector.cells.edges[:, 0], vector.cells.edges[:, 1]
-    for e in np.flatnonzero(vector.curved):
-        a, (c0, c1, c2), b = vector.points[u[e]], vector.controls[e], vector.points[v[e]]
-        for p0, c, p1 in ((a, c0, c1), (c1, c2, b)):
-            halves.add(_key(p0, c, p1))
-            halves.add(_key(p1, c, p0))
+    halves = _stored_halves(vector, both_directions=True)
     starts = np.roll(out.end, 1, axis=0)
     starts[out.loop_ptr[:-1]] = out.loop_starts()
     quads = np.flatnonzero(out.kind == QUAD)
@@ -247,6 +241,20 @@ def _stored(bezier, halves) -> bool:
 
 def _key(*points) -> tuple:
     return tuple(np.round(np.concatenate(points), 9).tolist())
+
+
+def _stored_halves(vector, both_directions: bool) -> set[tuple]:
+    """Keys of the vector image's per-edge half-Béziers (each curved edge is two), in the
+    stored direction and, if asked, reversed too."""
+    halves = set()
+    u, v = vector.cells.edges[:, 0], vector.cells.edges[:, 1]
+    for e in np.flatnonzero(vector.curved):
+        a, (c0, c1, c2), b = vector.points[u[e]], vector.controls[e], vector.points[v[e]]
+        for p0, c, p1 in ((a, c0, c1), (c1, c2, b)):
+            halves.add(_key(p0, c, p1))
+            if both_directions:
+                halves.add(_key(p1, c, p0))
+    return halves
 
 
 def fixture_pngs_by_name(name):
@@ -282,12 +290,7 @@ def test_both_sides_of_every_inner_boundary_draw_the_same_curve():
     piece of inner boundary is drawn exactly twice (once by each side), border pieces once."""
     vector = depixelize(load_image(fixture_pngs_by_name("mushroom.png"))).vector
     out = build_outlines(vector, "cutout")
-    halves = set()
-    u, v = vector.cells.edges[:, 0], vector.cells.edges[:, 1]
-    for e in np.flatnonzero(vector.curved):
-        a, (c0, c1, c2), b = vector.points[u[e]], vector.controls[e], vector.points[v[e]]
-        for p0, c, p1 in ((a, c0, c1), (c1, c2, b)):
-            halves.add(_key(p0, c, p1))
+    halves = _stored_halves(vector, both_directions=False)
     starts = np.roll(out.end, 1, axis=0)
     starts[out.loop_ptr[:-1]] = out.loop_starts()
     count: dict[tuple, int] = {}
