@@ -39,6 +39,13 @@ def inputs(corpus: Path) -> dict[str, np.ndarray]:
     images: dict[str, np.ndarray] = {}
     for path in sorted((ROOT / "fixtures").glob("*.png")):
         images[f"fixtures/{path.name}"] = load_image(path)
+    return images | corpus_images(corpus)
+
+
+def corpus_images(corpus: Path) -> dict[str, np.ndarray]:
+    """Name → RGBA of the paper sprites, the game frames and the frames' crops (absent
+    folders give nothing)."""
+    images: dict[str, np.ndarray] = {}
     for path in sorted((corpus / "paper").glob("*.png")):
         images[f"paper/{path.name}"] = load_image(path)
     for path in sorted((corpus / "frames").glob("*.png")):

@@ -25,7 +25,7 @@ import numpy as np
 from PIL import Image
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from check_output_stable import CROPS, DEFAULT_CORPUS, ROOT  # noqa: E402
+from check_output_stable import DEFAULT_CORPUS, ROOT, corpus_images  # noqa: E402
 
 import depixel  # noqa: E402
 from depixel import load_image  # noqa: E402
@@ -43,14 +43,7 @@ def real_art(corpus: Path) -> dict[str, np.ndarray]:
         if path.suffix in (".png", ".gif"):
             for i in range(frame_count(path)):
                 images[f"fixtures/{path.name}#{i}"] = load_image(path, frame=i)
-    for path in sorted((corpus / "paper").glob("*.png")):
-        images[f"paper/{path.name}"] = load_image(path)
-    for path in sorted((corpus / "frames").glob("*.png")):
-        frame = load_image(path)
-        images[f"frames/{path.name}"] = frame
-        for top, left, h, w in CROPS:
-            images[f"frames/{path.name}[{top}:{top + h},{left}:{left + w}]"] = frame[top : top + h, left : left + w]
-    return images
+    return images | corpus_images(corpus)
 
 
 def jpeg(rgb: np.ndarray, quality: int) -> np.ndarray:
