@@ -172,18 +172,17 @@ def test_pdf_is_byte_identical_and_dated_reproducibly(tmp_path, monkeypatch):
 
 def test_new_files_follow_the_umask(tmp_path):
     """17.7: umask 077 gives 0600 (it was always 0644)."""
-    old = os.umask(0o077)
-    try:
-        write_atomic(tmp_path / "private.svg", "x")
-    finally:
-        os.umask(old)
-    assert stat.S_IMODE((tmp_path / "private.svg").stat().st_mode) == 0o600
-    old = os.umask(0o022)
-    try:
-        write_atomic(tmp_path / "public.svg", "x")
-    finally:
-        os.umask(old)
-    assert stat.S_IMODE((tmp_path / "public.svg").stat().st_mode) == 0o644
+
+    def mode_under(mask: int, path) -> int:
+        old = os.umask(mask)
+        try:
+            write_atomic(path, "x")
+        finally:
+            os.umask(old)
+        return stat.S_IMODE(path.stat().st_mode)
+
+    assert mode_under(0o077, tmp_path / "private.svg") == 0o600
+    assert mode_under(0o022, tmp_path / "public.svg") == 0o644
 
 
 def test_over_long_names_are_one_line(tmp_path, capsys):

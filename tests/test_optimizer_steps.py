@@ -162,15 +162,19 @@ def test_staircase_is_not_a_corner(k):
     assert (1.25, 6.75) in corner_points(splines, corners.square)  # the right angle, cut
 
 
+#: a 4 × 4 block with four right-angle corners
+SQUARE_BLOCK = """
+......
+.####.
+.####.
+.####.
+.####.
+......
+"""
+
+
 def test_square_corner_is_found_and_placed_on_its_lattice_point():
-    img = art("""
-    ......
-    .####.
-    .####.
-    .####.
-    .####.
-    ......
-    """)
+    img = art(SQUARE_BLOCK)
     splines = splines_of(img)
     square = detect_square_corners(splines)
     # the cut corner nodes, a quarter pixel inside the block
@@ -181,14 +185,7 @@ def test_square_corner_is_found_and_placed_on_its_lattice_point():
 
 
 def test_split_at_cuts_the_curves_at_the_corners_only():
-    img = art("""
-    ......
-    .####.
-    .####.
-    .####.
-    .####.
-    ......
-    """)
+    img = art(SQUARE_BLOCK)
     splines = splines_of(img)
     assert splines.n_curves == 1 and splines.curve_closed[0]
     corners = detect_corners(splines).nodes
