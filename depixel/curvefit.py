@@ -179,7 +179,7 @@ def fit(exact: Exact, prot: Protected, lo: np.ndarray, hi: np.ndarray, tolerance
     rest = ~quad_ok
     if rest.any():
         lo_r, hi_r = lo[rest], hi[rest]
-        rest_samples = _Samples(exact, lo_r, hi_r)
+        rest_samples = samples.of_ranges(rest)
         r1, r2 = _cubic_controls(exact, rest_samples, lo_r, hi_r, grid)
         fits = rest_samples.within(r1, r2, limit[rest])
         fits[fits] = _keeps_sides(exact, prot, lo_r[fits], hi_r[fits], r1[fits], r2[fits], clearance)
@@ -200,6 +200,15 @@ class _Samples:
         self.total = exact.arc_before[hi - 1] + exact.length[hi - 1] - exact.arc_before[lo]
         self.u = arc / np.maximum(self.total[self.owner], 1e-300)
         self.p0, self.p3 = exact.start[lo], exact.end[hi - 1]
+
+    def of_ranges(self, rows: np.ndarray) -> _Samples:
+        """The samples of the ranges where ``rows`` (a boolean mask) holds, renumbered."""
+        keep = rows[self.owner]
+        part = object.__new__(_Samples)
+        part.points, part.u = self.points[keep], self.u[keep]
+        part.owner = (np.cumsum(rows) - 1)[self.owner[keep]]
+        part.total, part.p0, part.p3 = self.total[rows], self.p0[rows], self.p3[rows]
+        return part
 
     def within(self, c1: np.ndarray, c2: np.ndarray, tolerance: np.ndarray) -> np.ndarray:
         """Every sample lies within ``tolerance`` of its cubic (p0, c1, c2, p3), and the cubic
