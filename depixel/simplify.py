@@ -72,14 +72,12 @@ _CHUNK = 8
 def _fit_checked(exact: Exact, protected: Protected, lo: np.ndarray, hi: np.ndarray, tolerance: float,
                  clearance: float, grid: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`fit` of every range [lo, hi), a batch at a time."""
-    size = np.cumsum(hi - lo + 2)
-    cuts = unique(np.r_[0, np.searchsorted(size, np.arange(BATCH, int(size[-1]) if size.size else 0, BATCH)),
-                           lo.size, lo.size])
-    cuts = np.r_[0, cuts] if cuts.size == 1 else cuts
+    size = np.cumsum(hi - lo + 2)  # samples and protected points grow with the segments
+    if size.size == 0 or size[-1] <= BATCH:
+        return fit(exact, protected, lo, hi, tolerance, clearance, grid)
+    cuts = unique(np.r_[0, np.searchsorted(size, np.arange(BATCH, int(size[-1]), BATCH)), lo.size])
     parts = [fit(exact, protected, lo[a:b], hi[a:b], tolerance, clearance, grid)
-             for a, b in zip(cuts[:-1].tolist(), cuts[1:].tolist())]
-    if len(parts) == 1:
-        return parts[0]
+             for a, b in zip(cuts[:-1].tolist(), cuts[1:].tolist()) if b > a]
     kinds, c1s, c2s, oks = zip(*parts)
     return np.concatenate(kinds), np.concatenate(c1s), np.concatenate(c2s), np.concatenate(oks)
 
