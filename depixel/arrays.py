@@ -18,3 +18,14 @@ def unique(values: np.ndarray, axis: int | None = None) -> np.ndarray:
 def union(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``np.union1d(a, b)``: the distinct values of both, sorted."""
     return unique(np.concatenate([np.ravel(a), np.ravel(b)]))
+
+
+def batch_bounds(sizes: np.ndarray, batch: int) -> list[tuple[int, int]]:
+    """Consecutive slices ``[a, b)`` of items of the given ``sizes``, each holding about
+    ``batch`` in all (an item larger than that alone): to bound the temporary memory of
+    work done a batch of items at a time. No items, no slices."""
+    total = np.cumsum(sizes)
+    if total.size == 0:
+        return []
+    cuts = unique(np.r_[0, np.searchsorted(total, np.arange(batch, int(total[-1]), batch)), total.size])
+    return list(zip(cuts[:-1].tolist(), cuts[1:].tolist()))

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .arrays import unique
+from .arrays import batch_bounds, unique
 from .boundaries import CUBIC, LINE, QUAD, BoundaryPieces, build_pieces, junction_nodes
 from .loops import Loops, trace_loops
 from .simplify import simplify_pieces
@@ -251,12 +251,9 @@ LOOP_BATCH = 1 << 13
 def _segments_in_batches(image: VectorImage, pieces: BoundaryPieces, loops: Loops, keep: np.ndarray,
                          halfedge_edge: np.ndarray, halfedge_from: np.ndarray, grid: float | None):
     """:func:`_loop_segments` of the kept loops, a batch of loops at a time."""
-    size = np.cumsum(np.diff(loops.ptr)[keep])
-    cuts = unique(np.r_[0, np.searchsorted(size, np.arange(LOOP_BATCH, int(size[-1]) if size.size else 0,
-                                                               LOOP_BATCH)), keep.size, keep.size])
-    cuts = np.r_[0, cuts] if cuts.size == 1 else cuts  # no loop: one empty batch
+    bounds = batch_bounds(np.diff(loops.ptr)[keep], LOOP_BATCH) or [(0, 0)]  # no loop: one empty batch
     parts = [_loop_segments(image, pieces, loops, keep[a:b], halfedge_edge, halfedge_from, grid)
-             for a, b in zip(cuts[:-1].tolist(), cuts[1:].tolist())]
+             for a, b in bounds]
     if len(parts) == 1:
         return parts[0]
     kind, ctrl, ctrl2, end, ptrs = zip(*parts)

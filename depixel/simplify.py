@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .arrays import unique
+from .arrays import batch_bounds
 from .boundaries import CUBIC, BoundaryPieces
 from .curvefit import BATCH, Exact, Protected, fit
 from .vector import VectorImage
@@ -72,12 +72,10 @@ _CHUNK = 8
 def _fit_checked(exact: Exact, protected: Protected, lo: np.ndarray, hi: np.ndarray, tolerance: float,
                  clearance: float, grid: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`fit` of every range [lo, hi), a batch at a time."""
-    size = np.cumsum(hi - lo + 2)  # samples and protected points grow with the segments
-    if size.size == 0 or size[-1] <= BATCH:
+    bounds = batch_bounds(hi - lo + 2, BATCH)  # samples and protected points grow with the segments
+    if len(bounds) <= 1:
         return fit(exact, protected, lo, hi, tolerance, clearance, grid)
-    cuts = unique(np.r_[0, np.searchsorted(size, np.arange(BATCH, int(size[-1]), BATCH)), lo.size])
-    parts = [fit(exact, protected, lo[a:b], hi[a:b], tolerance, clearance, grid)
-             for a, b in zip(cuts[:-1].tolist(), cuts[1:].tolist()) if b > a]
+    parts = [fit(exact, protected, lo[a:b], hi[a:b], tolerance, clearance, grid) for a, b in bounds]
     kinds, c1s, c2s, oks = zip(*parts)
     return np.concatenate(kinds), np.concatenate(c1s), np.concatenate(c2s), np.concatenate(oks)
 

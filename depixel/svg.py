@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .arrays import unique
+from .arrays import batch_bounds
 from .boundaries import CUBIC, LINE, QUAD
 from .outlines import Outlines, build_outlines
 from .stacking import ROLES
@@ -129,12 +129,9 @@ PATH_BATCH = 1 << 12
 
 def path_data(outlines: Outlines, precision: int) -> list[str]:
     """The ``d`` attribute of every shape."""
-    n = len(outlines)
-    segments_before = outlines.loop_ptr[outlines.shape_ptr]  # (S+1,) segments before each shape
-    cuts = unique(np.r_[0, np.searchsorted(segments_before, np.arange(PATH_BATCH, int(segments_before[-1]),
-                                                                          PATH_BATCH)), n])
+    segments = np.diff(outlines.loop_ptr[outlines.shape_ptr])  # (S,) segments of each shape
     out: list[str] = []
-    for a, b in zip(cuts[:-1].tolist(), cuts[1:].tolist()):
+    for a, b in batch_bounds(segments, PATH_BATCH):
         out += _path_data(outlines.shapes(a, b), precision)
     return out
 

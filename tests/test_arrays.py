@@ -1,0 +1,25 @@
+"""depixel/arrays.py: set operations without numpy.ma, and the batches of batched work."""
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given
+from hypothesis import strategies as st
+
+from depixel.arrays import batch_bounds, union, unique
+
+
+@given(st.lists(st.integers(0, 50), max_size=60), st.integers(1, 120))
+def test_batches_cover_every_item_once_in_order_and_stay_within_the_batch(sizes, batch):
+    bounds = batch_bounds(np.array(sizes, dtype=np.int64), batch)
+    assert [i for a, b in bounds for i in range(a, b)] == list(range(len(sizes)))
+    assert all(b > a for a, b in bounds)
+    for a, b in bounds:
+        assert b - a == 1 or sum(sizes[a:b]) <= batch + max(sizes[a:b])
+
+
+def test_unique_and_union_are_numpys():
+    a, b = np.array([3, 1, 3, 2]), np.array([[5, 1], [0, 0]])
+    assert unique(a).tolist() == np.unique(a).tolist()
+    assert union(a, b).tolist() == np.union1d(a, b).tolist()
+    rows = np.array([[1, 2], [0, 5], [1, 2]])
+    assert unique(rows, axis=0).tolist() == [[0, 5], [1, 2]]
