@@ -24,6 +24,10 @@ from .frozen import freeze
 from .params import Params
 from .splines import SplineSet
 
+#: slots whose straight runs are followed together: bounds the memory of the run search
+#: (about 0.5 KB a slot) whatever the number of curve slots
+RUN_BATCH = 16384
+
 
 @dataclass(frozen=True, eq=False)
 class Corners:
@@ -70,32 +74,32 @@ def detect_square_corners(splines: SplineSet) -> np.ndarray:
     cells = splines.cells
     q = cells.nodes
     prev, nxt = splines.neighbours()
-    end = (prev < 0) | (nxt < 0)
-    prev2 = np.where(prev >= 0, prev[np.maximum(prev, 0)], -1)
-    next2 = np.where(nxt >= 0, nxt[np.maximum(nxt, 0)], -1)
-    ok = ~end & (prev2 >= 0) & (next2 >= 0)
     node = splines.curve_nodes
-    k = q[node]
+    # only interior slots at a cut node with two more slots on both sides can match: the
+    # pattern is tested on those alone (the rest would only cost memory)
+    cut_node = (np.abs(q - 4 * np.round(q / 4.0)) == 1).all(axis=1)
+    slot = np.flatnonzero(cut_node[node] & (prev >= 0) & (nxt >= 0))
+    prev1, next1 = prev[slot], nxt[slot]
+    prev2, next2 = prev[prev1], nxt[next1]
+    ok = (prev2 >= 0) & (next2 >= 0)
+    slot, prev1, next1, prev2, next2 = slot[ok], prev1[ok], next1[ok], prev2[ok], next2[ok]
+    k = q[node[slot]]
     lattice = 4 * np.round(k / 4.0).astype(np.int64)
     off = k - lattice
-    cut = (np.abs(off) == 1).all(axis=1)
     sx, sy = off[:, 0], off[:, 1]
     leg_x = lattice + 4 * np.stack([sx, np.zeros_like(sx)], axis=1)
     leg_y = lattice + 4 * np.stack([np.zeros_like(sy), sy], axis=1)
     far_x = lattice + 8 * np.stack([sx, np.zeros_like(sx)], axis=1)
     far_y = lattice + 8 * np.stack([np.zeros_like(sy), sy], axis=1)
 
-    def at(slot: np.ndarray) -> np.ndarray:
-        return q[node[np.maximum(slot, 0)]]
-
     def same(u: np.ndarray, v: np.ndarray) -> np.ndarray:
         return (u == v).all(axis=1)
 
-    a, b = at(prev), at(nxt)
-    a2, b2 = at(prev2), at(next2)
+    a, b = q[node[prev1]], q[node[next1]]
+    a2, b2 = q[node[prev2]], q[node[next2]]
     forward = same(a, leg_x) & same(b, leg_y) & same(a2, far_x) & same(b2, far_y)
     backward = same(a, leg_y) & same(b, leg_x) & same(a2, far_y) & same(b2, far_x)
-    match = ok & cut & (forward | backward)
+    match = forward | backward
     # The cut must come from a redundant link: the pixel opposite the corner is linked to
     # both linked pixels, so restoring the corner cannot disconnect a thin diagonal line.
     g = cells.graph
@@ -110,7 +114,7 @@ def detect_square_corners(splines: SplineSet) -> np.ndarray:
     along = g.down[np.minimum(ro, rk).clip(0, max(h - 2, 0)), co] if h > 1 else np.zeros_like(valid)
     match = valid & across & along
     corners = np.zeros(len(q), dtype=bool)
-    corners[node[match]] = True
+    corners[node[slot[match]]] = True
     return corners
 
 
@@ -138,39 +142,38 @@ def detect_run_corners(splines: SplineSet, params: Params = Params()) -> np.ndar
     q = splines.cells.nodes.astype(np.float64) / 4.0
     prev, nxt = splines.neighbours()
     node = splines.curve_nodes
-    here = q[node]
-    interior = (prev >= 0) & (nxt >= 0)
+    interior = np.flatnonzero((prev >= 0) & (nxt >= 0))
     # nodes are at least a quarter pixel apart diagonally (0.35 px): this many steps reach
     steps = int(np.ceil(params.run_reach / 0.35))
 
     def run(step: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Vector from each slot's node to the far end of its straight run along ``step``,
         and the slot of that far end (-1 for none). Only the runs still growing are
-        carried from one step to the next."""
-        chord = np.zeros_like(here)
+        carried from one step to the next, :data:`RUN_BATCH` slots at a time."""
+        chord = np.zeros((node.size, 2))
         far_slot = np.full(node.size, -1, dtype=np.int64)
-        rows = np.flatnonzero(interior)  # the runs still growing
-        walk = rows
-        passed = np.empty((rows.size, steps, 2))  # the far node of every earlier step
-        for i in range(steps):
-            walk = step[walk]
-            go = walk >= 0
-            rows, walk, passed = rows[go], walk[go], passed[go]
-            far = q[node[walk]]
-            start = here[rows]
-            candidate = far - start
-            length = np.linalg.norm(candidate, axis=1)
-            # every node passed must stay near the new chord
-            rel = passed[:, :i] - start[:, None]
-            cross = np.abs(candidate[:, None, 0] * rel[..., 1] - candidate[:, None, 1] * rel[..., 0])
-            ok = (cross <= (tolerance * np.maximum(length, 1e-9))[:, None]).all(axis=1)
-            chord[rows[ok]] = candidate[ok]
-            far_slot[rows[ok]] = walk[ok]
-            go = ok & (length < params.run_reach)
-            passed[:, i] = far
-            rows, walk, passed = rows[go], walk[go], passed[go]
-            if rows.size == 0:
-                break
+        for lo in range(0, interior.size, RUN_BATCH):
+            rows = walk = interior[lo : lo + RUN_BATCH]  # the runs still growing
+            passed = np.empty((rows.size, steps, 2))  # the far node of every earlier step
+            for i in range(steps):
+                walk = step[walk]
+                go = walk >= 0
+                rows, walk, passed = rows[go], walk[go], passed[go]
+                far = q[node[walk]]
+                start = q[node[rows]]
+                candidate = far - start
+                length = np.linalg.norm(candidate, axis=1)
+                # every node passed must stay near the new chord
+                rel = passed[:, :i] - start[:, None]
+                cross = np.abs(candidate[:, None, 0] * rel[..., 1] - candidate[:, None, 1] * rel[..., 0])
+                ok = (cross <= (tolerance * np.maximum(length, 1e-9))[:, None]).all(axis=1)
+                chord[rows[ok]] = candidate[ok]
+                far_slot[rows[ok]] = walk[ok]
+                go = ok & (length < params.run_reach)
+                passed[:, i] = far
+                rows, walk, passed = rows[go], walk[go], passed[go]
+                if rows.size == 0:
+                    break
         return chord, far_slot
 
     def turn(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -179,20 +182,25 @@ def detect_run_corners(splines: SplineSet, params: Params = Params()) -> np.ndar
         return np.arccos(np.clip(cos, -1.0, 1.0))
 
     back, _ = run(prev)
-    ahead, ahead_end = run(nxt)
-    lb, la = np.linalg.norm(back, axis=1), np.linalg.norm(ahead, axis=1)
+    # both patterns need a long run behind: the rest is tested on those slots alone
+    lb = np.linalg.norm(back, axis=1)
+    slot = interior[lb[interior] >= long]
+    lb, back = lb[slot], back[slot]
+    ahead_all, ahead_end_all = run(nxt)
+    ahead, ahead_end = ahead_all[slot], ahead_end_all[slot]
+    la = np.linalg.norm(ahead, axis=1)
     incoming = -back  # direction of travel arriving at the node
-    sharp = interior & (lb >= long) & (la >= long) & (turn(incoming, ahead) >= min_turn)
+    sharp = (la >= long) & (turn(incoming, ahead) >= min_turn)
 
     k = np.maximum(ahead_end, 0)
-    after = ahead[k]
-    bevel = (interior & (ahead_end >= 0) & (lb >= long) & (la >= short) & (la < long)
+    after = ahead_all[k]
+    bevel = ((ahead_end >= 0) & (la >= short) & (la < long)
              & (np.linalg.norm(after, axis=1) >= long)
              & (turn(incoming, ahead) >= min_bend) & (turn(ahead, after) >= min_bend)
              & (turn(incoming, after) >= min_turn))
     corners = np.zeros(len(q), dtype=bool)
-    corners[node[sharp]] = True
-    corners[node[bevel]] = True
+    corners[node[slot[sharp]]] = True
+    corners[node[slot[bevel]]] = True
     corners[node[k[bevel]]] = True  # the bevel's far end
     return corners
 
