@@ -54,15 +54,17 @@ def joint(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return (a + b) / 2.0
 
 
-def slot_spans(ctrl: np.ndarray, prev: np.ndarray, nxt: np.ndarray, end: np.ndarray) -> Bezier:
+def slot_spans(ctrl: np.ndarray, prev: np.ndarray, nxt: np.ndarray, end: np.ndarray,
+               part: slice = slice(None)) -> Bezier:
     """The span of every slot of flat curve arrays (the layout of
     :class:`depixel.splines.SplineSet`): ``ctrl`` (P, 2) control points, ``prev``/``nxt``
-    (P,) neighbouring slots (-1 past an open end), ``end`` (P,) open-curve end points.
+    (P,) neighbouring slots (-1 past an open end), ``end`` (P,) open-curve end points;
+    or of the slots ``part`` alone.
 
     Rows of end slots are meaningless (an end point has no span of its own; the curve's
     first and last spans start and stop on it)."""
-    p_prev, p_next = np.maximum(prev, 0), np.maximum(nxt, 0)
-    return span(ctrl[p_prev], ctrl, ctrl[p_next], end[p_prev][:, None], end[p_next][:, None])
+    p_prev, p_next = np.maximum(prev[part], 0), np.maximum(nxt[part], 0)
+    return span(ctrl[p_prev], ctrl[part], ctrl[p_next], end[p_prev][:, None], end[p_next][:, None])
 
 
 def midpoint(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> np.ndarray:

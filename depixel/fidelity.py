@@ -25,22 +25,23 @@ from .vector import VectorImage
 FAR = 1e6
 
 
-def protected_points(splines: SplineSet) -> np.ndarray:
-    """(P, 3, 2) the points the spans at each slot must keep clear of: the centres of the
-    pixels on both sides of the edge leaving the slot, and the lattice corner of a diagonal
-    link at its node; :data:`FAR` where there is none."""
+def protected_points(splines: SplineSet, slots: np.ndarray | slice = slice(None)) -> np.ndarray:
+    """(..., 3, 2) the points the spans at each slot of ``slots`` (an index array of any
+    shape; all slots by default) must keep clear of: the centres of the pixels on both
+    sides of the edge leaving the slot, and the lattice corner of a diagonal link at its
+    node; :data:`FAR` where there is none."""
     cells = splines.cells
     w = cells.shape[1]
-    edge = splines.slot_edges
-    pix = np.where(edge[:, None] >= 0, cells.edge_pixels[np.maximum(edge, 0)], -1)
+    edge = splines.slot_edges[slots]
+    pix = np.where(edge[..., None] >= 0, cells.edge_pixels[np.maximum(edge, 0)], -1)
     rows, cols = np.divmod(np.maximum(pix, 0), w)
     centre = np.stack([cols + 0.5, rows + 0.5], axis=-1).astype(np.float64)
-    side = np.where((pix >= 0)[..., None], centre, FAR)  # (P, 2, 2)
-    q = cells.nodes[splines.curve_nodes]
+    side = np.where((pix >= 0)[..., None], centre, FAR)  # (..., 2, 2)
+    q = cells.nodes[splines.curve_nodes[slots]]
     lattice = 4 * np.round(q / 4.0)
-    split = (np.abs(q - lattice) == 1).all(axis=1)
-    link = np.where(split[:, None], lattice / 4.0, FAR)[:, None, :]
-    return np.concatenate([side, link], axis=1)
+    split = (np.abs(q - lattice) == 1).all(axis=-1)
+    link = np.where(split[..., None], lattice / 4.0, FAR)[..., None, :]
+    return np.concatenate([side, link], axis=-2)
 
 
 def unique_rows(points: np.ndarray) -> np.ndarray:
@@ -118,17 +119,17 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
     Only cells next to an edge whose geometry changed are measured."""
     cells = splines.cells
     positions = positions.copy()
-    initial = splines.vector_image(start)
+    initial = _drawing(splines, start)
     prev, nxt = splines.neighbours()
     n_px = cells.shape[0] * cells.shape[1]
     floor = np.full(n_px, np.nan)  # min(margin, initial clearance), filled in on demand
     reference = initial  # geometry already verified (or initial), to find what changed since
     for _ in range(rounds):
-        current = splines.vector_image(positions)
-        changed = (
-            (np.abs(current.points - reference.points).max(axis=1)[cells.edges] > 1e-12).any(axis=1)
-            | (np.abs(current.controls - reference.controls).max(axis=(1, 2)) > 1e-12)
-        )
+        current = _drawing(splines, positions)
+        moved = np.abs(current.points - reference.points).max(axis=1) > 1e-12
+        controls_moved = np.subtract(current.controls, reference.controls)
+        changed = moved[cells.edges].any(axis=1) | (np.abs(controls_moved, out=controls_moved).max(axis=(1, 2)) > 1e-12)
+        del controls_moved
         pixels = np.zeros(n_px, bool)
         sides = cells.edge_pixels[changed].ravel()
         pixels[sides[sides >= 0]] = True
@@ -152,3 +153,9 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
         nodes = union(nodes, splines.curve_nodes[on])
         positions[nodes] = start[nodes]
     return positions
+
+
+def _drawing(splines: SplineSet, positions: np.ndarray) -> VectorImage:
+    """The geometry drawn at node ``positions``, without the curve table the SVG writer
+    reads (all that :func:`centre_clearance` measures)."""
+    return VectorImage(splines.cells, *splines.geometry(positions), stage="optimized")

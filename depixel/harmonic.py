@@ -34,7 +34,7 @@ def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
     border = (q[:, 0] == 0) | (q[:, 1] == 0) | (q[:, 0] == 4 * w) | (q[:, 1] == 4 * h)
     on_curve = np.zeros(n, dtype=bool)
     on_curve[splines.curve_nodes] = True
-    display = splines.geometry(positions).points
+    display = splines.display_points(positions)
     displacement = np.where(on_curve[:, None], display - start, 0.0)
     u, v = cells.edges[:, 0], cells.edges[:, 1]
     near = np.abs(displacement).max(axis=1) > 1e-12

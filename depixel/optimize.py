@@ -52,6 +52,8 @@ def optimize_splines(splines: SplineSet, corners: Corners, params: Params = Para
     relaxed = relax(splines, start, corners.nodes, excluded_halves(splines, corners.nodes), params)
     positions = start.copy()
     positions[splines.curve_nodes[relaxed.movable]] = relaxed.ctrl[relaxed.movable]
+    energy_before, energy_after = relaxed.energy_before, relaxed.energy_after
+    del relaxed  # the control points live on in the positions; free them for the steps below
     positions = harmonic_map(splines, start, positions, corners.nodes, params.harmonic_reach)
     positions = keep_centres_inside(splines, start, positions, params.centre_clearance / 2, params.revert_rounds)
-    return OptimizedSplines(splines, corners, start, positions, relaxed.energy_before, relaxed.energy_after)
+    return OptimizedSplines(splines, corners, start, positions, energy_before, energy_after)

@@ -31,6 +31,9 @@ from .splines import SplineSet
 
 #: each span is checked against the protected points at t = 0, ¼, ½, ¾, 1
 CLEARANCE_PIECES = 4
+#: trials weighed together in one step: bounds the memory of their spans (about 150 bytes a
+#: trial) whatever the number of slots moved at once
+STEP_TRIALS = 1 << 15
 
 
 class Relaxed(NamedTuple):
@@ -72,10 +75,23 @@ def step(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group,
     offsets uniform in the disc of ``radius`` and keeps the one of least energy, or stays.
     A trial farther than ``max_offset`` from its anchor is never taken; the best trial is
     refused if it brings a span closer than ``centre_clearance`` to a protected point (and
-    closer than staying would)."""
+    closer than staying would). The offsets are drawn for the whole class, the trials are
+    weighed :data:`STEP_TRIALS` at a time (the members do not depend on each other)."""
     size = (group.members.size, params.candidates)
     angle = rng.uniform(0.0, 2.0 * np.pi, size=size)
     radius = params.radius * np.sqrt(rng.uniform(0.0, 1.0, size=size))
+    moved = np.empty((size[0], 2))
+    batch = max(1, STEP_TRIALS // (params.candidates + 1))
+    for lo in range(0, size[0], batch):
+        part = slice(lo, lo + batch)
+        moved[part] = _best_trials(model, ctrl, anchor, group.part(part), angle[part], radius[part], params)
+    return moved
+
+
+def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, angle: np.ndarray,
+                 radius: np.ndarray, params: Params) -> np.ndarray:
+    """:func:`step` for the members of ``group``, given their offsets (angle, radius)."""
+    size = angle.shape
     around = ctrl[group.around].transpose(0, 2, 1)[..., None]  # (5, 2, M, 1): member, a, b, a2, b2
     # trials (2, M, K+1): x and y planes, column 0 = stay
     trial = np.empty((2, size[0], size[1] + 1))
@@ -102,15 +118,21 @@ class Group:
     """One class of independent slots with every index its evaluation needs, precomputed."""
 
     members: np.ndarray  # (M,) slots being moved
-    around: np.ndarray  # (5, M) the member, its previous slot a, next slot b, the slot
+    around: np.ndarray  # (5, M) int32 the member, its previous slot a, next slot b, the slot
     #                     before a (a itself when a is an end) a2, the slot after b b2
     end_a: np.ndarray  # (M, 1) bool: a is an open-curve end (broadcastable over trials)
     end_b: np.ndarray
     end_a2: np.ndarray
     end_b2: np.ndarray
-    keep: np.ndarray  # (2, 3, M, 1) float 0/1: halves (first, second) of the spans before,
+    keep: np.ndarray  # (2, 3, M, 1) bool: halves (first, second) of the spans before,
     #                   own, after counted in E_s (0 for the span of an end a or b)
-    protected: np.ndarray  # (2, M, 1, 1, Q) x and y of the points the spans must keep clear of
+    protected: np.ndarray  # (2, M, 1, 1, Q) float32 x and y of the points the spans must keep clear of
+
+    def part(self, members: slice | np.ndarray) -> Group:
+        """The group of some of the members (a slice or indices into ``members``)."""
+        return Group(self.members[members], self.around[:, members], self.end_a[members], self.end_b[members],
+                     self.end_a2[members], self.end_b2[members], self.keep[:, :, members],
+                     self.protected[:, members])
 
 
 #: t of the points each span is checked at, and the weights of its Bézier points there
@@ -131,24 +153,26 @@ class Energy:
         self.prev, self.nxt = splines.neighbours()
         self.end = (self.prev < 0) | (self.nxt < 0)
         self.keep = ~excluded  # (P, 2) halves counted in E_s
-        self.protected = protected_points(splines)  # (P, 3, 2)
+        self.splines = splines  # for the protected points of each class (computed per class: few move)
 
     def prepare(self, members: np.ndarray) -> Group:
         a, b = self.prev[members], self.nxt[members]
         has_a, has_b = ~self.end[a], ~self.end[b]
         a2 = np.where(has_a, self.prev[a], a)
         b2 = np.where(has_b, self.nxt[b], b)
-        protected = unique_rows(np.concatenate([self.protected[x] for x in (a2, a, members, b)], axis=1))
+        around = np.stack([a2, a, members, b], axis=1)  # (M, 4): the slots whose spans a move changes
+        protected = unique_rows(protected_points(self.splines, around).reshape(members.size, -1, 2))
         keep = np.stack([self.keep[a] & has_a[:, None], self.keep[members], self.keep[b] & has_b[:, None]])
 
         def col(x: np.ndarray) -> np.ndarray:
             return x[:, None]
 
         return Group(
-            members, np.stack([members, a, b, a2, b2]),
+            members, np.stack([members, a, b, a2, b2]).astype(np.int32),
             col(self.end[a]), col(self.end[b]), col(self.end[a2]), col(self.end[b2]),
-            np.moveaxis(keep, 2, 0)[..., None].astype(np.float64),
-            np.moveaxis(protected, 2, 0)[:, :, None, None, :],
+            np.moveaxis(keep, 2, 0)[..., None],
+            # a compact copy (not a view of the padded rows); float32 holds these exactly
+            np.moveaxis(protected, 2, 0).astype(np.float32)[:, :, None, None, :],
         )
 
     @staticmethod
@@ -205,9 +229,7 @@ class Energy:
     def clearance(self, ctrl: np.ndarray, g: Group, trial: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """(R, K) :meth:`clearance_of` the members ``rows`` at trial positions ``trial`` (R, K, 2)."""
         around = ctrl[g.around[:, rows]].transpose(0, 2, 1)[..., None]
-        sub = Group(g.members[rows], g.around[:, rows], g.end_a[rows], g.end_b[rows], g.end_a2[rows],
-                    g.end_b2[rows], g.keep[:, :, rows], g.protected[:, rows])
-        return self.clearance_of(self.points(around, sub, np.moveaxis(trial, -1, 0)), g, rows)
+        return self.clearance_of(self.points(around, g.part(rows), np.moveaxis(trial, -1, 0)), g, rows)
 
     def total(self, ctrl: np.ndarray, anchor: np.ndarray) -> float:
         """The energy of all the curves: E_s of every span plus E_p of every slot."""

@@ -45,6 +45,11 @@ from .params import Params
 from .vector import CurveTable, VectorImage
 
 
+#: slots whose curve geometry is computed together: bounds the temporaries of the spans and
+#: Béziers (a few hundred bytes a slot) whatever the number of slots
+GEOMETRY_BATCH = 1 << 15
+
+
 class Geometry(NamedTuple):
     """The drawing of a SplineSet at some node positions (the fields of a VectorImage)."""
 
@@ -180,16 +185,26 @@ class SplineSet:
         return slot_spans(ctrl, prev, nxt, self.is_end())
 
     def _curve_points(self, ctrl: np.ndarray) -> np.ndarray:
-        """(P, 2) S_j: the point of the curve belonging to each slot (an end: the end)."""
-        s = midpoint(*self.spans(ctrl))
-        return np.where(self.is_end()[:, None], ctrl, s)
-
-    def _display(self, ctrl: np.ndarray, positions: np.ndarray) -> np.ndarray:
-        display = positions.copy()
-        s = self._curve_points(ctrl)
+        """(P, 2) S_j: the point of the curve belonging to each slot (an end: the end);
+        :data:`GEOMETRY_BATCH` slots at a time (the spans are six times the result)."""
+        prev, nxt = self.neighbours()
         end = self.is_end()
-        display[self.curve_nodes[~end]] = s[~end]
+        s = np.empty_like(ctrl)
+        for lo in range(0, s.shape[0], GEOMETRY_BATCH):
+            part = slice(lo, lo + GEOMETRY_BATCH)
+            s[part] = np.where(end[part, None], ctrl[part], midpoint(*slot_spans(ctrl, prev, nxt, end, part)))
+        return s
+
+    def _display(self, s: np.ndarray, positions: np.ndarray) -> np.ndarray:
+        """(N, 2) ``positions`` with every curve's inner nodes moved to their curve points ``s``."""
+        display = positions.copy()
+        inner = ~self.is_end()
+        display[self.curve_nodes[inner]] = s[inner]
         return display
+
+    def display_points(self, positions: np.ndarray) -> np.ndarray:
+        """(N, 2) the display points of :meth:`geometry` alone."""
+        return self._display(self._curve_points(self.controls_for(positions)), positions)
 
     def geometry(self, positions: np.ndarray) -> Geometry:
         """Display points (N, 2), curved flags (E,) and Bézier controls (E, 3, 2) for given
@@ -197,26 +212,24 @@ class SplineSet:
         return self._geometry(self.controls_for(positions), positions)
 
     def _geometry(self, ctrl: np.ndarray, positions: np.ndarray) -> Geometry:
-        display = self._display(ctrl, positions)
         s = self._curve_points(ctrl)
+        display = self._display(s, positions)
         n_edges = len(self.cells.edges)
         curved = np.zeros(n_edges, dtype=bool)
         controls = np.zeros((n_edges, 3, 2), dtype=np.float64)
 
         _, nxt = self.neighbours()
         end = self.is_end()
-        has = nxt >= 0
-        a = np.flatnonzero(has)
-        b = nxt[a]
-        a_end, b_end = end[a], end[b]
-        bend = ~(a_end & b_end)  # an edge between two end points is a straight segment
-        a, b, a_end, b_end = a[bend], b[bend], a_end[bend], b_end[bend]
-        trio = between_curve_points(ctrl[a], ctrl[b], s[a], s[b], a_end, b_end)
+        a = np.flatnonzero(nxt >= 0)
+        a = a[~(end[a] & end[nxt[a]])]  # an edge between two end points is a straight segment
         edge = self.slot_edges[a]
-        forward = self.slot_forward[a]
-        trio = np.where(forward[:, None, None], trio, trio[:, ::-1])
         curved[edge] = True
-        controls[edge] = trio
+        for lo in range(0, a.size, GEOMETRY_BATCH):  # the Béziers' temporaries are several times the result
+            a_part = a[lo : lo + GEOMETRY_BATCH]
+            b_part = nxt[a_part]
+            trio = between_curve_points(ctrl[a_part], ctrl[b_part], s[a_part], s[b_part], end[a_part], end[b_part])
+            trio = np.where(self.slot_forward[a_part, None, None], trio, trio[:, ::-1])
+            controls[edge[lo : lo + GEOMETRY_BATCH]] = trio
         return Geometry(display, curved, controls)
 
     def vector_image(self, positions: np.ndarray | None = None, stage: str = "splines") -> VectorImage:
