@@ -77,25 +77,39 @@ def build_cell_graph(resolved: CrossingResolution | SimilarityGraph) -> CellGrap
     if np.any(graph.diag_main & graph.diag_anti):
         raise ValueError("similarity graph still has crossing diagonals; resolve them first")
     h, w = graph.shape
-    n_lattice = (h + 1) * (w + 1)
-    lattice = np.arange(n_lattice).reshape(h + 1, w + 1)
-
     split_main = np.zeros((h + 1, w + 1), dtype=bool)
     split_anti = np.zeros((h + 1, w + 1), dtype=bool)
     split_main[1:-1, 1:-1] = graph.diag_main
     split_anti[1:-1, 1:-1] = graph.diag_anti
-    split = split_main | split_anti
-    second = np.full((h + 1, w + 1), -1, dtype=np.int64)
-    second[split] = n_lattice + np.arange(int(split.sum()))
+    nodes = _template_nodes(split_main, split_anti)
+    edges, edge_pixels, edge_kind = _pixel_edges(split_main, split_anti)
+    del split_main, split_anti
+    cell_ptr, cell_nodes, cell_edges = _cell_polygons(edges, edge_pixels, h * w)
+    return CellGraph(graph, nodes, edges, edge_pixels, edge_kind, cell_ptr, cell_nodes, cell_edges)
 
-    # node positions: slot 0 at every lattice point, slot 1 only where a link splits it
-    ii, jj = np.mgrid[0 : h + 1, 0 : w + 1]
+
+def _template_nodes(split_main: np.ndarray, split_anti: np.ndarray) -> np.ndarray:
+    """(N, 2) node positions: slot 0 at every lattice point, then slot 1 of every lattice
+    point a link splits (``split_*`` (H+1, W+1) bool), in scanline order."""
+    split = split_main | split_anti
+    ii, jj = np.mgrid[0 : split.shape[0], 0 : split.shape[1]]
     base = np.stack([4 * jj, 4 * ii], axis=-1).astype(np.int64)
     offset0 = np.zeros_like(base)
     offset0[split_main] = (-1, 1)  # A, towards the bottom-left pixel
     offset0[split_anti] = (-1, -1)  # C, towards the top-left pixel
     offset1 = np.where(split_main[..., None], np.array([1, -1]), np.array([1, 1]))  # B or D
-    nodes = np.concatenate([(base + offset0).reshape(-1, 2), (base + offset1)[split]], axis=0)
+    return np.concatenate([(base + offset0).reshape(-1, 2), (base + offset1)[split]], axis=0)
+
+
+def _pixel_edges(split_main: np.ndarray, split_anti: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Edges ``(E, 2)`` (u, v), the pixels on their (left, right) ``(E, 2)`` and their kinds
+    ``(E,)``: the horizontal pixel edges, the vertical ones, then the links' edges."""
+    h, w = split_main.shape[0] - 1, split_main.shape[1] - 1
+    n_lattice = (h + 1) * (w + 1)
+    lattice = np.arange(n_lattice).reshape(h + 1, w + 1)
+    split = split_main | split_anti
+    second = np.full((h + 1, w + 1), -1, dtype=np.int64)
+    second[split] = n_lattice + np.arange(int(split.sum()))
 
     # which template node each pixel edge ends at, per direction leaving the lattice point
     up_end = np.where(split_main, second, lattice)  # between TL and TR: B for "\\", C for "/"
@@ -127,20 +141,20 @@ def build_cell_graph(resolved: CrossingResolution | SimilarityGraph) -> CellGrap
         np.full(len(v_uv), VERTICAL, np.uint8),
         np.full(len(d_uv), DIAGONAL, np.uint8),
     ])
-    cell_ptr, cell_nodes, cell_edges = _cell_polygons(edges, edge_pixels, h * w)
-    return CellGraph(graph, nodes, edges, edge_pixels, edge_kind, cell_ptr, cell_nodes, cell_edges)
+    return edges, edge_pixels, edge_kind
 
 
 def _cell_polygons(edges: np.ndarray, edge_pixels: np.ndarray, n_cells: int):
     """Trace each cell's boundary with the cell on the right (clockwise on screen)."""
     left, right = edge_pixels[:, 0], edge_pixels[:, 1]
-    e = np.arange(len(edges))
     on_right, on_left = right >= 0, left >= 0
     owner = np.concatenate([right[on_right], left[on_left]])
     u = np.concatenate([edges[on_right, 0], edges[on_left, 1]])
     v = np.concatenate([edges[on_right, 1], edges[on_left, 0]])
-    edge_of = np.concatenate([e[on_right], e[on_left]])
+    edge_of = np.concatenate([np.flatnonzero(on_right), np.flatnonzero(on_left)])
+    del on_right, on_left
     loops = trace_loops(owner, u, v)
+    del v
     if len(loops) != n_cells or not np.array_equal(loops.owner, np.arange(n_cells)):
         raise AssertionError("every cell must have exactly one boundary loop")
     return loops.ptr, u[loops.halfedges], edge_of[loops.halfedges]

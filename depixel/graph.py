@@ -34,30 +34,42 @@ def component_roots(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def cycle_leaders(nxt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """For a permutation ``nxt``: the smallest index on each element's cycle, and each
-    element's number of steps from that leader along ``nxt`` (both ``(n,) int64``)."""
+    element's number of steps from that leader along ``nxt`` (both ``(n,) int64``).
+
+    Works on 32-bit indices where they suffice and updates in place: the caller's
+    permutation can be as large as every half-edge of an image."""
     n = nxt.size
-    index = np.arange(n, dtype=np.int64)
+    index = np.int32 if n < 2**31 else np.int64
+    nxt = nxt.astype(index)
     # leader: min over the next 2^t elements, doubling t until it stops changing (then
     # every cycle is shorter than the window)
-    leader, jump = np.minimum(index, nxt), nxt[nxt]
+    leader = np.minimum(np.arange(n, dtype=index), nxt)
+    jump = nxt[nxt]
     while True:
-        wider = np.minimum(leader, leader[jump])
-        if np.array_equal(wider, leader):
+        ahead = leader[jump]
+        if not (ahead < leader).any():
             break
-        leader, jump = wider, jump[jump]
+        np.minimum(leader, ahead, out=leader)
+        del ahead
+        jump = jump[jump]
+    del jump, ahead
     # steps to the cycle's last element (the one before its leader), by list ranking on
     # the cycle cut open there; position from the leader follows from the cycle length
     last = nxt == leader
-    succ = np.where(last, index, nxt)
-    to_end = (~last).astype(np.int64)
+    succ = np.where(last, np.arange(n, dtype=index), nxt)
+    del nxt
+    to_end = (~last).astype(index)
+    del last
     while True:
         ahead = succ[succ]
         if np.array_equal(ahead, succ):  # everything points at its cycle's last element
             break
-        to_end = to_end + to_end[succ]
+        to_end += to_end[succ]
         succ = ahead
-    length = to_end[leader] + 1
-    return leader, length - 1 - to_end
+    del succ, ahead
+    position = to_end[leader].astype(np.int64)  # the cycle's length - 1, minus the steps to its end
+    position -= to_end
+    return leader.astype(np.int64), position
 
 
 def _jump_to_roots(parent: np.ndarray) -> np.ndarray:
