@@ -16,6 +16,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .cells import CellGraph
+from .graph import cycle_leaders
 from .params import Params
 from .vector import linked_edges
 
@@ -118,52 +119,67 @@ def _t_junction_pairs(cells: CellGraph, node: np.ndarray, h: np.ndarray,
 
 
 def chain_curves(half_ends: HalfEnds) -> Chains:
-    """Walk paired half-ends into curves (open ones first from their free ends, then loops)."""
+    """Walk paired half-ends into curves: the open ones first, each from the first of its
+    two free ends, in the order of those ends; then the closed ones, each from the ``u`` end
+    of its first edge, in the order of those edges.
+
+    Vectorized as the cycles of a permutation of walk states: state ``s`` runs along edge
+    ``s >> 1`` from its end ``s``; it continues with the partner of the far end ``s ^ 1``,
+    or, where the curve ends, turns back along the same edge (state ``s ^ 1``). An open
+    curve is then one cycle, there and back from either free end; a closed curve two
+    cycles, one each way, the one through state ``2k`` of its first edge ``k`` led by it."""
     vis, end_node, partner = half_ends
-    n_vis = vis.size
-    used = np.zeros(n_vis, dtype=bool)
-    ptr = [0]
-    nodes: list[int] = []
-    edges: list[int] = []
-    forward: list[bool] = []
-    closed: list[bool] = []
-    partner_l = partner.tolist()
-    end_l = end_node.tolist()
-    vis_l = vis.tolist()
-
-    def walk(h: int) -> bool:
-        """Follow from half-end h (the start of an edge); return True if the walk closed."""
-        start_edge = h >> 1
-        while True:
-            k = h >> 1
-            used[k] = True
-            nodes.append(end_l[h])
-            edges.append(vis_l[k])
-            forward.append(h & 1 == 0)
-            far = h ^ 1
-            nxt = partner_l[far]
-            if nxt < 0:
-                nodes.append(end_l[far])
-                edges.append(-1)
-                forward.append(True)
-                return False
-            if nxt >> 1 == start_edge:
-                return True
-            h = nxt
-
-    free = [h for h in range(2 * n_vis) if partner_l[h] < 0]
-    for h in free:
-        if not used[h >> 1]:
-            closed.append(walk(h))
-            ptr.append(len(nodes))
-    for k in range(n_vis):
-        if not used[k]:
-            closed.append(walk(2 * k))
-            ptr.append(len(nodes))
-    return Chains(
-        np.array(ptr, dtype=np.int64),
-        np.array(nodes, dtype=np.int64),
-        np.array(closed, dtype=bool),
-        np.array(edges, dtype=np.int64),
-        np.array(forward, dtype=bool),
-    )
+    n = end_node.size
+    index = np.int32 if n < 2**31 else np.int64  # of states and slots (4 bytes suffice)
+    state = np.arange(n, dtype=index)
+    far = state ^ 1
+    nxt = np.where(partner[far] >= 0, partner[far], far)
+    del far
+    leader, position = cycle_leaders(nxt)
+    del nxt
+    length = np.bincount(leader, minlength=n).astype(index)  # of the cycle each state leads
+    free = np.flatnonzero(partner < 0)
+    open_lead, first = np.unique(leader[free], return_index=True)
+    open_start = free[first]  # each open curve's first free end (``free`` is ascending)
+    by_start = np.argsort(open_start)
+    open_lead, open_start = open_lead[by_start], open_start[by_start]
+    is_open = np.zeros(n, dtype=bool)
+    is_open[open_lead] = True
+    closed_lead = np.flatnonzero((leader == state) & (state % 2 == 0) & ~is_open)
+    del is_open
+    n_open = open_lead.size
+    counts = np.concatenate([length[open_lead] // 2 + 1, length[closed_lead]])  # slots per curve
+    ptr = np.zeros(counts.size + 1, dtype=np.int64)
+    np.cumsum(counts, out=ptr[1:])
+    # each state's curve (-1: the way back of an open curve, the other way of a closed one)
+    # and its place on the curve, counted from the curve's first state
+    rank = np.full(n, -1, dtype=index)
+    rank[open_lead] = np.arange(n_open)
+    rank[closed_lead] = n_open + np.arange(closed_lead.size)
+    origin = np.zeros(n, dtype=index)
+    origin[open_lead] = position[open_start]
+    curve = rank[leader]
+    del rank
+    offset = position.astype(index)
+    del position
+    offset -= origin[leader]
+    del origin
+    offset %= np.maximum(length[leader], 1)
+    del leader, length
+    keep = curve >= 0
+    keep[keep] = offset[keep] < counts[curve[keep]]  # an open curve's way there, and its far end
+    kept = state[keep]
+    slot = ptr[curve[keep]] + offset[keep]
+    del state, curve, offset, keep
+    nodes = np.empty(ptr[-1], dtype=np.int64)
+    edges = np.empty(ptr[-1], dtype=np.int64)
+    forward = np.empty(ptr[-1], dtype=bool)
+    nodes[slot] = end_node[kept]
+    edges[slot] = vis[kept >> 1]
+    forward[slot] = (kept & 1) == 0
+    last = ptr[1 : n_open + 1] - 1  # an open curve's far end: no edge leaves it
+    edges[last] = -1
+    forward[last] = True
+    closed = np.zeros(counts.size, dtype=bool)
+    closed[n_open:] = True
+    return Chains(ptr, nodes, closed, edges, forward)

@@ -269,6 +269,7 @@ def extract_splines(cells: CellGraph, params: Params = Params()) -> SplineSet:
     band_partner = np.where(on_contour[bands.node] | (bands.partner < 0), -1, bands.partner + contours.node.size)
     half_ends = HalfEnds(np.concatenate([contours.edges, bands.edges]), np.concatenate([contours.node, bands.node]),
                          np.concatenate([contours.partner, band_partner]))
+    del contours, bands, band_partner  # in half_ends now
     return SplineSet(cells, visible, shading, *chain_curves(half_ends),
                      positions=cells.nodes.astype(np.float64) / 4.0, half_ends=half_ends,
                      snap_passes=params.snap_passes)
