@@ -20,19 +20,23 @@ from .graph import cycle_leaders
 from .params import Params
 from .vector import linked_edges
 
+#: the integer type of the curve arrays (edges, nodes, half-ends, slots): the image limits
+#: keep every count far below 2**31, and these arrays live through the later stages
+INDEX = np.int32
+
 
 class HalfEnds(NamedTuple):
     """The ends of the curve edges and how they continue each other at their nodes.
 
     Half-end ``2k`` is the ``u`` end of edge ``edges[k]``, ``2k + 1`` its ``v`` end."""
 
-    edges: np.ndarray  # (K,) int64 the cell edges that carry curves
-    node: np.ndarray  # (2K,) int64 node of each half-end
-    partner: np.ndarray  # (2K,) int64 the half-end continuing it at its node, -1 where a curve ends
+    edges: np.ndarray  # (K,) int32 the cell edges that carry curves
+    node: np.ndarray  # (2K,) int32 node of each half-end
+    partner: np.ndarray  # (2K,) int32 the half-end continuing it at its node, -1 where a curve ends
 
 
 class Chains(NamedTuple):
-    """Curves as flat slot arrays (see :class:`SplineSet`)."""
+    """Curves as flat slot arrays (see :class:`SplineSet`), indices int32."""
 
     curve_ptr: np.ndarray
     curve_nodes: np.ndarray
@@ -76,9 +80,9 @@ def pair_ends(cells: CellGraph, edges: np.ndarray, shading: np.ndarray) -> HalfE
     """Pair the ends of the curve edges ``edges`` (K,) at every node, by the number of
     curve edges meeting there: two continue each other; at three (a T-junction) one pair
     is joined by :func:`_t_junction_pairs`; at one or four and more every curve ends."""
-    node = cells.edges[edges].ravel()
+    node = cells.edges[edges].ravel().astype(INDEX)
     n_half = node.size
-    partner = np.full(n_half, -1, dtype=np.int64)
+    partner = np.full(n_half, -1, dtype=INDEX)
     order = np.argsort(node, kind="stable")
     sorted_nodes = node[order]
     starts = np.flatnonzero(np.r_[True, sorted_nodes[1:] != sorted_nodes[:-1]])
@@ -94,7 +98,7 @@ def pair_ends(cells: CellGraph, edges: np.ndarray, shading: np.ndarray) -> HalfE
         a, b = _t_junction_pairs(cells, node, h, shading[edges[h >> 1]])
         partner[a] = b
         partner[b] = a
-    return HalfEnds(edges, node, partner)
+    return HalfEnds(edges.astype(INDEX), node, partner)
 
 
 def _t_junction_pairs(cells: CellGraph, node: np.ndarray, h: np.ndarray,
@@ -130,7 +134,7 @@ def chain_curves(half_ends: HalfEnds) -> Chains:
     cycles, one each way, the one through state ``2k`` of its first edge ``k`` led by it."""
     vis, end_node, partner = half_ends
     n = end_node.size
-    index = np.int32 if n < 2**31 else np.int64  # of states and slots (4 bytes suffice)
+    index = INDEX
     state = np.arange(n, dtype=index)
     far = state ^ 1
     nxt = np.where(partner[far] >= 0, partner[far], far)
@@ -149,7 +153,7 @@ def chain_curves(half_ends: HalfEnds) -> Chains:
     del is_open
     n_open = open_lead.size
     counts = np.concatenate([length[open_lead] // 2 + 1, length[closed_lead]])  # slots per curve
-    ptr = np.zeros(counts.size + 1, dtype=np.int64)
+    ptr = np.zeros(counts.size + 1, dtype=index)
     np.cumsum(counts, out=ptr[1:])
     # each state's curve (-1: the way back of an open curve, the other way of a closed one)
     # and its place on the curve, counted from the curve's first state
@@ -171,8 +175,8 @@ def chain_curves(half_ends: HalfEnds) -> Chains:
     kept = state[keep]
     slot = ptr[curve[keep]] + offset[keep]
     del state, curve, offset, keep
-    nodes = np.empty(ptr[-1], dtype=np.int64)
-    edges = np.empty(ptr[-1], dtype=np.int64)
+    nodes = np.empty(ptr[-1], dtype=index)
+    edges = np.empty(ptr[-1], dtype=index)
     forward = np.empty(ptr[-1], dtype=bool)
     nodes[slot] = end_node[kept]
     edges[slot] = vis[kept >> 1]

@@ -40,7 +40,7 @@ import numpy as np
 from .bspline import Bezier, between_curve_points, midpoint, slot_spans, span
 from .cells import CellGraph
 from .frozen import freeze
-from .pairing import HalfEnds, band_edges, chain_curves, pair_ends, shading_edges, visible_edges
+from .pairing import INDEX, HalfEnds, band_edges, chain_curves, pair_ends, shading_edges, visible_edges
 from .params import Params
 from .vector import CurveTable, VectorImage
 
@@ -85,10 +85,10 @@ class SplineSet:
     cells: CellGraph
     visible: np.ndarray  # (E,) bool: edge separates dissimilar pixels
     shading: np.ndarray  # (E,) bool: visible edge between colours within shading_distance
-    curve_ptr: np.ndarray  # (C+1,) int64: curve c owns slots curve_ptr[c]:curve_ptr[c+1]
-    curve_nodes: np.ndarray  # (P,) int64 node at each slot (an open curve lists both end nodes)
+    curve_ptr: np.ndarray  # (C+1,) int32: curve c owns slots curve_ptr[c]:curve_ptr[c+1]
+    curve_nodes: np.ndarray  # (P,) int32 node at each slot (an open curve lists both end nodes)
     curve_closed: np.ndarray  # (C,) bool
-    slot_edges: np.ndarray  # (P,) int64 edge from slot j to j+1 (wrapping for closed); -1 after an open end
+    slot_edges: np.ndarray  # (P,) int32 edge from slot j to j+1 (wrapping for closed); -1 after an open end
     slot_forward: np.ndarray  # (P,) bool: that edge is stored u→v in the direction of the curve
     positions: np.ndarray  # (N, 2) float64 initial node positions (quarter-pixel grid, in pixels)
     half_ends: HalfEnds  # the pairing the curves were chained from (for split_at)
@@ -108,7 +108,7 @@ class SplineSet:
 
     def slot_curve(self) -> np.ndarray:
         """(P,) the curve each slot belongs to."""
-        return np.repeat(np.arange(self.n_curves), np.diff(self.curve_ptr))
+        return np.repeat(np.arange(self.n_curves, dtype=INDEX), np.diff(self.curve_ptr))
 
     def neighbours(self) -> tuple[np.ndarray, np.ndarray]:
         """Previous and next slot of every slot along its curve (-1 past an open end).
@@ -118,7 +118,7 @@ class SplineSet:
 
     @cached_property
     def _links(self) -> tuple[np.ndarray, np.ndarray]:
-        p = np.arange(self.curve_nodes.size)
+        p = np.arange(self.curve_nodes.size, dtype=INDEX)
         curve = self.slot_curve()
         first, last = self.curve_ptr[:-1][curve], self.curve_ptr[1:][curve] - 1
         closed = self.curve_closed[curve]
@@ -246,7 +246,7 @@ class SplineSet:
         slots = np.flatnonzero(self.slot_edges >= 0)
         edge = self.slot_edges[slots]
         keep = curved[edge]
-        edge_slot = np.full(n_edges, -1, dtype=np.int64)
+        edge_slot = np.full(n_edges, -1, dtype=INDEX)
         edge_slot[edge[keep]] = slots[keep]
         edge_forward = np.zeros(n_edges, dtype=bool)
         edge_forward[edge[keep]] = self.slot_forward[slots[keep]]

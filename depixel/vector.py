@@ -34,13 +34,13 @@ class CurveTable:
     Read-only arrays.
     """
 
-    node: np.ndarray  # (P,) int64 cell-graph node of each slot
-    curve: np.ndarray  # (P,) int64 curve of each slot
+    node: np.ndarray  # (P,) int32 cell-graph node of each slot
+    curve: np.ndarray  # (P,) int32 curve of each slot
     closed: np.ndarray  # (C,) bool: the curve is closed (periodic)
-    prev: np.ndarray  # (P,) int64 previous slot along the curve, -1 before an open start
-    next: np.ndarray  # (P,) int64 next slot along the curve, -1 after an open end
+    prev: np.ndarray  # (P,) int32 previous slot along the curve, -1 before an open start
+    next: np.ndarray  # (P,) int32 next slot along the curve, -1 after an open end
     ctrl: np.ndarray  # (P, 2) float64 control points (T-junction ends snapped)
-    edge_slot: np.ndarray  # (E,) int64 slot at the start of each curved edge, in curve direction; -1 if straight
+    edge_slot: np.ndarray  # (E,) int32 slot at the start of each curved edge, in curve direction; -1 if straight
     edge_forward: np.ndarray  # (E,) bool: the edge is stored u → v in the curve's direction
 
     def __post_init__(self) -> None:
