@@ -18,7 +18,8 @@ import numpy as np
 
 from .arrays import union, unique
 from .bspline import flatten_edges
-from .splines import SplineSet
+from .cells import CellGraph
+from .splines import Drawing, SplineSet
 from .vector import VectorImage
 
 #: stands for "no protected point" (far from every curve)
@@ -67,7 +68,16 @@ def centre_clearance(image: VectorImage, pixels: np.ndarray | None = None, sampl
     ray casting from every centre towards +x against the flattened boundary of its own cell,
     all cells at once: each edge contributes its polyline to the cells on both sides.
     """
-    cells = image.cells
+    curved = np.flatnonzero(image.curved)
+    return _clearance(image.cells, Drawing(image.points, curved, image.controls[curved]), pixels, samples)
+
+
+def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, samples: int = 3) -> np.ndarray:
+    """:func:`centre_clearance` of a :class:`depixel.splines.Drawing` of ``cells``."""
+    curved_edge = np.zeros(len(cells.edges), bool)
+    curved_edge[drawing.edges] = True
+    control_row = np.zeros(len(cells.edges), np.int64)  # where each curved edge's controls are
+    control_row[drawing.edges] = np.arange(drawing.edges.size)
     h, w = cells.shape
     n_px = h * w
     wanted = np.ones(n_px, bool) if pixels is None else pixels
@@ -75,10 +85,10 @@ def centre_clearance(image: VectorImage, pixels: np.ndarray | None = None, sampl
     use = (wanted[np.maximum(sides, 0)] & (sides >= 0)).any(axis=1)
     pix_all, hits_all, dist_all = [], [], []
     for curved in (False, True):  # a straight edge is one segment, a curve 2 * samples
-        edge = np.flatnonzero(use & (image.curved == curved))
-        a, b = image.points[cells.edges[edge, 0]], image.points[cells.edges[edge, 1]]
+        edge = np.flatnonzero(use & (curved_edge == curved))
+        a, b = drawing.points[cells.edges[edge, 0]], drawing.points[cells.edges[edge, 1]]
         if curved:
-            poly = flatten_edges(a, image.controls[edge], b, samples)  # (E', 2 * samples + 1, 2)
+            poly = flatten_edges(a, drawing.controls[control_row[edge]], b, samples)  # (E', 2 * samples + 1, 2)
         else:
             poly = np.stack([a, b], axis=1)
         p0, p1 = poly[:, :-1], poly[:, 1:]
@@ -119,17 +129,18 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
     Only cells next to an edge whose geometry changed are measured."""
     cells = splines.cells
     positions = positions.copy()
-    initial = _drawing(splines, start)
+    initial = splines.drawing(start)
     prev, nxt = splines.neighbours()
     n_px = cells.shape[0] * cells.shape[1]
     floor = np.full(n_px, np.nan)  # min(margin, initial clearance), filled in on demand
     reference = initial  # geometry already verified (or initial), to find what changed since
     for _ in range(rounds):
-        current = _drawing(splines, positions)
+        current = splines.drawing(positions)  # the same curved edges as the reference, in the same order
         moved = np.abs(current.points - reference.points).max(axis=1) > 1e-12
-        controls_moved = np.subtract(current.controls, reference.controls)
-        changed = moved[cells.edges].any(axis=1) | (np.abs(controls_moved, out=controls_moved).max(axis=(1, 2)) > 1e-12)
-        del controls_moved
+        changed = moved[cells.edges].any(axis=1)
+        bent = np.subtract(current.controls, reference.controls)
+        changed[current.edges] |= np.abs(bent, out=bent).max(axis=(1, 2)) > 1e-12
+        del bent
         pixels = np.zeros(n_px, bool)
         sides = cells.edge_pixels[changed].ravel()
         pixels[sides[sides >= 0]] = True
@@ -137,8 +148,8 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
             break
         missing = pixels & np.isnan(floor)
         if missing.any():
-            floor[missing] = np.minimum(centre_clearance(initial, missing)[missing], margin)
-        ok = ~pixels | (centre_clearance(current, pixels) >= floor - 1e-9)
+            floor[missing] = np.minimum(_clearance(cells, initial, missing)[missing], margin)
+        ok = ~pixels | (_clearance(cells, current, pixels) >= floor - 1e-9)
         reference = current
         if ok.all():
             break
@@ -154,8 +165,3 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
         positions[nodes] = start[nodes]
     return positions
 
-
-def _drawing(splines: SplineSet, positions: np.ndarray) -> VectorImage:
-    """The geometry drawn at node ``positions``, without the curve table the SVG writer
-    reads (all that :func:`centre_clearance` measures)."""
-    return VectorImage(splines.cells, *splines.geometry(positions), stage="optimized")

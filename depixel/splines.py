@@ -58,6 +58,14 @@ class Geometry(NamedTuple):
     controls: np.ndarray  # (E, 3, 2) c0, c1, c2 of "points[u] Q c0 c1 Q c2 points[v]"
 
 
+class Drawing(NamedTuple):
+    """:class:`Geometry` with the controls of the curved edges alone (for measuring it)."""
+
+    points: np.ndarray  # (N, 2) as Geometry.points
+    edges: np.ndarray  # (C,) the curved edges, in slot order
+    controls: np.ndarray  # (C, 3, 2) their Geometry.controls
+
+
 class _SnapPlan(NamedTuple):
     """What :meth:`SplineSet.snap` needs: each T-junction end, the slot it snaps to, that
     slot's neighbours and whether they are ends ((T, 1) bool, broadcastable over x, y)."""
@@ -211,26 +219,33 @@ class SplineSet:
         node positions — shared by the splines stage and the optimizer's result."""
         return self._geometry(self.controls_for(positions), positions)
 
+    def drawing(self, positions: np.ndarray) -> Drawing:
+        """:meth:`geometry` with the controls of the curved edges alone."""
+        return self._drawing(self.controls_for(positions), positions)
+
     def _geometry(self, ctrl: np.ndarray, positions: np.ndarray) -> Geometry:
-        s = self._curve_points(ctrl)
-        display = self._display(s, positions)
+        points, edge, trio = self._drawing(ctrl, positions)
         n_edges = len(self.cells.edges)
         curved = np.zeros(n_edges, dtype=bool)
+        curved[edge] = True
         controls = np.zeros((n_edges, 3, 2), dtype=np.float64)
+        controls[edge] = trio
+        return Geometry(points, curved, controls)
 
+    def _drawing(self, ctrl: np.ndarray, positions: np.ndarray) -> Drawing:
+        s = self._curve_points(ctrl)
+        display = self._display(s, positions)
         _, nxt = self.neighbours()
         end = self.is_end()
         a = np.flatnonzero(nxt >= 0)
         a = a[~(end[a] & end[nxt[a]])]  # an edge between two end points is a straight segment
-        edge = self.slot_edges[a]
-        curved[edge] = True
+        controls = np.empty((a.size, 3, 2), dtype=np.float64)
         for lo in range(0, a.size, GEOMETRY_BATCH):  # the Béziers' temporaries are several times the result
             a_part = a[lo : lo + GEOMETRY_BATCH]
             b_part = nxt[a_part]
             trio = between_curve_points(ctrl[a_part], ctrl[b_part], s[a_part], s[b_part], end[a_part], end[b_part])
-            trio = np.where(self.slot_forward[a_part, None, None], trio, trio[:, ::-1])
-            controls[edge[lo : lo + GEOMETRY_BATCH]] = trio
-        return Geometry(display, curved, controls)
+            controls[lo : lo + GEOMETRY_BATCH] = np.where(self.slot_forward[a_part, None, None], trio, trio[:, ::-1])
+        return Drawing(display, self.slot_edges[a], controls)
 
     def vector_image(self, positions: np.ndarray | None = None, stage: str = "splines") -> VectorImage:
         positions = self.positions if positions is None else positions
