@@ -34,6 +34,10 @@ from .similarity import SimilarityGraph
 # edge kinds
 HORIZONTAL, VERTICAL, DIAGONAL = 0, 1, 2
 
+#: the integer type of the cell graph's and the curves' index arrays: the image limits keep
+#: every count far below 2**31, and these arrays live until the SVG is written
+INDEX = np.int32
+
 
 @dataclass(frozen=True, eq=False)
 class CellGraph:
@@ -41,13 +45,13 @@ class CellGraph:
     arrays are read-only."""
 
     graph: SimilarityGraph  # the resolved (planar) similarity graph it was built from
-    nodes: np.ndarray  # (N, 2) int64, (x, y) in quarter pixels
-    edges: np.ndarray  # (E, 2) int64 node indices (u, v)
-    edge_pixels: np.ndarray  # (E, 2) int64 flat pixel index on the (left, right) of u→v; -1 outside
+    nodes: np.ndarray  # (N, 2) int32, (x, y) in quarter pixels
+    edges: np.ndarray  # (E, 2) int32 node indices (u, v)
+    edge_pixels: np.ndarray  # (E, 2) int32 flat pixel index on the (left, right) of u→v; -1 outside
     edge_kind: np.ndarray  # (E,) uint8: HORIZONTAL, VERTICAL or DIAGONAL
-    cell_ptr: np.ndarray  # (H*W + 1,) int64: cell p is cell_nodes[cell_ptr[p]:cell_ptr[p+1]]
-    cell_nodes: np.ndarray  # node indices of every cell polygon, clockwise on screen
-    cell_edges: np.ndarray  # matching edge indices: cell_edges[k] joins cell_nodes[k] to the next node
+    cell_ptr: np.ndarray  # (H*W + 1,) int32: cell p is cell_nodes[cell_ptr[p]:cell_ptr[p+1]]
+    cell_nodes: np.ndarray  # int32 node indices of every cell polygon, clockwise on screen
+    cell_edges: np.ndarray  # int32 matching edge indices: cell_edges[k] joins cell_nodes[k] to the next node
 
     def __post_init__(self) -> None:
         freeze(self)
@@ -93,11 +97,11 @@ def _template_nodes(split_main: np.ndarray, split_anti: np.ndarray) -> np.ndarra
     point a link splits (``split_*`` (H+1, W+1) bool), in scanline order."""
     split = split_main | split_anti
     ii, jj = np.mgrid[0 : split.shape[0], 0 : split.shape[1]]
-    base = np.stack([4 * jj, 4 * ii], axis=-1).astype(np.int64)
+    base = np.stack([4 * jj, 4 * ii], axis=-1).astype(INDEX)
     offset0 = np.zeros_like(base)
     offset0[split_main] = (-1, 1)  # A, towards the bottom-left pixel
     offset0[split_anti] = (-1, -1)  # C, towards the top-left pixel
-    offset1 = np.where(split_main[..., None], np.array([1, -1]), np.array([1, 1]))  # B or D
+    offset1 = np.where(split_main[..., None], np.array([1, -1], INDEX), np.array([1, 1], INDEX))  # B or D
     return np.concatenate([(base + offset0).reshape(-1, 2), (base + offset1)[split]], axis=0)
 
 
@@ -106,9 +110,9 @@ def _pixel_edges(split_main: np.ndarray, split_anti: np.ndarray) -> tuple[np.nda
     ``(E,)``: the horizontal pixel edges, the vertical ones, then the links' edges."""
     h, w = split_main.shape[0] - 1, split_main.shape[1] - 1
     n_lattice = (h + 1) * (w + 1)
-    lattice = np.arange(n_lattice).reshape(h + 1, w + 1)
+    lattice = np.arange(n_lattice, dtype=INDEX).reshape(h + 1, w + 1)
     split = split_main | split_anti
-    second = np.full((h + 1, w + 1), -1, dtype=np.int64)
+    second = np.full((h + 1, w + 1), -1, dtype=INDEX)
     second[split] = n_lattice + np.arange(int(split.sum()))
 
     # which template node each pixel edge ends at, per direction leaving the lattice point
@@ -117,8 +121,8 @@ def _pixel_edges(split_main: np.ndarray, split_anti: np.ndarray) -> tuple[np.nda
     down_end = np.where(split_anti, second, lattice)  # between BL and BR: A for "\\", D for "/"
     left_end = lattice  # between TL and BL: A or C, always slot 0
 
-    pixel = np.full((h + 2, w + 2), -1, dtype=np.int64)
-    pixel[1:-1, 1:-1] = np.arange(h * w).reshape(h, w)
+    pixel = np.full((h + 2, w + 2), -1, dtype=INDEX)
+    pixel[1:-1, 1:-1] = np.arange(h * w, dtype=INDEX).reshape(h, w)
 
     # horizontal edges (i, j) → (i, j+1): pixel above on the left, pixel below on the right
     h_uv = np.stack([right_end[:, :-1].ravel(), left_end[:, 1:].ravel()], axis=1)
@@ -148,13 +152,14 @@ def _cell_polygons(edges: np.ndarray, edge_pixels: np.ndarray, n_cells: int):
     """Trace each cell's boundary with the cell on the right (clockwise on screen)."""
     left, right = edge_pixels[:, 0], edge_pixels[:, 1]
     on_right, on_left = right >= 0, left >= 0
-    owner = np.concatenate([right[on_right], left[on_left]])
-    u = np.concatenate([edges[on_right, 0], edges[on_left, 1]])
-    v = np.concatenate([edges[on_right, 1], edges[on_left, 0]])
-    edge_of = np.concatenate([np.flatnonzero(on_right), np.flatnonzero(on_left)])
+    # the half-edges as trace_loops takes them (int64: it would copy anything else)
+    owner = np.concatenate([right[on_right], left[on_left]], dtype=np.int64)
+    u = np.concatenate([edges[on_right, 0], edges[on_left, 1]], dtype=np.int64)
+    v = np.concatenate([edges[on_right, 1], edges[on_left, 0]], dtype=np.int64)
+    edge_of = np.concatenate([np.flatnonzero(on_right), np.flatnonzero(on_left)]).astype(INDEX)
     del on_right, on_left
     loops = trace_loops(owner, u, v)
-    del v
+    del owner, v
     if len(loops) != n_cells or not np.array_equal(loops.owner, np.arange(n_cells)):
         raise AssertionError("every cell must have exactly one boundary loop")
-    return loops.ptr, u[loops.halfedges], edge_of[loops.halfedges]
+    return loops.ptr.astype(INDEX), u[loops.halfedges].astype(INDEX), edge_of[loops.halfedges]

@@ -15,14 +15,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .cells import CellGraph
+from .cells import INDEX, CellGraph
 from .graph import cycle_leaders
 from .params import Params
 from .vector import linked_edges
-
-#: the integer type of the curve arrays (edges, nodes, half-ends, slots): the image limits
-#: keep every count far below 2**31, and these arrays live through the later stages
-INDEX = np.int32
 
 
 class HalfEnds(NamedTuple):

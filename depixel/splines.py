@@ -38,9 +38,9 @@ from typing import NamedTuple
 import numpy as np
 
 from .bspline import Bezier, between_curve_points, midpoint, slot_spans, span
-from .cells import CellGraph
+from .cells import INDEX, CellGraph
 from .frozen import freeze
-from .pairing import INDEX, HalfEnds, band_edges, chain_curves, pair_ends, shading_edges, visible_edges
+from .pairing import HalfEnds, band_edges, chain_curves, pair_ends, shading_edges, visible_edges
 from .params import Params
 from .vector import CurveTable, VectorImage
 
