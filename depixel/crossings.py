@@ -86,7 +86,7 @@ def resolve_crossings(graph: SimilarityGraph, params: Params = Params()) -> Cros
     if params.tie_break:
         tied = ambiguous & (total == 0)
         tied_rows, tied_cols = np.nonzero(tied)
-        tie_break[tied] = _colour_frequency_vote(graph, tied_rows, tied_cols, params)
+        tie_break[tied] = _colour_frequency_vote(graph, graph.yuv(), tied_rows, tied_cols, params)
     total = total + tie_break
     keep_main = cleared.diag_main & ~(ambiguous & (total <= 0))
     keep_anti = cleared.diag_anti & ~(ambiguous & (total >= 0))
@@ -101,7 +101,7 @@ def resolve_crossings(graph: SimilarityGraph, params: Params = Params()) -> Cros
     )
 
 
-def _colour_frequency_vote(graph: SimilarityGraph, rows: np.ndarray, cols: np.ndarray,
+def _colour_frequency_vote(graph: SimilarityGraph, yuv: np.ndarray, rows: np.ndarray, cols: np.ndarray,
                            params: Params) -> np.ndarray:
     """Not in paper: break a tie towards the diagonal whose colour is rarer in the window.
 
@@ -111,8 +111,9 @@ def _colour_frequency_vote(graph: SimilarityGraph, rows: np.ndarray, cols: np.nd
     the "\\" diagonal, -1 the "/" one, 0 (equal counts) still removes both.
     """
     if rows.size > WINDOW_BATCH:
-        return np.concatenate([_colour_frequency_vote(graph, rows[i : i + WINDOW_BATCH], cols[i : i + WINDOW_BATCH],
-                                                      params) for i in range(0, rows.size, WINDOW_BATCH)])
+        return np.concatenate([_colour_frequency_vote(graph, yuv, rows[i : i + WINDOW_BATCH],
+                                                      cols[i : i + WINDOW_BATCH], params)
+                               for i in range(0, rows.size, WINDOW_BATCH)])
     from .similarity import similar
 
     if rows.size == 0:
@@ -124,12 +125,12 @@ def _colour_frequency_vote(graph: SimilarityGraph, rows: np.ndarray, cols: np.nd
     wc = np.clip(cols[:, None] + offs[None, :], 0, w - 1)[:, None, :]
     inside = ((rows[:, None] + offs >= 0) & (rows[:, None] + offs < h))[:, :, None] & \
              ((cols[:, None] + offs >= 0) & (cols[:, None] + offs < w))[:, None, :]
-    yuv, alpha = graph.yuv[wr, wc], graph.rgba[..., 3][wr, wc]
+    window_yuv, alpha = yuv[wr, wc], graph.rgba[..., 3][wr, wc]
     counts = []
     for pr, pc in ((rows, cols), (rows, cols + 1)):
-        ref_yuv = graph.yuv[pr, pc][:, None, None, :]
+        ref_yuv = yuv[pr, pc][:, None, None, :]
         ref_alpha = graph.rgba[pr, pc, 3][:, None, None]
-        counts.append((similar(yuv, alpha, ref_yuv, ref_alpha, params) & inside).sum(axis=(1, 2)))
+        counts.append((similar(window_yuv, alpha, ref_yuv, ref_alpha, params) & inside).sum(axis=(1, 2)))
     return np.sign(counts[1] - counts[0]).astype(np.float64)
 
 

@@ -51,7 +51,7 @@ def visible_edges(cells: CellGraph) -> np.ndarray:
 def shading_edges(cells: CellGraph, visible: np.ndarray, params: Params) -> np.ndarray:
     """(E,) bool: visible edges whose two colours are within ``shading_distance`` in YUV."""
     g = cells.graph
-    yuv = g.yuv.reshape(-1, 3)
+    yuv = g.yuv().reshape(-1, 3)
     alpha = g.rgba.reshape(-1, 4)[:, 3]
     left, right = np.maximum(cells.edge_pixels[:, 0], 0), np.maximum(cells.edge_pixels[:, 1], 0)
     dist = np.linalg.norm(yuv[left] - yuv[right], axis=1)

@@ -28,7 +28,6 @@ class SimilarityGraph:
     """Pixels and their 8-neighbour similarity links (see module docstring for layout)."""
 
     rgba: np.ndarray  # (H, W, 4) uint8
-    yuv: np.ndarray  # (H, W, 3) float64, hqx YUV on a 0-255 scale
     right: np.ndarray  # (H, W-1) bool
     down: np.ndarray  # (H-1, W) bool
     diag_main: np.ndarray  # (H-1, W-1) bool
@@ -37,6 +36,11 @@ class SimilarityGraph:
     @property
     def shape(self) -> tuple[int, int]:
         return self.rgba.shape[0], self.rgba.shape[1]
+
+    def yuv(self) -> np.ndarray:
+        """``(H, W, 3) float64`` hqx YUV of the pixels on a 0-255 scale, computed on each call:
+        the graph lives until the SVG is written, and YUV is needed only by the first stages."""
+        return rgb_to_yuv(self.rgba[..., :3])
 
     def degree(self) -> np.ndarray:
         """Valence of every pixel in the graph, ``(H, W) int``."""
@@ -66,7 +70,7 @@ class SimilarityGraph:
 
     def with_diagonals(self, diag_main: np.ndarray, diag_anti: np.ndarray) -> SimilarityGraph:
         """The same graph with other diagonal links (used by crossing resolution)."""
-        return SimilarityGraph(self.rgba, self.yuv, self.right, self.down, diag_main, diag_anti)
+        return SimilarityGraph(self.rgba, self.right, self.down, diag_main, diag_anti)
 
 
 def similar(yuv_a: np.ndarray, alpha_a: np.ndarray, yuv_b: np.ndarray, alpha_b: np.ndarray,
@@ -100,7 +104,6 @@ def build_similarity_graph(image, params: Params = Params()) -> SimilarityGraph:
     every, head, tail = slice(None), slice(None, -1), slice(1, None)
     return SimilarityGraph(
         rgba=rgba,
-        yuv=yuv,
         right=link((every, head), (every, tail)),
         down=link((head, every), (tail, every)),
         diag_main=link((head, head), (tail, tail)),
