@@ -125,7 +125,7 @@ class Group:
     end_a2: np.ndarray
     end_b2: np.ndarray
     keep: np.ndarray  # (2, 3, M, 1) bool: halves (first, second) of the spans before,
-    #                   own, after counted in E_s (0 for the span of an end a or b)
+    #                   own, after counted in E_s (False for the span of an end a or b)
     protected: np.ndarray  # (2, M, 1, 1, Q) float32 x and y of the points the spans must keep clear of
 
     def part(self, members: slice | np.ndarray) -> Group:
@@ -153,7 +153,7 @@ class Energy:
         self.prev, self.nxt = splines.neighbours()
         self.end = (self.prev < 0) | (self.nxt < 0)
         self.keep = ~excluded  # (P, 2) halves counted in E_s
-        self.splines = splines  # for the protected points of each class (computed per class: few move)
+        self.splines = splines  # protected points are found per class, not held for every slot
 
     def prepare(self, members: np.ndarray) -> Group:
         a, b = self.prev[members], self.nxt[members]
