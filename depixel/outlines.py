@@ -34,11 +34,12 @@ bit-identical numbers for it, in either direction.
 """
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
 
-from .arrays import batch_bounds, unique
+from .arrays import batch_bounds
 from .boundaries import CUBIC, LINE, QUAD, BoundaryPieces, build_pieces, junction_nodes
 from .loops import Loops, trace_loops
 from .simplify import simplify_pieces
@@ -108,32 +109,102 @@ def build_outlines(image: VectorImage, layout: str = "stacked", grid: float | No
     ``None`` keeps exact coordinates. ``simplify`` > 0 replaces the exact spline by fewer
     quadratics within that many pixels of it (:mod:`depixel.simplify`).
     """
-    if layout not in LAYOUTS:
-        raise ValueError(f"unknown layout {layout!r}; choose one of {', '.join(LAYOUTS)}")
-    cells = image.cells
-    h, w = cells.shape
-    topo = FaceTopology(image)
-    pieces = build_pieces(image, junction_nodes(image, topo.labels), grid)
-    if simplify > 0:
-        pieces = simplify_pieces(pieces, image, simplify, grid=grid)
-    members = topo.members(stacked=layout == "stacked", edge_cost=_edge_costs(image, pieces))
-    owner_face, entry = _member_entries(topo, members)
-    u = topo.entry_from[entry]
-    loops = trace_loops(topo.rank[owner_face], u, topo.entry_to[entry], points=topo.cells.nodes)
-    halfedge_edge, halfedge_from = topo.entry_edge[entry], u
-    keep = _loops_to_keep(topo, loops, halfedge_from, fill_holes=layout == "stacked")
-    kind, ctrl, ctrl2, end, loop_ptr = _segments_in_batches(image, pieces, loops, keep, halfedge_edge,
-                                                            halfedge_from, grid)
+    shapes = outline_shapes(image, layout, grid, simplify)
+    return _joined(shapes, list(shapes.batches()))
 
-    shape_rank = loops.owner[keep]
-    drawn = unique(shape_rank)
-    shape_ptr = np.asarray(np.searchsorted(shape_rank, np.r_[drawn, np.iinfo(np.int64).max]), dtype=np.int64)
-    face = topo.face_of_rank[drawn]
+
+class OutlineShapes:
+    """The shapes of a vector image in drawing order, known before their outlines are traced
+    (``face``, ``rgba``, ``region``, ``role`` as in :class:`Outlines`), and their outlines a
+    batch of consecutive shapes at a time (:meth:`batches`): the SVG writer formats each
+    batch as it comes, so the loops and segments of the whole image are never held at once.
+    """
+
+    def __init__(self, image: VectorImage, layout: str, grid: float | None, simplify: float) -> None:
+        if layout not in LAYOUTS:
+            raise ValueError(f"unknown layout {layout!r}; choose one of {', '.join(LAYOUTS)}")
+        self.image, self.layout, self.grid = image, layout, grid
+        self.shape = image.cells.shape
+        topo = FaceTopology(image)
+        pieces = build_pieces(image, junction_nodes(image, topo.labels), grid)
+        if simplify > 0:
+            pieces = simplify_pieces(pieces, image, simplify, grid=grid)
+        self.topo, self.pieces = topo, pieces
+        owner, self.member = topo.members(stacked=layout == "stacked", edge_cost=_edge_costs(image, pieces))
+        self.member_key = owner * (topo.n_faces + 1) + self.member
+        self.member_ptr = np.searchsorted(owner, np.arange(topo.n_faces + 1))  # members of each owner face
+        del owner
+        self.face = topo.face_of_rank[topo.drawn[topo.face_of_rank]]
+        self.rgba, self.region = topo.face_rgba[self.face], topo.face_region[self.face]
+        self.role = topo.roles()[self.face]
+        clear = np.flatnonzero(~topo.opaque)  # a pixel of each transparent or translucent face
+        self.probe_key = _probe_keys(topo.first_pixel[clear], self.shape[1]) if clear.size else None
+
+    def __len__(self) -> int:
+        return int(self.face.size)
+
+    def batches(self) -> Iterator[Outlines]:
+        """The outlines of the shapes, consecutive batches of about :data:`LOOP_BATCH`
+        boundary half-edges (the result does not depend on the batches)."""
+        topo, member_ptr = self.topo, self.member_ptr
+        entries = np.r_[0, np.cumsum(np.diff(topo.entry_ptr)[self.member])]  # of the members, running
+        sizes = (entries[member_ptr[1:]] - entries[member_ptr[:-1]])[self.face]
+        del entries
+        for a, b in batch_bounds(sizes, LOOP_BATCH):
+            yield self._outlines(a, b)
+
+    def _outlines(self, first: int, stop: int) -> Outlines:
+        """The outlines of shapes ``first:stop``."""
+        topo, face = self.topo, self.face[first:stop]
+        lo, hi = self.member_ptr[face], self.member_ptr[face + 1]
+        member = self.member[_ranges(lo, hi)]
+        owner = np.repeat(face, hi - lo)
+        owner_face, entry = _batch_entries(topo, owner, member, self.member_key)
+        u = topo.entry_from[entry]
+        loops = trace_loops(topo.rank[owner_face], u, topo.entry_to[entry], points=topo.cells.nodes)
+        del owner_face
+        keep = _loops_to_keep(loops, u, topo.cells.nodes, self.probe_key, self.shape[1], self.layout == "stacked")
+        kind, ctrl, ctrl2, end, loop_ptr = _segments_in_batches(self.image, self.pieces, loops, keep,
+                                                                topo.entry_edge[entry], u, self.grid)
+        shape_ptr = np.searchsorted(loops.owner[keep], np.r_[topo.rank[face], np.iinfo(np.int64).max]).astype(np.int64)
+        return Outlines(
+            shape=self.shape, layout=self.layout, grid=self.grid, face=face, rgba=self.rgba[first:stop],
+            region=self.region[first:stop], role=self.role[first:stop], shape_ptr=shape_ptr,
+            loop_ptr=loop_ptr, kind=kind, ctrl=ctrl, ctrl2=ctrl2, end=end,
+        )
+
+
+def outline_shapes(image: VectorImage, layout: str = "stacked", grid: float | None = None,
+                   simplify: float = 0.0) -> OutlineShapes:
+    """The shapes of a vector image, their outlines to come a batch at a time
+    (:func:`build_outlines` has the parameters)."""
+    return OutlineShapes(image, layout, grid, simplify)
+
+
+def _joined(shapes: OutlineShapes, parts: list[Outlines]) -> Outlines:
+    """One :class:`Outlines` of consecutive batches."""
+    if not parts:
+        empty = np.zeros(0, np.int64)
+        return Outlines(shape=shapes.shape, layout=shapes.layout, grid=shapes.grid, face=shapes.face,
+                        rgba=shapes.rgba, region=shapes.region, role=shapes.role, shape_ptr=np.zeros(1, np.int64),
+                        loop_ptr=np.zeros(1, np.int64), kind=np.zeros(0, np.uint8), ctrl=np.zeros((0, 2)),
+                        ctrl2=np.zeros((0, 2)), end=np.zeros((0, 2)))
+    loop_offset = np.cumsum([0] + [p.loop_ptr.size - 1 for p in parts[:-1]])
+    seg_offset = np.cumsum([0] + [p.kind.size for p in parts[:-1]])
     return Outlines(
-        shape=(h, w), layout=layout, grid=grid, face=face, rgba=topo.face_rgba[face],
-        region=topo.face_region[face], role=topo.roles(face), shape_ptr=shape_ptr, loop_ptr=loop_ptr,
-        kind=kind, ctrl=ctrl, ctrl2=ctrl2, end=end,
+        shape=shapes.shape, layout=shapes.layout, grid=shapes.grid, face=shapes.face, rgba=shapes.rgba,
+        region=shapes.region, role=shapes.role,
+        shape_ptr=np.concatenate([parts[0].shape_ptr[:1]] + [p.shape_ptr[1:] + o for p, o in zip(parts, loop_offset)]),
+        loop_ptr=np.concatenate([parts[0].loop_ptr[:1]] + [p.loop_ptr[1:] + o for p, o in zip(parts, seg_offset)]),
+        kind=np.concatenate([p.kind for p in parts]), ctrl=np.concatenate([p.ctrl for p in parts]),
+        ctrl2=np.concatenate([p.ctrl2 for p in parts]), end=np.concatenate([p.end for p in parts]),
     )
+
+
+def _ranges(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The integers of every range [lo, hi), concatenated."""
+    count = hi - lo
+    return np.repeat(lo - (np.cumsum(count) - count), count) + np.arange(int(count.sum()))
 
 
 def _edge_costs(image: VectorImage, pieces: BoundaryPieces) -> np.ndarray:
@@ -148,20 +219,10 @@ def _edge_costs(image: VectorImage, pieces: BoundaryPieces) -> np.ndarray:
     return cost
 
 
-def _member_entries(topo: FaceTopology, members: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """(owner face, boundary entry) of every shape's union of member faces, a batch of
-    :data:`LOOP_BATCH` members at a time (the result does not depend on it)."""
-    owner, member = members
-    n = topo.n_faces + 1
-    member_key = owner * n + member
-    parts = [_batch_entries(topo, owner[i : i + LOOP_BATCH], member[i : i + LOOP_BATCH], member_key)
-             for i in range(0, max(owner.size, 1), LOOP_BATCH)]
-    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
-
-
 def _batch_entries(topo: FaceTopology, owner: np.ndarray, member: np.ndarray, member_key: np.ndarray
                    ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_member_entries` of some (owner, member) pairs; ``member_key`` of all of them."""
+    """(owner face, boundary entry) of the union of member faces of each owner in some
+    (owner, member) pairs; ``member_key`` of all pairs (sorted)."""
     counts = topo.entry_ptr[member + 1] - topo.entry_ptr[member]
     which = np.repeat(np.arange(owner.size), counts)
     entry = np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts) + topo.entry_ptr[member][which]
@@ -175,39 +236,44 @@ def _batch_entries(topo: FaceTopology, owner: np.ndarray, member: np.ndarray, me
     return shape_face[~inside], entry[~inside]
 
 
-def _loops_to_keep(topo: FaceTopology, loops: Loops, halfedge_from: np.ndarray, fill_holes: bool) -> np.ndarray:
-    """Indices of the loops drawn: all of them, less (stacked layout) the holes that hold no
-    transparent or translucent pixel (those are covered by shapes drawn later)."""
+def _probe_keys(pixels: np.ndarray, width: int) -> np.ndarray:
+    """Sorted keys of the centres of some pixels (flat indices), as :func:`_holds_a_probe`
+    searches them: row * (4W + 8) + the centre's x in quarter pixels."""
+    row, col = np.divmod(pixels, width)
+    return np.sort(row * (4 * width + 8) + 4 * col + 2)
+
+
+def _loops_to_keep(loops: Loops, halfedge_from: np.ndarray, nodes: np.ndarray, probe_key: np.ndarray | None,
+                   width: int, fill_holes: bool) -> np.ndarray:
+    """Indices of the loops drawn: all of them, less (``fill_holes``, the stacked layout) the
+    holes that hold no transparent or translucent pixel (``probe_key``: :func:`_probe_keys` of
+    one pixel of each such face, None if none; the others are covered by shapes drawn later).
+    ``nodes``: quarter-pixel node positions."""
     everything = np.arange(len(loops))
     if not fill_holes or len(loops) == 0:
         return everything
-    nodes = topo.cells.nodes.astype(np.int64)
     start = halfedge_from[loops.halfedges]
     nxt_pos = np.arange(start.size) + 1
     nxt_pos[loops.ptr[1:] - 1] = loops.ptr[:-1]
-    p, q = nodes[start], nodes[start[nxt_pos]]
+    p, q = nodes[start].astype(np.int64), nodes[start[nxt_pos]].astype(np.int64)
     cross = p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]
     loop_of = np.repeat(everything, np.diff(loops.ptr))
     area2 = np.bincount(loop_of, weights=cross, minlength=len(loops))  # clockwise on screen > 0
     holes = np.flatnonzero(area2 < 0)
     if holes.size == 0:
         return everything
-    clear = np.flatnonzero(~topo.opaque)
-    if clear.size == 0:
+    if probe_key is None:
         return np.flatnonzero(area2 >= 0)
-    w = topo.cells.shape[1]
-    row, col = np.divmod(topo.first_pixel[clear], w)
-    probe = np.stack([4 * col + 2, 4 * row + 2], axis=1)  # a pixel centre of each, quarter units
     hole_edges = np.flatnonzero(np.isin(loop_of, holes))
-    blocked = _holds_a_probe(p[hole_edges], q[hole_edges], loop_of[hole_edges], probe, len(loops), w)
+    blocked = _holds_a_probe(p[hole_edges], q[hole_edges], loop_of[hole_edges], probe_key, len(loops), width)
     keep = (area2 >= 0) | blocked
     return np.flatnonzero(keep)
 
 
-def _holds_a_probe(a: np.ndarray, b: np.ndarray, loop: np.ndarray, probe: np.ndarray, n_loops: int,
+def _holds_a_probe(a: np.ndarray, b: np.ndarray, loop: np.ndarray, probe_key: np.ndarray, n_loops: int,
                    width: int) -> np.ndarray:
     """(n_loops,) bool: the loops (edges a→b (E, 2) of loop ``loop``, quarter-pixel units)
-    that hold a probe (pixel centres (P, 2)) by the even-odd rule, a ray towards +x counting
+    that hold a probe (pixel centres at (4c + 2, 4r + 2), sorted keys r(4W + 8) + 4c + 2) by the even-odd rule, a ray towards +x counting
     the edges that straddle the probe's row (half-open in y) and cross it strictly right.
 
     Row by row instead of every (edge, probe) pair: a probe row y = 4r + 2 meets each loop
@@ -235,7 +301,6 @@ def _holds_a_probe(a: np.ndarray, b: np.ndarray, loop: np.ndarray, probe: np.nda
     rank = np.arange(order.size) - np.searchsorted(group, group)  # position within (loop, row)
     first = order[rank % 2 == 0]
     second = order[rank % 2 == 1]  # each (loop, row) has an even number of crossings
-    probe_key = np.sort((probe[:, 1] - 2) // 4 * span + probe[:, 0])
     start = np.searchsorted(probe_key, row[first] * span + ceil[first])
     stop = np.searchsorted(probe_key, row[second] * span + ceil[second])
     held = np.zeros(n_loops, bool)

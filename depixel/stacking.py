@@ -205,26 +205,25 @@ class FaceTopology:
                 return keys
             keys = union(keys, add)
 
-    def roles(self, faces: np.ndarray) -> np.ndarray:
-        """Role of each face's shape: the lowest shape covering most of the image along its
-        border is the backdrop; a face darker than every face it encloses is an outline;
-        a face sharing its region with others is a shading band."""
+    def roles(self) -> np.ndarray:
+        """(F,) int8 role of each face's shape: the lowest shape, when it covers most of the
+        image along its border, is the backdrop; a face darker than every face it encloses
+        is an outline; a face sharing its region with others is a shading band."""
         h, w = self.cells.shape
-        role = np.full(faces.size, ROLES.index("shape"), np.int8)
+        role = np.full(self.n_faces, ROLES.index("shape"), np.int8)
         region_faces = np.bincount(self.face_region[self.drawn], minlength=int(self.face_region.max()) + 1)
-        role[region_faces[self.face_region[faces]] > 1] = ROLES.index("band")
+        role[region_faces[self.face_region] > 1] = ROLES.index("band")
         luma = self.face_rgba[:, :3].astype(np.float64) @ np.array([0.299, 0.587, 0.114])
         a, b = self.pairs[:, 0], self.pairs[:, 1]
         deeper = self.depth[b] > self.depth[a]
         encloses = np.zeros(self.n_faces, bool)
         encloses[a[deeper]] = True
-        brightest_inside = np.full(self.n_faces, -1.0)
-        np.maximum.at(brightest_inside, a[deeper], luma[b[deeper]])
         darkest_inside = np.full(self.n_faces, 1e9)
         np.minimum.at(darkest_inside, a[deeper], luma[b[deeper]])
         outline = encloses & (luma < darkest_inside) & self.opaque
-        role[outline[faces]] = ROLES.index("outline")
-        lowest = faces[0] if faces.size else -1
+        role[outline] = ROLES.index("outline")
+        drawn = self.face_of_rank[self.drawn[self.face_of_rank]]
+        lowest = drawn[0] if drawn.size else -1
         if lowest >= 0 and self.on_border[lowest] and self.opaque[lowest] and self.area[lowest] * 4 >= h * w:
-            role[0] = ROLES.index("backdrop")
+            role[lowest] = ROLES.index("backdrop")
         return role
