@@ -22,7 +22,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from .bspline import joint as leg_joint
-from .bspline import split_half
 from .vector import VectorImage
 
 #: segment kinds: a line, a quadratic Bézier (the spline's spans), a cubic Bézier (simplified)
@@ -44,12 +43,12 @@ class BoundaryPieces:
     kind: np.ndarray  # (K,) uint8 LINE, QUAD or CUBIC
     ctrl: np.ndarray  # (K, 2) float64 control point (the first of a CUBIC; NaN for a LINE)
     end: np.ndarray  # (K, 2) float64 end point
-    edge_piece: np.ndarray  # (E,) int64
+    edge_piece: np.ndarray  # (E,) int32
     edge_first: np.ndarray  # (E,) bool
     edge_last: np.ndarray  # (E,) bool
-    span_slot: np.ndarray  # (K,) int64 slot whose span the segment is (part of); -1 once simplified
+    span_slot: np.ndarray  # (K,) int32 slot whose span the segment is (part of); -1 once simplified
     slot_ctrl: np.ndarray  # (P, 2) float64 control point of every slot's span (on the grid)
-    ctrl2: np.ndarray  # (K, 2) float64 second control point of a CUBIC (NaN otherwise)
+    ctrl2: np.ndarray  # (K, 2) float64 second control point of a CUBIC (NaN otherwise; read-only)
 
     def __len__(self) -> int:
         return int(self.ptr.size - 1)
@@ -58,7 +57,7 @@ class BoundaryPieces:
                          end: np.ndarray, ctrl2: np.ndarray) -> BoundaryPieces:
         """The same pieces with other segments (e.g. simplified)."""
         return BoundaryPieces(start, ptr, kind, ctrl, end, self.edge_piece, self.edge_first, self.edge_last,
-                              np.full(kind.size, -1, np.int64),
+                              np.full(kind.size, -1, np.int32),
                               self.slot_ctrl, ctrl2)
 
 
@@ -91,12 +90,12 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
     end = curves.is_end()
     ctrl = curves.ctrl if grid is None else np.round(curves.ctrl / (2 * grid)) * (2 * grid)
     b = np.maximum(nxt, 0)
-    joint = np.where(end[:, None], point[node], np.where(end[b][:, None], point[node[b]], leg_joint(ctrl, ctrl[b])))
-    joint[nxt < 0] = np.nan  # joint[s]: between slot s and the next one
-    joint_before = np.where((prev >= 0)[:, None], joint[np.maximum(prev, 0)], np.nan)
-    first_half, second_half = split_half(joint_before, ctrl, joint)  # span s (joint before, ctrl, joint) halved
-    half_next = _on_grid(second_half.p1, grid)  # control of the half of span s towards next
-    half_prev = _on_grid(first_half.p1, grid)
+    joint = leg_joint(ctrl, ctrl[b])  # joint[s]: between slot s and the next one
+    joint[end] = point[node[end]]
+    before_end = ~end & end[b]
+    joint[before_end] = point[node[b[before_end]]]
+    joint[nxt < 0] = np.nan
+    del b, before_end
 
     # slots that bound pieces; a closed curve with none gets its first slot, where its
     # piece starts and ends at a joint instead of a curve point
@@ -131,26 +130,28 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
     count = head + n_full + tail
     ptr = np.r_[0, np.cumsum(count)].astype(np.int64)
     total = int(ptr[-1])
-    kind = np.full(total, QUAD, np.uint8)
-    seg_ctrl = np.empty((total, 2))
-    seg_end = np.empty((total, 2))
-    span_slot = np.empty(total, np.int64)
     piece = np.repeat(np.arange(starts.size), count)
     offset = np.arange(total) - ptr[piece]
     # which slot's span each segment is, walking from the first slot
     is_head = head[piece] & (offset == 0)
     is_tail = tail[piece] & (offset == count[piece] - 1)
     steps = offset - head[piece] + 1 - seed[piece]  # full span k is the slot k steps after the first
-    slot = _advance(nxt, first_slot[piece], np.where(is_head, 0, np.where(is_tail, length[piece], steps)))
-    span_slot[:] = slot
-    seg_ctrl[:] = ctrl[slot]
-    seg_end[:] = joint[slot]
-    seg_ctrl[is_head] = half_next[slot[is_head]]
-    seg_ctrl[is_tail] = half_prev[slot[is_tail]]
-    seg_end[is_tail] = point[node[slot[is_tail]]]
-    start = np.where(seed[:, None], joint_before[first_slot], point[node[first_slot]])
+    steps[is_tail] = length[piece[is_tail]]
+    steps[is_head] = 0
+    del offset
+    slot = _advance(nxt, first_slot[piece], steps)
+    del piece, steps
+    kind = np.full(total, QUAD, np.uint8)
+    seg_ctrl = ctrl[slot]
+    seg_end = joint[slot]
+    # the halves of a span (de Casteljau at t = ½) have the controls (S0 + C) / 2 and (C + S1) / 2
+    head_slot, tail_slot = slot[is_head], slot[is_tail]
+    seg_ctrl[is_head] = _on_grid((ctrl[head_slot] + joint[head_slot]) / 2.0, grid)
+    seg_ctrl[is_tail] = _on_grid((_joint_before(joint, prev, tail_slot) + ctrl[tail_slot]) / 2.0, grid)
+    seg_end[is_tail] = point[node[tail_slot]]
+    start = np.where(seed[:, None], _joint_before(joint, prev, first_slot), point[node[first_slot]])
 
-    edge_piece = np.full(n_edges, -1, np.int64)
+    edge_piece = np.full(n_edges, -1, np.int32)
     edge_first = np.zeros(n_edges, bool)
     edge_last = np.zeros(n_edges, bool)
     edge_slot = curves.edge_slot
@@ -159,9 +160,19 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
     edge_piece[curved_edges] = piece_of_slot[slot_of_edge]
     edge_first[curved_edges] = anchor_or_seed[slot_of_edge]
     edge_last[curved_edges] = anchor_or_seed[nxt[slot_of_edge]]
-    kind, seg_ctrl = _straighten(start, ptr, kind, seg_ctrl, seg_end, grid)
-    return BoundaryPieces(start, ptr, kind, seg_ctrl, seg_end, edge_piece, edge_first, edge_last, span_slot, ctrl,
-                          np.full(seg_ctrl.shape, np.nan))
+    _straighten(start, ptr, kind, seg_ctrl, seg_end, grid)
+    return BoundaryPieces(start, ptr, kind, seg_ctrl, seg_end, edge_piece, edge_first, edge_last,
+                          slot.astype(np.int32), ctrl, _no_cubics(seg_ctrl.shape))
+
+
+def _no_cubics(shape: tuple[int, ...]) -> np.ndarray:
+    """``ctrl2`` of segments without cubics: all NaN, a read-only view that takes no memory."""
+    return np.broadcast_to(np.nan, shape)
+
+
+def _joint_before(joint: np.ndarray, prev: np.ndarray, slot: np.ndarray) -> np.ndarray:
+    """(n, 2) the joint before each slot (between the previous slot and it; NaN at an open start)."""
+    return np.where((prev[slot] >= 0)[:, None], joint[np.maximum(prev[slot], 0)], np.nan)
 
 
 def _on_grid(xy: np.ndarray, grid: float | None) -> np.ndarray:
@@ -195,18 +206,21 @@ def _seeds(curve: np.ndarray, closed: np.ndarray, anchor: np.ndarray) -> np.ndar
 
 
 def _straighten(start: np.ndarray, ptr: np.ndarray, kind: np.ndarray, ctrl: np.ndarray, end: np.ndarray,
-                grid: float | None) -> tuple[np.ndarray, np.ndarray]:
-    """Quadratics whose control point lies on the segment between their ends are lines."""
+                grid: float | None) -> None:
+    """Quadratics whose control point lies on the segment between their ends are lines
+    (``kind`` and ``ctrl`` changed in place)."""
     n = kind.size
     if n == 0:
-        return kind, ctrl
-    piece = np.repeat(np.arange(ptr.size - 1), np.diff(ptr))
-    before = np.r_[0, np.arange(n - 1)]
-    seg_start = np.where((np.arange(n) == ptr[:-1][piece])[:, None], start[piece], end[before])
-    d0, d1 = ctrl - seg_start, end - ctrl
+        return
+    seg_start = np.empty_like(end)
+    seg_start[1:] = end[:-1]
+    first = ptr[:-1][np.diff(ptr) > 0]  # the first segment of every piece starts at its start
+    seg_start[first] = start[np.diff(ptr) > 0]
+    d0 = ctrl - seg_start
+    del seg_start
+    d1 = end - ctrl
     cross = d0[:, 0] * d1[:, 1] - d0[:, 1] * d1[:, 0]
     tol = 1e-12 if grid is None else 0.25 * grid * grid
     flat = (kind == QUAD) & (np.abs(cross) <= tol) & ((d0 * d1).sum(axis=1) >= 0)
-    kind = np.where(flat, LINE, kind).astype(np.uint8)
-    ctrl = np.where(flat[:, None], np.nan, ctrl)
-    return kind, ctrl
+    kind[flat] = LINE
+    ctrl[flat] = np.nan

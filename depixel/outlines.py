@@ -130,10 +130,10 @@ class OutlineShapes:
         if simplify > 0:
             pieces = simplify_pieces(pieces, image, simplify, grid=grid)
         self.topo, self.pieces = topo, pieces
-        owner, self.member = topo.members(stacked=layout == "stacked", edge_cost=_edge_costs(image, pieces))
-        self.member_key = owner * (topo.n_faces + 1) + self.member
+        owner, member = topo.members(stacked=layout == "stacked", edge_cost=_edge_costs(image, pieces))
+        self.member_key = owner * (topo.n_faces + 1) + member  # sorted (owner, member) pairs
         self.member_ptr = np.searchsorted(owner, np.arange(topo.n_faces + 1))  # members of each owner face
-        del owner
+        del owner, member
         self.face = topo.face_of_rank[topo.drawn[topo.face_of_rank]]
         self.rgba, self.region = topo.face_rgba[self.face], topo.face_region[self.face]
         self.role = topo.roles()[self.face]
@@ -147,7 +147,7 @@ class OutlineShapes:
         """The outlines of the shapes, consecutive batches of about :data:`LOOP_BATCH`
         boundary half-edges (the result does not depend on the batches)."""
         topo, member_ptr = self.topo, self.member_ptr
-        entries = np.r_[0, np.cumsum(np.diff(topo.entry_ptr)[self.member])]  # of the members, running
+        entries = np.r_[0, np.cumsum(np.diff(topo.entry_ptr)[self.member_key % (topo.n_faces + 1)])]  # running
         sizes = (entries[member_ptr[1:]] - entries[member_ptr[:-1]])[self.face]
         del entries
         for a, b in batch_bounds(sizes, LOOP_BATCH):
@@ -157,7 +157,7 @@ class OutlineShapes:
         """The outlines of shapes ``first:stop``."""
         topo, face = self.topo, self.face[first:stop]
         lo, hi = self.member_ptr[face], self.member_ptr[face + 1]
-        member = self.member[_ranges(lo, hi)]
+        member = self.member_key[_ranges(lo, hi)] % (topo.n_faces + 1)
         owner = np.repeat(face, hi - lo)
         owner_face, entry = _batch_entries(topo, owner, member, self.member_key)
         u = topo.entry_from[entry]

@@ -43,31 +43,40 @@ class FaceTopology:
         self.drawn = alpha > 0
         self.opaque = alpha == 255
 
+        # the face on the left and on the right of every cell edge (-1: outside the image)
         sides = cells.edge_pixels
-        face_side = np.where(sides >= 0, labels[np.maximum(sides, 0)], -1)  # (E, 2) left, right
-        boundary = np.flatnonzero(face_side[:, 0] != face_side[:, 1])
-        left, right = face_side[boundary, 0], face_side[boundary, 1]
-        u, v = cells.edges[boundary, 0], cells.edges[boundary, 1]
-        # one entry per face side of a boundary edge, oriented with the face on the right
+        left = np.where(sides[:, 0] >= 0, labels[np.maximum(sides[:, 0], 0)], -1)
+        right = np.where(sides[:, 1] >= 0, labels[np.maximum(sides[:, 1], 0)], -1)
+        boundary = np.flatnonzero(left != right)
+        left, right = left[boundary], right[boundary]
+        # one entry per face side of a boundary edge, oriented with the face on the right,
+        # sorted by face (stable); 32-bit, since an image has far fewer than 2^31 of anything
         has_r, has_l = right >= 0, left >= 0
-        entry_face = np.concatenate([right[has_r], left[has_l]])
-        entry_other = np.concatenate([left[has_r], right[has_l]])
-        entry_from = np.concatenate([u[has_r], v[has_l]])
-        entry_to = np.concatenate([v[has_r], u[has_l]])
-        entry_edge = np.concatenate([boundary[has_r], boundary[has_l]])
-        order = np.argsort(entry_face, kind="stable")
-        self.entry_face, self.entry_other = entry_face[order], entry_other[order]
-        self.entry_from, self.entry_to, self.entry_edge = entry_from[order], entry_to[order], entry_edge[order]
-        self.entry_ptr = np.searchsorted(self.entry_face, np.arange(n + 1))
+        order = np.argsort(np.concatenate([right[has_r], left[has_l]]), kind="stable")
+
+        def entries(of_right: np.ndarray, of_left: np.ndarray) -> np.ndarray:
+            return np.concatenate([of_right[has_r], of_left[has_l]], dtype=np.int32)[order]
+
+        self.entry_other = entries(left, right)
+        u, v = cells.edges[boundary, 0], cells.edges[boundary, 1]
+        self.entry_from, self.entry_to = entries(u, v), entries(v, u)
+        del u, v
+        self.entry_edge = entries(boundary, boundary)
+        del order
+        per_face = np.bincount(right[has_r], minlength=n) + np.bincount(left[has_l], minlength=n)
+        self.entry_ptr = np.r_[0, np.cumsum(per_face)]
 
         inner = has_l & has_r
-        lo, hi = np.minimum(left[inner], right[inner]), np.maximum(left[inner], right[inner])
-        pairs = unique(np.stack([lo, hi], axis=1), axis=0) if inner.any() else np.zeros((0, 2), np.int64)
-        self.pairs = np.concatenate([pairs, pairs[:, ::-1]])  # both directions
+        pair_key = unique(np.minimum(left[inner], right[inner]).astype(np.int64) * n + np.maximum(left[inner], right[inner]))
+        lo, hi = np.divmod(pair_key, n)
+        self.pairs = np.stack([np.r_[lo, hi], np.r_[hi, lo]], axis=1).astype(np.int32)  # both directions
+        del pair_key, lo, hi
 
         on_border = np.zeros(n, bool)
-        on_border[entry_face[entry_other < 0]] = True
+        on_border[right[has_r & ~has_l]] = True
+        on_border[left[has_l & ~has_r]] = True
         self.on_border = on_border
+        del left, right, boundary
         self.depth = self._depths()
         self.rank, self.face_of_rank = self._ranks(region)
         self.corners = self._corner_pairs(labels)
@@ -78,19 +87,25 @@ class FaceTopology:
         where four meet) are not neighbours, yet unless the lowest of them lies under all the
         others a seam opens at that point."""
         cells = self.cells
+        n = self.n_faces
         face_at = labels[np.repeat(np.arange(labels.size), np.diff(cells.cell_ptr))]
-        node = cells.cell_nodes
-        drawn_first = self.rank[face_at] + self.n_faces * ~self.drawn[face_at]  # the lowest drawn face first
-        order = np.lexsort((drawn_first, node))
-        node, face_at = node[order], face_at[order]
-        fresh = np.r_[True, (node[1:] != node[:-1]) | (face_at[1:] != face_at[:-1])]
-        node, face_at = node[fresh], face_at[fresh]
+        drawn_first = self.rank[face_at] + n * ~self.drawn[face_at]  # the lowest drawn face first
+        del face_at
+        # one sorted key per (node, face) instead of a lexsort: ranks are distinct, so the
+        # face comes back from its rank
+        key = cells.cell_nodes.astype(np.int64) * (2 * n) + drawn_first
+        del drawn_first
+        key = unique(key)
+        node, drawn_first = np.divmod(key, 2 * n)
+        del key
+        face_at = self.face_of_rank[drawn_first % n]
+        del drawn_first
         start = np.flatnonzero(np.r_[True, node[1:] != node[:-1]])
         count = np.diff(np.r_[start, node.size])
         group = np.repeat(np.arange(start.size), count)
         lowest = face_at[start][group]  # sorted by rank within each node
         crowded = (count >= 3)[group] & (face_at != lowest)
-        return np.stack([lowest[crowded], face_at[crowded]], axis=1)
+        return np.stack([lowest[crowded], face_at[crowded]], axis=1).astype(np.int32)
 
     def _depths(self) -> np.ndarray:
         """(F,) boundaries to cross from outside: 0 for transparent faces, 1 on the border or
@@ -152,8 +167,8 @@ class FaceTopology:
         n = self.n_faces
         if not stacked or self.pairs.size == 0:
             return own, own
-        a = np.concatenate([self.pairs[:, 0], self.corners[:, 0]])
-        b = np.concatenate([self.pairs[:, 1], self.corners[:, 1]])
+        a = np.concatenate([self.pairs[:, 0], self.corners[:, 0]], dtype=np.int64)
+        b = np.concatenate([self.pairs[:, 1], self.corners[:, 1]], dtype=np.int64)
         under = self.drawn[a] & self.opaque[b] & (self.rank[b] > self.rank[a])
         keys = unique(np.concatenate([own * n + own, a[under] * n + b[under]]))
         if edge_cost is not None:
@@ -166,15 +181,19 @@ class FaceTopology:
         are grown a batch at a time (:data:`ABSORB_BATCH` keys), which bounds the memory of
         the candidate arrays (~40 a face on noise) and changes nothing else."""
         n = self.n_faces
+        entry_face = np.repeat(np.arange(n), np.diff(self.entry_ptr))
         other = np.where(self.entry_other >= 0, self.entry_other, n)  # n: outside
-        cost = edge_cost[self.entry_edge]
-        pair_key, pair_inv = np.unique(self.entry_face * (n + 1) + other, return_inverse=True)
-        pair_cost = np.bincount(pair_inv, weights=cost)
-        g, h = pair_key // (n + 1), pair_key % (n + 1)
+        pair_key, pair_inv = np.unique(entry_face * (n + 1) + other, return_inverse=True)
+        del entry_face, other
+        pair_cost = np.bincount(pair_inv, weights=edge_cost[self.entry_edge])
+        del pair_inv
+        g, h = np.divmod(pair_key, n + 1)
+        del pair_key
         perimeter = np.bincount(g, weights=pair_cost, minlength=n)
         inner_pairs = h < n
-        g, h, w = g[inner_pairs], h[inner_pairs], pair_cost[inner_pairs]
+        g, h, w = g[inner_pairs], h[inner_pairs].astype(np.int32), pair_cost[inner_pairs]
         neighbours = (np.searchsorted(g, np.arange(n + 1)), h, w, perimeter)
+        del g, h, w, pair_cost, inner_pairs
         owner = keys // n
         cuts = unique(np.r_[0, np.searchsorted(owner, owner[ABSORB_BATCH::ABSORB_BATCH]), keys.size])
         return np.concatenate([self._grow(keys[a:b], neighbours)
