@@ -166,7 +166,8 @@ class OutlineShapes:
         keep = _loops_to_keep(loops, u, topo.cells.nodes, self.probe_key, self.shape[1], self.layout == "stacked")
         kind, ctrl, ctrl2, end, loop_ptr = _segments_in_batches(self.image, self.pieces, loops, keep,
                                                                 topo.entry_edge[entry], u, self.grid)
-        shape_ptr = np.searchsorted(loops.owner[keep], np.r_[topo.rank[face], np.iinfo(np.int64).max]).astype(np.int64)
+        shape_rank = loops.owner[keep]
+        shape_ptr = np.asarray(np.searchsorted(shape_rank, np.r_[topo.rank[face], np.iinfo(np.int64).max]), np.int64)
         return Outlines(
             shape=self.shape, layout=self.layout, grid=self.grid, face=face, rgba=self.rgba[first:stop],
             region=self.region[first:stop], role=self.role[first:stop], shape_ptr=shape_ptr,
@@ -184,7 +185,6 @@ def outline_shapes(image: VectorImage, layout: str = "stacked", grid: float | No
 def _joined(shapes: OutlineShapes, parts: list[Outlines]) -> Outlines:
     """One :class:`Outlines` of consecutive batches."""
     if not parts:
-        empty = np.zeros(0, np.int64)
         return Outlines(shape=shapes.shape, layout=shapes.layout, grid=shapes.grid, face=shapes.face,
                         rgba=shapes.rgba, region=shapes.region, role=shapes.role, shape_ptr=np.zeros(1, np.int64),
                         loop_ptr=np.zeros(1, np.int64), kind=np.zeros(0, np.uint8), ctrl=np.zeros((0, 2)),
@@ -273,8 +273,9 @@ def _loops_to_keep(loops: Loops, halfedge_from: np.ndarray, nodes: np.ndarray, p
 def _holds_a_probe(a: np.ndarray, b: np.ndarray, loop: np.ndarray, probe_key: np.ndarray, n_loops: int,
                    width: int) -> np.ndarray:
     """(n_loops,) bool: the loops (edges a→b (E, 2) of loop ``loop``, quarter-pixel units)
-    that hold a probe (pixel centres at (4c + 2, 4r + 2), sorted keys r(4W + 8) + 4c + 2) by the even-odd rule, a ray towards +x counting
-    the edges that straddle the probe's row (half-open in y) and cross it strictly right.
+    that hold a probe (pixel centres (4c + 2, 4r + 2), sorted keys r(4W + 8) + 4c + 2) by the
+    even-odd rule, a ray towards +x counting the edges that straddle the probe's row
+    (half-open in y) and cross it strictly right.
 
     Row by row instead of every (edge, probe) pair: a probe row y = 4r + 2 meets each loop
     at crossings x_c; a probe at integer x has odd parity exactly when it lies in

@@ -54,7 +54,7 @@ class FaceTopology:
         has_r, has_l = right >= 0, left >= 0
         order = np.argsort(np.concatenate([right[has_r], left[has_l]]), kind="stable")
 
-        def entries(of_right: np.ndarray, of_left: np.ndarray) -> np.ndarray:
+        def entries(of_right: np.ndarray, of_left: np.ndarray, order: np.ndarray = order) -> np.ndarray:
             return np.concatenate([of_right[has_r], of_left[has_l]], dtype=np.int32)[order]
 
         self.entry_other = entries(left, right)
@@ -67,7 +67,8 @@ class FaceTopology:
         self.entry_ptr = np.r_[0, np.cumsum(per_face)]
 
         inner = has_l & has_r
-        pair_key = unique(np.minimum(left[inner], right[inner]).astype(np.int64) * n + np.maximum(left[inner], right[inner]))
+        lo, hi = np.minimum(left[inner], right[inner]).astype(np.int64), np.maximum(left[inner], right[inner])
+        pair_key = unique(lo * n + hi)
         lo, hi = np.divmod(pair_key, n)
         self.pairs = np.stack([np.r_[lo, hi], np.r_[hi, lo]], axis=1).astype(np.int32)  # both directions
         del pair_key, lo, hi

@@ -23,7 +23,7 @@ import numpy as np
 
 from .arrays import batch_bounds
 from .boundaries import CUBIC, LINE, QUAD
-from .outlines import OutlineShapes, Outlines, outline_shapes
+from .outlines import Outlines, OutlineShapes, outline_shapes
 from .stacking import ROLES
 from .svgtext import Texts, numbers, stack
 from .vector import VectorImage
