@@ -47,18 +47,23 @@ class BoundaryPieces:
     edge_first: np.ndarray  # (E,) bool
     edge_last: np.ndarray  # (E,) bool
     span_slot: np.ndarray  # (K,) int32 slot whose span the segment is (part of); -1 once simplified
-    slot_ctrl: np.ndarray  # (P, 2) float64 control point of every slot's span (on the grid)
+    curve_ctrl: np.ndarray  # (P, 2) float64 the curve table's control points (the image's own array)
+    grid: float | None  # the grid of the coordinates (None: exact)
     ctrl2: np.ndarray  # (K, 2) float64 second control point of a CUBIC (NaN otherwise; read-only)
 
     def __len__(self) -> int:
         return int(self.ptr.size - 1)
 
+    def span_ctrl(self, slot: np.ndarray) -> np.ndarray:
+        """(n, 2) the control point of each slot's span, on the grid like the segments' (computed
+        when asked: the few spans an outline joins back from two halves need it)."""
+        return _ctrl_on_grid(self.curve_ctrl[slot], self.grid)
+
     def replace_segments(self, start: np.ndarray, ptr: np.ndarray, kind: np.ndarray, ctrl: np.ndarray,
                          end: np.ndarray, ctrl2: np.ndarray) -> BoundaryPieces:
         """The same pieces with other segments (e.g. simplified)."""
         return BoundaryPieces(start, ptr, kind, ctrl, end, self.edge_piece, self.edge_first, self.edge_last,
-                              np.full(kind.size, -1, np.int32),
-                              self.slot_ctrl, ctrl2)
+                              np.full(kind.size, -1, np.int32), self.curve_ctrl, self.grid, ctrl2)
 
 
 def junction_nodes(image: VectorImage, face: np.ndarray) -> np.ndarray:
@@ -76,7 +81,7 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
 
     With ``grid``, every node point and joint is a multiple of ``grid`` and every control
     point a multiple of twice it (so each implied on-curve point, a midpoint of two control
-    points, is exact); each value is computed once, whichever shapes use it.
+    points, is exact); each value comes from one computation, whichever shapes use it.
     """
     n_edges = len(image.cells.edges)
     curves = image.curves
@@ -84,11 +89,11 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
     if curves is None or not image.curved.any():
         return BoundaryPieces(np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, np.uint8), np.zeros((0, 2)),
                               np.zeros((0, 2)), np.full(n_edges, -1, np.int64), np.zeros(n_edges, bool),
-                              np.zeros(n_edges, bool), empty, np.zeros((0, 2)), np.zeros((0, 2)))
+                              np.zeros(n_edges, bool), empty, np.zeros((0, 2)), grid, np.zeros((0, 2)))
     point = _on_grid(image.points, grid)
     node, prev, nxt = curves.node, curves.prev, curves.next
     end = curves.is_end()
-    ctrl = curves.ctrl if grid is None else np.round(curves.ctrl / (2 * grid)) * (2 * grid)
+    ctrl = _ctrl_on_grid(curves.ctrl, grid)
     b = np.maximum(nxt, 0)
     joint = leg_joint(ctrl, ctrl[b])  # joint[s]: between slot s and the next one
     joint[end] = point[node[end]]
@@ -149,7 +154,8 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
     seg_ctrl[is_head] = _on_grid((ctrl[head_slot] + joint[head_slot]) / 2.0, grid)
     seg_ctrl[is_tail] = _on_grid((_joint_before(joint, prev, tail_slot) + ctrl[tail_slot]) / 2.0, grid)
     seg_end[is_tail] = point[node[tail_slot]]
-    start = np.where(seed[:, None], _joint_before(joint, prev, first_slot), point[node[first_slot]])
+    start = point[node[first_slot]]
+    start[seed] = _joint_before(joint, prev, first_slot[seed])
 
     edge_piece = np.full(n_edges, -1, np.int32)
     edge_first = np.zeros(n_edges, bool)
@@ -162,7 +168,7 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
     edge_last[curved_edges] = anchor_or_seed[nxt[slot_of_edge]]
     _straighten(start, ptr, kind, seg_ctrl, seg_end, grid)
     return BoundaryPieces(start, ptr, kind, seg_ctrl, seg_end, edge_piece, edge_first, edge_last,
-                          slot.astype(np.int32), ctrl, _no_cubics(seg_ctrl.shape))
+                          slot.astype(np.int32), curves.ctrl, grid, _no_cubics(seg_ctrl.shape))
 
 
 def _no_cubics(shape: tuple[int, ...]) -> np.ndarray:
@@ -177,6 +183,11 @@ def _joint_before(joint: np.ndarray, prev: np.ndarray, slot: np.ndarray) -> np.n
 
 def _on_grid(xy: np.ndarray, grid: float | None) -> np.ndarray:
     return xy.copy() if grid is None else np.round(xy / grid) * grid
+
+
+def _ctrl_on_grid(ctrl: np.ndarray, grid: float | None) -> np.ndarray:
+    """Control points on twice the grid, so every implied on-curve point (a midpoint) is on it."""
+    return ctrl if grid is None else np.round(ctrl / (2 * grid)) * (2 * grid)
 
 
 def _advance(nxt: np.ndarray, slot: np.ndarray, steps: np.ndarray) -> np.ndarray:

@@ -131,10 +131,12 @@ class OutlineShapes:
         if simplify > 0:
             pieces = simplify_pieces(pieces, image, simplify, grid=grid)
         self.topo, self.pieces = topo, pieces
-        owner, member = topo.members(stacked=layout == "stacked", edge_cost=_edge_costs(image, pieces))
-        self.member_key = owner * (topo.n_faces + 1) + member  # sorted (owner, member) pairs
-        self.member_ptr = np.searchsorted(owner, np.arange(topo.n_faces + 1))  # members of each owner face
-        del owner, member
+        member_key = topo.members(stacked=layout == "stacked", edge_cost=_edge_costs(image, pieces))
+        # sorted keys owner * (F + 1) + member of the (owner, member) pairs: base F + 1, so that
+        # no key of the outside (member -1) is a member's
+        member_key += member_key // topo.n_faces
+        self.member_key = member_key
+        self.member_ptr = np.searchsorted(member_key, np.arange(topo.n_faces + 1) * (topo.n_faces + 1))  # per owner
         self.face = topo.face_of_rank[topo.drawn[topo.face_of_rank]]
         self.rgba, self.region = topo.face_rgba[self.face], topo.face_region[self.face]
         self.role = topo.roles()[self.face]
@@ -310,7 +312,7 @@ def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, kee
     whole = np.flatnonzero((span[:-1] >= 0) & (span[:-1] == span[1:]) & (seg_loop[:-1] == seg_loop[1:])
                            & (kind[:-1] == QUAD) & (kind[1:] == QUAD))  # (straight halves merge as lines)
     if whole.size:
-        ctrl[whole + 1] = pieces.slot_ctrl[span[whole]]
+        ctrl[whole + 1] = pieces.span_ctrl(span[whole])
         keep_seg = np.ones(total, bool)
         keep_seg[whole] = False
         kind, ctrl, end, seg_loop = kind[keep_seg], ctrl[keep_seg], end[keep_seg], seg_loop[keep_seg]

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .arrays import union, unique
+from .arrays import batch_bounds, union, unique
 from .vector import VectorImage, faces_and_regions
 
 #: shape roles, for the labels of an editor's layers panel
@@ -156,9 +156,9 @@ class FaceTopology:
         pocket[centre[around]] = True
         return pocket
 
-    def members(self, stacked: bool, edge_cost: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """(owner face, member face) pairs, sorted: the faces each drawn face's shape covers
-        before its holes are filled.
+    def members(self, stacked: bool, edge_cost: np.ndarray | None = None) -> np.ndarray:
+        """Sorted keys ``owner * F + member`` of (owner face, member face) pairs: the faces
+        each drawn face's shape covers before its holes are filled.
 
         Cutout: the face alone. Stacked: the face and every opaque neighbour drawn above it
         (so the lower of two touching faces lies beneath their boundary), then, while it
@@ -167,14 +167,17 @@ class FaceTopology:
         own = np.flatnonzero(self.drawn)
         n = self.n_faces
         if not stacked or self.pairs.size == 0:
-            return own, own
-        a = np.concatenate([self.pairs[:, 0], self.corners[:, 0]], dtype=np.int64)
-        b = np.concatenate([self.pairs[:, 1], self.corners[:, 1]], dtype=np.int64)
-        under = self.drawn[a] & self.opaque[b] & (self.rank[b] > self.rank[a])
-        keys = unique(np.concatenate([own * n + own, a[under] * n + b[under]]))
+            return own * n + own
+        keys = unique(np.concatenate([own * n + own, self._under_keys(self.pairs), self._under_keys(self.corners)]))
         if edge_cost is not None:
             keys = self._absorb(keys, edge_cost)
-        return keys // n, keys % n
+        return keys
+
+    def _under_keys(self, pairs: np.ndarray) -> np.ndarray:
+        """Keys ``a * F + b`` of the (a, b) pairs where b is opaque and drawn above a drawn face a."""
+        a, b = pairs[:, 0], pairs[:, 1]
+        under = np.flatnonzero(self.drawn[a] & self.opaque[b] & (self.rank[b] > self.rank[a]))
+        return a[under].astype(np.int64) * self.n_faces + b[under]
 
     def _absorb(self, keys: np.ndarray, edge_cost: np.ndarray) -> np.ndarray:
         """Grow each shape's member set (keys owner * F + member, sorted) by the faces that
@@ -182,23 +185,36 @@ class FaceTopology:
         are grown a batch at a time (:data:`ABSORB_BATCH` keys), which bounds the memory of
         the candidate arrays (~40 a face on noise) and changes nothing else."""
         n = self.n_faces
-        entry_face = np.repeat(np.arange(n), np.diff(self.entry_ptr))
-        other = np.where(self.entry_other >= 0, self.entry_other, n)  # n: outside
-        pair_key, pair_inv = np.unique(entry_face * (n + 1) + other, return_inverse=True)
-        del entry_face, other
-        pair_cost = np.bincount(pair_inv, weights=edge_cost[self.entry_edge])
-        del pair_inv
+        pair_key, pair_cost = self._neighbour_costs(edge_cost)
         g, h = np.divmod(pair_key, n + 1)
         del pair_key
         perimeter = np.bincount(g, weights=pair_cost, minlength=n)
-        inner_pairs = h < n
+        inner_pairs = np.flatnonzero(h < n)
         g, h, w = g[inner_pairs], h[inner_pairs].astype(np.int32), pair_cost[inner_pairs]
         neighbours = (np.searchsorted(g, np.arange(n + 1)), h, w, perimeter)
         del g, h, w, pair_cost, inner_pairs
         owner = keys // n
         cuts = unique(np.r_[0, np.searchsorted(owner, owner[ABSORB_BATCH::ABSORB_BATCH]), keys.size])
+        del owner
         return np.concatenate([self._grow(keys[a:b], neighbours)
                                for a, b in zip(cuts[:-1].tolist(), cuts[1:].tolist())] or [keys])
+
+    def _neighbour_costs(self, edge_cost: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Sorted keys ``face * (F + 1) + other`` (other F: outside the image) of the faces
+        each face borders, and the cost of their common boundary. The entries are sorted by
+        face, so a batch of faces at a time gives the same keys and sums (bounded memory)."""
+        n = self.n_faces
+        keys, costs = [], []
+        for a, b in batch_bounds(np.diff(self.entry_ptr), ABSORB_BATCH):
+            lo, hi = int(self.entry_ptr[a]), int(self.entry_ptr[b])
+            face = np.repeat(np.arange(a, b), np.diff(self.entry_ptr[a : b + 1]))
+            other = self.entry_other[lo:hi]
+            key, inverse = np.unique(face * (n + 1) + np.where(other >= 0, other, n), return_inverse=True)
+            keys.append(key)
+            costs.append(np.bincount(inverse, weights=edge_cost[self.entry_edge[lo:hi]]))
+        if not keys:
+            return np.zeros(0, np.int64), np.zeros(0)
+        return np.concatenate(keys), np.concatenate(costs)
 
     def _grow(self, keys: np.ndarray, neighbours: tuple[np.ndarray, ...]) -> np.ndarray:
         """:meth:`_absorb` of the shapes whose keys these are."""
