@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .bspline import joint as leg_joint
-from .vector import VectorImage
+from .vector import CurveTable, VectorImage
 
 #: segment kinds: a line, a quadratic Bézier (the spline's spans), a cubic Bézier (simplified)
 LINE, QUAD, CUBIC = 0, 1, 2
@@ -91,16 +91,8 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
                               np.zeros((0, 2)), np.full(n_edges, -1, np.int64), np.zeros(n_edges, bool),
                               np.zeros(n_edges, bool), empty, np.zeros((0, 2)), grid, np.zeros((0, 2)))
     point = _on_grid(image.points, grid)
-    node, prev, nxt = curves.node, curves.prev, curves.next
+    node, nxt = curves.node, curves.next
     end = curves.is_end()
-    ctrl = _ctrl_on_grid(curves.ctrl, grid)
-    b = np.maximum(nxt, 0)
-    joint = leg_joint(ctrl, ctrl[b])  # joint[s]: between slot s and the next one
-    joint[end] = point[node[end]]
-    before_end = ~end & end[b]
-    joint[before_end] = point[node[b[before_end]]]
-    joint[nxt < 0] = np.nan
-    del b, before_end
 
     # slots that bound pieces; a closed curve with none gets its first slot, where its
     # piece starts and ends at a joint instead of a curve point
@@ -110,7 +102,7 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
     anchor_or_seed = anchor | closed_free
     # walk: for every slot, the piece it starts (an anchor with a next slot) and the slots it covers
     starts = np.flatnonzero(anchor_or_seed & (nxt >= 0))
-    piece_of_slot = np.full(n_slots, -1, np.int64)  # piece that the edge slot → next belongs to
+    piece_of_slot = np.full(n_slots, -1, np.int32)  # piece that the edge slot → next belongs to
     piece_of_slot[starts] = np.arange(starts.size)
     walker = starts.copy()
     length = np.ones(starts.size, np.int64)  # edges per piece
@@ -125,6 +117,18 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
         length += active
     last_slot = nxt[walker]  # the anchor each piece ends at
     first_slot = starts
+    del walker, active
+
+    edge_piece = np.full(n_edges, -1, np.int32)
+    edge_first = np.zeros(n_edges, bool)
+    edge_last = np.zeros(n_edges, bool)
+    edge_slot = curves.edge_slot
+    curved_edges = np.flatnonzero(edge_slot >= 0)
+    slot_of_edge = edge_slot[curved_edges]
+    edge_piece[curved_edges] = piece_of_slot[slot_of_edge]
+    edge_first[curved_edges] = anchor_or_seed[slot_of_edge]
+    edge_last[curved_edges] = anchor_or_seed[nxt[slot_of_edge]]
+    del curved_edges, slot_of_edge, piece_of_slot, anchor, anchor_or_seed
 
     # segments: [head half of span a] + full spans in between + [tail half of span b]; at a
     # seeded closed curve, full spans all round from the joint before its seed
@@ -146,29 +150,24 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
     del offset
     slot = _advance(nxt, first_slot[piece], steps)
     del piece, steps
+
+    spans = _Spans(curves, point, end, grid)
     kind = np.full(total, QUAD, np.uint8)
-    seg_ctrl = ctrl[slot]
-    seg_end = joint[slot]
+    seg_ctrl = spans.ctrl(slot)
+    seg_end = spans.joint(slot)
     # the halves of a span (de Casteljau at t = ½) have the controls (S0 + C) / 2 and (C + S1) / 2
     head_slot, tail_slot = slot[is_head], slot[is_tail]
-    seg_ctrl[is_head] = _on_grid((ctrl[head_slot] + joint[head_slot]) / 2.0, grid)
-    seg_ctrl[is_tail] = _on_grid((_joint_before(joint, prev, tail_slot) + ctrl[tail_slot]) / 2.0, grid)
+    seg_ctrl[is_head] = _on_grid((spans.ctrl(head_slot) + spans.joint(head_slot)) / 2.0, grid)
+    seg_ctrl[is_tail] = _on_grid((spans.joint_before(tail_slot) + spans.ctrl(tail_slot)) / 2.0, grid)
     seg_end[is_tail] = point[node[tail_slot]]
     start = point[node[first_slot]]
-    start[seed] = _joint_before(joint, prev, first_slot[seed])
-
-    edge_piece = np.full(n_edges, -1, np.int32)
-    edge_first = np.zeros(n_edges, bool)
-    edge_last = np.zeros(n_edges, bool)
-    edge_slot = curves.edge_slot
-    curved_edges = np.flatnonzero(edge_slot >= 0)
-    slot_of_edge = edge_slot[curved_edges]
-    edge_piece[curved_edges] = piece_of_slot[slot_of_edge]
-    edge_first[curved_edges] = anchor_or_seed[slot_of_edge]
-    edge_last[curved_edges] = anchor_or_seed[nxt[slot_of_edge]]
+    start[seed] = spans.joint_before(first_slot[seed])
+    del spans, point, head_slot, tail_slot, is_head, is_tail
+    span_slot = slot.astype(np.int32)
+    del slot
     _straighten(start, ptr, kind, seg_ctrl, seg_end, grid)
     return BoundaryPieces(start, ptr, kind, seg_ctrl, seg_end, edge_piece, edge_first, edge_last,
-                          slot.astype(np.int32), curves.ctrl, grid, _no_cubics(seg_ctrl.shape))
+                          span_slot, curves.ctrl, grid, _no_cubics(seg_ctrl.shape))
 
 
 def _no_cubics(shape: tuple[int, ...]) -> np.ndarray:
@@ -176,9 +175,34 @@ def _no_cubics(shape: tuple[int, ...]) -> np.ndarray:
     return np.broadcast_to(np.nan, shape)
 
 
-def _joint_before(joint: np.ndarray, prev: np.ndarray, slot: np.ndarray) -> np.ndarray:
-    """(n, 2) the joint before each slot (between the previous slot and it; NaN at an open start)."""
-    return np.where((prev[slot] >= 0)[:, None], joint[np.maximum(prev[slot], 0)], np.nan)
+class _Spans:
+    """The control point of each slot's span and the joint after it (between it and the next
+    slot's span; at an end, the end point; NaN past an open end), computed for the slots
+    asked: the pieces read each slot once or twice, so no (P, 2) table is built."""
+
+    def __init__(self, curves: CurveTable, point: np.ndarray, end: np.ndarray, grid: float | None) -> None:
+        self.curves, self.point, self.end, self.grid = curves, point, end, grid
+
+    def ctrl(self, slot: np.ndarray) -> np.ndarray:
+        return _ctrl_on_grid(self.curves.ctrl[slot], self.grid)
+
+    def joint(self, slot: np.ndarray) -> np.ndarray:
+        nxt = self.curves.next[slot]
+        b = np.maximum(nxt, 0)
+        joint = leg_joint(self.ctrl(slot), self.ctrl(b))
+        at_end = self.end[slot]
+        joint[at_end] = self.point[self.curves.node[slot[at_end]]]
+        before_end = ~at_end & self.end[b]
+        joint[before_end] = self.point[self.curves.node[b[before_end]]]
+        joint[nxt < 0] = np.nan
+        return joint
+
+    def joint_before(self, slot: np.ndarray) -> np.ndarray:
+        """The joint before each slot (between the previous slot and it; NaN at an open start)."""
+        prev = self.curves.prev[slot]
+        joint = self.joint(np.maximum(prev, 0))
+        joint[prev < 0] = np.nan
+        return joint
 
 
 def _on_grid(xy: np.ndarray, grid: float | None) -> np.ndarray:
@@ -191,16 +215,18 @@ def _ctrl_on_grid(ctrl: np.ndarray, grid: float | None) -> np.ndarray:
 
 
 def _advance(nxt: np.ndarray, slot: np.ndarray, steps: np.ndarray) -> np.ndarray:
-    """``nxt`` applied ``steps`` times to each slot (binary lifting)."""
+    """``nxt`` applied ``steps`` times to each slot (binary lifting; no slot is walked past
+    the end of its curve)."""
     out = slot.copy()
-    jump = nxt.copy()
+    jump = np.empty(nxt.size + 1, np.int32)
+    jump[:-1], jump[-1] = nxt, -1  # the last entry, index -1, keeps -1 at -1
     steps = steps.copy()
     while steps.any():
         odd = (steps & 1) == 1
         out[odd] = jump[out[odd]]
         steps >>= 1
         if steps.any():
-            jump = np.where(jump >= 0, jump[np.maximum(jump, 0)], -1)
+            jump = jump[jump]
     return out
 
 

@@ -44,7 +44,7 @@ from .boundaries import CUBIC, LINE, QUAD, BoundaryPieces, build_pieces, junctio
 from .holes import loops_to_keep, probe_keys
 from .loops import Loops, trace_loops
 from .simplify import simplify_pieces
-from .stacking import FaceTopology
+from .stacking import FaceBoundaries, FaceTopology
 from .vector import VectorImage
 
 LAYOUTS = ("stacked", "cutout")
@@ -130,7 +130,7 @@ class OutlineShapes:
         pieces = build_pieces(image, junction_nodes(image, topo.labels), grid)
         if simplify > 0:
             pieces = simplify_pieces(pieces, image, simplify, grid=grid)
-        self.topo, self.pieces = topo, pieces
+        self.pieces = pieces
         member_key = topo.members(stacked=layout == "stacked", edge_cost=_edge_costs(image, pieces))
         # sorted keys owner * (F + 1) + member of the (owner, member) pairs: base F + 1, so that
         # no key of the outside (member -1) is a member's
@@ -142,6 +142,7 @@ class OutlineShapes:
         self.role = topo.roles()[self.face]
         clear = np.flatnonzero(~topo.opaque)  # a pixel of each transparent or translucent face
         self.probe_key = probe_keys(topo.first_pixel[clear], self.shape[1]) if clear.size else None
+        self.faces = topo.boundaries()  # the rest of the topology is dropped here
 
     def __len__(self) -> int:
         return int(self.face.size)
@@ -149,8 +150,8 @@ class OutlineShapes:
     def batches(self) -> Iterator[Outlines]:
         """The outlines of the shapes, consecutive batches of about :data:`LOOP_BATCH`
         boundary half-edges (the result does not depend on the batches)."""
-        topo, member_ptr = self.topo, self.member_ptr
-        entries = np.r_[0, np.cumsum(np.diff(topo.entry_ptr)[self.member_key % (topo.n_faces + 1)])]  # running
+        faces, member_ptr = self.faces, self.member_ptr
+        entries = np.r_[0, np.cumsum(np.diff(faces.entry_ptr)[self.member_key % (faces.n_faces + 1)])]  # running
         sizes = (entries[member_ptr[1:]] - entries[member_ptr[:-1]])[self.face]
         del entries
         for a, b in batch_bounds(sizes, LOOP_BATCH):
@@ -158,19 +159,19 @@ class OutlineShapes:
 
     def _outlines(self, first: int, stop: int) -> Outlines:
         """The outlines of shapes ``first:stop``."""
-        topo, face = self.topo, self.face[first:stop]
+        faces, face = self.faces, self.face[first:stop]
         lo, hi = self.member_ptr[face], self.member_ptr[face + 1]
-        member = self.member_key[_ranges(lo, hi)] % (topo.n_faces + 1)
+        member = self.member_key[_ranges(lo, hi)] % (faces.n_faces + 1)
         owner = np.repeat(face, hi - lo)
-        owner_face, entry = _batch_entries(topo, owner, member, self.member_key)
-        u = topo.entry_from[entry]
-        loops = trace_loops(topo.rank[owner_face], u, topo.entry_to[entry], points=topo.cells.nodes)
+        owner_face, entry = _batch_entries(faces, owner, member, self.member_key)
+        u = faces.entry_from[entry]
+        loops = trace_loops(faces.rank[owner_face], u, faces.entry_to[entry], points=faces.nodes)
         del owner_face
-        keep = loops_to_keep(loops, u, topo.cells.nodes, self.probe_key, self.shape[1], self.layout == "stacked")
+        keep = loops_to_keep(loops, u, faces.nodes, self.probe_key, self.shape[1], self.layout == "stacked")
         kind, ctrl, ctrl2, end, loop_ptr = _segments_in_batches(self.image, self.pieces, loops, keep,
-                                                                topo.entry_edge[entry], u, self.grid)
+                                                                faces.entry_edge[entry], u, self.grid)
         shape_rank = loops.owner[keep]
-        shape_ptr = np.asarray(np.searchsorted(shape_rank, np.r_[topo.rank[face], np.iinfo(np.int64).max]), np.int64)
+        shape_ptr = np.asarray(np.searchsorted(shape_rank, np.r_[faces.rank[face], np.iinfo(np.int64).max]), np.int64)
         return Outlines(
             shape=self.shape, layout=self.layout, grid=self.grid, face=face, rgba=self.rgba[first:stop],
             region=self.region[first:stop], role=self.role[first:stop], shape_ptr=shape_ptr,
@@ -222,17 +223,17 @@ def _edge_costs(image: VectorImage, pieces: BoundaryPieces) -> np.ndarray:
     return cost
 
 
-def _batch_entries(topo: FaceTopology, owner: np.ndarray, member: np.ndarray, member_key: np.ndarray
+def _batch_entries(faces: FaceBoundaries, owner: np.ndarray, member: np.ndarray, member_key: np.ndarray
                    ) -> tuple[np.ndarray, np.ndarray]:
     """(owner face, boundary entry) of the union of member faces of each owner in some
     (owner, member) pairs; ``member_key`` of all pairs (sorted)."""
-    counts = topo.entry_ptr[member + 1] - topo.entry_ptr[member]
-    which = np.repeat(np.arange(owner.size), counts)
-    entry = np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts) + topo.entry_ptr[member][which]
-    shape_face = owner[which]
-    other = topo.entry_other[entry]
+    lo, hi = faces.entry_ptr[member], faces.entry_ptr[member + 1]
+    entry = _ranges(lo, hi)
+    shape_face = np.repeat(owner, hi - lo)
+    del lo, hi
+    other = faces.entry_other[entry]
     # a half-edge bounds the union unless the face across is a member of the same shape
-    n = topo.n_faces + 1
+    n = faces.n_faces + 1
     other_key = shape_face * n + other
     pos = np.minimum(np.searchsorted(member_key, other_key), member_key.size - 1)
     inside = (other >= 0) & (member_key[pos] == other_key)

@@ -10,6 +10,8 @@ have to go around.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .arrays import batch_bounds, union, unique
@@ -19,6 +21,22 @@ from .vector import VectorImage, faces_and_regions
 ROLES = ("backdrop", "outline", "band", "shape")
 #: member keys grown together in the stacked layout (:meth:`FaceTopology._absorb`)
 ABSORB_BATCH = 1 << 14
+
+
+@dataclass(frozen=True, eq=False)
+class FaceBoundaries:
+    """What tracing the outlines needs of a :class:`FaceTopology` (views of its arrays): the
+    drawing rank of every face and the boundary half-edges of each face (entries
+    ``entry_ptr[f]:entry_ptr[f+1]``, each with the face on its right)."""
+
+    n_faces: int
+    rank: np.ndarray  # (F,) drawing rank of each face
+    entry_ptr: np.ndarray  # (F+1,)
+    entry_other: np.ndarray  # (M,) int32 the face on the left (-1: outside the image)
+    entry_from: np.ndarray  # (M,) int32 node the half-edge leaves
+    entry_to: np.ndarray  # (M,) int32 node it enters
+    entry_edge: np.ndarray  # (M,) int32 its cell edge
+    nodes: np.ndarray  # (N, 2) quarter-pixel node positions
 
 
 class FaceTopology:
@@ -81,6 +99,11 @@ class FaceTopology:
         self.depth = self._depths()
         self.rank, self.face_of_rank = self._ranks(region)
         self.corners = self._corner_pairs(labels)
+
+    def boundaries(self) -> FaceBoundaries:
+        """The rank and boundary half-edges alone, to keep when the rest is no longer needed."""
+        return FaceBoundaries(self.n_faces, self.rank, self.entry_ptr, self.entry_other, self.entry_from,
+                              self.entry_to, self.entry_edge, self.cells.nodes)
 
     def _corner_pairs(self, labels: np.ndarray) -> np.ndarray:
         """(K, 2) (lowest face at a node, another face at that node) for every node where
@@ -168,7 +191,9 @@ class FaceTopology:
         n = self.n_faces
         if not stacked or self.pairs.size == 0:
             return own * n + own
-        keys = unique(np.concatenate([own * n + own, self._under_keys(self.pairs), self._under_keys(self.corners)]))
+        keys = np.concatenate([own * n + own, self._under_keys(self.pairs), self._under_keys(self.corners)])
+        keys.sort()  # then the distinct ones: unique's argsort would cost two more copies
+        keys = keys[np.r_[True, keys[1:] != keys[:-1]]]
         if edge_cost is not None:
             keys = self._absorb(keys, edge_cost)
         return keys
@@ -185,36 +210,36 @@ class FaceTopology:
         are grown a batch at a time (:data:`ABSORB_BATCH` keys), which bounds the memory of
         the candidate arrays (~40 a face on noise) and changes nothing else."""
         n = self.n_faces
-        pair_key, pair_cost = self._neighbour_costs(edge_cost)
-        g, h = np.divmod(pair_key, n + 1)
-        del pair_key
-        perimeter = np.bincount(g, weights=pair_cost, minlength=n)
-        inner_pairs = np.flatnonzero(h < n)
-        g, h, w = g[inner_pairs], h[inner_pairs].astype(np.int32), pair_cost[inner_pairs]
-        neighbours = (np.searchsorted(g, np.arange(n + 1)), h, w, perimeter)
-        del g, h, w, pair_cost, inner_pairs
+        neighbours = self._neighbours(edge_cost)
         owner = keys // n
         cuts = unique(np.r_[0, np.searchsorted(owner, owner[ABSORB_BATCH::ABSORB_BATCH]), keys.size])
         del owner
         return np.concatenate([self._grow(keys[a:b], neighbours)
                                for a, b in zip(cuts[:-1].tolist(), cuts[1:].tolist())] or [keys])
 
-    def _neighbour_costs(self, edge_cost: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Sorted keys ``face * (F + 1) + other`` (other F: outside the image) of the faces
-        each face borders, and the cost of their common boundary. The entries are sorted by
-        face, so a batch of faces at a time gives the same keys and sums (bounded memory)."""
+    def _neighbours(self, edge_cost: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The faces each face borders, in CSR form ``(ptr, other face, cost of their common
+        boundary)``, and each face's perimeter cost (the image border included). The entries
+        are sorted by face, so a batch of faces at a time gives the same pairs and sums."""
         n = self.n_faces
-        keys, costs = [], []
+        perimeter = np.zeros(n)
+        count = np.zeros(n, np.int64)
+        others: list[np.ndarray] = [np.zeros(0, np.int32)]
+        costs: list[np.ndarray] = [np.zeros(0)]
         for a, b in batch_bounds(np.diff(self.entry_ptr), ABSORB_BATCH):
             lo, hi = int(self.entry_ptr[a]), int(self.entry_ptr[b])
             face = np.repeat(np.arange(a, b), np.diff(self.entry_ptr[a : b + 1]))
             other = self.entry_other[lo:hi]
             key, inverse = np.unique(face * (n + 1) + np.where(other >= 0, other, n), return_inverse=True)
-            keys.append(key)
-            costs.append(np.bincount(inverse, weights=edge_cost[self.entry_edge[lo:hi]]))
-        if not keys:
-            return np.zeros(0, np.int64), np.zeros(0)
-        return np.concatenate(keys), np.concatenate(costs)
+            cost = np.bincount(inverse, weights=edge_cost[self.entry_edge[lo:hi]])
+            face, other = np.divmod(key, n + 1)
+            perimeter[a:b] = np.bincount(face - a, weights=cost, minlength=b - a)
+            inner = other < n
+            count[a:b] = np.bincount(face[inner] - a, minlength=b - a)
+            others.append(other[inner].astype(np.int32))
+            costs.append(cost[inner])
+        ptr = np.r_[0, np.cumsum(count)]
+        return ptr, np.concatenate(others), np.concatenate(costs), perimeter
 
     def _grow(self, keys: np.ndarray, neighbours: tuple[np.ndarray, ...]) -> np.ndarray:
         """:meth:`_absorb` of the shapes whose keys these are."""
