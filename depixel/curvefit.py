@@ -91,12 +91,8 @@ class Protected:
         w = cells.shape[1]
         curved = np.flatnonzero(pieces.edge_piece >= 0)
         sides = cells.edge_pixels[curved]
-        q = cells.nodes[cells.edges[curved]]  # (E', 2 ends, 2)
-        lattice = 4 * np.round(q / 4.0)
-        split = (np.abs(q - lattice) == 1).all(axis=2)
-        del q
+        corners = [_split_corner(cells.nodes[cells.edges[curved, j]]) for j in range(2)]
         segments_of = _SegmentsOfEdges(pieces, image)
-        poly = np.concatenate([exact.samples, exact.end[:, None]], axis=1)  # (K, 5, 2)
         # the points, in this order: the pixel centres on either side of every curved edge,
         # the lattice corners at either end; each kind a batch at a time, keeping the near ones
         near_xy, near_dist, near_seg = [], [], []
@@ -107,11 +103,10 @@ class Protected:
                 rows, cols = np.divmod(sides[which, j], w)
                 xy = np.stack([cols + 0.5, rows + 0.5], axis=-1)
             else:
-                which = np.flatnonzero(split[:, j])
-                xy = lattice[which, j] / 4.0
+                which, xy = corners[j]
             for p0 in range(0, which.size, BATCH):  # (P', 4, 4, 2) arrays are large
                 batch = slice(p0, p0 + BATCH)
-                dist, signed, seg = _nearest_segment(xy[batch], segments_of(curved[which[batch]]), poly)
+                dist, signed, seg = _nearest_segment(xy[batch], segments_of(curved[which[batch]]), exact)
                 near = np.isfinite(dist) & (dist < reach) & (dist > 1e-9)
                 near_xy.append(xy[batch][near])
                 near_dist.append(signed[near])
@@ -124,11 +119,21 @@ class Protected:
         self.xy, self.dist, self.seg = xy[pick], signed[pick], seg[pick]
 
 
-def _nearest_segment(xy: np.ndarray, seg_of: np.ndarray, poly: np.ndarray
+def _split_corner(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Which of the nodes ``q`` (E, 2; quarter pixels) lie a quarter pixel off a lattice
+    corner in both x and y (a diagonal link's nodes), and that corner (in pixels)."""
+    lattice = 4 * np.round(q / 4.0)
+    which = np.flatnonzero((np.abs(q - lattice) == 1).all(axis=1))
+    return which, lattice[which] / 4.0
+
+
+def _nearest_segment(xy: np.ndarray, seg_of: np.ndarray, exact: Exact
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Distance of points ``xy`` (P, 2) to the nearest of their candidate segments ``seg_of``
-    (P, 4) (polylines ``poly``), that distance signed by the side, and that segment."""
-    near = poly[np.maximum(seg_of, 0)]  # (P, 4, 5, 2)
+    (P, 4) (the polylines of their samples and end), that distance signed by the side, and
+    that segment."""
+    candidate = np.maximum(seg_of, 0)
+    near = np.concatenate([exact.samples[candidate], exact.end[candidate][:, :, None]], axis=2)  # (P, 4, 5, 2)
     a, b = near[:, :, :-1], near[:, :, 1:]  # (P, 4, 4, 2)
     d = _segment_distance(xy[:, None, None], a, b)  # (P, 4, 4)
     d = np.where((seg_of >= 0)[:, :, None], d, np.inf)
