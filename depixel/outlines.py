@@ -139,7 +139,7 @@ class OutlineShapes:
         self.member_ptr = np.searchsorted(member_key, np.arange(topo.n_faces + 1) * (topo.n_faces + 1))  # per owner
         self.face = topo.face_of_rank[topo.drawn[topo.face_of_rank]]
         self.rgba, self.region = topo.face_rgba[self.face], topo.face_region[self.face]
-        self.role = topo.roles()[self.face]
+        self.role = topo.role[self.face]
         clear = np.flatnonzero(~topo.opaque)  # a pixel of each transparent or translucent face
         self.probe_key = probe_keys(topo.first_pixel[clear], self.shape[1]) if clear.size else None
         self.faces = topo.boundaries()  # the rest of the topology is dropped here

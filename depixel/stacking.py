@@ -40,7 +40,8 @@ class FaceBoundaries:
 
 
 class FaceTopology:
-    """Faces, their adjacency, depth and drawing rank, and the boundary half-edges of each."""
+    """Faces, their depth, drawing rank and role, the faces each lies under in the stacked
+    layout, and the boundary half-edges of each."""
 
     def __init__(self, image: VectorImage) -> None:
         cells = image.cells
@@ -90,8 +91,8 @@ class FaceTopology:
         lo, hi = np.divmod(pair_key, n)
         del pair_key
         m = lo.size
-        self.pairs = np.empty((2 * m, 2), np.int32)  # both directions
-        self.pairs[:m, 0], self.pairs[:m, 1], self.pairs[m:, 0], self.pairs[m:, 1] = lo, hi, hi, lo
+        pairs = np.empty((2 * m, 2), np.int32)  # neighbouring faces, both directions
+        pairs[:m, 0], pairs[:m, 1], pairs[m:, 0], pairs[m:, 1] = lo, hi, hi, lo
         del lo, hi
 
         on_border = np.zeros(n, bool)
@@ -99,9 +100,14 @@ class FaceTopology:
         on_border[left[has_l & ~has_r]] = True
         self.on_border = on_border
         del left, right, boundary
-        self.depth = self._depths()
+        self.depth = self._depths(pairs)
         self.rank, self.face_of_rank = self._ranks(region)
-        self.corners = self._corner_pairs(labels)
+        self.role = self._roles(pairs)
+        # the adjacency is kept only as the underlays it gives (what members() starts from)
+        under = self._under_keys(pairs)
+        del pairs
+        own = np.flatnonzero(self.drawn)
+        self.underlays = _distinct(np.concatenate([own * n + own, under, self._under_keys(self._corner_pairs(labels))]))
 
     def boundaries(self) -> FaceBoundaries:
         """The rank and boundary half-edges alone, to keep when the rest is no longer needed."""
@@ -137,14 +143,14 @@ class FaceTopology:
         corners[:, 0], corners[:, 1] = lowest[crowded], face_at[crowded]
         return corners
 
-    def _depths(self) -> np.ndarray:
+    def _depths(self, pairs: np.ndarray) -> np.ndarray:
         """(F,) boundaries to cross from outside: 0 for transparent faces, 1 on the border or
         beside a transparent face, then one more per face boundary (shortest path)."""
         n = self.n_faces
         depth = np.full(n, n + 1, np.int64)
         depth[self.on_border] = 1
         depth[~self.drawn] = 0
-        a, b = self.pairs[:, 0], self.pairs[:, 1]
+        a, b = pairs[:, 0], pairs[:, 1]
         while True:
             reach = np.full(n, n + 1, np.int64)
             np.minimum.at(reach, b, depth[a] + 1)
@@ -193,14 +199,10 @@ class FaceTopology:
         (so the lower of two touching faces lies beneath their boundary), then, while it
         shortens the outline (``edge_cost`` per cell edge: what drawing it costs), every
         opaque face drawn above it whose boundary is mostly shared with the shape already."""
-        own = np.flatnonzero(self.drawn)
-        n = self.n_faces
-        if not stacked or self.pairs.size == 0:
-            return own * n + own
-        keys = _distinct(np.concatenate([own * n + own, self._under_keys(self.pairs), self._under_keys(self.corners)]))
-        if edge_cost is not None:
-            keys = self._absorb(keys, edge_cost)
-        return keys
+        if not stacked:
+            own = np.flatnonzero(self.drawn)
+            return own * self.n_faces + own
+        return self.underlays if edge_cost is None else self._absorb(self.underlays, edge_cost)
 
     def _under_keys(self, pairs: np.ndarray) -> np.ndarray:
         """Keys ``a * F + b`` of the (a, b) pairs where b is opaque and drawn above a drawn face a."""
@@ -270,7 +272,7 @@ class FaceTopology:
                 return keys
             keys = union(keys, add)
 
-    def roles(self) -> np.ndarray:
+    def _roles(self, pairs: np.ndarray) -> np.ndarray:
         """(F,) int8 role of each face's shape: the lowest shape, when it covers most of the
         image along its border, is the backdrop; a face darker than every face it encloses
         is an outline; a face sharing its region with others is a shading band."""
@@ -279,7 +281,7 @@ class FaceTopology:
         region_faces = np.bincount(self.face_region[self.drawn], minlength=int(self.face_region.max()) + 1)
         role[region_faces[self.face_region] > 1] = ROLES.index("band")
         luma = self.face_rgba[:, :3].astype(np.float64) @ np.array([0.299, 0.587, 0.114])
-        a, b = self.pairs[:, 0], self.pairs[:, 1]
+        a, b = pairs[:, 0], pairs[:, 1]
         deeper = self.depth[b] > self.depth[a]
         encloses = np.zeros(self.n_faces, bool)
         encloses[a[deeper]] = True
