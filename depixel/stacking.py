@@ -300,4 +300,6 @@ def _distinct(values: np.ndarray) -> np.ndarray:
     """The distinct values, sorted, of an array the caller gives up (sorted in place: no
     argsort and no copy, where ``unique`` makes three)."""
     values.sort()
-    return values[np.r_[True, values[1:] != values[:-1]]]
+    first = np.ones(values.size, bool)
+    first[1:] = values[1:] != values[:-1]
+    return values[first]
