@@ -22,8 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .bspline import joint as leg_joint
-from .bspline import split_half
-from .vector import VectorImage
+from .vector import CurveTable, VectorImage
 
 #: segment kinds: a line, a quadratic Bézier (the spline's spans), a cubic Bézier (simplified)
 LINE, QUAD, CUBIC = 0, 1, 2
@@ -44,22 +43,27 @@ class BoundaryPieces:
     kind: np.ndarray  # (K,) uint8 LINE, QUAD or CUBIC
     ctrl: np.ndarray  # (K, 2) float64 control point (the first of a CUBIC; NaN for a LINE)
     end: np.ndarray  # (K, 2) float64 end point
-    edge_piece: np.ndarray  # (E,) int64
+    edge_piece: np.ndarray  # (E,) int32
     edge_first: np.ndarray  # (E,) bool
     edge_last: np.ndarray  # (E,) bool
-    span_slot: np.ndarray  # (K,) int64 slot whose span the segment is (part of); -1 once simplified
-    slot_ctrl: np.ndarray  # (P, 2) float64 control point of every slot's span (on the grid)
-    ctrl2: np.ndarray  # (K, 2) float64 second control point of a CUBIC (NaN otherwise)
+    span_slot: np.ndarray  # (K,) int32 slot whose span the segment is (part of); -1 once simplified
+    curve_ctrl: np.ndarray  # (P, 2) float64 the curve table's control points (the image's own array)
+    grid: float | None  # the grid of the coordinates (None: exact)
+    ctrl2: np.ndarray  # (K, 2) float64 second control point of a CUBIC (NaN otherwise; read-only)
 
     def __len__(self) -> int:
         return int(self.ptr.size - 1)
+
+    def span_ctrl(self, slot: np.ndarray) -> np.ndarray:
+        """(n, 2) the control point of each slot's span, on the grid like the segments' (computed
+        when asked: the few spans an outline joins back from two halves need it)."""
+        return _ctrl_on_grid(self.curve_ctrl[slot], self.grid)
 
     def replace_segments(self, start: np.ndarray, ptr: np.ndarray, kind: np.ndarray, ctrl: np.ndarray,
                          end: np.ndarray, ctrl2: np.ndarray) -> BoundaryPieces:
         """The same pieces with other segments (e.g. simplified)."""
         return BoundaryPieces(start, ptr, kind, ctrl, end, self.edge_piece, self.edge_first, self.edge_last,
-                              np.full(kind.size, -1, np.int64),
-                              self.slot_ctrl, ctrl2)
+                              np.full(kind.size, -1, np.int32), self.curve_ctrl, self.grid, ctrl2)
 
 
 def junction_nodes(image: VectorImage, face: np.ndarray) -> np.ndarray:
@@ -77,7 +81,7 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
 
     With ``grid``, every node point and joint is a multiple of ``grid`` and every control
     point a multiple of twice it (so each implied on-curve point, a midpoint of two control
-    points, is exact); each value is computed once, whichever shapes use it.
+    points, is exact); each value comes from one computation, whichever shapes use it.
     """
     n_edges = len(image.cells.edges)
     curves = image.curves
@@ -85,18 +89,10 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
     if curves is None or not image.curved.any():
         return BoundaryPieces(np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, np.uint8), np.zeros((0, 2)),
                               np.zeros((0, 2)), np.full(n_edges, -1, np.int64), np.zeros(n_edges, bool),
-                              np.zeros(n_edges, bool), empty, np.zeros((0, 2)), np.zeros((0, 2)))
+                              np.zeros(n_edges, bool), empty, np.zeros((0, 2)), grid, np.zeros((0, 2)))
     point = _on_grid(image.points, grid)
-    node, prev, nxt = curves.node, curves.prev, curves.next
+    node, nxt = curves.node, curves.next
     end = curves.is_end()
-    ctrl = curves.ctrl if grid is None else np.round(curves.ctrl / (2 * grid)) * (2 * grid)
-    b = np.maximum(nxt, 0)
-    joint = np.where(end[:, None], point[node], np.where(end[b][:, None], point[node[b]], leg_joint(ctrl, ctrl[b])))
-    joint[nxt < 0] = np.nan  # joint[s]: between slot s and the next one
-    joint_before = np.where((prev >= 0)[:, None], joint[np.maximum(prev, 0)], np.nan)
-    first_half, second_half = split_half(joint_before, ctrl, joint)  # span s (joint before, ctrl, joint) halved
-    half_next = _on_grid(second_half.p1, grid)  # control of the half of span s towards next
-    half_prev = _on_grid(first_half.p1, grid)
 
     # slots that bound pieces; a closed curve with none gets its first slot, where its
     # piece starts and ends at a joint instead of a curve point
@@ -106,7 +102,7 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
     anchor_or_seed = anchor | closed_free
     # walk: for every slot, the piece it starts (an anchor with a next slot) and the slots it covers
     starts = np.flatnonzero(anchor_or_seed & (nxt >= 0))
-    piece_of_slot = np.full(n_slots, -1, np.int64)  # piece that the edge slot → next belongs to
+    piece_of_slot = np.full(n_slots, -1, np.int32)  # piece that the edge slot → next belongs to
     piece_of_slot[starts] = np.arange(starts.size)
     walker = starts.copy()
     length = np.ones(starts.size, np.int64)  # edges per piece
@@ -121,6 +117,18 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
         length += active
     last_slot = nxt[walker]  # the anchor each piece ends at
     first_slot = starts
+    del walker, active
+
+    edge_piece = np.full(n_edges, -1, np.int32)
+    edge_first = np.zeros(n_edges, bool)
+    edge_last = np.zeros(n_edges, bool)
+    edge_slot = curves.edge_slot
+    curved_edges = np.flatnonzero(edge_slot >= 0)
+    slot_of_edge = edge_slot[curved_edges]
+    edge_piece[curved_edges] = piece_of_slot[slot_of_edge]
+    edge_first[curved_edges] = anchor_or_seed[slot_of_edge]
+    edge_last[curved_edges] = anchor_or_seed[nxt[slot_of_edge]]
+    del curved_edges, slot_of_edge, piece_of_slot, anchor, anchor_or_seed
 
     # segments: [head half of span a] + full spans in between + [tail half of span b]; at a
     # seeded closed curve, full spans all round from the joint before its seed
@@ -131,54 +139,94 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
     count = head + n_full + tail
     ptr = np.r_[0, np.cumsum(count)].astype(np.int64)
     total = int(ptr[-1])
-    kind = np.full(total, QUAD, np.uint8)
-    seg_ctrl = np.empty((total, 2))
-    seg_end = np.empty((total, 2))
-    span_slot = np.empty(total, np.int64)
     piece = np.repeat(np.arange(starts.size), count)
     offset = np.arange(total) - ptr[piece]
     # which slot's span each segment is, walking from the first slot
     is_head = head[piece] & (offset == 0)
     is_tail = tail[piece] & (offset == count[piece] - 1)
     steps = offset - head[piece] + 1 - seed[piece]  # full span k is the slot k steps after the first
-    slot = _advance(nxt, first_slot[piece], np.where(is_head, 0, np.where(is_tail, length[piece], steps)))
-    span_slot[:] = slot
-    seg_ctrl[:] = ctrl[slot]
-    seg_end[:] = joint[slot]
-    seg_ctrl[is_head] = half_next[slot[is_head]]
-    seg_ctrl[is_tail] = half_prev[slot[is_tail]]
-    seg_end[is_tail] = point[node[slot[is_tail]]]
-    start = np.where(seed[:, None], joint_before[first_slot], point[node[first_slot]])
+    steps[is_tail] = length[piece[is_tail]]
+    steps[is_head] = 0
+    del offset
+    slot = _advance(nxt, first_slot[piece], steps)
+    del piece, steps
 
-    edge_piece = np.full(n_edges, -1, np.int64)
-    edge_first = np.zeros(n_edges, bool)
-    edge_last = np.zeros(n_edges, bool)
-    edge_slot = curves.edge_slot
-    curved_edges = np.flatnonzero(edge_slot >= 0)
-    slot_of_edge = edge_slot[curved_edges]
-    edge_piece[curved_edges] = piece_of_slot[slot_of_edge]
-    edge_first[curved_edges] = anchor_or_seed[slot_of_edge]
-    edge_last[curved_edges] = anchor_or_seed[nxt[slot_of_edge]]
-    kind, seg_ctrl = _straighten(start, ptr, kind, seg_ctrl, seg_end, grid)
-    return BoundaryPieces(start, ptr, kind, seg_ctrl, seg_end, edge_piece, edge_first, edge_last, span_slot, ctrl,
-                          np.full(seg_ctrl.shape, np.nan))
+    spans = _Spans(curves, point, end, grid)
+    kind = np.full(total, QUAD, np.uint8)
+    seg_ctrl = spans.ctrl(slot)
+    seg_end = spans.joint(slot)
+    # the halves of a span (de Casteljau at t = ½) have the controls (S0 + C) / 2 and (C + S1) / 2
+    head_slot, tail_slot = slot[is_head], slot[is_tail]
+    seg_ctrl[is_head] = _on_grid((spans.ctrl(head_slot) + spans.joint(head_slot)) / 2.0, grid)
+    seg_ctrl[is_tail] = _on_grid((spans.joint_before(tail_slot) + spans.ctrl(tail_slot)) / 2.0, grid)
+    seg_end[is_tail] = point[node[tail_slot]]
+    start = point[node[first_slot]]
+    start[seed] = spans.joint_before(first_slot[seed])
+    del spans, point, head_slot, tail_slot, is_head, is_tail
+    span_slot = slot.astype(np.int32)
+    del slot
+    _straighten(start, ptr, kind, seg_ctrl, seg_end, grid)
+    return BoundaryPieces(start, ptr, kind, seg_ctrl, seg_end, edge_piece, edge_first, edge_last,
+                          span_slot, curves.ctrl, grid, _no_cubics(seg_ctrl.shape))
+
+
+def _no_cubics(shape: tuple[int, ...]) -> np.ndarray:
+    """``ctrl2`` of segments without cubics: all NaN, a read-only view that takes no memory."""
+    return np.broadcast_to(np.nan, shape)
+
+
+class _Spans:
+    """The control point of each slot's span and the joint after it (between it and the next
+    slot's span; at an end, the end point; NaN past an open end), computed for the slots
+    asked: the pieces read each slot once or twice, so no (P, 2) table is built."""
+
+    def __init__(self, curves: CurveTable, point: np.ndarray, end: np.ndarray, grid: float | None) -> None:
+        self.curves, self.point, self.end, self.grid = curves, point, end, grid
+
+    def ctrl(self, slot: np.ndarray) -> np.ndarray:
+        return _ctrl_on_grid(self.curves.ctrl[slot], self.grid)
+
+    def joint(self, slot: np.ndarray) -> np.ndarray:
+        nxt = self.curves.next[slot]
+        b = np.maximum(nxt, 0)
+        joint = leg_joint(self.ctrl(slot), self.ctrl(b))
+        at_end = self.end[slot]
+        joint[at_end] = self.point[self.curves.node[slot[at_end]]]
+        before_end = ~at_end & self.end[b]
+        joint[before_end] = self.point[self.curves.node[b[before_end]]]
+        joint[nxt < 0] = np.nan
+        return joint
+
+    def joint_before(self, slot: np.ndarray) -> np.ndarray:
+        """The joint before each slot (between the previous slot and it; NaN at an open start)."""
+        prev = self.curves.prev[slot]
+        joint = self.joint(np.maximum(prev, 0))
+        joint[prev < 0] = np.nan
+        return joint
 
 
 def _on_grid(xy: np.ndarray, grid: float | None) -> np.ndarray:
     return xy.copy() if grid is None else np.round(xy / grid) * grid
 
 
+def _ctrl_on_grid(ctrl: np.ndarray, grid: float | None) -> np.ndarray:
+    """Control points on twice the grid, so every implied on-curve point (a midpoint) is on it."""
+    return ctrl if grid is None else np.round(ctrl / (2 * grid)) * (2 * grid)
+
+
 def _advance(nxt: np.ndarray, slot: np.ndarray, steps: np.ndarray) -> np.ndarray:
-    """``nxt`` applied ``steps`` times to each slot (binary lifting)."""
+    """``nxt`` applied ``steps`` times to each slot (binary lifting; no slot is walked past
+    the end of its curve)."""
     out = slot.copy()
-    jump = nxt.copy()
+    jump = np.empty(nxt.size + 1, np.int32)
+    jump[:-1], jump[-1] = nxt, -1  # the last entry, index -1, keeps -1 at -1
     steps = steps.copy()
     while steps.any():
         odd = (steps & 1) == 1
         out[odd] = jump[out[odd]]
         steps >>= 1
         if steps.any():
-            jump = np.where(jump >= 0, jump[np.maximum(jump, 0)], -1)
+            jump = jump[jump]
     return out
 
 
@@ -195,18 +243,21 @@ def _seeds(curve: np.ndarray, closed: np.ndarray, anchor: np.ndarray) -> np.ndar
 
 
 def _straighten(start: np.ndarray, ptr: np.ndarray, kind: np.ndarray, ctrl: np.ndarray, end: np.ndarray,
-                grid: float | None) -> tuple[np.ndarray, np.ndarray]:
-    """Quadratics whose control point lies on the segment between their ends are lines."""
+                grid: float | None) -> None:
+    """Quadratics whose control point lies on the segment between their ends are lines
+    (``kind`` and ``ctrl`` changed in place)."""
     n = kind.size
     if n == 0:
-        return kind, ctrl
-    piece = np.repeat(np.arange(ptr.size - 1), np.diff(ptr))
-    before = np.r_[0, np.arange(n - 1)]
-    seg_start = np.where((np.arange(n) == ptr[:-1][piece])[:, None], start[piece], end[before])
-    d0, d1 = ctrl - seg_start, end - ctrl
+        return
+    seg_start = np.empty_like(end)
+    seg_start[1:] = end[:-1]
+    first = ptr[:-1][np.diff(ptr) > 0]  # the first segment of every piece starts at its start
+    seg_start[first] = start[np.diff(ptr) > 0]
+    d0 = ctrl - seg_start
+    del seg_start
+    d1 = end - ctrl
     cross = d0[:, 0] * d1[:, 1] - d0[:, 1] * d1[:, 0]
     tol = 1e-12 if grid is None else 0.25 * grid * grid
     flat = (kind == QUAD) & (np.abs(cross) <= tol) & ((d0 * d1).sum(axis=1) >= 0)
-    kind = np.where(flat, LINE, kind).astype(np.uint8)
-    ctrl = np.where(flat[:, None], np.nan, ctrl)
-    return kind, ctrl
+    kind[flat] = LINE
+    ctrl[flat] = np.nan

@@ -91,37 +91,49 @@ class Protected:
         w = cells.shape[1]
         curved = np.flatnonzero(pieces.edge_piece >= 0)
         sides = cells.edge_pixels[curved]
-        rows, cols = np.divmod(np.maximum(sides, 0), w)
-        centre = np.stack([cols + 0.5, rows + 0.5], axis=-1)
-        q = cells.nodes[cells.edges[curved]]  # (E', 2 ends, 2)
-        lattice = 4 * np.round(q / 4.0)
-        split = (np.abs(q - lattice) == 1).all(axis=2)
-        xy = np.concatenate([centre[:, 0], centre[:, 1], lattice[:, 0] / 4.0, lattice[:, 1] / 4.0])
-        valid = np.concatenate([sides[:, 0] >= 0, sides[:, 1] >= 0, split[:, 0], split[:, 1]])
-        edge = np.tile(curved, 4)
-        xy, edge = xy[valid], edge[valid]
-        # the exact segments around each edge: those of its piece whose span is one of the
-        # edge's two slots (a simplified-away span cannot occur: these are exact pieces)
-        seg_of = _segments_of_edges(pieces, image, edge)  # (P', 4) candidate segment indices, -1 none
-        poly = np.concatenate([exact.samples, exact.end[:, None]], axis=1)  # (K, 5, 2)
-        dist, signed, seg = np.empty(xy.shape[0]), np.empty(xy.shape[0]), np.empty(xy.shape[0], np.int64)
-        for p0 in range(0, xy.shape[0], BATCH):  # in batches: (P', 4, 4, 2) arrays are large
-            batch = slice(p0, p0 + BATCH)
-            dist[batch], signed[batch], seg[batch] = _nearest_segment(xy[batch], seg_of[batch], poly)
-        near = np.isfinite(dist) & (dist < reach) & (dist > 1e-9)
-        key = np.unique(np.stack([seg[near], np.round(xy[near, 0] * 8), np.round(xy[near, 1] * 8)], axis=1),
-                        axis=0, return_index=True)[1]
-        pick = np.flatnonzero(near)[key]
+        corners = [_split_corner(cells.nodes[cells.edges[curved, j]]) for j in range(2)]
+        segments_of = _SegmentsOfEdges(pieces, image)
+        # the points, in this order: the pixel centres on either side of every curved edge,
+        # the lattice corners at either end; each kind a batch at a time, keeping the near ones
+        near_xy, near_dist, near_seg = [], [], []
+        for kind in range(4):
+            j = kind % 2
+            if kind < 2:
+                which = np.flatnonzero(sides[:, j] >= 0)
+                rows, cols = np.divmod(sides[which, j], w)
+                xy = np.stack([cols + 0.5, rows + 0.5], axis=-1)
+            else:
+                which, xy = corners[j]
+            for p0 in range(0, which.size, BATCH):  # (P', 4, 4, 2) arrays are large
+                batch = slice(p0, p0 + BATCH)
+                dist, signed, seg = _nearest_segment(xy[batch], segments_of(curved[which[batch]]), exact)
+                near = np.isfinite(dist) & (dist < reach) & (dist > 1e-9)
+                near_xy.append(xy[batch][near])
+                near_dist.append(signed[near])
+                near_seg.append(seg[near])
+        xy, signed, seg = (np.concatenate(x) for x in (near_xy, near_dist, near_seg))
+        pick = np.unique(np.stack([seg, np.round(xy[:, 0] * 8), np.round(xy[:, 1] * 8)], axis=1),
+                         axis=0, return_index=True)[1]
         order = np.argsort(seg[pick], kind="stable")
         pick = pick[order]
         self.xy, self.dist, self.seg = xy[pick], signed[pick], seg[pick]
 
 
-def _nearest_segment(xy: np.ndarray, seg_of: np.ndarray, poly: np.ndarray
+def _split_corner(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Which of the nodes ``q`` (E, 2; quarter pixels) lie a quarter pixel off a lattice
+    corner in both x and y (a diagonal link's nodes), and that corner (in pixels)."""
+    lattice = 4 * np.round(q / 4.0)
+    which = np.flatnonzero((np.abs(q - lattice) == 1).all(axis=1))
+    return which, lattice[which] / 4.0
+
+
+def _nearest_segment(xy: np.ndarray, seg_of: np.ndarray, exact: Exact
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Distance of points ``xy`` (P, 2) to the nearest of their candidate segments ``seg_of``
-    (P, 4) (polylines ``poly``), that distance signed by the side, and that segment."""
-    near = poly[np.maximum(seg_of, 0)]  # (P, 4, 5, 2)
+    (P, 4) (the polylines of their samples and end), that distance signed by the side, and
+    that segment."""
+    candidate = np.maximum(seg_of, 0)
+    near = np.concatenate([exact.samples[candidate], exact.end[candidate][:, :, None]], axis=2)  # (P, 4, 5, 2)
     a, b = near[:, :, :-1], near[:, :, 1:]  # (P, 4, 4, 2)
     d = _segment_distance(xy[:, None, None], a, b)  # (P, 4, 4)
     d = np.where((seg_of >= 0)[:, :, None], d, np.inf)
@@ -134,29 +146,36 @@ def _nearest_segment(xy: np.ndarray, seg_of: np.ndarray, poly: np.ndarray
     return dist, dist * np.where(side == 0, 1.0, side), seg_of[rows, which]
 
 
-def _segments_of_edges(pieces: BoundaryPieces, image: VectorImage, edge: np.ndarray) -> np.ndarray:
-    """(len(edge), 4): indices of the exact segments of each curved edge's two spans (the
-    half spans, or the full span when a joint was merged), -1 where there is none."""
-    curves = image.curves
-    assert curves is not None  # pieces exist only where there are curves
-    slot = curves.edge_slot[edge]
-    slots = np.stack([slot, curves.next[slot]], axis=1)  # the edge's two slots
-    piece = pieces.edge_piece[edge]
-    seg_slot = pieces.span_slot
-    # segments of every piece sorted by span slot, to look the slots up
-    seg_piece = np.repeat(np.arange(len(pieces)), np.diff(pieces.ptr))
-    key = seg_piece * (seg_slot.max() + 2) + seg_slot
-    order = np.argsort(key, kind="stable")
-    sorted_key = key[order]
-    out = np.full((edge.size, 4), -1, np.int64)
-    for j in range(2):
-        want = piece * (seg_slot.max() + 2) + slots[:, j]
-        lo = np.searchsorted(sorted_key, want)
-        for k in range(2):  # a slot has up to two segments in a piece (its two halves)
-            pos = np.minimum(lo + k, sorted_key.size - 1)
-            hit = (sorted_key[pos] == want) & (slots[:, j] >= 0)
-            out[:, 2 * j + k] = np.where(hit, order[pos], -1)
-    return out
+class _SegmentsOfEdges:
+    """``(edges)`` → (len(edges), 4): indices of the exact segments of each curved edge's two
+    spans (the half spans, or the full span when a joint was merged), -1 where there is none."""
+
+    def __init__(self, pieces: BoundaryPieces, image: VectorImage) -> None:
+        curves = image.curves
+        assert curves is not None  # pieces exist only where there are curves
+        self.curves, self.edge_piece = curves, pieces.edge_piece
+        seg_slot = pieces.span_slot
+        # segments of every piece sorted by span slot, to look the slots up
+        seg_piece = np.repeat(np.arange(len(pieces)), np.diff(pieces.ptr))
+        self.base = int(seg_slot.max()) + 2
+        key = seg_piece * self.base + seg_slot
+        self.order = np.argsort(key, kind="stable")
+        self.sorted_key = key[self.order]
+
+    def __call__(self, edge: np.ndarray) -> np.ndarray:
+        curves, sorted_key = self.curves, self.sorted_key
+        slot = curves.edge_slot[edge]
+        slots = np.stack([slot, curves.next[slot]], axis=1)  # the edge's two slots
+        piece = self.edge_piece[edge].astype(np.int64)  # 32-bit: the keys below need 64
+        out = np.full((edge.size, 4), -1, np.int64)
+        for j in range(2):
+            want = piece * self.base + slots[:, j]
+            lo = np.searchsorted(sorted_key, want)
+            for k in range(2):  # a slot has up to two segments in a piece (its two halves)
+                pos = np.minimum(lo + k, sorted_key.size - 1)
+                hit = (sorted_key[pos] == want) & (slots[:, j] >= 0)
+                out[:, 2 * j + k] = np.where(hit, self.order[pos], -1)
+        return out
 
 
 def fit(exact: Exact, prot: Protected, lo: np.ndarray, hi: np.ndarray, tolerance: float | np.ndarray,

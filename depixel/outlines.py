@@ -34,15 +34,17 @@ bit-identical numbers for it, in either direction.
 """
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
 
-from .arrays import batch_bounds, unique
+from .arrays import batch_bounds
 from .boundaries import CUBIC, LINE, QUAD, BoundaryPieces, build_pieces, junction_nodes
+from .holes import loops_to_keep, probe_keys
 from .loops import Loops, trace_loops
 from .simplify import simplify_pieces
-from .stacking import FaceTopology
+from .stacking import FaceBoundaries, FaceTopology
 from .vector import VectorImage
 
 LAYOUTS = ("stacked", "cutout")
@@ -108,32 +110,105 @@ def build_outlines(image: VectorImage, layout: str = "stacked", grid: float | No
     ``None`` keeps exact coordinates. ``simplify`` > 0 replaces the exact spline by fewer
     quadratics within that many pixels of it (:mod:`depixel.simplify`).
     """
-    if layout not in LAYOUTS:
-        raise ValueError(f"unknown layout {layout!r}; choose one of {', '.join(LAYOUTS)}")
-    cells = image.cells
-    h, w = cells.shape
-    topo = FaceTopology(image)
-    pieces = build_pieces(image, junction_nodes(image, topo.labels), grid)
-    if simplify > 0:
-        pieces = simplify_pieces(pieces, image, simplify, grid=grid)
-    members = topo.members(stacked=layout == "stacked", edge_cost=_edge_costs(image, pieces))
-    owner_face, entry = _member_entries(topo, members)
-    u = topo.entry_from[entry]
-    loops = trace_loops(topo.rank[owner_face], u, topo.entry_to[entry], points=topo.cells.nodes)
-    halfedge_edge, halfedge_from = topo.entry_edge[entry], u
-    keep = _loops_to_keep(topo, loops, halfedge_from, fill_holes=layout == "stacked")
-    kind, ctrl, ctrl2, end, loop_ptr = _segments_in_batches(image, pieces, loops, keep, halfedge_edge,
-                                                            halfedge_from, grid)
+    shapes = outline_shapes(image, layout, grid, simplify)
+    return _joined(shapes, list(shapes.batches()))
 
-    shape_rank = loops.owner[keep]
-    drawn = unique(shape_rank)
-    shape_ptr = np.asarray(np.searchsorted(shape_rank, np.r_[drawn, np.iinfo(np.int64).max]), dtype=np.int64)
-    face = topo.face_of_rank[drawn]
+
+class OutlineShapes:
+    """The shapes of a vector image in drawing order, known before their outlines are traced
+    (``face``, ``rgba``, ``region``, ``role`` as in :class:`Outlines`), and their outlines a
+    batch of consecutive shapes at a time (:meth:`batches`): the SVG writer formats each
+    batch as it comes, so the loops and segments of the whole image are never held at once.
+    """
+
+    def __init__(self, image: VectorImage, layout: str, grid: float | None, simplify: float) -> None:
+        if layout not in LAYOUTS:
+            raise ValueError(f"unknown layout {layout!r}; choose one of {', '.join(LAYOUTS)}")
+        self.image, self.layout, self.grid = image, layout, grid
+        self.shape = image.cells.shape
+        topo = FaceTopology(image)
+        pieces = build_pieces(image, junction_nodes(image, topo.labels), grid)
+        if simplify > 0:
+            pieces = simplify_pieces(pieces, image, simplify, grid=grid)
+        self.pieces = pieces
+        member_key = topo.members(stacked=layout == "stacked", edge_cost=_edge_costs(image, pieces))
+        # sorted keys owner * (F + 1) + member of the (owner, member) pairs: base F + 1, so that
+        # no key of the outside (member -1) is a member's
+        member_key += member_key // topo.n_faces
+        self.member_key = member_key
+        self.member_ptr = np.searchsorted(member_key, np.arange(topo.n_faces + 1) * (topo.n_faces + 1))  # per owner
+        self.face = topo.face_of_rank[topo.drawn[topo.face_of_rank]]
+        self.rgba, self.region = topo.face_rgba[self.face], topo.face_region[self.face]
+        self.role = topo.role[self.face]
+        clear = np.flatnonzero(~topo.opaque)  # a pixel of each transparent or translucent face
+        self.probe_key = probe_keys(topo.first_pixel[clear], self.shape[1]) if clear.size else None
+        self.faces = topo.boundaries()  # the rest of the topology is dropped here
+
+    def __len__(self) -> int:
+        return int(self.face.size)
+
+    def batches(self) -> Iterator[Outlines]:
+        """The outlines of the shapes, consecutive batches of about :data:`LOOP_BATCH`
+        boundary half-edges (the result does not depend on the batches)."""
+        faces, member_ptr = self.faces, self.member_ptr
+        entries = np.r_[0, np.cumsum(np.diff(faces.entry_ptr)[self.member_key % (faces.n_faces + 1)])]  # running
+        sizes = (entries[member_ptr[1:]] - entries[member_ptr[:-1]])[self.face]
+        del entries
+        for a, b in batch_bounds(sizes, LOOP_BATCH):
+            yield self._outlines(a, b)
+
+    def _outlines(self, first: int, stop: int) -> Outlines:
+        """The outlines of shapes ``first:stop``."""
+        faces, face = self.faces, self.face[first:stop]
+        lo, hi = self.member_ptr[face], self.member_ptr[face + 1]
+        member = self.member_key[_ranges(lo, hi)] % (faces.n_faces + 1)
+        owner = np.repeat(face, hi - lo)
+        owner_face, entry = _batch_entries(faces, owner, member, self.member_key)
+        u = faces.entry_from[entry]
+        loops = trace_loops(faces.rank[owner_face], u, faces.entry_to[entry], points=faces.nodes)
+        del owner_face
+        keep = loops_to_keep(loops, u, faces.nodes, self.probe_key, self.shape[1], self.layout == "stacked")
+        kind, ctrl, ctrl2, end, loop_ptr = _segments_in_batches(self.image, self.pieces, loops, keep,
+                                                                faces.entry_edge[entry], u, self.grid)
+        shape_rank = loops.owner[keep]
+        shape_ptr = np.asarray(np.searchsorted(shape_rank, np.r_[faces.rank[face], np.iinfo(np.int64).max]), np.int64)
+        return Outlines(
+            shape=self.shape, layout=self.layout, grid=self.grid, face=face, rgba=self.rgba[first:stop],
+            region=self.region[first:stop], role=self.role[first:stop], shape_ptr=shape_ptr,
+            loop_ptr=loop_ptr, kind=kind, ctrl=ctrl, ctrl2=ctrl2, end=end,
+        )
+
+
+def outline_shapes(image: VectorImage, layout: str = "stacked", grid: float | None = None,
+                   simplify: float = 0.0) -> OutlineShapes:
+    """The shapes of a vector image, their outlines to come a batch at a time
+    (:func:`build_outlines` has the parameters)."""
+    return OutlineShapes(image, layout, grid, simplify)
+
+
+def _joined(shapes: OutlineShapes, parts: list[Outlines]) -> Outlines:
+    """One :class:`Outlines` of consecutive batches."""
+    if not parts:
+        return Outlines(shape=shapes.shape, layout=shapes.layout, grid=shapes.grid, face=shapes.face,
+                        rgba=shapes.rgba, region=shapes.region, role=shapes.role, shape_ptr=np.zeros(1, np.int64),
+                        loop_ptr=np.zeros(1, np.int64), kind=np.zeros(0, np.uint8), ctrl=np.zeros((0, 2)),
+                        ctrl2=np.zeros((0, 2)), end=np.zeros((0, 2)))
+    loop_offset = np.cumsum([0] + [p.loop_ptr.size - 1 for p in parts[:-1]])
+    seg_offset = np.cumsum([0] + [p.kind.size for p in parts[:-1]])
     return Outlines(
-        shape=(h, w), layout=layout, grid=grid, face=face, rgba=topo.face_rgba[face],
-        region=topo.face_region[face], role=topo.roles(face), shape_ptr=shape_ptr, loop_ptr=loop_ptr,
-        kind=kind, ctrl=ctrl, ctrl2=ctrl2, end=end,
+        shape=shapes.shape, layout=shapes.layout, grid=shapes.grid, face=shapes.face, rgba=shapes.rgba,
+        region=shapes.region, role=shapes.role,
+        shape_ptr=np.concatenate([parts[0].shape_ptr[:1]] + [p.shape_ptr[1:] + o for p, o in zip(parts, loop_offset)]),
+        loop_ptr=np.concatenate([parts[0].loop_ptr[:1]] + [p.loop_ptr[1:] + o for p, o in zip(parts, seg_offset)]),
+        kind=np.concatenate([p.kind for p in parts]), ctrl=np.concatenate([p.ctrl for p in parts]),
+        ctrl2=np.concatenate([p.ctrl2 for p in parts]), end=np.concatenate([p.end for p in parts]),
     )
+
+
+def _ranges(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The integers of every range [lo, hi), concatenated."""
+    count = hi - lo
+    return np.repeat(lo - (np.cumsum(count) - count), count) + np.arange(int(count.sum()))
 
 
 def _edge_costs(image: VectorImage, pieces: BoundaryPieces) -> np.ndarray:
@@ -148,99 +223,21 @@ def _edge_costs(image: VectorImage, pieces: BoundaryPieces) -> np.ndarray:
     return cost
 
 
-def _member_entries(topo: FaceTopology, members: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """(owner face, boundary entry) of every shape's union of member faces, a batch of
-    :data:`LOOP_BATCH` members at a time (the result does not depend on it)."""
-    owner, member = members
-    n = topo.n_faces + 1
-    member_key = owner * n + member
-    parts = [_batch_entries(topo, owner[i : i + LOOP_BATCH], member[i : i + LOOP_BATCH], member_key)
-             for i in range(0, max(owner.size, 1), LOOP_BATCH)]
-    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
-
-
-def _batch_entries(topo: FaceTopology, owner: np.ndarray, member: np.ndarray, member_key: np.ndarray
+def _batch_entries(faces: FaceBoundaries, owner: np.ndarray, member: np.ndarray, member_key: np.ndarray
                    ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_member_entries` of some (owner, member) pairs; ``member_key`` of all of them."""
-    counts = topo.entry_ptr[member + 1] - topo.entry_ptr[member]
-    which = np.repeat(np.arange(owner.size), counts)
-    entry = np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts) + topo.entry_ptr[member][which]
-    shape_face = owner[which]
-    other = topo.entry_other[entry]
+    """(owner face, boundary entry) of the union of member faces of each owner in some
+    (owner, member) pairs; ``member_key`` of all pairs (sorted)."""
+    lo, hi = faces.entry_ptr[member], faces.entry_ptr[member + 1]
+    entry = _ranges(lo, hi)
+    shape_face = np.repeat(owner, hi - lo)
+    del lo, hi
+    other = faces.entry_other[entry]
     # a half-edge bounds the union unless the face across is a member of the same shape
-    n = topo.n_faces + 1
+    n = faces.n_faces + 1
     other_key = shape_face * n + other
     pos = np.minimum(np.searchsorted(member_key, other_key), member_key.size - 1)
     inside = (other >= 0) & (member_key[pos] == other_key)
     return shape_face[~inside], entry[~inside]
-
-
-def _loops_to_keep(topo: FaceTopology, loops: Loops, halfedge_from: np.ndarray, fill_holes: bool) -> np.ndarray:
-    """Indices of the loops drawn: all of them, less (stacked layout) the holes that hold no
-    transparent or translucent pixel (those are covered by shapes drawn later)."""
-    everything = np.arange(len(loops))
-    if not fill_holes or len(loops) == 0:
-        return everything
-    nodes = topo.cells.nodes.astype(np.int64)
-    start = halfedge_from[loops.halfedges]
-    nxt_pos = np.arange(start.size) + 1
-    nxt_pos[loops.ptr[1:] - 1] = loops.ptr[:-1]
-    p, q = nodes[start], nodes[start[nxt_pos]]
-    cross = p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]
-    loop_of = np.repeat(everything, np.diff(loops.ptr))
-    area2 = np.bincount(loop_of, weights=cross, minlength=len(loops))  # clockwise on screen > 0
-    holes = np.flatnonzero(area2 < 0)
-    if holes.size == 0:
-        return everything
-    clear = np.flatnonzero(~topo.opaque)
-    if clear.size == 0:
-        return np.flatnonzero(area2 >= 0)
-    w = topo.cells.shape[1]
-    row, col = np.divmod(topo.first_pixel[clear], w)
-    probe = np.stack([4 * col + 2, 4 * row + 2], axis=1)  # a pixel centre of each, quarter units
-    hole_edges = np.flatnonzero(np.isin(loop_of, holes))
-    blocked = _holds_a_probe(p[hole_edges], q[hole_edges], loop_of[hole_edges], probe, len(loops), w)
-    keep = (area2 >= 0) | blocked
-    return np.flatnonzero(keep)
-
-
-def _holds_a_probe(a: np.ndarray, b: np.ndarray, loop: np.ndarray, probe: np.ndarray, n_loops: int,
-                   width: int) -> np.ndarray:
-    """(n_loops,) bool: the loops (edges a→b (E, 2) of loop ``loop``, quarter-pixel units)
-    that hold a probe (pixel centres (P, 2)) by the even-odd rule, a ray towards +x counting
-    the edges that straddle the probe's row (half-open in y) and cross it strictly right.
-
-    Row by row instead of every (edge, probe) pair: a probe row y = 4r + 2 meets each loop
-    at crossings x_c; a probe at integer x has odd parity exactly when it lies in
-    [C1, C2), [C3, C4), … of that loop's crossings rounded up, C = ceil(x_c), sorted (x_c > x
-    if and only if C > x). So the cost is the edges' crossings and a binary search per
-    span, linear in the image, where the pairs cost edges × probes."""
-    ay, by = a[:, 1], b[:, 1]
-    lo, hi = np.minimum(ay, by), np.maximum(ay, by)
-    # the probe rows each edge straddles: lo <= 4r + 2 < hi
-    r0, r1 = -((2 - lo) // 4), -((2 - hi) // 4)  # ceil((lo - 2) / 4), ceil((hi - 2) / 4)
-    count = np.maximum(r1 - r0, 0)
-    edge = np.repeat(np.arange(a.shape[0]), count)
-    row = np.repeat(r0, count) + np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
-    ax, ay, bx, by = a[edge, 0], a[edge, 1], b[edge, 0], b[edge, 1]
-    py, dy = 4 * row + 2, by - ay
-    # x_c = ax + (py - ay)(bx - ax) / dy, rounded up exactly in integers (dy made positive)
-    num = ax * dy + (py - ay) * (bx - ax)
-    num, den = np.where(dy < 0, -num, num), np.abs(dy)
-    ceil = -((-num) // den)
-    span = 4 * width + 8  # x keys per row: every crossing and probe x lies in [0, 4W + 4]
-    ceil = np.clip(ceil, 0, span - 1)
-    order = np.lexsort((ceil, row, loop[edge]))
-    group = loop[edge][order] * (row.max(initial=0) + 1) + row[order]
-    rank = np.arange(order.size) - np.searchsorted(group, group)  # position within (loop, row)
-    first = order[rank % 2 == 0]
-    second = order[rank % 2 == 1]  # each (loop, row) has an even number of crossings
-    probe_key = np.sort((probe[:, 1] - 2) // 4 * span + probe[:, 0])
-    start = np.searchsorted(probe_key, row[first] * span + ceil[first])
-    stop = np.searchsorted(probe_key, row[second] * span + ceil[second])
-    held = np.zeros(n_loops, bool)
-    held[loop[edge][first][stop > start]] = True
-    return held
 
 
 #: loops are turned into segments in batches of about this many half-edges, to bound the
@@ -316,7 +313,7 @@ def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, kee
     whole = np.flatnonzero((span[:-1] >= 0) & (span[:-1] == span[1:]) & (seg_loop[:-1] == seg_loop[1:])
                            & (kind[:-1] == QUAD) & (kind[1:] == QUAD))  # (straight halves merge as lines)
     if whole.size:
-        ctrl[whole + 1] = pieces.slot_ctrl[span[whole]]
+        ctrl[whole + 1] = pieces.span_ctrl(span[whole])
         keep_seg = np.ones(total, bool)
         keep_seg[whole] = False
         kind, ctrl, end, seg_loop = kind[keep_seg], ctrl[keep_seg], end[keep_seg], seg_loop[keep_seg]

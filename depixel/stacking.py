@@ -10,9 +10,11 @@ have to go around.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from .arrays import union, unique
+from .arrays import batch_bounds, union, unique
 from .vector import VectorImage, faces_and_regions
 
 #: shape roles, for the labels of an editor's layers panel
@@ -21,8 +23,25 @@ ROLES = ("backdrop", "outline", "band", "shape")
 ABSORB_BATCH = 1 << 14
 
 
+@dataclass(frozen=True, eq=False)
+class FaceBoundaries:
+    """What tracing the outlines needs of a :class:`FaceTopology` (views of its arrays): the
+    drawing rank of every face and the boundary half-edges of each face (entries
+    ``entry_ptr[f]:entry_ptr[f+1]``, each with the face on its right)."""
+
+    n_faces: int
+    rank: np.ndarray  # (F,) drawing rank of each face
+    entry_ptr: np.ndarray  # (F+1,)
+    entry_other: np.ndarray  # (M,) int32 the face on the left (-1: outside the image)
+    entry_from: np.ndarray  # (M,) int32 node the half-edge leaves
+    entry_to: np.ndarray  # (M,) int32 node it enters
+    entry_edge: np.ndarray  # (M,) int32 its cell edge
+    nodes: np.ndarray  # (N, 2) quarter-pixel node positions
+
+
 class FaceTopology:
-    """Faces, their adjacency, depth and drawing rank, and the boundary half-edges of each."""
+    """Faces, their depth, drawing rank and role, the faces each lies under in the stacked
+    layout, and the boundary half-edges of each."""
 
     def __init__(self, image: VectorImage) -> None:
         cells = image.cells
@@ -43,34 +62,57 @@ class FaceTopology:
         self.drawn = alpha > 0
         self.opaque = alpha == 255
 
+        # the face on the left and on the right of every cell edge (-1: outside the image)
         sides = cells.edge_pixels
-        face_side = np.where(sides >= 0, labels[np.maximum(sides, 0)], -1)  # (E, 2) left, right
-        boundary = np.flatnonzero(face_side[:, 0] != face_side[:, 1])
-        left, right = face_side[boundary, 0], face_side[boundary, 1]
-        u, v = cells.edges[boundary, 0], cells.edges[boundary, 1]
-        # one entry per face side of a boundary edge, oriented with the face on the right
+        left = np.where(sides[:, 0] >= 0, labels[np.maximum(sides[:, 0], 0)], -1)
+        right = np.where(sides[:, 1] >= 0, labels[np.maximum(sides[:, 1], 0)], -1)
+        boundary = np.flatnonzero(left != right)
+        left, right = left[boundary], right[boundary]
+        # one entry per face side of a boundary edge, oriented with the face on the right,
+        # sorted by face (stable); 32-bit, since an image has far fewer than 2^31 of anything
         has_r, has_l = right >= 0, left >= 0
-        entry_face = np.concatenate([right[has_r], left[has_l]])
-        entry_other = np.concatenate([left[has_r], right[has_l]])
-        entry_from = np.concatenate([u[has_r], v[has_l]])
-        entry_to = np.concatenate([v[has_r], u[has_l]])
-        entry_edge = np.concatenate([boundary[has_r], boundary[has_l]])
-        order = np.argsort(entry_face, kind="stable")
-        self.entry_face, self.entry_other = entry_face[order], entry_other[order]
-        self.entry_from, self.entry_to, self.entry_edge = entry_from[order], entry_to[order], entry_edge[order]
-        self.entry_ptr = np.searchsorted(self.entry_face, np.arange(n + 1))
+        order = np.argsort(np.concatenate([right[has_r], left[has_l]]), kind="stable")
+
+        def entries(of_right: np.ndarray, of_left: np.ndarray, order: np.ndarray = order) -> np.ndarray:
+            return np.concatenate([of_right[has_r], of_left[has_l]], dtype=np.int32)[order]
+
+        self.entry_other = entries(left, right)
+        u, v = cells.edges[boundary, 0], cells.edges[boundary, 1]
+        self.entry_from, self.entry_to = entries(u, v), entries(v, u)
+        del u, v
+        self.entry_edge = entries(boundary, boundary)
+        del order
+        per_face = np.bincount(right[has_r], minlength=n) + np.bincount(left[has_l], minlength=n)
+        self.entry_ptr = np.r_[0, np.cumsum(per_face)]
 
         inner = has_l & has_r
-        lo, hi = np.minimum(left[inner], right[inner]), np.maximum(left[inner], right[inner])
-        pairs = unique(np.stack([lo, hi], axis=1), axis=0) if inner.any() else np.zeros((0, 2), np.int64)
-        self.pairs = np.concatenate([pairs, pairs[:, ::-1]])  # both directions
+        lo, hi = np.minimum(left[inner], right[inner]).astype(np.int64), np.maximum(left[inner], right[inner])
+        pair_key = _distinct(lo * n + hi)
+        lo, hi = np.divmod(pair_key, n)
+        del pair_key
+        m = lo.size
+        pairs = np.empty((2 * m, 2), np.int32)  # neighbouring faces, both directions
+        pairs[:m, 0], pairs[:m, 1], pairs[m:, 0], pairs[m:, 1] = lo, hi, hi, lo
+        del lo, hi
 
         on_border = np.zeros(n, bool)
-        on_border[entry_face[entry_other < 0]] = True
+        on_border[right[has_r & ~has_l]] = True
+        on_border[left[has_l & ~has_r]] = True
         self.on_border = on_border
-        self.depth = self._depths()
+        del left, right, boundary
+        self.depth = self._depths(pairs)
         self.rank, self.face_of_rank = self._ranks(region)
-        self.corners = self._corner_pairs(labels)
+        self.role = self._roles(pairs)
+        # the adjacency is kept only as the underlays it gives (what members() starts from)
+        under = self._under_keys(pairs)
+        del pairs
+        own = np.flatnonzero(self.drawn)
+        self.underlays = _distinct(np.concatenate([own * n + own, under, self._under_keys(self._corner_pairs(labels))]))
+
+    def boundaries(self) -> FaceBoundaries:
+        """The rank and boundary half-edges alone, to keep when the rest is no longer needed."""
+        return FaceBoundaries(self.n_faces, self.rank, self.entry_ptr, self.entry_other, self.entry_from,
+                              self.entry_to, self.entry_edge, self.cells.nodes)
 
     def _corner_pairs(self, labels: np.ndarray) -> np.ndarray:
         """(K, 2) (lowest face at a node, another face at that node) for every node where
@@ -78,28 +120,37 @@ class FaceTopology:
         where four meet) are not neighbours, yet unless the lowest of them lies under all the
         others a seam opens at that point."""
         cells = self.cells
+        n = self.n_faces
         face_at = labels[np.repeat(np.arange(labels.size), np.diff(cells.cell_ptr))]
-        node = cells.cell_nodes
-        drawn_first = self.rank[face_at] + self.n_faces * ~self.drawn[face_at]  # the lowest drawn face first
-        order = np.lexsort((drawn_first, node))
-        node, face_at = node[order], face_at[order]
-        fresh = np.r_[True, (node[1:] != node[:-1]) | (face_at[1:] != face_at[:-1])]
-        node, face_at = node[fresh], face_at[fresh]
+        drawn_first = self.rank[face_at] + n * ~self.drawn[face_at]  # the lowest drawn face first
+        del face_at
+        # one sorted key per (node, face) instead of a lexsort: ranks are distinct, so the
+        # face comes back from its rank
+        key = cells.cell_nodes.astype(np.int64)
+        key *= 2 * n
+        key += drawn_first
+        del drawn_first
+        node, drawn_first = np.divmod(_distinct(key), 2 * n)
+        del key
+        face_at = self.face_of_rank[drawn_first % n]
+        del drawn_first
         start = np.flatnonzero(np.r_[True, node[1:] != node[:-1]])
-        count = np.diff(np.r_[start, node.size])
-        group = np.repeat(np.arange(start.size), count)
-        lowest = face_at[start][group]  # sorted by rank within each node
-        crowded = (count >= 3)[group] & (face_at != lowest)
-        return np.stack([lowest[crowded], face_at[crowded]], axis=1)
+        del node
+        count = np.diff(np.r_[start, face_at.size])
+        lowest = np.repeat(face_at[start], count)  # sorted by rank within each node
+        crowded = np.repeat(count >= 3, count) & (face_at != lowest)
+        corners = np.empty((int(crowded.sum()), 2), np.int32)
+        corners[:, 0], corners[:, 1] = lowest[crowded], face_at[crowded]
+        return corners
 
-    def _depths(self) -> np.ndarray:
+    def _depths(self, pairs: np.ndarray) -> np.ndarray:
         """(F,) boundaries to cross from outside: 0 for transparent faces, 1 on the border or
         beside a transparent face, then one more per face boundary (shortest path)."""
         n = self.n_faces
         depth = np.full(n, n + 1, np.int64)
         depth[self.on_border] = 1
         depth[~self.drawn] = 0
-        a, b = self.pairs[:, 0], self.pairs[:, 1]
+        a, b = pairs[:, 0], pairs[:, 1]
         while True:
             reach = np.full(n, n + 1, np.int64)
             np.minimum.at(reach, b, depth[a] + 1)
@@ -140,25 +191,24 @@ class FaceTopology:
         pocket[centre[around]] = True
         return pocket
 
-    def members(self, stacked: bool, edge_cost: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """(owner face, member face) pairs, sorted: the faces each drawn face's shape covers
-        before its holes are filled.
+    def members(self, stacked: bool, edge_cost: np.ndarray | None = None) -> np.ndarray:
+        """Sorted keys ``owner * F + member`` of (owner face, member face) pairs: the faces
+        each drawn face's shape covers before its holes are filled.
 
         Cutout: the face alone. Stacked: the face and every opaque neighbour drawn above it
         (so the lower of two touching faces lies beneath their boundary), then, while it
         shortens the outline (``edge_cost`` per cell edge: what drawing it costs), every
         opaque face drawn above it whose boundary is mostly shared with the shape already."""
-        own = np.flatnonzero(self.drawn)
-        n = self.n_faces
-        if not stacked or self.pairs.size == 0:
-            return own, own
-        a = np.concatenate([self.pairs[:, 0], self.corners[:, 0]])
-        b = np.concatenate([self.pairs[:, 1], self.corners[:, 1]])
-        under = self.drawn[a] & self.opaque[b] & (self.rank[b] > self.rank[a])
-        keys = unique(np.concatenate([own * n + own, a[under] * n + b[under]]))
-        if edge_cost is not None:
-            keys = self._absorb(keys, edge_cost)
-        return keys // n, keys % n
+        if not stacked:
+            own = np.flatnonzero(self.drawn)
+            return own * self.n_faces + own
+        return self.underlays if edge_cost is None else self._absorb(self.underlays, edge_cost)
+
+    def _under_keys(self, pairs: np.ndarray) -> np.ndarray:
+        """Keys ``a * F + b`` of the (a, b) pairs where b is opaque and drawn above a drawn face a."""
+        a, b = pairs[:, 0], pairs[:, 1]
+        under = np.flatnonzero(self.drawn[a] & self.opaque[b] & (self.rank[b] > self.rank[a]))
+        return a[under].astype(np.int64) * self.n_faces + b[under]
 
     def _absorb(self, keys: np.ndarray, edge_cost: np.ndarray) -> np.ndarray:
         """Grow each shape's member set (keys owner * F + member, sorted) by the faces that
@@ -166,19 +216,36 @@ class FaceTopology:
         are grown a batch at a time (:data:`ABSORB_BATCH` keys), which bounds the memory of
         the candidate arrays (~40 a face on noise) and changes nothing else."""
         n = self.n_faces
-        other = np.where(self.entry_other >= 0, self.entry_other, n)  # n: outside
-        cost = edge_cost[self.entry_edge]
-        pair_key, pair_inv = np.unique(self.entry_face * (n + 1) + other, return_inverse=True)
-        pair_cost = np.bincount(pair_inv, weights=cost)
-        g, h = pair_key // (n + 1), pair_key % (n + 1)
-        perimeter = np.bincount(g, weights=pair_cost, minlength=n)
-        inner_pairs = h < n
-        g, h, w = g[inner_pairs], h[inner_pairs], pair_cost[inner_pairs]
-        neighbours = (np.searchsorted(g, np.arange(n + 1)), h, w, perimeter)
+        neighbours = self._neighbours(edge_cost)
         owner = keys // n
         cuts = unique(np.r_[0, np.searchsorted(owner, owner[ABSORB_BATCH::ABSORB_BATCH]), keys.size])
+        del owner
         return np.concatenate([self._grow(keys[a:b], neighbours)
                                for a, b in zip(cuts[:-1].tolist(), cuts[1:].tolist())] or [keys])
+
+    def _neighbours(self, edge_cost: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The faces each face borders, in CSR form ``(ptr, other face, cost of their common
+        boundary)``, and each face's perimeter cost (the image border included). The entries
+        are sorted by face, so a batch of faces at a time gives the same pairs and sums."""
+        n = self.n_faces
+        perimeter = np.zeros(n)
+        count = np.zeros(n, np.int64)
+        others: list[np.ndarray] = [np.zeros(0, np.int32)]
+        costs: list[np.ndarray] = [np.zeros(0)]
+        for a, b in batch_bounds(np.diff(self.entry_ptr), ABSORB_BATCH):
+            lo, hi = int(self.entry_ptr[a]), int(self.entry_ptr[b])
+            face = np.repeat(np.arange(a, b), np.diff(self.entry_ptr[a : b + 1]))
+            other = self.entry_other[lo:hi]
+            key, inverse = np.unique(face * (n + 1) + np.where(other >= 0, other, n), return_inverse=True)
+            cost = np.bincount(inverse, weights=edge_cost[self.entry_edge[lo:hi]])
+            face, other = np.divmod(key, n + 1)
+            perimeter[a:b] = np.bincount(face - a, weights=cost, minlength=b - a)
+            inner = other < n
+            count[a:b] = np.bincount(face[inner] - a, minlength=b - a)
+            others.append(other[inner].astype(np.int32))
+            costs.append(cost[inner])
+        ptr = np.r_[0, np.cumsum(count)]
+        return ptr, np.concatenate(others), np.concatenate(costs), perimeter
 
     def _grow(self, keys: np.ndarray, neighbours: tuple[np.ndarray, ...]) -> np.ndarray:
         """:meth:`_absorb` of the shapes whose keys these are."""
@@ -205,26 +272,34 @@ class FaceTopology:
                 return keys
             keys = union(keys, add)
 
-    def roles(self, faces: np.ndarray) -> np.ndarray:
-        """Role of each face's shape: the lowest shape covering most of the image along its
-        border is the backdrop; a face darker than every face it encloses is an outline;
-        a face sharing its region with others is a shading band."""
+    def _roles(self, pairs: np.ndarray) -> np.ndarray:
+        """(F,) int8 role of each face's shape: the lowest shape, when it covers most of the
+        image along its border, is the backdrop; a face darker than every face it encloses
+        is an outline; a face sharing its region with others is a shading band."""
         h, w = self.cells.shape
-        role = np.full(faces.size, ROLES.index("shape"), np.int8)
+        role = np.full(self.n_faces, ROLES.index("shape"), np.int8)
         region_faces = np.bincount(self.face_region[self.drawn], minlength=int(self.face_region.max()) + 1)
-        role[region_faces[self.face_region[faces]] > 1] = ROLES.index("band")
+        role[region_faces[self.face_region] > 1] = ROLES.index("band")
         luma = self.face_rgba[:, :3].astype(np.float64) @ np.array([0.299, 0.587, 0.114])
-        a, b = self.pairs[:, 0], self.pairs[:, 1]
+        a, b = pairs[:, 0], pairs[:, 1]
         deeper = self.depth[b] > self.depth[a]
         encloses = np.zeros(self.n_faces, bool)
         encloses[a[deeper]] = True
-        brightest_inside = np.full(self.n_faces, -1.0)
-        np.maximum.at(brightest_inside, a[deeper], luma[b[deeper]])
         darkest_inside = np.full(self.n_faces, 1e9)
         np.minimum.at(darkest_inside, a[deeper], luma[b[deeper]])
         outline = encloses & (luma < darkest_inside) & self.opaque
-        role[outline[faces]] = ROLES.index("outline")
-        lowest = faces[0] if faces.size else -1
+        role[outline] = ROLES.index("outline")
+        drawn = self.face_of_rank[self.drawn[self.face_of_rank]]
+        lowest = drawn[0] if drawn.size else -1
         if lowest >= 0 and self.on_border[lowest] and self.opaque[lowest] and self.area[lowest] * 4 >= h * w:
-            role[0] = ROLES.index("backdrop")
+            role[lowest] = ROLES.index("backdrop")
         return role
+
+
+def _distinct(values: np.ndarray) -> np.ndarray:
+    """The distinct values, sorted, of an array the caller gives up (sorted in place: no
+    argsort and no copy, where ``unique`` makes three)."""
+    values.sort()
+    first = np.ones(values.size, bool)
+    first[1:] = values[1:] != values[:-1]
+    return values[first]

@@ -17,11 +17,13 @@ The text is assembled with whole-array operations (:mod:`depixel.svgtext`).
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 
 from .arrays import batch_bounds
 from .boundaries import CUBIC, LINE, QUAD
-from .outlines import Outlines, build_outlines
+from .outlines import Outlines, OutlineShapes, outline_shapes
 from .stacking import ROLES
 from .svgtext import Texts, numbers, stack
 from .vector import VectorImage
@@ -63,15 +65,23 @@ def to_svg(image: VectorImage, scale: float = 1.0, precision: int = DEFAULT_PREC
            layout: str = "stacked", simplify: float = DEFAULT_SIMPLIFY) -> str:
     """Write a VectorImage as SVG text; ``scale`` sets width/height, the viewBox stays W×H.
 
-    ``layout`` and ``simplify`` are those of :func:`depixel.outlines.build_outlines`."""
-    outlines = build_outlines(image, layout, grid=10.0**-precision, simplify=simplify)
-    return write_svg(outlines, scale, precision, title)
+    ``layout`` and ``simplify`` are those of :func:`depixel.outlines.build_outlines`. The
+    outlines are built and written a batch of shapes at a time, so those of the whole image
+    are never held at once."""
+    shapes = outline_shapes(image, layout, grid=10.0**-precision, simplify=simplify)
+    return _document(shapes, shapes.batches(), scale, precision, title)
 
 
 def write_svg(outlines: Outlines, scale: float = 1.0, precision: int = DEFAULT_PRECISION,
               title: str | None = None) -> str:
     """Format outlines (built with ``grid=10**-precision``) as an SVG document."""
-    h, w = outlines.shape
+    return _document(outlines, [outlines], scale, precision, title)
+
+
+def _document(shapes: Outlines | OutlineShapes, batches: Iterable[Outlines], scale: float, precision: int,
+              title: str | None) -> str:
+    """The SVG document of ``shapes``, whose outlines are ``batches`` of consecutive shapes."""
+    h, w = shapes.shape
     width, height = numbers(np.array([w * scale, h * scale]), 3).tolist()
     head = (
         f'{SVG_HEADER}<svg xmlns="{"http://www.w3.org/2000/svg"}" xmlns:inkscape="{INKSCAPE_NS}" version="1.1" '
@@ -79,47 +89,62 @@ def write_svg(outlines: Outlines, scale: float = 1.0, precision: int = DEFAULT_P
     )
     if title:
         head += f"<title>{_escape(title)}</title>\n"
-    return head + _elements(outlines, precision) + "</svg>\n"
+    parts = [head]
+    labels = _Labels(shapes)
+    first = 0
+    for batch in batches:
+        parts.append(_elements(batch, first, labels, precision))
+        first += len(batch)
+    parts.append("</svg>\n")
+    return "".join(parts)
 
 
-def _elements(outlines: Outlines, precision: int) -> str:
-    """The ``<g>``/``<path>`` elements in drawing order."""
+class _Labels:
+    """What the elements of all shapes say besides their paths: each shape's ``id``
+    (``role-rrggbb``, with ``-2``, ``-3``… where that repeats) and its run of shapes of
+    one region (a ``<g>`` when the run has several)."""
+
+    def __init__(self, shapes: Outlines | OutlineShapes) -> None:
+        region = shapes.region
+        self.run_start = np.r_[True, region[1:] != region[:-1]]
+        self.run_id = np.cumsum(self.run_start) - 1
+        self.run_size = np.bincount(self.run_id)
+        rgba = shapes.rgba.astype(np.int64)
+        key = (shapes.role.astype(np.int64) << 24) | (rgba[:, 0] << 16) | (rgba[:, 1] << 8) | rgba[:, 2]
+        order = np.argsort(key, kind="stable")
+        ranked = key[order]
+        self.count = np.empty(key.size, np.int64)  # the how-manieth shape of its id
+        self.count[order] = np.arange(key.size) - np.searchsorted(ranked, ranked) + 1
+
+    def grouped(self, s: int) -> bool:
+        return bool(self.run_size[self.run_id[s]] > 1)
+
+
+def _elements(outlines: Outlines, first: int, labels: _Labels, precision: int) -> str:
+    """The ``<g>``/``<path>`` elements of a batch of shapes, the first being shape ``first``."""
     n = len(outlines)
     if n == 0:
         return ""
     data = path_data(outlines, precision)
     region = outlines.region
-    run_start = np.r_[True, region[1:] != region[:-1]]
-    run_id = np.cumsum(run_start) - 1
-    run_size = np.bincount(run_id)
-    grouped = run_size[run_id] > 1
-    ids = _ids(outlines)
+    total = labels.run_id.size
     lines = []
-    for s in range(n):
-        if grouped[s] and run_start[s]:
-            first = outlines.rgba[s]
-            label = f"shading #{first[0]:02x}{first[1]:02x}{first[2]:02x} ({run_size[run_id[s]]} tones)"
-            lines.append(f'<g id="region-{int(region[s])}-{int(run_id[s])}" inkscape:label="{label}">\n')
-        r, g, b, a = (int(x) for x in outlines.rgba[s])
+    for i, (role, (r, g, b, a), count) in enumerate(zip(outlines.role.tolist(), outlines.rgba.tolist(),
+                                                        labels.count[first : first + n].tolist())):
+        s = first + i
+        grouped = labels.grouped(s)
+        if grouped and labels.run_start[s]:
+            label = f"shading #{r:02x}{g:02x}{b:02x} ({labels.run_size[labels.run_id[s]]} tones)"
+            lines.append(f'<g id="region-{int(region[i])}-{int(labels.run_id[s])}" inkscape:label="{label}">\n')
         colour = f"#{r:02x}{g:02x}{b:02x}"
         opacity = "" if a == 255 else f' fill-opacity="{numbers(np.array([a / 255.0]), 3).tolist()[0]}"'
-        role = ROLES[int(outlines.role[s])]
-        lines.append(f'<path id="{ids[s]}" inkscape:label="{role} {colour}" fill="{colour}"{opacity} d="{data[s]}"/>\n')
-        if grouped[s] and (s + 1 == n or run_start[s + 1]):
+        base = f"{ROLES[role]}-{colour[1:]}"
+        ident = base if count == 1 else f"{base}-{count}"
+        lines.append(f'<path id="{ident}" inkscape:label="{ROLES[role]} {colour}" fill="{colour}"{opacity} '
+                     f'd="{data[i]}"/>\n')
+        if grouped and (s + 1 == total or labels.run_start[s + 1]):
             lines.append("</g>\n")
     return "".join(lines)
-
-
-def _ids(outlines: Outlines) -> list[str]:
-    """``role-rrggbb`` for every shape, with ``-2``, ``-3``… where that repeats."""
-    seen: dict[str, int] = {}
-    out = []
-    for role, (r, g, b, _) in zip(outlines.role.tolist(), outlines.rgba.tolist()):
-        base = f"{ROLES[role]}-{r:02x}{g:02x}{b:02x}"
-        count = seen.get(base, 0) + 1
-        seen[base] = count
-        out.append(base if count == 1 else f"{base}-{count}")
-    return out
 
 
 #: shapes are formatted in batches of about this many segments, to bound temporary memory

@@ -160,7 +160,7 @@ def _holes_test_images():
 def test_the_row_by_row_hole_test_matches_the_pairwise_test_on_random_polygons():
     """Random closed polygons on the quarter-pixel grid (any slope, so crossings fall
     between probe columns; self-intersecting ones too) against random pixel centres."""
-    from depixel.outlines import _holds_a_probe
+    from depixel.holes import holds_a_probe, probe_keys
 
     rng = np.random.default_rng(7)
     held = 0
@@ -178,7 +178,7 @@ def test_the_row_by_row_hole_test_matches_the_pairwise_test_on_random_polygons()
         row, col = np.divmod(cells, width)
         probe = np.stack([4 * col + 2, 4 * row + 2], axis=1)
         want = _holds_a_probe_reference(a, b, loop, probe, n_loops, width)
-        assert np.array_equal(_holds_a_probe(a, b, loop, probe, n_loops, width), want)
+        assert np.array_equal(holds_a_probe(a, b, loop, probe_keys(cells, width), n_loops, width), want)
         held += int(want.sum())
     assert 0 < held < 200 * 3  # both answers were met
 
@@ -186,17 +186,19 @@ def test_the_row_by_row_hole_test_matches_the_pairwise_test_on_random_polygons()
 def test_holes_holding_a_transparent_pixel_match_the_pairwise_test(monkeypatch):
     """The row-by-row hole test (linear) decides exactly like testing every pair of hole
     edge and transparent-face centre (quadratic: a lattice of rings took 4.8 GB at 384²)."""
-    import depixel.outlines as outlines
+    import depixel.holes as holes
 
-    fast = outlines._holds_a_probe
+    fast = holes.holds_a_probe
     seen = []
 
-    def both(*args):
-        got, want = fast(*args), _holds_a_probe_reference(*args)
+    def both(a, b, loop, probe_key, n_loops, width):
+        row, x = np.divmod(probe_key, 4 * width + 8)  # the probes back from their keys
+        probe = np.stack([x, 4 * row + 2], axis=1)
+        got, want = fast(a, b, loop, probe_key, n_loops, width), _holds_a_probe_reference(a, b, loop, probe, n_loops, width)
         seen.append((int(got.sum()), int(want.sum()), bool(np.array_equal(got, want))))
         return got
 
-    monkeypatch.setattr(outlines, "_holds_a_probe", both)
+    monkeypatch.setattr(holes, "holds_a_probe", both)
     for img in _holes_test_images():
         build_outlines(depixelize(img).vector, "stacked")
     assert len(seen) > 20 and all(same for _, _, same in seen), [s for s in seen if not s[2]]
