@@ -20,10 +20,10 @@ DEFAULT_MAX_DIFF_PIXELS = 1 << 24
 #: Bytes of an input file or stream, and of a compressed SVG (.svgz) once decompressed.
 MAX_FILE_BYTES = 256 * 2**20
 #: Peak memory of one conversion per input pixel, above the import baseline (bytes), measured
-#: with benchmarks/memory_per_pixel.py on the worst cases (noise 2.5 KB at 256² and 512², a
-#: checkerboard 2.4-2.5 KB, stripes 2.1-2.2 KB; docs/limits.md has the table).
+#: with benchmarks/memory_per_pixel.py on the worst cases from 256² up (noise 0.84-0.95 KB,
+#: a checkerboard 0.77-0.89 KB, stripes 0.64-0.71 KB; docs/limits.md has the table).
 #: ``-j auto`` divides the available memory by this × the largest input's pixels.
-PEAK_BYTES_PER_PIXEL = 2_600
+PEAK_BYTES_PER_PIXEL = 1_000
 #: Memory of a worker process before its image: 35-38 MB measured with numpy and depixel imported
 #: (memory_per_pixel.py's baseline), plus room for cairo when it renders PNG or PDF.
 WORKER_BASELINE_BYTES = 80 * 2**20
