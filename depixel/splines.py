@@ -44,7 +44,6 @@ from .pairing import HalfEnds, band_edges, chain_curves, pair_ends, shading_edge
 from .params import Params
 from .vector import CurveTable, VectorImage
 
-
 #: slots whose curve geometry is computed together: bounds the temporaries of the spans and
 #: Béziers (a few hundred bytes a slot) whatever the number of slots
 GEOMETRY_BATCH = 1 << 15
