@@ -18,7 +18,7 @@ import numpy as np
 from . import stamp as stamps
 from . import validate
 from .errors import OutputError, ParameterError, RenderError, display_name
-from .image import ImageSource, as_rgba, check_pixels, load_image, read_source
+from .image import ImageSource, as_rgba, check_indexable, check_pixels, load_image, read_source
 from .limits import DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
 from .outlines import LAYOUTS
 from .output import write_atomic
@@ -87,6 +87,7 @@ def _pixels(image, name: str = "<image>", max_pixels: int | None = DEFAULT_MAX_P
     size = image.size if hasattr(image, "mode") and hasattr(image, "size") else np.shape(image)[1::-1]
     if len(size) == 2:
         check_pixels(name, int(size[0]), int(size[1]), validate.limit("max_pixels", max_pixels))
+        check_indexable(name, int(size[0]), int(size[1]))
 
 
 def _scale(shape: tuple[int, ...], scale: float, width: int | None, height: int | None) -> float:

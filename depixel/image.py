@@ -20,7 +20,7 @@ from typing import BinaryIO
 import numpy as np
 
 from .errors import InputError, display_name
-from .limits import DEFAULT_MAX_PIXELS, MAX_FILE_BYTES  # noqa: F401 (DEFAULT_MAX_PIXELS: re-exported)
+from .limits import DEFAULT_MAX_PIXELS, MAX_FILE_BYTES, MAX_INDEXED_PIXELS  # noqa: F401 (DEFAULT_MAX_PIXELS: re-exported)
 
 #: Modes with more than 8 bits per grey sample, scaled by hand (Pillow's convert clips them).
 _WIDE_GREY = ("I;16", "I;16B", "I;16L", "I;16N", "I", "F")
@@ -255,6 +255,14 @@ def _to_rgba(img, name: str = "<image>") -> np.ndarray:
         raise InputError(f"{name}: image mode {mode} cannot be converted to RGBA") from None
 
 
+def check_indexable(name: str, width: int, height: int) -> None:
+    """Refuse an image too large for the pipeline's 32-bit indices (``limits.MAX_INDEXED_PIXELS``),
+    whatever ``max_pixels`` allows."""
+    if width * height > MAX_INDEXED_PIXELS:
+        raise InputError(f"{name}: {width}x{height} is {width * height} pixels, over the "
+                         f"{MAX_INDEXED_PIXELS} that depixel's 32-bit indices can address")
+
+
 def as_rgba(image) -> np.ndarray:
     """Accept a numpy array or a PIL image; return ``(H, W, 4) uint8`` RGBA.
 
@@ -264,6 +272,7 @@ def as_rgba(image) -> np.ndarray:
     other integer types), and everything is clipped to 0-255 (NaN counts as 0).
     """
     if hasattr(image, "mode") and hasattr(image, "size"):  # a PIL image
+        check_indexable("<image>", *image.size)
         try:
             image.load()
         except Exception:
@@ -276,6 +285,7 @@ def as_rgba(image) -> np.ndarray:
         raise InputError(f"array of shape {arr.shape}: expected (H, W), (H, W, 2), (H, W, 3) or (H, W, 4)")
     if arr.shape[0] == 0 or arr.shape[1] == 0:
         raise InputError(f"array of shape {arr.shape}: image has zero size")
+    check_indexable(f"array of shape {arr.shape}", arr.shape[1], arr.shape[0])
     if arr.dtype.kind not in "biuf":
         raise InputError(f"array of dtype {arr.dtype}: expected integer, float or bool pixels")
     if arr.dtype == np.bool_:

@@ -10,6 +10,11 @@ from __future__ import annotations
 #: Pixels (width × height) of an input image, frame or page; ``max_pixels``, ``--max-pixels``.
 #: Pixel art is small; a larger input is almost always a photo.
 DEFAULT_MAX_PIXELS = 1_048_576
+#: Pixels the pipeline can address at all, whatever ``max_pixels`` says: the cell graph and the
+#: curves index their nodes, edges and slots in 32 bits (``cells.INDEX``), up to ~10 of each a
+#: pixel, so an image is refused past 2**31 / 16 pixels (134,217,728, e.g. 11585 × 11585, which
+#: would need over 100 GB) rather than wrap an index silently.
+MAX_INDEXED_PIXELS = 2**31 // 16
 #: Pixels of a raster output (a PNG, a diff render, an inspect figure); ``max_output_pixels``,
 #: ``--max-output-pixels``. 8192 × 4096: a 128 MiB RGBA image; ``diff`` needs ~140 bytes a pixel.
 DEFAULT_MAX_OUTPUT_PIXELS = 1 << 25

@@ -284,3 +284,26 @@ def test_holes_with_transparent_pixels_cost_linear_memory():
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr[-400:]
     assert int(run.stdout) >= 1
+
+
+def test_images_beyond_32_bit_indices_are_refused():
+    """The pipeline indexes in 32 bits: an image it cannot address is refused with one line,
+    even with the pixel limit lifted, before anything is copied (a broadcast view costs
+    nothing). Under the address-space cap: without the check the conversion runs out of it."""
+    code = (f"import resource; resource.setrlimit(resource.RLIMIT_AS, ({LIMIT}, {LIMIT}))\n"
+            "import numpy as np, depixel\n"
+            "from PIL import Image\n"
+            "from depixel.errors import InputError\n"
+            "from depixel.limits import MAX_INDEXED_PIXELS\n"
+            "side = int(MAX_INDEXED_PIXELS**0.5) + 1\n"
+            "huge = np.broadcast_to(np.zeros((1, 1, 4), np.uint8), (side, side, 4))\n"
+            "for call in (lambda: depixel.convert(huge, max_pixels=None), lambda: depixel.depixelize(huge),\n"
+            "             lambda: depixel.depixelize(Image.new('1', (side, side)))):\n"
+            "    try:\n"
+            "        call()\n"
+            "    except InputError as error:\n"
+            "        print(error)\n")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr[-400:]
+    lines = run.stdout.splitlines()
+    assert len(lines) == 3 and all("32-bit indices can address" in line for line in lines), lines
