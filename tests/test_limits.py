@@ -41,6 +41,14 @@ def run_limited(*argv: str, cwd: Path | None = None) -> subprocess.CompletedProc
                           cwd=cwd)
 
 
+def python_limited(body: str) -> str:
+    """Run the Python ``body`` with its address space capped at LIMIT; its stdout (it must succeed)."""
+    code = f"import resource; resource.setrlimit(resource.RLIMIT_AS, ({LIMIT}, {LIMIT}))\n" + body
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr[-400:]
+    return run.stdout
+
+
 def one_line(err: str) -> str:
     lines = [line for line in err.splitlines() if line.strip()]
     assert len(lines) == 1 and "Traceback" not in err and "internal error" not in err, err
@@ -275,35 +283,29 @@ def test_holes_with_transparent_pixels_cost_linear_memory():
     holes × transparent faces (a loops × faces table): a lattice of 3x3 rings with
     transparent centres took 32 KB a pixel (4.8 GB) at 384x384. Converted here under the
     address-space cap of the other limited tests."""
-    code = (f"import resource; resource.setrlimit(resource.RLIMIT_AS, ({LIMIT}, {LIMIT}))\n"
-            "import numpy as np, depixel\n"
-            "tile = np.zeros((3, 3, 4), np.uint8)\n"
-            "tile[..., 0], tile[..., 3], tile[1, 1, 3] = 200, 255, 0\n"
-            "svg = depixel.convert(np.tile(tile, (96, 96, 1)))\n"
-            "print(svg.count('<path'))\n")
-    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
-    assert run.returncode == 0, run.stderr[-400:]
-    assert int(run.stdout) >= 1
+    paths = python_limited("import numpy as np, depixel\n"
+                           "tile = np.zeros((3, 3, 4), np.uint8)\n"
+                           "tile[..., 0], tile[..., 3], tile[1, 1, 3] = 200, 255, 0\n"
+                           "svg = depixel.convert(np.tile(tile, (96, 96, 1)))\n"
+                           "print(svg.count('<path'))\n")
+    assert int(paths) >= 1
 
 
 def test_images_beyond_32_bit_indices_are_refused():
     """The pipeline indexes in 32 bits: an image it cannot address is refused with one line,
     even with the pixel limit lifted, before anything is copied (a broadcast view costs
     nothing). Under the address-space cap: without the check the conversion runs out of it."""
-    code = (f"import resource; resource.setrlimit(resource.RLIMIT_AS, ({LIMIT}, {LIMIT}))\n"
-            "import numpy as np, depixel\n"
-            "from PIL import Image\n"
-            "from depixel.errors import InputError\n"
-            "from depixel.limits import MAX_INDEXED_PIXELS\n"
-            "side = int(MAX_INDEXED_PIXELS**0.5) + 1\n"
-            "huge = np.broadcast_to(np.zeros((1, 1, 4), np.uint8), (side, side, 4))\n"
-            "for call in (lambda: depixel.convert(huge, max_pixels=None), lambda: depixel.depixelize(huge),\n"
-            "             lambda: depixel.depixelize(Image.new('1', (side, side)))):\n"
-            "    try:\n"
-            "        call()\n"
-            "    except InputError as error:\n"
-            "        print(error)\n")
-    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
-    assert run.returncode == 0, run.stderr[-400:]
-    lines = run.stdout.splitlines()
+    lines = python_limited(
+        "import numpy as np, depixel\n"
+        "from PIL import Image\n"
+        "from depixel.errors import InputError\n"
+        "from depixel.limits import MAX_INDEXED_PIXELS\n"
+        "side = int(MAX_INDEXED_PIXELS**0.5) + 1\n"
+        "huge = np.broadcast_to(np.zeros((1, 1, 4), np.uint8), (side, side, 4))\n"
+        "for call in (lambda: depixel.convert(huge, max_pixels=None), lambda: depixel.depixelize(huge),\n"
+        "             lambda: depixel.depixelize(Image.new('1', (side, side)))):\n"
+        "    try:\n"
+        "        call()\n"
+        "    except InputError as error:\n"
+        "        print(error)\n").splitlines()
     assert len(lines) == 3 and all("32-bit indices can address" in line for line in lines), lines
