@@ -20,6 +20,12 @@ def union(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return unique(np.concatenate([np.ravel(a), np.ravel(b)]))
 
 
+def batch_slices(n: int, batch: int) -> list[slice]:
+    """Consecutive slices of ``n`` like items, ``batch`` at a time (the last one shorter): to
+    bound the temporary memory of work done a batch at a time. No items, no slices."""
+    return [slice(lo, lo + batch) for lo in range(0, n, batch)]
+
+
 def batch_bounds(sizes: np.ndarray, batch: int) -> list[tuple[int, int]]:
     """Consecutive slices ``[a, b)`` of items of the given ``sizes``, each holding about
     ``batch`` in all (an item larger than that alone): to bound the temporary memory of

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .arrays import batch_slices
 from .frozen import freeze
 from .params import Params
 from .splines import SplineSet
@@ -152,8 +153,8 @@ def detect_run_corners(splines: SplineSet, params: Params = Params()) -> np.ndar
         carried from one step to the next, :data:`RUN_BATCH` slots at a time."""
         chord = np.zeros((node.size, 2))
         far_slot = np.full(node.size, -1, dtype=np.int64)
-        for lo in range(0, interior.size, RUN_BATCH):
-            rows = walk = interior[lo : lo + RUN_BATCH]  # the runs still growing
+        for part in batch_slices(interior.size, RUN_BATCH):
+            rows = walk = interior[part]  # the runs still growing
             passed = np.empty((rows.size, steps, 2))  # the far node of every earlier step
             for i in range(steps):
                 walk = step[walk]

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .arrays import batch_slices
 from .graph import component_roots
 from .params import Params
 from .similarity import SimilarityGraph
@@ -111,9 +112,8 @@ def _colour_frequency_vote(graph: SimilarityGraph, yuv: np.ndarray, rows: np.nda
     the "\\" diagonal, -1 the "/" one, 0 (equal counts) still removes both.
     """
     if rows.size > WINDOW_BATCH:
-        return np.concatenate([_colour_frequency_vote(graph, yuv, rows[i : i + WINDOW_BATCH],
-                                                      cols[i : i + WINDOW_BATCH], params)
-                               for i in range(0, rows.size, WINDOW_BATCH)])
+        return np.concatenate([_colour_frequency_vote(graph, yuv, rows[part], cols[part], params)
+                               for part in batch_slices(rows.size, WINDOW_BATCH)])
     from .similarity import similar
 
     if rows.size == 0:
@@ -169,9 +169,8 @@ def _window_component_sizes(graph: SimilarityGraph, rows: np.ndarray, cols: np.n
     down = np.pad(graph.down, ((pad, pad + 1), (pad, pad)))
     main = np.pad(graph.diag_main, ((pad, pad + 1), (pad, pad + 1)))
     anti = np.pad(graph.diag_anti, ((pad, pad + 1), (pad, pad + 1)))
-    sizes = [_batch_component_sizes((right, down, main, anti), rows[i : i + WINDOW_BATCH],
-                                    cols[i : i + WINDOW_BATCH], window, pad)
-             for i in range(0, rows.size, WINDOW_BATCH)]
+    sizes = [_batch_component_sizes((right, down, main, anti), rows[part], cols[part], window, pad)
+             for part in batch_slices(rows.size, WINDOW_BATCH)]
     return np.concatenate([s[0] for s in sizes]), np.concatenate([s[1] for s in sizes])
 
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .arrays import batch_slices
 from .boundaries import CUBIC, QUAD, BoundaryPieces
 from .bspline import cubic_derivatives, cubic_weights, elevate, evaluate_cubic, flatten_cubic
 from .vector import VectorImage
@@ -104,8 +105,7 @@ class Protected:
                 xy = np.stack([cols + 0.5, rows + 0.5], axis=-1)
             else:
                 which, xy = corners[j]
-            for p0 in range(0, which.size, BATCH):  # (P', 4, 4, 2) arrays are large
-                batch = slice(p0, p0 + BATCH)
+            for batch in batch_slices(which.size, BATCH):  # (P', 4, 4, 2) arrays are large
                 dist, signed, seg = _nearest_segment(xy[batch], segments_of(curved[which[batch]]), exact)
                 near = np.isfinite(dist) & (dist < reach) & (dist > 1e-9)
                 near_xy.append(xy[batch][near])

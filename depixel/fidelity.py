@@ -164,4 +164,3 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
         nodes = union(nodes, splines.curve_nodes[on])
         positions[nodes] = start[nodes]
     return positions
-

@@ -130,14 +130,13 @@ def chain_curves(half_ends: HalfEnds) -> Chains:
     cycles, one each way, the one through state ``2k`` of its first edge ``k`` led by it."""
     vis, end_node, partner = half_ends
     n = end_node.size
-    index = INDEX
-    state = np.arange(n, dtype=index)
+    state = np.arange(n, dtype=INDEX)
     far = state ^ 1
     nxt = np.where(partner[far] >= 0, partner[far], far)
     del far
     leader, position = cycle_leaders(nxt)
     del nxt
-    length = np.bincount(leader, minlength=n).astype(index)  # of the cycle each state leads
+    length = np.bincount(leader, minlength=n).astype(INDEX)  # of the cycle each state leads
     free = np.flatnonzero(partner < 0)
     open_lead, first = np.unique(leader[free], return_index=True)
     open_start = free[first]  # each open curve's first free end (``free`` is ascending)
@@ -149,18 +148,18 @@ def chain_curves(half_ends: HalfEnds) -> Chains:
     del is_open
     n_open = open_lead.size
     counts = np.concatenate([length[open_lead] // 2 + 1, length[closed_lead]])  # slots per curve
-    ptr = np.zeros(counts.size + 1, dtype=index)
+    ptr = np.zeros(counts.size + 1, dtype=INDEX)
     np.cumsum(counts, out=ptr[1:])
     # each state's curve (-1: the way back of an open curve, the other way of a closed one)
     # and its place on the curve, counted from the curve's first state
-    rank = np.full(n, -1, dtype=index)
+    rank = np.full(n, -1, dtype=INDEX)
     rank[open_lead] = np.arange(n_open)
     rank[closed_lead] = n_open + np.arange(closed_lead.size)
-    origin = np.zeros(n, dtype=index)
+    origin = np.zeros(n, dtype=INDEX)
     origin[open_lead] = position[open_start]
     curve = rank[leader]
     del rank
-    offset = position.astype(index)
+    offset = position.astype(INDEX)
     del position
     offset -= origin[leader]
     del origin
@@ -171,8 +170,8 @@ def chain_curves(half_ends: HalfEnds) -> Chains:
     kept = state[keep]
     slot = ptr[curve[keep]] + offset[keep]
     del state, curve, offset, keep
-    nodes = np.empty(ptr[-1], dtype=index)
-    edges = np.empty(ptr[-1], dtype=index)
+    nodes = np.empty(ptr[-1], dtype=INDEX)
+    edges = np.empty(ptr[-1], dtype=INDEX)
     forward = np.empty(ptr[-1], dtype=bool)
     nodes[slot] = end_node[kept]
     edges[slot] = vis[kept >> 1]

@@ -24,6 +24,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .arrays import batch_slices
 from .bspline import Bezier, half_turns, span
 from .fidelity import protected_points, unique_rows
 from .params import Params
@@ -81,9 +82,7 @@ def step(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group,
     angle = rng.uniform(0.0, 2.0 * np.pi, size=size)
     radius = params.radius * np.sqrt(rng.uniform(0.0, 1.0, size=size))
     moved = np.empty((size[0], 2))
-    batch = max(1, STEP_TRIALS // (params.candidates + 1))
-    for lo in range(0, size[0], batch):
-        part = slice(lo, lo + batch)
+    for part in batch_slices(size[0], max(1, STEP_TRIALS // (params.candidates + 1))):
         moved[part] = _best_trials(model, ctrl, anchor, group.part(part), angle[part], radius[part], params)
     return moved
 

@@ -37,6 +37,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .arrays import batch_slices
 from .bspline import Bezier, between_curve_points, midpoint, slot_spans, span
 from .cells import INDEX, CellGraph
 from .frozen import freeze
@@ -197,8 +198,7 @@ class SplineSet:
         prev, nxt = self.neighbours()
         end = self.is_end()
         s = np.empty_like(ctrl)
-        for lo in range(0, s.shape[0], GEOMETRY_BATCH):
-            part = slice(lo, lo + GEOMETRY_BATCH)
+        for part in batch_slices(s.shape[0], GEOMETRY_BATCH):
             s[part] = np.where(end[part, None], ctrl[part], midpoint(*slot_spans(ctrl, prev, nxt, end, part)))
         return s
 
@@ -239,11 +239,11 @@ class SplineSet:
         a = np.flatnonzero(nxt >= 0)
         a = a[~(end[a] & end[nxt[a]])]  # an edge between two end points is a straight segment
         controls = np.empty((a.size, 3, 2), dtype=np.float64)
-        for lo in range(0, a.size, GEOMETRY_BATCH):  # the Béziers' temporaries are several times the result
-            a_part = a[lo : lo + GEOMETRY_BATCH]
+        for part in batch_slices(a.size, GEOMETRY_BATCH):  # the Béziers' temporaries are several times the result
+            a_part = a[part]
             b_part = nxt[a_part]
             trio = between_curve_points(ctrl[a_part], ctrl[b_part], s[a_part], s[b_part], end[a_part], end[b_part])
-            controls[lo : lo + GEOMETRY_BATCH] = np.where(self.slot_forward[a_part, None, None], trio, trio[:, ::-1])
+            controls[part] = np.where(self.slot_forward[a_part, None, None], trio, trio[:, ::-1])
         return Drawing(display, self.slot_edges[a], controls)
 
     def vector_image(self, positions: np.ndarray | None = None, stage: str = "splines") -> VectorImage:

@@ -5,7 +5,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from depixel.arrays import batch_bounds, union, unique
+from depixel.arrays import batch_bounds, batch_slices, union, unique
 
 
 @given(st.lists(st.integers(0, 50), max_size=60), st.integers(1, 120))
@@ -15,6 +15,13 @@ def test_batches_cover_every_item_once_in_order_and_stay_within_the_batch(sizes,
     assert all(b > a for a, b in bounds)
     for a, b in bounds:
         assert b - a == 1 or sum(sizes[a:b]) <= batch + max(sizes[a:b])
+
+
+@given(st.integers(0, 300), st.integers(1, 120))
+def test_slices_cover_every_item_once_in_order_in_full_batches(n, batch):
+    parts = batch_slices(n, batch)
+    assert [i for part in parts for i in range(n)[part]] == list(range(n))
+    assert all(len(range(n)[part]) == batch for part in parts[:-1])
 
 
 def test_unique_and_union_are_numpys():
