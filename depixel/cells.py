@@ -39,6 +39,14 @@ HORIZONTAL, VERTICAL, DIAGONAL = 0, 1, 2
 INDEX = np.int32
 
 
+def link_corners(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For nodes ``q`` (..., 2) in quarter pixels: whether each is a diagonal link's node (a
+    quarter pixel off a lattice point in both x and y: the point the link splits), and the
+    nearest lattice point (quarter pixels, float)."""
+    lattice = 4 * np.round(q / 4.0)
+    return (np.abs(q - lattice) == 1).all(axis=-1), lattice
+
+
 @dataclass(frozen=True, eq=False)
 class CellGraph:
     """Reshaped pixel cells: nodes, edges with the pixel on each side, and cell polygons;

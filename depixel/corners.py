@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .arrays import batch_slices
+from .cells import link_corners
 from .frozen import freeze
 from .params import Params
 from .splines import SplineSet
@@ -78,7 +79,7 @@ def detect_square_corners(splines: SplineSet) -> np.ndarray:
     node = splines.curve_nodes
     # only interior slots at a cut node with two more slots on both sides can match: the
     # pattern is tested on those alone (the rest would only cost memory)
-    cut_node = (np.abs(q - 4 * np.round(q / 4.0)) == 1).all(axis=1)
+    cut_node = link_corners(q)[0]
     slot = np.flatnonzero(cut_node[node] & (prev >= 0) & (nxt >= 0))
     prev1, next1 = prev[slot], nxt[slot]
     prev2, next2 = prev[prev1], nxt[next1]

@@ -18,6 +18,7 @@ import numpy as np
 from .arrays import batch_slices
 from .boundaries import CUBIC, QUAD, BoundaryPieces
 from .bspline import cubic_derivatives, cubic_weights, elevate, evaluate_cubic, flatten_cubic
+from .cells import link_corners
 from .vector import VectorImage
 
 _T_ORIG = np.array([0.0, 0.25, 0.5, 0.75])  # samples of each exact segment
@@ -122,8 +123,8 @@ class Protected:
 def _split_corner(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Which of the nodes ``q`` (E, 2; quarter pixels) lie a quarter pixel off a lattice
     corner in both x and y (a diagonal link's nodes), and that corner (in pixels)."""
-    lattice = 4 * np.round(q / 4.0)
-    which = np.flatnonzero((np.abs(q - lattice) == 1).all(axis=1))
+    split, lattice = link_corners(q)
+    which = np.flatnonzero(split)
     return which, lattice[which] / 4.0
 
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from .arrays import union, unique
 from .bspline import flatten_edges
-from .cells import CellGraph
+from .cells import CellGraph, link_corners
 from .splines import Drawing, SplineSet
 from .vector import VectorImage
 
@@ -39,8 +39,7 @@ def protected_points(splines: SplineSet, slots: np.ndarray | slice = slice(None)
     centre = np.stack([cols + 0.5, rows + 0.5], axis=-1).astype(np.float64)
     side = np.where((pix >= 0)[..., None], centre, FAR)  # (..., 2, 2)
     q = cells.nodes[splines.curve_nodes[slots]]
-    lattice = 4 * np.round(q / 4.0)
-    split = (np.abs(q - lattice) == 1).all(axis=-1)
+    split, lattice = link_corners(q)
     link = np.where(split[..., None], lattice / 4.0, FAR)[..., None, :]
     return np.concatenate([side, link], axis=-2)
 
