@@ -7,7 +7,6 @@ Every command builds its options, calls the library and maps a library error
 from __future__ import annotations
 
 import argparse
-import difflib
 import re
 import sys
 from typing import NoReturn, cast
@@ -24,6 +23,8 @@ class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:  # one line naming the (sub)command, exit code 2
         choice = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
         if choice:
+            import difflib  # noqa: PLC0415 (only a mistyped command needs it: ~5 ms of every start)
+
             close = difflib.get_close_matches(choice.group(1), re.findall(r"'([^']*)'", choice.group(2)), n=1)
             if close:
                 message += f"; did you mean {close[0]}?"
@@ -32,6 +33,8 @@ class _Parser(argparse.ArgumentParser):
     def unrecognized(self, extras: list[str]) -> None:
         """Unknown arguments, with the closest option of this (sub)command for each flag."""
         options = [o for action in self._actions for o in action.option_strings if o.startswith("--")]
+        import difflib  # noqa: PLC0415 (as in error)
+
         hints = []
         for arg in extras:
             if arg.startswith("-"):

@@ -231,10 +231,14 @@ def test_read_only_output_file(tmp_path):
 
 def test_unwritable_folder_error_is_reported(tmp_path, monkeypatch):
     # what a read-only folder does for a normal user, also checked when running as root
-    def refuse(*args, **kwargs):
-        raise PermissionError(errno.EACCES, "Permission denied")
+    real_open = os.open
 
-    monkeypatch.setattr(tempfile, "mkstemp", refuse)
+    def refuse(path, flags, *args, **kwargs):  # creating a file in the folder is refused
+        if flags & os.O_CREAT:
+            raise PermissionError(errno.EACCES, "Permission denied")
+        return real_open(path, flags, *args, **kwargs)
+
+    monkeypatch.setattr(os, "open", refuse)
     with pytest.raises(OutputError, match=r"out\.svg: permission denied"):
         write_atomic(tmp_path / "out.svg", "<svg/>")
 
