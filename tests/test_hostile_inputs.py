@@ -77,6 +77,8 @@ BAD_INPUTS = {
     "directory": ("dir", "is a directory"),
     # a 65-byte PNG whose header claims 100000 x 100000 pixels (30 GB decoded)
     "decompression-bomb": (png_bytes(100_000, 100_000, 8, 2), "decompression bomb guard"),
+    # over Pillow's MAX_IMAGE_PIXELS (~89 M) but under twice it, where Pillow only warns
+    "decompression-bomb-warning": (png_bytes(10_000, 10_000, 8, 2), "decompression bomb guard"),
     "over-max-pixels": (png_bytes(3000, 3000, 8, 2), "9000000 pixels, over the limit of 1048576"),
     "absurd-strip": (png_bytes(1, 2_000_000, 8, 0), "over the limit"),
 }
