@@ -184,16 +184,16 @@ class Energy:
             return x[:, None]
 
         # a leg's share of a span vector: whole at an open-curve end, half otherwise
-        share = {name: np.where(self.end[slot], 1.0, 0.5) for name, slot in (("a2", a2), ("a", a), ("b", b), ("b2", b2))}
-        half = np.full(members.size, 0.5)
-        scale = np.stack([np.stack([share["a2"], share["a"], half]), np.stack([half, share["b"], share["b2"]])])
-        # how d0, dm, d1 of the spans before, own, after move with the member (a multiple of it)
-        rate = np.stack([np.stack([0.0 * half, share["a"], -half]),
-                         np.stack([half, share["a"] - share["b"], -half]),
-                         np.stack([half, -share["b"], 0.0 * half])])
-        first, second = np.moveaxis(keep, 2, 0)  # (3, M) halves counted
-        # E_s = Σ |φ(dm) − φ(d0)| (first half) + |φ(d1) − φ(dm)| (second half)
-        slope = np.stack([-rate[0] * first, rate[1] * (first.astype(float) - second), rate[2] * second])
+        s_a2, s_a, s_b, s_b2 = np.where(self.end[np.stack([a2, a, b, b2])], 1.0, 0.5)
+        scale = np.full((2, 3, members.size), 0.5)
+        scale[0, 0], scale[0, 1], scale[1, 1], scale[1, 2] = s_a2, s_a, s_b, s_b2
+        # how d0, dm, d1 of the spans before, own, after move with the member (multiples of it),
+        # times the halves counted: E_s = Σ |φ(dm) − φ(d0)| (first half) + |φ(d1) − φ(dm)| (second)
+        first, second = np.moveaxis(keep, 2, 0).astype(float)  # (3, M)
+        slope = np.zeros((3, 3, members.size))
+        slope[0, 1], slope[0, 2] = -s_a * first[1], 0.5 * first[2]  # d0 (before: fixed)
+        slope[1] = (first - second) * np.stack([np.full(members.size, 0.5), s_a - s_b, np.full(members.size, -0.5)])
+        slope[2, 0], slope[2, 1] = 0.5 * second[0], -s_b * second[1]  # d1 (after: fixed)
 
         return Group(
             members, np.stack([members, a, b, a2, b2]).astype(np.int32),
