@@ -76,7 +76,7 @@ class Params:
 
     # --- §3.4 relaxation -------------------------------------------------------------------
     # not in paper ("at each iteration"): with the gradient trials (depixel/relax.py), 4 sweeps reach the
-    # energy of 10 sweeps of random trials alone (docs/design.md, "Relaxation")
+    # energy of 10 sweeps of random trials alone (docs/design.md, Optimization)
     iterations: int = 4
     candidates: int = 8  # not in paper ("several random offsets"): trial positions per node and sweep
     radius: float = 0.2  # not in paper ("a small radius"): trial offsets within 1/5 pixel
