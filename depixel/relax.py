@@ -11,11 +11,13 @@ a corner are left out (:func:`depixel.corners.excluded_halves`).
 The paper's relaxation, vectorized: ``iterations`` sweeps; in each sweep the slots are
 visited class by class, in a random order of the classes (slots of one class are three or
 more slots apart along their curve, so their energies are independent and they move
-together); each tries ``candidates`` random offsets within ``radius`` of its place and keeps
-the best, or stays (:func:`step`). A move farther than ``max_offset`` from p̂ or too close
-to a protected point (:mod:`depixel.fidelity`) is refused. T-junction ends follow the curve
-they end on after every sweep. All randomness comes from ``numpy.random.default_rng(seed)``;
-the draws depend only on array sizes, so a run is reproducible.
+together); each tries ``candidates`` random offsets within ``radius`` of its place and, as
+a line search, :data:`GRADIENT_STEPS` points down the gradient of its energy (analytic:
+:meth:`Energy.descent`), and keeps the best trial the guards allow, or stays (:func:`step`).
+A move farther than ``max_offset`` from p̂ or too close to a protected point
+(:mod:`depixel.fidelity`) is refused. T-junction ends follow the curve they end on after
+every sweep. All randomness comes from ``numpy.random.default_rng(seed)``; the draws
+depend only on array sizes, so a run is reproducible.
 """
 from __future__ import annotations
 
@@ -35,6 +37,9 @@ CLEARANCE_PIECES = 4
 #: trials weighed together in one step: bounds the memory of their spans (about 150 bytes a
 #: trial) whatever the number of slots moved at once
 STEP_TRIALS = 1 << 15
+#: trials down the gradient of a slot's energy, at these multiples of ``radius`` from it (a
+#: short step where the energy curves fast, a long one where it is flat; docs/design.md)
+GRADIENT_STEPS = np.array([0.5, 2.0])
 
 
 class Relaxed(NamedTuple):
@@ -73,42 +78,49 @@ def relax(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: 
 def step(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group,
          rng: np.random.Generator, params: Params) -> np.ndarray:
     """(M, 2) new places of one class of independent slots: each tries ``candidates``
-    offsets uniform in the disc of ``radius`` and keeps the one of least energy, or stays.
-    A trial farther than ``max_offset`` from its anchor is never taken; the best trial is
-    refused if it brings a span closer than ``centre_clearance`` to a protected point (and
-    closer than staying would). The offsets are drawn for the whole class, the trials are
-    weighed :data:`STEP_TRIALS` at a time (the members do not depend on each other)."""
+    offsets uniform in the disc of ``radius`` and the points :data:`GRADIENT_STEPS` down its
+    gradient, and takes the trial of least energy that the guards allow, or stays. A trial
+    farther than ``max_offset`` from its anchor is never taken, nor one that brings a span
+    closer than ``centre_clearance`` to a protected point (and closer than staying would).
+    The offsets are drawn for the whole class, the trials are weighed :data:`STEP_TRIALS` at
+    a time (the members do not depend on each other)."""
     size = (group.members.size, params.candidates)
     angle = rng.uniform(0.0, 2.0 * np.pi, size=size)
     radius = params.radius * np.sqrt(rng.uniform(0.0, 1.0, size=size))
     moved = np.empty((size[0], 2))
-    for part in batch_slices(size[0], max(1, STEP_TRIALS // (params.candidates + 1))):
+    for part in batch_slices(size[0], max(1, STEP_TRIALS // (params.candidates + 1 + len(GRADIENT_STEPS)))):
         moved[part] = _best_trials(model, ctrl, anchor, group.part(part), angle[part], radius[part], params)
     return moved
 
 
 def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, angle: np.ndarray,
                  radius: np.ndarray, params: Params) -> np.ndarray:
-    """:func:`step` for the members of ``group``, given their offsets (angle, radius)."""
-    size = angle.shape
+    """:func:`step` for the members of ``group``, given their random offsets (angle, radius)."""
+    members, k = angle.shape
     around = ctrl[group.around].transpose(0, 2, 1)[..., None]  # (5, 2, M, 1): member, a, b, a2, b2
-    # trials (2, M, K+1): x and y planes, column 0 = stay
-    trial = np.empty((2, size[0], size[1] + 1))
+    home = anchor[group.members].T[..., None]
+    # trials (2, M, 1+K+L): x and y planes; column 0 = stay, then K random, then L down the gradient
+    trial = np.empty((2, members, 1 + k + len(GRADIENT_STEPS)))
     trial[:, :, :1] = around[0]
-    np.add(around[0, 0], np.cos(angle) * radius, out=trial[0, :, 1:])
-    np.add(around[0, 1], np.sin(angle) * radius, out=trial[1, :, 1:])
-    energy, offset2, points = model.evaluate(around, anchor[group.members].T[..., None], group, trial)
+    np.add(around[0, 0], np.cos(angle) * radius, out=trial[0, :, 1:k + 1])
+    np.add(around[0, 1], np.sin(angle) * radius, out=trial[1, :, 1:k + 1])
+    np.add(around[0], model.descent(around, home, group) * (params.radius * GRADIENT_STEPS), out=trial[:, :, k + 1:])
+    energy, offset2, points = model.evaluate(around, home, group, trial)
     too_far = offset2 > params.max_offset**2
     too_far[:, 0] = False
-    best = np.argmin(np.where(too_far, np.inf, energy), axis=1)  # ties keep the lower index
-    # the best trial must not bring a curve closer to a protected point than allowed
-    # (unless it was closer already); only moving slots need the check, of the best trial
-    # and of staying
+    energy[too_far] = np.inf  # never taken
+    best = np.argmin(energy, axis=1)  # ties keep the lower index
+    # the trial taken must not bring a curve closer to a protected point than allowed (unless
+    # it was closer already): the best trial is checked against staying; where it is refused,
+    # every trial is checked and the best one allowed is taken (staying always is)
     rows = np.flatnonzero(best > 0)
     pair = np.stack([np.zeros_like(rows), best[rows]], axis=1)
     clear = model.clearance_of(points[..., rows[:, None], pair], group, rows)
-    refuse = (clear[:, 1] < params.centre_clearance) & (clear[:, 1] < clear[:, 0])
-    best[rows[refuse]] = 0
+    rows = rows[(clear[:, 1] < params.centre_clearance) & (clear[:, 1] < clear[:, 0])]
+    if rows.size:
+        clear = model.clearance_of(points[..., rows, :], group, rows)
+        refused = (clear < params.centre_clearance) & (clear < clear[:, :1])
+        best[rows] = np.argmin(np.where(refused, np.inf, energy[rows]), axis=1)
     return trial[:, np.arange(best.size), best].T
 
 
@@ -126,14 +138,19 @@ class Group:
     keep: np.ndarray  # (2, 3, M, 1) bool: halves (first, second) of the spans before,
     #                   own, after counted in E_s (False for the span of an end a or b)
     protected: np.ndarray  # (2, M, 1, 1, Q) float32 x and y of the points the spans must keep clear of
+    scale: np.ndarray  # (2, 3, 1, M, 1) d0 and d1 of the spans before, own, after over their control legs
+    slope: np.ndarray  # (3, 3, M, 1) ∂E_s/∂φ of d0, dm, d1 of each span, times how fast each turns
+    #                    with the member (signs of the turns and lengths left out: Energy.descent)
 
     def part(self, members: slice | np.ndarray) -> Group:
         """The group of some of the members (a slice or indices into ``members``)."""
         return Group(self.members[members], self.around[:, members], self.end_a[members], self.end_b[members],
                      self.end_a2[members], self.end_b2[members], self.keep[:, :, members],
-                     self.protected[:, members])
+                     self.protected[:, members], self.scale[..., members, :], self.slope[:, :, members])
 
 
+#: :attr:`Group.around` rows in curve order: a2, a, member, b, b2
+_POLYGON = [3, 1, 0, 2, 4]
 #: t of the points each span is checked at, and the weights of its Bézier points there
 _T = np.arange(CLEARANCE_PIECES + 1) / CLEARANCE_PIECES
 _W0, _W1, _W2 = (1 - _T) ** 2, 2 * _T * (1 - _T), _T**2
@@ -166,12 +183,25 @@ class Energy:
         def col(x: np.ndarray) -> np.ndarray:
             return x[:, None]
 
+        # a leg's share of a span vector: whole at an open-curve end, half otherwise
+        s_a2, s_a, s_b, s_b2 = np.where(self.end[np.stack([a2, a, b, b2])], 1.0, 0.5)
+        scale = np.full((2, 3, members.size), 0.5)
+        scale[0, 0], scale[0, 1], scale[1, 1], scale[1, 2] = s_a2, s_a, s_b, s_b2
+        # how d0, dm, d1 of the spans before, own, after move with the member (multiples of it),
+        # times the halves counted: E_s = Σ |φ(dm) − φ(d0)| (first half) + |φ(d1) − φ(dm)| (second)
+        first, second = np.moveaxis(keep, 2, 0).astype(float)  # (3, M)
+        slope = np.zeros((3, 3, members.size))
+        slope[0, 1], slope[0, 2] = -s_a * first[1], 0.5 * first[2]  # d0 (before: fixed)
+        slope[1] = (first - second) * np.stack([np.full(members.size, 0.5), s_a - s_b, np.full(members.size, -0.5)])
+        slope[2, 0], slope[2, 1] = 0.5 * second[0], -s_b * second[1]  # d1 (after: fixed)
+
         return Group(
             members, np.stack([members, a, b, a2, b2]).astype(np.int32),
             col(self.end[a]), col(self.end[b]), col(self.end[a2]), col(self.end[b2]),
             np.moveaxis(keep, 2, 0)[..., None],
             # a compact copy (not a view of the padded rows); float32 holds these exactly
             np.moveaxis(protected, 2, 0).astype(np.float32)[:, :, None, None, :],
+            scale[:, :, None, :, None], slope[..., None],
         )
 
     @staticmethod
@@ -207,6 +237,24 @@ class Energy:
         offset = trial - anchor
         offset2 = offset[0] ** 2 + offset[1] ** 2
         return smooth[1] + smooth[0] + smooth[2] + offset2**2, offset2, points
+
+    def descent(self, around: np.ndarray, anchor: np.ndarray, g: Group) -> np.ndarray:
+        """(2, M, 1) unit direction of steepest descent of each member's energy at its place
+        (zero where the gradient vanishes), for ``around`` and ``anchor`` as in :meth:`evaluate`."""
+        poly = around[_POLYGON]  # a2, a, member, b, b2
+        edge = poly[1:] - poly[:-1]  # (4, 2, M, 1)
+        d0 = edge[:3] * g.scale[0]  # P1 - P0 of the spans before, own, after
+        d1 = edge[1:] * g.scale[1]  # P2 - P1
+        vec = np.stack([d0, d0 + d1, d1])  # (3, 3, 2, M, 1): d0, dm, d1 of each span
+        turn = np.sign(d0[:, 0] * d1[:, 1] - d0[:, 1] * d1[:, 0])  # (3, M, 1) the way each span turns
+        length2 = np.maximum(vec[:, :, 0] ** 2 + vec[:, :, 1] ** 2, np.finfo(float).tiny)
+        coef = g.slope * turn / length2  # (3, 3, M, 1)
+        offset = around[0] - anchor
+        push = 4.0 * (offset[0] ** 2 + offset[1] ** 2)  # E_p = |o|^4: gradient 4 |o|^2 o
+        grad = np.stack([push * offset[0] - (coef * vec[:, :, 1]).sum(axis=(0, 1)),
+                         push * offset[1] + (coef * vec[:, :, 0]).sum(axis=(0, 1))])
+        norm = np.sqrt(grad[0] ** 2 + grad[1] ** 2)
+        return -grad / np.where(norm > 0, norm, 1.0)
 
     def energy(self, ctrl: np.ndarray, anchor: np.ndarray, g: Group, trial: np.ndarray) -> np.ndarray:
         """(M, K) energy of each member at each trial position ``trial`` (M, K, 2)."""

@@ -13,7 +13,7 @@ from depixel.harmonic import harmonic_map
 from depixel.params import Params
 from depixel.pipeline import depixelize
 from depixel.raster import render_rgba
-from depixel.relax import Energy, smoothness, step
+from depixel.relax import GRADIENT_STEPS, Energy, smoothness, step
 from depixel.splines import SplineSet, split_at
 from depixel.svg import to_svg
 from depixel.vector import faces
@@ -324,8 +324,72 @@ def test_a_move_closer_to_a_pixel_centre_than_the_clearance_is_refused():
     assert best > 0 and clearance[best] < 0.2 <= clearance[0]
     moved = step(model, ctrl, ctrl, group, Draws(*draws), params.replace(centre_clearance=0.0))
     assert moved[0] == pytest.approx(trial[0, best])
-    kept = step(model, ctrl, ctrl, group, Draws(*draws), params.replace(centre_clearance=0.2))
-    assert np.array_equal(kept[0], ctrl[slot])
+    # refused, the best trial gives way to the best one allowed (of the random trials and
+    # those down the gradient), which is not staying here
+    taken = step(model, ctrl, ctrl, group, Draws(*draws), params.replace(centre_clearance=0.2))[0]
+    at = taken[None, None]
+    assert not np.allclose(taken, trial[0, best]) and not np.array_equal(taken, ctrl[slot])
+    assert model.clearance(ctrl, group, at, np.array([0]))[0, 0] >= 0.2
+    energy = model.energy(ctrl, ctrl, group, trial)[0]
+    allowed = (clearance >= 0.2) & (np.hypot(*(trial[0] - ctrl[slot]).T) <= params.max_offset)
+    assert model.energy(ctrl, ctrl, group, at)[0, 0] <= energy[allowed].min()
+
+
+# --- the trials down the gradient -----------------------------------------------------------------
+
+STEP = """
+........
+........
+.....###
+..######
+########
+"""
+
+
+def test_the_descent_is_the_gradient_of_the_energy():
+    # every movable slot of a small drawing (its curve cut at its corners: open ends), its
+    # neighbours moved off the lattice, some span halves left out of E_s (as beside corners;
+    # where one half of a span counts, where its halves meet matters): the analytic direction
+    # against central differences of the energy the trials are weighed by
+    splines = depixelize(art(STEP)).optimized.splines
+    assert splines.is_end().sum() >= 2
+    rng = np.random.default_rng(3)
+    model = Energy(splines, rng.uniform(size=(splines.n_slots, 2)) < 0.3)
+    anchor = splines.controls_for(splines.positions)
+    movable = np.flatnonzero(~splines.is_end())
+    ctrl = anchor.copy()
+    ctrl[movable] += rng.uniform(-0.2, 0.2, (movable.size, 2))
+    for slot in movable:
+        group = model.prepare(np.array([slot]))
+        around = ctrl[group.around].transpose(0, 2, 1)[..., None]
+        descent = model.descent(around, anchor[[slot]].T[..., None], group)[:, 0, 0]
+        h = 1e-6
+        trial = ctrl[slot] + np.array([[h, 0], [-h, 0], [0, h], [0, -h]])
+        e = model.energy(ctrl, anchor, group, trial[None])[0]
+        gradient = np.array([e[0] - e[1], e[2] - e[3]]) / (2 * h)
+        assert descent == pytest.approx(-gradient / np.linalg.norm(gradient), abs=1e-5)
+
+
+def test_a_step_down_the_gradient_lowers_the_energy_within_the_guards():
+    splines = splines_of(art(STEP))
+    slot = slot_at(splines, (5.25, 2.25))  # the inner node of a one-pixel step
+    model = Energy(splines, np.zeros((splines.n_slots, 2), bool))
+    ctrl = splines.controls_for(splines.positions)
+    group = model.prepare(np.array([slot]))
+    # one random trial, drawn at distance 0: only the trials down the gradient can move
+    draws = (np.zeros((1, 1)), np.zeros((1, 1)))
+    params = Params(candidates=1, radius=0.2, centre_clearance=0.0)
+    moved = step(model, ctrl, ctrl, group, Draws(*draws), params)[0]
+    stay = model.energy(ctrl, ctrl, group, ctrl[slot][None, None])[0, 0]
+    assert model.energy(ctrl, ctrl, group, moved[None, None])[0, 0] < stay - 0.2
+    # it went straight down the slope (towards the pixel centre at (5.5, 2.5)), by one of the steps
+    offset = moved - ctrl[slot]
+    assert offset / np.linalg.norm(offset) == pytest.approx([0.5**0.5, 0.5**0.5])
+    assert min(abs(np.linalg.norm(offset) - params.radius * GRADIENT_STEPS)) < 1e-12
+    # the same step is refused beyond max_offset, and where it nears the pixel centre
+    # closer than centre_clearance (0.23 px, from 0.31 px)
+    for guarded in (params.replace(max_offset=0.05), params.replace(centre_clearance=0.25)):
+        assert np.array_equal(step(model, ctrl, ctrl, group, Draws(*draws), guarded)[0], ctrl[slot])
 
 
 # --- switches, end to end -------------------------------------------------------------------------

@@ -54,11 +54,15 @@ def test_a_crop_of_an_upscaled_image_is_overlaid_exactly():
     svg = depixel.convert(crop)
     root = root_of(svg)
     assert (root.get("width"), root.get("height"), root.get("viewBox")) == ("37", "35", "0.5 0.75 9.25 8.75")
-    # drawn at the input's size it is the same picture as the full conversion, cropped the same way
-    whole = render_rgba(depixel.convert(HEART, scale=4))
+    # the same drawing as the full conversion, only its view cropped; drawn at the input's
+    # size it is the same picture, cropped the same way (up to cairo's anti-aliasing of a
+    # curve that crosses the clipped edge: a few levels)
+    full = depixel.convert(HEART, scale=4)
+    assert svg[svg.index("<path"):] == full[full.index("<path"):]
+    whole = render_rgba(full)
     part = render_rgba(svg)
     assert part.shape == (35, 37, 4)
-    assert np.abs(part.astype(int) - whole[3:38, 2:39]).max() <= 2
+    assert np.abs(part.astype(int) - whole[3:38, 2:39]).max() <= 4
 
 
 def test_non_square_pixels_stretch_the_art():
