@@ -82,7 +82,7 @@ class Params:
     radius: float = 0.2  # not in paper ("a small radius"): trial offsets within 1/5 pixel
     max_offset: float = 0.5  # not in paper: hard bound on a node's move from its initial place (pixels)
     centre_clearance: float = 0.15  # not in paper: curves keep this far (pixels) from the centres of their pixels
-    seed: int = 0  # not in paper: all randomness comes from numpy's PCG64 seeded with this
+    seed: int = 0  # not in paper: all randomness comes from SplitMix64 seeded with this (depixel/splitmix.py)
 
     # --- §3.4 harmonic map and the fidelity guard --------------------------------------------
     # not in paper: the harmonic map is solved within this many edges of a moved curve node (decayed beyond)

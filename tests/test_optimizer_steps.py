@@ -288,15 +288,15 @@ def test_harmonic_map_runs_in_the_pipeline():
 # --- the fidelity guard of each move ------------------------------------------------------------
 
 class Draws:
-    """Stands for numpy's Generator in :func:`step`: hands out the given draws in order."""
+    """Stands for the SplitMix64 stream in :func:`step`: hands out the given trials, each an
+    angle (radians) and a radius draw u (the trial lies at ``radius·√u``), as unit pairs."""
 
-    def __init__(self, *draws: np.ndarray):
-        self.draws = list(draws)
+    def __init__(self, angle: np.ndarray, u: np.ndarray):
+        self.pairs = np.stack([angle / (2 * np.pi), u], axis=-1).reshape(-1, 2)
 
-    def uniform(self, low: float, high: float, size: tuple[int, int]) -> np.ndarray:
-        draw = self.draws.pop(0)
-        assert draw.shape == size
-        return draw
+    def unit_pairs(self, count: int) -> np.ndarray:
+        assert count == len(self.pairs)
+        return self.pairs
 
 
 def test_a_move_closer_to_a_pixel_centre_than_the_clearance_is_refused():
