@@ -13,7 +13,6 @@ import heapq
 
 import numpy as np
 
-from . import chroma, chroma_unmix
 from .arrays import unique
 from .image import rgb_to_yuv
 from .pixelgrid import colour_keys
@@ -78,12 +77,15 @@ def snap_colours(rgba: np.ndarray, min_count: float | None = None, shadows: bool
         min_count = max(3.0, MIN_SHARE * rgb.shape[0])
 
     palette = _palette(colour_yuv, colour_rgb, counts.astype(np.float64), min_count, shadows)
-    grid = chroma.chroma_grid(rgb_to_yuv(rgba)) if unmix else None
-    if grid is not None and chroma_unmix.fits(rgba.shape[:2], len(palette)):
-        labels, palette = chroma_unmix.unmix(rgba, palette, grid, min_count=min_count, radius=SNAP_RADIUS)
-        snapped = np.clip(np.round(palette), 0, 255).astype(np.uint8)
-        out[..., :3][visible] = snapped[labels[visible]]
-        return out, int(colours.size), _distinct_rgb(snapped[unique(labels[visible])]), grid.name
+    if unmix:  # decoded pixels only: the decoder's model is not imported for other inputs (~3 ms)
+        from . import chroma, chroma_unmix  # noqa: PLC0415
+
+        grid = chroma.chroma_grid(rgb_to_yuv(rgba))
+        if grid is not None and chroma_unmix.fits(rgba.shape[:2], len(palette)):
+            labels, palette = chroma_unmix.unmix(rgba, palette, grid, min_count=min_count, radius=SNAP_RADIUS)
+            snapped = np.clip(np.round(palette), 0, 255).astype(np.uint8)
+            out[..., :3][visible] = snapped[labels[visible]]
+            return out, int(colours.size), _distinct_rgb(snapped[unique(labels[visible])]), grid.name
 
     weight = np.array([1.0, CHROMA_WEIGHT, CHROMA_WEIGHT])
     nearest = _nearest(colour_yuv * weight, rgb_to_yuv(palette) * weight)

@@ -285,8 +285,8 @@ def test_svg_conversion_loads_only_what_it_needs(tmp_path, name):
     a PNG needs no JPEG reader (~7 ms with the ``subprocess`` module it imports), and the
     relaxation draws from depixel/splitmix.py, not ``numpy.random`` (~13 ms)."""
     unneeded = ("cairosvg", "cairocffi", "scipy", "numpy.ma", "tempfile", "difflib", "numpy.random")
-    if name.endswith(".png"):
-        unneeded += ("PIL.JpegImagePlugin", "subprocess")
+    if name.endswith(".png"):  # nor the JPEG decoder's chroma model (~3 ms)
+        unneeded += ("PIL.JpegImagePlugin", "subprocess", "depixel.chroma", "depixel.chroma_unmix")
     code = (
         "import sys; from depixel_cli.main import main; "
         f"rc = main(['convert', {str(FIXTURES / name)!r}, '-o', {str(tmp_path / 'h.svg')!r}, '-q']); "
