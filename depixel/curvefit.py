@@ -426,11 +426,11 @@ def _segment_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray
 
 
 def _planes(points: np.ndarray) -> np.ndarray:
-    """``(2, ...)`` x and y planes of ``(..., 2)`` points. The numerics work on planes: an
+    """``(2, N)`` x and y planes of ``(N, 2)`` points. The numerics work on planes: an
     operation on (N, 2) points that broadcasts a per-point number, or picks rows by index,
     runs an inner loop of 2 per point in numpy, several times slower; the arithmetic per
     coordinate is the same, so are the numbers."""
-    return np.ascontiguousarray(np.moveaxis(points, -1, 0))
+    return np.ascontiguousarray(points.T)
 
 
 def _flatten(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, p3: np.ndarray, t: np.ndarray) -> np.ndarray:
