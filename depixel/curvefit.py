@@ -65,8 +65,10 @@ class Exact:
                                       self.end - self.start))
         self.samples = flatten_cubic(self.start, c1, c2, self.end, _T_ORIG)  # (K, 4, 2)
         polyline = np.concatenate([self.samples, self.end[:, None]], axis=1)  # (K, 5, 2): samples, end
-        #: (2, K, 5) the polylines as x and y planes (see _planes)
+        #: (2, K, 5) the polylines as x and y planes (see _planes), and (2, K, 4) the starts
+        #: and ends of their parts (contiguous: numpy's loops run over whole rows)
         self.polyline = np.ascontiguousarray(polyline.transpose(2, 0, 1))
+        self.part_start, self.part_end = self.polyline[:, :, :-1].copy(), self.polyline[:, :, 1:].copy()
         step = _norm(np.diff(polyline, axis=1))
         self.length = step.sum(axis=1)  # polyline length of each segment
         self.arc = np.cumsum(step, axis=1) - step  # arc length of each sample within its segment
@@ -143,9 +145,9 @@ def _nearest_segment(xy: np.ndarray, seg_of: np.ndarray, exact: Exact
     """Distance of points ``xy`` (P, 2) to the nearest of their candidate segments ``seg_of``
     (P, 4) (the polylines of their samples and end), that distance signed by the side, and
     that segment."""
-    near = exact.polyline.take(np.maximum(seg_of, 0), axis=1)  # (2, P, 4, 5)
-    a, b = near[:, :, :, :-1], near[:, :, :, 1:]  # (2, P, 4, 4)
-    q = _planes(xy)[:, :, None, None]
+    candidate = np.maximum(seg_of, 0)
+    a, b = exact.part_start.take(candidate, axis=1), exact.part_end.take(candidate, axis=1)  # (2, P, 4, 4)
+    q = np.repeat(_planes(xy), a[0, 0].size, axis=1).reshape(a.shape)
     d = _segment_distance(q, a, b)  # (P, 4, 4)
     d = np.where((seg_of >= 0)[:, :, None], d, np.inf)
     flat = d.reshape(d.shape[0], -1).argmin(axis=1)
@@ -278,7 +280,7 @@ class _Samples:
             off = point - points
             num = off[0] * d1[0] + off[1] * d1[1]
             den = (d1[0] * d1[0] + d1[1] * d1[1]) + (off[0] * d2[0] + off[1] * d2[1])
-            u = np.clip(u - num / np.where(np.abs(den) > 1e-12, den, 1e-12), 0.0, 1.0)
+            u = np.minimum(np.maximum(u - num / np.where(np.abs(den) > 1e-12, den, 1e-12), 0.0), 1.0)
         off = evaluate_cubic(q0, q1, q2, q3, u) - points
         d = np.sqrt(off[0] ** 2 + off[1] ** 2)
         worst = np.zeros(p0.shape[1])
@@ -349,8 +351,10 @@ def _keeps_sides(exact: Exact, prot: Protected, lo, hi, c1, c2, clearance: float
     curves = _flatten(_planes(exact.start.take(lo, axis=0)), _planes(c1), _planes(c2),
                       _planes(exact.end.take(hi - 1, axis=0)), _T_FIT)  # (2, R, T)
     xy = prot.xy.take(idx, axis=1)
-    mine = curves.take(owner, axis=1)
-    d_new = _segment_distance(xy[:, :, None], mine[:, :, :-1], mine[:, :, 1:]).min(axis=1)
+    parts = curves.shape[2] - 1
+    start, end = curves[:, :, :-1].copy(), curves[:, :, 1:].copy()  # contiguous, like _nearest_segment's
+    d_new = _segment_distance(np.repeat(xy, parts, axis=1).reshape(2, -1, parts), start.take(owner, axis=1),
+                              end.take(owner, axis=1)).min(axis=1)
     too_near = d_new < np.minimum(np.abs(prot.dist[idx]), clearance) - 1e-9
     crossed = _between(xy, owner, curves, lo, hi, exact)
     ok[owner[too_near | crossed]] = False
@@ -420,7 +424,9 @@ def _segment_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray
     """Distance of points ``q`` to segments ``ab``, all x and y planes ``(2, ...)`` (broadcast)."""
     ab = b - a
     qa = q - a
-    t = np.clip((qa[0] * ab[0] + qa[1] * ab[1]) / np.maximum(ab[0] * ab[0] + ab[1] * ab[1], 1e-300), 0.0, 1.0)
+    # np.minimum(np.maximum()) is np.clip without its Python overhead
+    t = np.minimum(np.maximum((qa[0] * ab[0] + qa[1] * ab[1]) / np.maximum(ab[0] * ab[0] + ab[1] * ab[1], 1e-300),
+                              0.0), 1.0)
     off = q - (a + t * ab)
     return np.sqrt(off[0] * off[0] + off[1] * off[1])
 
