@@ -103,22 +103,25 @@ class Protected:
         corners = [_split_corner(cells.nodes.take(cells.edges[curved, j], axis=0)) for j in range(2)]
         segments_of = _SegmentsOfEdges(pieces, image)
         # the points, in this order: the pixel centres on either side of every curved edge,
-        # the lattice corners at either end; each kind a batch at a time, keeping the near ones
+        # the lattice corners at either end; all kinds together, a batch at a time, keeping
+        # the near ones
+        whiches, xys = [], []
+        for j in range(2):
+            which = np.flatnonzero(sides[:, j] >= 0)
+            rows, cols = np.divmod(sides[which, j], w)
+            whiches.append(which)
+            xys.append(np.stack([cols + 0.5, rows + 0.5], axis=-1))
+        for which, xy in corners:
+            whiches.append(which)
+            xys.append(xy)
+        edge, xy = curved[np.concatenate(whiches)], np.concatenate(xys)
         near_xy, near_dist, near_seg = [], [], []
-        for kind in range(4):
-            j = kind % 2
-            if kind < 2:
-                which = np.flatnonzero(sides[:, j] >= 0)
-                rows, cols = np.divmod(sides[which, j], w)
-                xy = np.stack([cols + 0.5, rows + 0.5], axis=-1)
-            else:
-                which, xy = corners[j]
-            for batch in batch_slices(which.size, BATCH):  # (P', 4, 4) arrays are large
-                dist, signed, seg = _nearest_segment(xy[batch], segments_of(curved[which[batch]]), exact)
-                near = np.isfinite(dist) & (dist < reach) & (dist > 1e-9)
-                near_xy.append(xy[batch].compress(near, axis=0))
-                near_dist.append(signed[near])
-                near_seg.append(seg[near])
+        for batch in batch_slices(edge.size, BATCH):  # (P', 4, 4) arrays are large
+            dist, signed, seg = _nearest_segment(xy[batch], segments_of(edge[batch]), exact)
+            near = np.isfinite(dist) & (dist < reach) & (dist > 1e-9)
+            near_xy.append(xy[batch].compress(near, axis=0))
+            near_dist.append(signed[near])
+            near_seg.append(seg[near])
         xy, signed, seg = (np.concatenate(x) for x in (near_xy, near_dist, near_seg))
         # one point per (segment, place in eighth pixels), the first of each, ordered by
         # segment, then x, then y (a stable sort; what np.unique(axis=0) does, without its
