@@ -201,31 +201,29 @@ def fit(exact: Exact, prot: Protected, lo: np.ndarray, hi: np.ndarray, tolerance
     """One curve per range [lo, hi) of exact segments: a quadratic through the meeting point
     of the end tangents where that one fits (4 numbers in the file), else the least-squares
     cubic. Returns ``(kind, c1, c2, ok)``: QUAD rows hold the quadratic's control in ``c1``."""
-    # Every test below is per range, so each runs only on the ranges still in question: the
-    # side test (the costly one) after the distance test, the cubic where no quadratic fits.
+    # Both candidates of every range are tested in one pass (each test is per candidate, so
+    # the cubic's verdict where the quadratic fits is simply not used): a pass costs a few
+    # hundred numpy calls whatever its size, more than the cubics tested in vain. The side
+    # test (the costly one) runs only on the candidates within the distance.
     samples = _Samples(exact, lo, hi)
     p0, p3 = samples.p0.T, samples.p3.T
     q, has_q = _quadratic_control(exact, p0, p3, lo, hi, grid)
     q1, q2 = elevate(p0, q, p3)  # the same curve as a cubic
+    r1, r2 = _cubic_controls(exact, samples, lo, hi, grid)
+    quads = np.flatnonzero(has_q)
+    rows = np.concatenate([quads, np.arange(lo.size)])  # the range of each candidate
+    c1 = np.concatenate([q1.take(quads, axis=0), r1])
+    c2 = np.concatenate([q2.take(quads, axis=0), r2])
     limit = np.minimum(tolerance, exact.tolerance[lo])  # the run's piece's own limit
-    quad_ok = has_q & samples.within(q1, q2, limit)
-    quad_ok[quad_ok] = _keeps_sides(exact, prot, lo[quad_ok], hi[quad_ok], q1.compress(quad_ok, axis=0),
-                                    q2.compress(quad_ok, axis=0), clearance)
+    passed = samples.within(rows, c1, c2, limit[rows])
+    passed[passed] = _keeps_sides(exact, prot, lo[rows[passed]], hi[rows[passed]], c1.compress(passed, axis=0),
+                                  c2.compress(passed, axis=0), clearance)
+    quad_ok = np.zeros(lo.size, bool)
+    quad_ok[quads] = passed[: quads.size]
     kind = np.where(quad_ok, QUAD, CUBIC).astype(np.uint8)
-    c1, c2, ok = q.copy(), np.full_like(q, np.nan), quad_ok.copy()
-    rest = ~quad_ok
-    if rest.any():
-        lo_r, hi_r = lo[rest], hi[rest]
-        rest_samples = samples.of_ranges(rest)
-        r1, r2 = _cubic_controls(exact, rest_samples, lo_r, hi_r, grid)
-        fits = rest_samples.within(r1, r2, limit[rest])
-        fits[fits] = _keeps_sides(exact, prot, lo_r[fits], hi_r[fits], r1.compress(fits, axis=0),
-                                  r2.compress(fits, axis=0), clearance)
-        where = np.flatnonzero(rest)
-        for axis in range(2):  # a 1-d assignment per coordinate: (N, 2) rows one by one are slow
-            c1[where, axis], c2[where, axis] = r1[:, axis], r2[:, axis]
-        ok[rest] = fits
-    return kind, c1, c2, ok
+    first = np.where(quad_ok[:, None], q, r1)
+    second = np.where(quad_ok[:, None], np.nan, r2)
+    return kind, first, second, quad_ok | passed[quads.size :]
 
 
 class _Samples:
@@ -239,35 +237,31 @@ class _Samples:
         seg = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count) + np.repeat(lo, count)
         self.points = exact.polyline[:, :, :-1].take(seg, axis=1).reshape(2, -1)  # (2, S) every range's samples
         self.owner = np.repeat(owner, _T_ORIG.size)
+        self.count = count * _T_ORIG.size  # samples of each range, which start at first
+        self.first = np.cumsum(self.count) - self.count
         arc = (exact.arc_before[seg][:, None] + exact.arc[seg]).ravel() - exact.arc_before[lo][self.owner]
         self.total = exact.arc_before[hi - 1] + exact.length[hi - 1] - exact.arc_before[lo]
         self.u = arc / np.maximum(self.total[self.owner], 1e-300)
         self.p0, self.p3 = _planes(exact.start.take(lo, axis=0)), _planes(exact.end.take(hi - 1, axis=0))
 
-    def of_ranges(self, rows: np.ndarray) -> _Samples:
-        """The samples of the ranges where ``rows`` (a boolean mask) holds, renumbered."""
-        keep = rows[self.owner]
-        part = object.__new__(_Samples)
-        part.points, part.u = self.points.compress(keep, axis=1), self.u[keep]
-        part.owner = (np.cumsum(rows) - 1)[self.owner[keep]]
-        part.total, part.p0, part.p3 = self.total[rows], self.p0.compress(rows, axis=1), self.p3.compress(rows, axis=1)
-        return part
-
-    def within(self, c1: np.ndarray, c2: np.ndarray, tolerance: np.ndarray) -> np.ndarray:
-        """Every sample lies within ``tolerance`` of its cubic (p0, c1, c2, p3) (``c1``, ``c2``
-        (R, 2)), and the cubic is not more than 10 % longer than the run (no loop or bulge
-        between samples)."""
-        # the shape test first (one polyline per range), then the samples of the ranges
-        # that pass it: the costly part, each sample on its own
-        p0, p1, p2, p3 = self.p0, _planes(c1), _planes(c2), self.p3
-        curve = _flatten(p0, p1, p2, p3, _T_FIT)  # (2, R, T)
+    def within(self, rows: np.ndarray, c1: np.ndarray, c2: np.ndarray, tolerance: np.ndarray) -> np.ndarray:
+        """For candidate cubics (p0, c1, c2, p3) of the ranges ``rows`` (``c1``, ``c2``: (M, 2)):
+        every sample of the range lies within ``tolerance`` of the cubic, and the cubic is not
+        more than 10 % longer than the run (no loop or bulge between samples)."""
+        # the shape test first (one polyline per candidate), then the samples of the
+        # candidates that pass it: the costly part, each sample on its own
+        p0, p1, p2, p3 = self.p0.take(rows, axis=1), _planes(c1), _planes(c2), self.p3.take(rows, axis=1)
+        curve = _flatten(p0, p1, p2, p3, _T_FIT)  # (2, M, T)
         step = np.diff(curve, axis=2)
         length = np.sqrt(step[0] ** 2 + step[1] ** 2).sum(axis=1)
         chord = np.sqrt((p3[0] - p0[0]) ** 2 + (p3[1] - p0[1]) ** 2)
-        ok = (length <= 1.1 * self.total + 1e-9) & (chord > 0)
-        keep = ok[self.owner]
-        o, points, u = self.owner[keep], self.points.compress(keep, axis=1), self.u[keep]
-        # the Bernstein differences of each range, then per sample (the same numbers as
+        ok = (length <= 1.1 * self.total[rows] + 1e-9) & (chord > 0)
+        cand = np.flatnonzero(ok)
+        count = self.count[rows[cand]]
+        o = np.repeat(cand, count)  # the candidate of each sample tested
+        at = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count - self.first[rows[cand]], count)
+        points, u = self.points.take(at, axis=1), self.u[at]
+        # the Bernstein differences of each candidate, then per sample (the same numbers as
         # bspline.cubic_derivatives computes per sample)
         q0, q1, q2, q3 = (p.take(o, axis=1) for p in (p0, p1, p2, p3))
         d10, d21, d32 = ((b - a).take(o, axis=1) for a, b in ((p0, p1), (p1, p2), (p2, p3)))
@@ -286,7 +280,7 @@ class _Samples:
             u = np.minimum(np.maximum(u - num / np.where(np.abs(den) > 1e-12, den, 1e-12), 0.0), 1.0)
         off = evaluate_cubic(q0, q1, q2, q3, u) - points
         d = np.sqrt(off[0] ** 2 + off[1] ** 2)
-        worst = np.zeros(p0.shape[1])
+        worst = np.zeros(rows.size)
         np.maximum.at(worst, o, d)
         return ok & (worst <= tolerance)
 
