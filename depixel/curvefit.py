@@ -195,35 +195,53 @@ class _SegmentsOfEdges:
         return out
 
 
+#: up to this many ranges, :func:`fit` tests the quadratic and the cubic of every range in
+#: one pass; above it, the cubic only where the quadratic failed (the same results)
+FUSED_RANGES = 128
+
+
 def fit(exact: Exact, prot: Protected, lo: np.ndarray, hi: np.ndarray, tolerance: float | np.ndarray,
          clearance: float,
          grid: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """One curve per range [lo, hi) of exact segments: a quadratic through the meeting point
     of the end tangents where that one fits (4 numbers in the file), else the least-squares
     cubic. Returns ``(kind, c1, c2, ok)``: QUAD rows hold the quadratic's control in ``c1``."""
-    # Both candidates of every range are tested in one pass (each test is per candidate, so
-    # the cubic's verdict where the quadratic fits is simply not used): a pass costs a few
-    # hundred numpy calls whatever its size, more than the cubics tested in vain. The side
+    # Each test is per candidate curve. A pass costs a few hundred numpy calls whatever its
+    # size, so few ranges test both candidates in one pass (the cubic's verdict is not used
+    # where the quadratic fits); many test the cubic only where no quadratic fits. The side
     # test (the costly one) runs only on the candidates within the distance.
     samples = _Samples(exact, lo, hi)
     p0, p3 = samples.p0.T, samples.p3.T
     q, has_q = _quadratic_control(exact, p0, p3, lo, hi, grid)
     q1, q2 = elevate(p0, q, p3)  # the same curve as a cubic
-    r1, r2 = _cubic_controls(exact, samples, lo, hi, grid)
-    quads = np.flatnonzero(has_q)
-    rows = np.concatenate([quads, np.arange(lo.size)])  # the range of each candidate
-    c1 = np.concatenate([q1.take(quads, axis=0), r1])
-    c2 = np.concatenate([q2.take(quads, axis=0), r2])
     limit = np.minimum(tolerance, exact.tolerance[lo])  # the run's piece's own limit
-    passed = samples.within(rows, c1, c2, limit[rows])
-    passed[passed] = _keeps_sides(exact, prot, lo[rows[passed]], hi[rows[passed]], c1.compress(passed, axis=0),
-                                  c2.compress(passed, axis=0), clearance)
+
+    def passes(rows: np.ndarray, c1: np.ndarray, c2: np.ndarray) -> np.ndarray:
+        ok = samples.within(rows, c1, c2, limit[rows])
+        ok[ok] = _keeps_sides(exact, prot, lo[rows[ok]], hi[rows[ok]], c1.compress(ok, axis=0),
+                              c2.compress(ok, axis=0), clearance)
+        return ok
+
+    quads = np.flatnonzero(has_q)
     quad_ok = np.zeros(lo.size, bool)
-    quad_ok[quads] = passed[: quads.size]
+    cubic_ok = np.zeros(lo.size, bool)
+    if lo.size <= FUSED_RANGES:
+        r1, r2 = _cubic_controls(exact, samples, np.arange(lo.size), lo, hi, grid)
+        passed = passes(np.concatenate([quads, np.arange(lo.size)]), np.concatenate([q1.take(quads, axis=0), r1]),
+                        np.concatenate([q2.take(quads, axis=0), r2]))
+        quad_ok[quads], cubic_ok = passed[: quads.size], passed[quads.size :]
+    else:
+        quad_ok[quads] = passes(quads, q1.take(quads, axis=0), q2.take(quads, axis=0))
+        rest = np.flatnonzero(~quad_ok)
+        c1, c2 = _cubic_controls(exact, samples, rest, lo[rest], hi[rest], grid)
+        cubic_ok[rest] = passes(rest, c1, c2)
+        r1, r2 = np.full_like(q, np.nan), np.full_like(q, np.nan)
+        for axis in range(2):  # 1-d assignments: (N, 2) rows one by one are slow
+            r1[rest, axis], r2[rest, axis] = c1[:, axis], c2[:, axis]
     kind = np.where(quad_ok, QUAD, CUBIC).astype(np.uint8)
     first = np.where(quad_ok[:, None], q, r1)
     second = np.where(quad_ok[:, None], np.nan, r2)
-    return kind, first, second, quad_ok | passed[quads.size :]
+    return kind, first, second, quad_ok | cubic_ok
 
 
 class _Samples:
@@ -236,13 +254,20 @@ class _Samples:
         owner = np.repeat(np.arange(lo.size), count)
         seg = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count) + np.repeat(lo, count)
         self.points = exact.polyline[:, :, :-1].take(seg, axis=1).reshape(2, -1)  # (2, S) every range's samples
-        self.owner = np.repeat(owner, _T_ORIG.size)
         self.count = count * _T_ORIG.size  # samples of each range, which start at first
         self.first = np.cumsum(self.count) - self.count
-        arc = (exact.arc_before[seg][:, None] + exact.arc[seg]).ravel() - exact.arc_before[lo][self.owner]
+        sample_owner = np.repeat(owner, _T_ORIG.size)
+        arc = (exact.arc_before[seg][:, None] + exact.arc[seg]).ravel() - exact.arc_before[lo][sample_owner]
         self.total = exact.arc_before[hi - 1] + exact.length[hi - 1] - exact.arc_before[lo]
-        self.u = arc / np.maximum(self.total[self.owner], 1e-300)
+        self.u = arc / np.maximum(self.total[sample_owner], 1e-300)
         self.p0, self.p3 = _planes(exact.start.take(lo, axis=0)), _planes(exact.end.take(hi - 1, axis=0))
+
+    def of(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The samples of the ranges ``rows`` (in turn): the index of each sample's row in
+        ``rows``, and the sample."""
+        count = self.count[rows]
+        at = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count - self.first[rows], count)
+        return np.repeat(np.arange(rows.size), count), at
 
     def within(self, rows: np.ndarray, c1: np.ndarray, c2: np.ndarray, tolerance: np.ndarray) -> np.ndarray:
         """For candidate cubics (p0, c1, c2, p3) of the ranges ``rows`` (``c1``, ``c2``: (M, 2)):
@@ -257,9 +282,8 @@ class _Samples:
         chord = np.sqrt((p3[0] - p0[0]) ** 2 + (p3[1] - p0[1]) ** 2)
         ok = (length <= 1.1 * self.total[rows] + 1e-9) & (chord > 0)
         cand = np.flatnonzero(ok)
-        count = self.count[rows[cand]]
-        o = np.repeat(cand, count)  # the candidate of each sample tested
-        at = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count - self.first[rows[cand]], count)
+        which, at = self.of(rows[cand])
+        o = cand[which]  # the candidate of each sample tested
         points, u = self.points.take(at, axis=1), self.u[at]
         # the Bernstein differences of each candidate, then per sample (the same numbers as
         # bspline.cubic_derivatives computes per sample)
@@ -302,18 +326,20 @@ def _quadratic_control(exact: Exact, p0: np.ndarray, p3: np.ndarray, lo: np.ndar
     return q, valid
 
 
-def _cubic_controls(exact: Exact, samples: _Samples, lo: np.ndarray, hi: np.ndarray, grid: float | None
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """The cubic with the run's end points and end tangents whose two leg lengths fit the
-    samples best (least squares at their chord-length parameters)."""
-    p0, p3 = samples.p0, samples.p3
+def _cubic_controls(exact: Exact, samples: _Samples, rows: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                    grid: float | None) -> tuple[np.ndarray, np.ndarray]:
+    """The cubic with the end points and end tangents of the ranges ``rows`` ([lo, hi) of
+    exact segments) whose two leg lengths fit the samples best (least squares at their
+    chord-length parameters)."""
+    p0, p3 = samples.p0.take(rows, axis=1), samples.p3.take(rows, axis=1)
     t0, t1 = exact.tan_start.take(lo, axis=0), exact.tan_end.take(hi - 1, axis=0)
-    o, u = samples.owner, samples.u
+    o, at = samples.of(rows)
+    u = samples.u[at]
     # P(u) = B0 p0 + B1 (p0 + a t0) + B2 (p3 - b t1) + B3 p3
     b0, b1, b2, b3 = cubic_weights(u)
-    r = samples.points - (b0 + b1) * p0.take(o, axis=1) - (b2 + b3) * p3.take(o, axis=1)
+    r = samples.points.take(at, axis=1) - (b0 + b1) * p0.take(o, axis=1) - (b2 + b3) * p3.take(o, axis=1)
     va, vb = b1 * _planes(t0).take(o, axis=1), -b2 * _planes(t1).take(o, axis=1)
-    n = lo.size
+    n = rows.size
     m11 = np.bincount(o, va[0] * va[0] + va[1] * va[1], n)
     m12 = np.bincount(o, va[0] * vb[0] + va[1] * vb[1], n)
     m22 = np.bincount(o, vb[0] * vb[0] + vb[1] * vb[1], n)
