@@ -444,14 +444,21 @@ def _unit(v: np.ndarray) -> np.ndarray:
 
 
 def _segment_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Distance of points ``q`` to segments ``ab``, all x and y planes ``(2, ...)`` (broadcast)."""
+    """Distance of points ``q`` to segments ``ab``, all x and y planes ``(2, ...)`` of one
+    shape. In place where it can: these arrays are large, and fresh memory costs more here
+    than the arithmetic."""
     ab = b - a
     qa = q - a
-    # np.minimum(np.maximum()) is np.clip without its Python overhead
-    t = np.minimum(np.maximum((qa[0] * ab[0] + qa[1] * ab[1]) / np.maximum(ab[0] * ab[0] + ab[1] * ab[1], 1e-300),
-                              0.0), 1.0)
-    off = q - (a + t * ab)
-    return np.sqrt(off[0] * off[0] + off[1] * off[1])
+    t = np.multiply(qa[0], ab[0])
+    t += np.multiply(qa[1], ab[1], out=qa[1])
+    length2 = np.multiply(ab[0], ab[0], out=qa[0])
+    length2 += np.multiply(ab[1], ab[1], out=qa[1])
+    t /= np.maximum(length2, 1e-300, out=length2)
+    np.minimum(np.maximum(t, 0.0, out=t), 1.0, out=t)  # np.clip without its Python overhead
+    off = np.subtract(q, np.add(a, np.multiply(ab, t, out=ab), out=ab), out=ab)
+    dist = np.multiply(off[0], off[0], out=t)
+    dist += np.multiply(off[1], off[1], out=off[1])
+    return np.sqrt(dist, out=dist)
 
 
 def _planes(points: np.ndarray) -> np.ndarray:
