@@ -260,6 +260,7 @@ class _Samples:
         arc = (exact.arc_before[seg][:, None] + exact.arc[seg]).ravel() - exact.arc_before[lo][sample_owner]
         self.total = exact.arc_before[hi - 1] + exact.length[hi - 1] - exact.arc_before[lo]
         self.u = arc / np.maximum(self.total[sample_owner], 1e-300)
+        self.cubes = np.stack([(1 - self.u) ** 3, self.u**3])  # (2, S): every candidate's first step uses them
         self.p0, self.p3 = _planes(exact.start.take(lo, axis=0)), _planes(exact.end.take(hi - 1, axis=0))
 
     def of(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -284,7 +285,7 @@ class _Samples:
         cand = np.flatnonzero(ok)
         which, at = self.of(rows[cand])
         o = cand[which]  # the candidate of each sample tested
-        points, u = self.points.take(at, axis=1), self.u[at]
+        points, u, cubes = self.points.take(at, axis=1), self.u[at], self.cubes.take(at, axis=1)
         # the Bernstein differences of each candidate, then per sample (the same numbers as
         # bspline.cubic_derivatives computes per sample)
         q0, q1, q2, q3 = (p.take(o, axis=1) for p in (p0, p1, p2, p3))
@@ -292,10 +293,11 @@ class _Samples:
         e1, e2 = (p2 - 2 * p1 + p0).take(o, axis=1), (p3 - 2 * p2 + p1).take(o, axis=1)
         # from its chord-length parameter, two Newton steps towards the nearest point: an
         # upper bound of the distance, so the test is safe
-        for _ in range(2):
+        for newton in range(2):
             s = 1 - u
             s2, t2 = s**2, u**2
-            point = s**3 * q0 + 3 * u * s2 * q1 + 3 * t2 * s * q2 + u**3 * q3
+            s3, t3 = cubes if newton == 0 else (s**3, u**3)
+            point = s3 * q0 + 3 * u * s2 * q1 + 3 * t2 * s * q2 + t3 * q3
             d1 = 3 * (s2 * d10 + 2 * u * s * d21 + t2 * d32)
             d2 = 6 * (s * e1 + u * e2)
             off = point - points
