@@ -116,7 +116,7 @@ class Protected:
             xys.append(xy)
         edge, xy = curved[np.concatenate(whiches)], np.concatenate(xys)
         near_xy, near_dist, near_seg = [], [], []
-        for batch in batch_slices(edge.size, BATCH):  # (P', 4, 4) arrays are large
+        for batch in batch_slices(edge.size, BATCH // 4):  # 16 distances a point: (2, P', 4, 4) arrays
             dist, signed, seg = _nearest_segment(xy[batch], segments_of(edge[batch]), exact)
             near = np.isfinite(dist) & (dist < reach) & (dist > 1e-9)
             near_xy.append(xy[batch].compress(near, axis=0))
