@@ -96,7 +96,6 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
 
     # slots that bound pieces; a closed curve with none gets its first slot, where its
     # piece starts and ends at a joint instead of a curve point
-    n_slots = node.size
     anchor = end | junction[node]
     closed_free = _seeds(curves.curve, curves.closed, anchor)
     anchor_or_seed = anchor | closed_free

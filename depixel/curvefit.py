@@ -17,7 +17,7 @@ import numpy as np
 
 from .arrays import batch_slices
 from .boundaries import CUBIC, QUAD, BoundaryPieces
-from .bspline import cubic_derivatives, cubic_weights, elevate, evaluate_cubic, flatten_cubic
+from .bspline import cubic_weights, elevate, evaluate_cubic, flatten_cubic
 from .cells import link_corners
 from .vector import VectorImage
 
@@ -286,8 +286,8 @@ class _Samples:
         which, at = self.of(rows[cand])
         o = cand[which]  # the candidate of each sample tested
         points, u, cubes = self.points.take(at, axis=1), self.u[at], self.cubes.take(at, axis=1)
-        # the Bernstein differences of each candidate, then per sample (the same numbers as
-        # bspline.cubic_derivatives computes per sample)
+        # the control point differences of each candidate, then per sample (the point and
+        # its first and second derivatives below: the Bernstein forms of the cubic)
         q0, q1, q2, q3 = (p.take(o, axis=1) for p in (p0, p1, p2, p3))
         d10, d21, d32 = ((b - a).take(o, axis=1) for a, b in ((p0, p1), (p1, p2), (p2, p3)))
         e1, e2 = (p2 - 2 * p1 + p0).take(o, axis=1), (p3 - 2 * p2 + p1).take(o, axis=1)
