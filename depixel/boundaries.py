@@ -96,28 +96,27 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
 
     # slots that bound pieces; a closed curve with none gets its first slot, where its
     # piece starts and ends at a joint instead of a curve point
-    n_slots = node.size
     anchor = end | junction[node]
     closed_free = _seeds(curves.curve, curves.closed, anchor)
     anchor_or_seed = anchor | closed_free
-    # walk: for every slot, the piece it starts (an anchor with a next slot) and the slots it covers
+    # the pieces: one from every anchor with a next slot to the next anchor along its curve.
+    # A curve's slots are consecutive in order (SplineSet's flat arrays; next wraps round a
+    # closed curve), so a slot's piece is the last start at or before it, or on a closed
+    # curve before its first start, the curve's last one (the piece that wraps round)
     starts = np.flatnonzero(anchor_or_seed & (nxt >= 0))
-    piece_of_slot = np.full(n_slots, -1, np.int32)  # piece that the edge slot → next belongs to
-    piece_of_slot[starts] = np.arange(starts.size)
-    walker = starts.copy()
-    length = np.ones(starts.size, np.int64)  # edges per piece
-    active = np.ones(starts.size, bool)
-    while True:
-        step = nxt[walker]
-        active &= ~anchor_or_seed[step]
-        if not active.any():
-            break
-        walker = np.where(active, step, walker)
-        piece_of_slot[walker[active]] = np.flatnonzero(active)
-        length += active
-    last_slot = nxt[walker]  # the anchor each piece ends at
+    curve = curves.curve
+    start_curve = curve[starts]
+    label = np.cumsum(anchor_or_seed & (nxt >= 0)) - 1
+    wraps = label < np.searchsorted(start_curve, curve, side="left")
+    label[wraps] = np.searchsorted(start_curve, curve[wraps], side="right") - 1
+    edge_slot_ok = nxt >= 0  # slots that start an edge
+    piece_of_slot = np.where(edge_slot_ok, label, -1).astype(np.int32)  # piece of the edge slot → next
+    length = np.bincount(piece_of_slot[edge_slot_ok], minlength=starts.size).astype(np.int64)  # edges per piece
+    curve_first = np.searchsorted(curve, start_curve, side="left")
+    curve_size = np.searchsorted(curve, start_curve, side="right") - curve_first
+    last_slot = curve_first + (starts - curve_first + length) % curve_size  # the anchor each piece ends at
     first_slot = starts
-    del walker, active
+    del label, wraps, edge_slot_ok
 
     edge_piece = np.full(n_edges, -1, np.int32)
     edge_first = np.zeros(n_edges, bool)

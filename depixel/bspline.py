@@ -179,14 +179,3 @@ def flatten_cubic(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, p3: np.ndarray
     """``(..., T, 2)``: the points of cubic Béziers ``(..., 2)`` at each of the parameters
     ``t`` ``(T,)``."""
     return evaluate_cubic(p0[..., None, :], p1[..., None, :], p2[..., None, :], p3[..., None, :], t[:, None])
-
-
-def cubic_derivatives(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, p3: np.ndarray, t: np.ndarray
-                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Point, first and second derivative of cubic Béziers at parameters ``t`` (broadcast
-    like :func:`evaluate_cubic`)."""
-    s = 1 - t
-    point = evaluate_cubic(p0, p1, p2, p3, t)
-    d1 = 3 * (s**2 * (p1 - p0) + 2 * t * s * (p2 - p1) + t**2 * (p3 - p2))
-    d2 = 6 * (s * (p2 - 2 * p1 + p0) + t * (p3 - 2 * p2 + p1))
-    return point, d1, d2

@@ -17,7 +17,7 @@ import numpy as np
 
 from .arrays import batch_slices
 from .boundaries import CUBIC, QUAD, BoundaryPieces
-from .bspline import cubic_derivatives, cubic_weights, elevate, evaluate_cubic, flatten_cubic
+from .bspline import cubic_weights, elevate, evaluate_cubic, flatten_cubic
 from .cells import link_corners
 from .vector import VectorImage
 
@@ -31,13 +31,15 @@ _RELATIVE_TOLERANCE = 1 / 16
 def _piece_tolerance(pieces: BoundaryPieces, exact: Exact, tolerance: float) -> np.ndarray:
     """(K,) the tolerance of every exact segment: ``tolerance``, or less on small pieces."""
     piece = np.repeat(np.arange(len(pieces)), np.diff(pieces.ptr))
-    pts = exact.samples.reshape(-1, 2)
     owner = np.repeat(piece, exact.samples.shape[1])
-    low = np.full((len(pieces), 2), np.inf)
-    high = np.full((len(pieces), 2), -np.inf)
-    np.minimum.at(low, owner, pts)
-    np.maximum.at(high, owner, pts)
-    size = np.sqrt(((high - low) ** 2).sum(axis=1))
+    extent = []
+    for axis in range(2):  # 1-d ufunc.at: on (N, 2) it handles every item on its own, ~20× slower
+        coord = exact.samples[:, :, axis].ravel()
+        low, high = np.full(len(pieces), np.inf), np.full(len(pieces), -np.inf)
+        np.minimum.at(low, owner, coord)
+        np.maximum.at(high, owner, coord)
+        extent.append(high - low)
+    size = np.sqrt(extent[0] ** 2 + extent[1] ** 2)
     return np.minimum(tolerance, _RELATIVE_TOLERANCE * size)[piece]
 
 
@@ -54,7 +56,7 @@ class Exact:
         n = pieces.kind.size
         piece = np.repeat(np.arange(len(pieces)), np.diff(pieces.ptr))
         first = pieces.ptr[:-1][piece] == np.arange(n)
-        self.start = np.where(first[:, None], pieces.start[piece], np.roll(pieces.end, 1, axis=0))
+        self.start = np.where(first[:, None], pieces.start.take(piece, axis=0), np.roll(pieces.end, 1, axis=0))
         self.end = pieces.end
         c1, c2 = _as_cubic(self.start, pieces.kind, pieces.ctrl, pieces.ctrl2, self.end)
         self.tan_start = _unit(np.where((np.abs(c1 - self.start) > 0).any(axis=1)[:, None], c1 - self.start,
@@ -62,7 +64,12 @@ class Exact:
         self.tan_end = _unit(np.where((np.abs(self.end - c2) > 0).any(axis=1)[:, None], self.end - c2,
                                       self.end - self.start))
         self.samples = flatten_cubic(self.start, c1, c2, self.end, _T_ORIG)  # (K, 4, 2)
-        step = _norm(np.diff(np.concatenate([self.samples, self.end[:, None]], axis=1), axis=1))
+        polyline = np.concatenate([self.samples, self.end[:, None]], axis=1)  # (K, 5, 2): samples, end
+        #: (2, K, 5) the polylines as x and y planes (see _planes), and (2, K, 4) the starts
+        #: and ends of their parts (contiguous: numpy's loops run over whole rows)
+        self.polyline = np.ascontiguousarray(polyline.transpose(2, 0, 1))
+        self.part_start, self.part_end = self.polyline[:, :, :-1].copy(), self.polyline[:, :, 1:].copy()
+        step = _norm(np.diff(polyline, axis=1))
         self.length = step.sum(axis=1)  # polyline length of each segment
         self.arc = np.cumsum(step, axis=1) - step  # arc length of each sample within its segment
         self.arc_before = np.cumsum(self.length) - self.length  # arc length before each segment (global)
@@ -93,31 +100,39 @@ class Protected:
         w = cells.shape[1]
         curved = np.flatnonzero(pieces.edge_piece >= 0)
         sides = cells.edge_pixels[curved]
-        corners = [_split_corner(cells.nodes[cells.edges[curved, j]]) for j in range(2)]
+        corners = [_split_corner(cells.nodes.take(cells.edges[curved, j], axis=0)) for j in range(2)]
         segments_of = _SegmentsOfEdges(pieces, image)
         # the points, in this order: the pixel centres on either side of every curved edge,
-        # the lattice corners at either end; each kind a batch at a time, keeping the near ones
+        # the lattice corners at either end; all kinds together, a batch at a time, keeping
+        # the near ones
+        whiches, xys = [], []
+        for j in range(2):
+            which = np.flatnonzero(sides[:, j] >= 0)
+            rows, cols = np.divmod(sides[which, j], w)
+            whiches.append(which)
+            xys.append(np.stack([cols + 0.5, rows + 0.5], axis=-1))
+        for which, xy in corners:
+            whiches.append(which)
+            xys.append(xy)
+        edge, xy = curved[np.concatenate(whiches)], np.concatenate(xys)
         near_xy, near_dist, near_seg = [], [], []
-        for kind in range(4):
-            j = kind % 2
-            if kind < 2:
-                which = np.flatnonzero(sides[:, j] >= 0)
-                rows, cols = np.divmod(sides[which, j], w)
-                xy = np.stack([cols + 0.5, rows + 0.5], axis=-1)
-            else:
-                which, xy = corners[j]
-            for batch in batch_slices(which.size, BATCH):  # (P', 4, 4, 2) arrays are large
-                dist, signed, seg = _nearest_segment(xy[batch], segments_of(curved[which[batch]]), exact)
-                near = np.isfinite(dist) & (dist < reach) & (dist > 1e-9)
-                near_xy.append(xy[batch][near])
-                near_dist.append(signed[near])
-                near_seg.append(seg[near])
+        for batch in batch_slices(edge.size, BATCH // 4):  # 16 distances a point: (2, P', 4, 4) arrays
+            dist, signed, seg = _nearest_segment(xy[batch], segments_of(edge[batch]), exact)
+            near = np.isfinite(dist) & (dist < reach) & (dist > 1e-9)
+            near_xy.append(xy[batch].compress(near, axis=0))
+            near_dist.append(signed[near])
+            near_seg.append(seg[near])
         xy, signed, seg = (np.concatenate(x) for x in (near_xy, near_dist, near_seg))
-        pick = np.unique(np.stack([seg, np.round(xy[:, 0] * 8), np.round(xy[:, 1] * 8)], axis=1),
-                         axis=0, return_index=True)[1]
-        order = np.argsort(seg[pick], kind="stable")
-        pick = pick[order]
-        self.xy, self.dist, self.seg = xy[pick], signed[pick], seg[pick]
+        # one point per (segment, place in eighth pixels), the first of each, ordered by
+        # segment, then x, then y (a stable sort; what np.unique(axis=0) does, without its
+        # per-row copies)
+        order = np.lexsort((np.round(xy[:, 1] * 8), np.round(xy[:, 0] * 8), seg))
+        key = np.stack([seg[order], np.round(xy[order, 0] * 8), np.round(xy[order, 1] * 8)])
+        first = np.ones(order.size, bool)
+        first[1:] = (key[:, 1:] != key[:, :-1]).any(axis=0)
+        pick = order[first]
+        #: (2, P) the points as x and y planes
+        self.xy, self.dist, self.seg = _planes(xy.take(pick, axis=0)), signed[pick], seg[pick]
 
 
 def _split_corner(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -134,16 +149,17 @@ def _nearest_segment(xy: np.ndarray, seg_of: np.ndarray, exact: Exact
     (P, 4) (the polylines of their samples and end), that distance signed by the side, and
     that segment."""
     candidate = np.maximum(seg_of, 0)
-    near = np.concatenate([exact.samples[candidate], exact.end[candidate][:, :, None]], axis=2)  # (P, 4, 5, 2)
-    a, b = near[:, :, :-1], near[:, :, 1:]  # (P, 4, 4, 2)
-    d = _segment_distance(xy[:, None, None], a, b)  # (P, 4, 4)
+    a, b = exact.part_start.take(candidate, axis=1), exact.part_end.take(candidate, axis=1)  # (2, P, 4, 4)
+    q = np.repeat(_planes(xy), a[0, 0].size, axis=1).reshape(a.shape)
+    d = _segment_distance(q, a, b)  # (P, 4, 4)
     d = np.where((seg_of >= 0)[:, :, None], d, np.inf)
     flat = d.reshape(d.shape[0], -1).argmin(axis=1)
     which, part = np.divmod(flat, d.shape[2])
     rows = np.arange(xy.shape[0])
     dist = d[rows, which, part]
-    pa, pb = a[rows, which, part], b[rows, which, part]
-    side = np.sign(_cross(pb - pa, xy - pa))
+    pa, pb = a[:, rows, which, part], b[:, rows, which, part]
+    ab, aq = pb - pa, q[:, :, 0, 0] - pa
+    side = np.sign(ab[0] * aq[1] - ab[1] * aq[0])
     return dist, dist * np.where(side == 0, 1.0, side), seg_of[rows, which]
 
 
@@ -179,89 +195,127 @@ class _SegmentsOfEdges:
         return out
 
 
+#: up to this many ranges, :func:`fit` tests the quadratic and the cubic of every range in
+#: one pass; above it, the cubic only where the quadratic failed (the same results)
+FUSED_RANGES = 128
+
+
 def fit(exact: Exact, prot: Protected, lo: np.ndarray, hi: np.ndarray, tolerance: float | np.ndarray,
          clearance: float,
          grid: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """One curve per range [lo, hi) of exact segments: a quadratic through the meeting point
     of the end tangents where that one fits (4 numbers in the file), else the least-squares
     cubic. Returns ``(kind, c1, c2, ok)``: QUAD rows hold the quadratic's control in ``c1``."""
-    # Every test below is per range, so each runs only on the ranges still in question: the
-    # side test (the costly one) after the distance test, the cubic where no quadratic fits.
+    # Each test is per candidate curve. A pass costs a few hundred numpy calls whatever its
+    # size, so few ranges test both candidates in one pass (the cubic's verdict is not used
+    # where the quadratic fits); many test the cubic only where no quadratic fits. The side
+    # test (the costly one) runs only on the candidates within the distance.
     samples = _Samples(exact, lo, hi)
-    p0, p3 = exact.start[lo], exact.end[hi - 1]
-    q, has_q = _quadratic_control(exact, lo, hi, grid)
+    p0, p3 = samples.p0.T, samples.p3.T
+    q, has_q = _quadratic_control(exact, p0, p3, lo, hi, grid)
     q1, q2 = elevate(p0, q, p3)  # the same curve as a cubic
     limit = np.minimum(tolerance, exact.tolerance[lo])  # the run's piece's own limit
-    quad_ok = has_q & samples.within(q1, q2, limit)
-    quad_ok[quad_ok] = _keeps_sides(exact, prot, lo[quad_ok], hi[quad_ok], q1[quad_ok], q2[quad_ok], clearance)
+
+    def passes(rows: np.ndarray, c1: np.ndarray, c2: np.ndarray) -> np.ndarray:
+        ok = samples.within(rows, c1, c2, limit[rows])
+        ok[ok] = _keeps_sides(exact, prot, lo[rows[ok]], hi[rows[ok]], c1.compress(ok, axis=0),
+                              c2.compress(ok, axis=0), clearance)
+        return ok
+
+    quads = np.flatnonzero(has_q)
+    quad_ok = np.zeros(lo.size, bool)
+    cubic_ok = np.zeros(lo.size, bool)
+    if lo.size <= FUSED_RANGES:
+        r1, r2 = _cubic_controls(exact, samples, np.arange(lo.size), lo, hi, grid)
+        passed = passes(np.concatenate([quads, np.arange(lo.size)]), np.concatenate([q1.take(quads, axis=0), r1]),
+                        np.concatenate([q2.take(quads, axis=0), r2]))
+        quad_ok[quads], cubic_ok = passed[: quads.size], passed[quads.size :]
+    else:
+        quad_ok[quads] = passes(quads, q1.take(quads, axis=0), q2.take(quads, axis=0))
+        rest = np.flatnonzero(~quad_ok)
+        c1, c2 = _cubic_controls(exact, samples, rest, lo[rest], hi[rest], grid)
+        cubic_ok[rest] = passes(rest, c1, c2)
+        r1, r2 = np.full_like(q, np.nan), np.full_like(q, np.nan)
+        for axis in range(2):  # 1-d assignments: (N, 2) rows one by one are slow
+            r1[rest, axis], r2[rest, axis] = c1[:, axis], c2[:, axis]
     kind = np.where(quad_ok, QUAD, CUBIC).astype(np.uint8)
-    c1, c2, ok = q.copy(), np.full_like(q, np.nan), quad_ok.copy()
-    rest = ~quad_ok
-    if rest.any():
-        lo_r, hi_r = lo[rest], hi[rest]
-        rest_samples = samples.of_ranges(rest)
-        r1, r2 = _cubic_controls(exact, rest_samples, lo_r, hi_r, grid)
-        fits = rest_samples.within(r1, r2, limit[rest])
-        fits[fits] = _keeps_sides(exact, prot, lo_r[fits], hi_r[fits], r1[fits], r2[fits], clearance)
-        c1[rest], c2[rest], ok[rest] = r1, r2, fits
-    return kind, c1, c2, ok
+    first = np.where(quad_ok[:, None], q, r1)
+    second = np.where(quad_ok[:, None], np.nan, r2)
+    return kind, first, second, quad_ok | cubic_ok
 
 
 class _Samples:
-    """The sample points of the exact runs [lo, hi), with their chord-length parameters."""
+    """The sample points of the exact runs [lo, hi), with their chord-length parameters.
+
+    Points are ``(2, S)`` x and y planes, the ranges' end points ``(2, R)`` too (:func:`_planes`)."""
 
     def __init__(self, exact: Exact, lo: np.ndarray, hi: np.ndarray) -> None:
         count = hi - lo
         owner = np.repeat(np.arange(lo.size), count)
         seg = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count) + np.repeat(lo, count)
-        self.points = exact.samples[seg].reshape(-1, 2)  # (S, 2) all samples of every range
-        self.owner = np.repeat(owner, _T_ORIG.size)
-        arc = (exact.arc_before[seg][:, None] + exact.arc[seg]).ravel() - exact.arc_before[lo][self.owner]
+        self.points = exact.polyline[:, :, :-1].take(seg, axis=1).reshape(2, -1)  # (2, S) every range's samples
+        self.count = count * _T_ORIG.size  # samples of each range, which start at first
+        self.first = np.cumsum(self.count) - self.count
+        sample_owner = np.repeat(owner, _T_ORIG.size)
+        arc = (exact.arc_before[seg][:, None] + exact.arc[seg]).ravel() - exact.arc_before[lo][sample_owner]
         self.total = exact.arc_before[hi - 1] + exact.length[hi - 1] - exact.arc_before[lo]
-        self.u = arc / np.maximum(self.total[self.owner], 1e-300)
-        self.p0, self.p3 = exact.start[lo], exact.end[hi - 1]
+        self.u = arc / np.maximum(self.total[sample_owner], 1e-300)
+        self.cubes = np.stack([(1 - self.u) ** 3, self.u**3])  # (2, S): every candidate's first step uses them
+        self.p0, self.p3 = _planes(exact.start.take(lo, axis=0)), _planes(exact.end.take(hi - 1, axis=0))
 
-    def of_ranges(self, rows: np.ndarray) -> _Samples:
-        """The samples of the ranges where ``rows`` (a boolean mask) holds, renumbered."""
-        keep = rows[self.owner]
-        part = object.__new__(_Samples)
-        part.points, part.u = self.points[keep], self.u[keep]
-        part.owner = (np.cumsum(rows) - 1)[self.owner[keep]]
-        part.total, part.p0, part.p3 = self.total[rows], self.p0[rows], self.p3[rows]
-        return part
+    def of(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The samples of the ranges ``rows`` (in turn): the index of each sample's row in
+        ``rows``, and the sample."""
+        count = self.count[rows]
+        at = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count - self.first[rows], count)
+        return np.repeat(np.arange(rows.size), count), at
 
-    def within(self, c1: np.ndarray, c2: np.ndarray, tolerance: np.ndarray) -> np.ndarray:
-        """Every sample lies within ``tolerance`` of its cubic (p0, c1, c2, p3), and the cubic
-        is not more than 10 % longer than the run (no loop or bulge between samples)."""
-        # the shape test first (one polyline per range), then the samples of the ranges
-        # that pass it: the costly part, each sample on its own
-        curve = flatten_cubic(self.p0, c1, c2, self.p3, _T_FIT)
-        length = np.sqrt((np.diff(curve, axis=1) ** 2).sum(axis=2)).sum(axis=1)
-        chord = np.sqrt(((self.p3 - self.p0) ** 2).sum(axis=1))
-        ok = (length <= 1.1 * self.total + 1e-9) & (chord > 0)
-        keep = ok[self.owner]
-        o, points, u = self.owner[keep], self.points[keep], self.u[keep]
-        q = (self.p0[o], c1[o], c2[o], self.p3[o])
+    def within(self, rows: np.ndarray, c1: np.ndarray, c2: np.ndarray, tolerance: np.ndarray) -> np.ndarray:
+        """For candidate cubics (p0, c1, c2, p3) of the ranges ``rows`` (``c1``, ``c2``: (M, 2)):
+        every sample of the range lies within ``tolerance`` of the cubic, and the cubic is not
+        more than 10 % longer than the run (no loop or bulge between samples)."""
+        # the shape test first (one polyline per candidate), then the samples of the
+        # candidates that pass it: the costly part, each sample on its own
+        p0, p1, p2, p3 = self.p0.take(rows, axis=1), _planes(c1), _planes(c2), self.p3.take(rows, axis=1)
+        curve = _flatten(p0, p1, p2, p3, _T_FIT)  # (2, M, T)
+        step = np.diff(curve, axis=2)
+        length = np.sqrt(step[0] ** 2 + step[1] ** 2).sum(axis=1)
+        chord = np.sqrt((p3[0] - p0[0]) ** 2 + (p3[1] - p0[1]) ** 2)
+        ok = (length <= 1.1 * self.total[rows] + 1e-9) & (chord > 0)
+        cand = np.flatnonzero(ok)
+        which, at = self.of(rows[cand])
+        o = cand[which]  # the candidate of each sample tested
+        points, u, cubes = self.points.take(at, axis=1), self.u[at], self.cubes.take(at, axis=1)
+        # the control point differences of each candidate, then per sample (the point and
+        # its first and second derivatives below: the Bernstein forms of the cubic)
+        q0, q1, q2, q3 = (p.take(o, axis=1) for p in (p0, p1, p2, p3))
+        d10, d21, d32 = ((b - a).take(o, axis=1) for a, b in ((p0, p1), (p1, p2), (p2, p3)))
+        e1, e2 = (p2 - 2 * p1 + p0).take(o, axis=1), (p3 - 2 * p2 + p1).take(o, axis=1)
         # from its chord-length parameter, two Newton steps towards the nearest point: an
         # upper bound of the distance, so the test is safe
-        for _ in range(2):
-            point, d1, d2 = cubic_derivatives(*q, u[:, None])
+        for newton in range(2):
+            s = 1 - u
+            s2, t2 = s**2, u**2
+            s3, t3 = cubes if newton == 0 else (s**3, u**3)
+            point = s3 * q0 + 3 * u * s2 * q1 + 3 * t2 * s * q2 + t3 * q3
+            d1 = 3 * (s2 * d10 + 2 * u * s * d21 + t2 * d32)
+            d2 = 6 * (s * e1 + u * e2)
             off = point - points
-            num = (off * d1).sum(axis=1)
-            den = (d1 * d1).sum(axis=1) + (off * d2).sum(axis=1)
-            u = np.clip(u - num / np.where(np.abs(den) > 1e-12, den, 1e-12), 0.0, 1.0)
-        d = np.sqrt(((evaluate_cubic(*q, u[:, None]) - points) ** 2).sum(axis=1))
-        worst = np.zeros(self.p0.shape[0])
+            num = off[0] * d1[0] + off[1] * d1[1]
+            den = (d1[0] * d1[0] + d1[1] * d1[1]) + (off[0] * d2[0] + off[1] * d2[1])
+            u = np.minimum(np.maximum(u - num / np.where(np.abs(den) > 1e-12, den, 1e-12), 0.0), 1.0)
+        off = evaluate_cubic(q0, q1, q2, q3, u) - points
+        d = np.sqrt(off[0] ** 2 + off[1] ** 2)
+        worst = np.zeros(rows.size)
         np.maximum.at(worst, o, d)
         return ok & (worst <= tolerance)
 
 
-def _quadratic_control(exact: Exact, lo: np.ndarray, hi: np.ndarray, grid: float | None
-                       ) -> tuple[np.ndarray, np.ndarray]:
-    """The control point of the quadratic with the run's end points and end tangents (where
-    the tangent lines meet, in front of both ends), and whether there is one."""
-    p0, p3 = exact.start[lo], exact.end[hi - 1]
-    t0, t1 = exact.tan_start[lo], exact.tan_end[hi - 1]
+def _quadratic_control(exact: Exact, p0: np.ndarray, p3: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                       grid: float | None) -> tuple[np.ndarray, np.ndarray]:
+    """The control point of the quadratic with the run's end points ``p0``, ``p3`` (R, 2) and
+    end tangents (where the tangent lines meet, in front of both ends), and whether there is one."""
+    t0, t1 = exact.tan_start.take(lo, axis=0), exact.tan_end.take(hi - 1, axis=0)
     chord = p3 - p0
     det = _cross(t0, t1)
     safe = np.where(np.abs(det) > 1e-9, det, 1.0)
@@ -274,33 +328,35 @@ def _quadratic_control(exact: Exact, lo: np.ndarray, hi: np.ndarray, grid: float
     return q, valid
 
 
-def _cubic_controls(exact: Exact, samples: _Samples, lo: np.ndarray, hi: np.ndarray, grid: float | None
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """The cubic with the run's end points and end tangents whose two leg lengths fit the
-    samples best (least squares at their chord-length parameters)."""
-    p0, p3 = samples.p0, samples.p3
-    t0, t1 = exact.tan_start[lo], exact.tan_end[hi - 1]
-    o, u = samples.owner, samples.u
+def _cubic_controls(exact: Exact, samples: _Samples, rows: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                    grid: float | None) -> tuple[np.ndarray, np.ndarray]:
+    """The cubic with the end points and end tangents of the ranges ``rows`` ([lo, hi) of
+    exact segments) whose two leg lengths fit the samples best (least squares at their
+    chord-length parameters)."""
+    p0, p3 = samples.p0.take(rows, axis=1), samples.p3.take(rows, axis=1)
+    t0, t1 = exact.tan_start.take(lo, axis=0), exact.tan_end.take(hi - 1, axis=0)
+    o, at = samples.of(rows)
+    u = samples.u[at]
     # P(u) = B0 p0 + B1 (p0 + a t0) + B2 (p3 - b t1) + B3 p3
     b0, b1, b2, b3 = cubic_weights(u)
-    r = samples.points - (b0 + b1)[:, None] * p0[o] - (b2 + b3)[:, None] * p3[o]
-    va, vb = b1[:, None] * t0[o], -b2[:, None] * t1[o]
-    n = lo.size
-    m11 = np.bincount(o, (va * va).sum(axis=1), n)
-    m12 = np.bincount(o, (va * vb).sum(axis=1), n)
-    m22 = np.bincount(o, (vb * vb).sum(axis=1), n)
-    r1 = np.bincount(o, (va * r).sum(axis=1), n)
-    r2 = np.bincount(o, (vb * r).sum(axis=1), n)
+    r = samples.points.take(at, axis=1) - (b0 + b1) * p0.take(o, axis=1) - (b2 + b3) * p3.take(o, axis=1)
+    va, vb = b1 * _planes(t0).take(o, axis=1), -b2 * _planes(t1).take(o, axis=1)
+    n = rows.size
+    m11 = np.bincount(o, va[0] * va[0] + va[1] * va[1], n)
+    m12 = np.bincount(o, va[0] * vb[0] + va[1] * vb[1], n)
+    m22 = np.bincount(o, vb[0] * vb[0] + vb[1] * vb[1], n)
+    r1 = np.bincount(o, va[0] * r[0] + va[1] * r[1], n)
+    r2 = np.bincount(o, vb[0] * r[0] + vb[1] * r[1], n)
     det = m11 * m22 - m12 * m12
     safe = np.where(np.abs(det) > 1e-12, det, 1.0)
     a = (r1 * m22 - r2 * m12) / safe
     b = (m11 * r2 - m12 * r1) / safe
-    chord = np.sqrt(((p3 - p0) ** 2).sum(axis=1))
+    chord = np.sqrt((p3[0] - p0[0]) ** 2 + (p3[1] - p0[1]) ** 2)
     fallback = ~(np.abs(det) > 1e-12) | (a <= 0) | (b <= 0)
     a = np.where(fallback, chord / 3.0, a)
     b = np.where(fallback, chord / 3.0, b)
-    c1 = p0 + a[:, None] * t0
-    c2 = p3 - b[:, None] * t1
+    c1 = p0.T + a[:, None] * t0
+    c2 = p3.T - b[:, None] * t1
     if grid is not None:
         c1, c2 = np.round(c1 / grid) * grid, np.round(c2 / grid) * grid
     return c1, c2
@@ -317,9 +373,13 @@ def _keeps_sides(exact: Exact, prot: Protected, lo, hi, c1, c2, clearance: float
         return ok
     owner = np.repeat(np.arange(lo.size), count)
     idx = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count) + np.repeat(first, count)
-    curves = flatten_cubic(exact.start[lo], c1, c2, exact.end[hi - 1], _T_FIT)
-    xy = prot.xy[idx]
-    d_new = _distance_to_polylines(xy, curves[owner])
+    curves = _flatten(_planes(exact.start.take(lo, axis=0)), _planes(c1), _planes(c2),
+                      _planes(exact.end.take(hi - 1, axis=0)), _T_FIT)  # (2, R, T)
+    xy = prot.xy.take(idx, axis=1)
+    parts = curves.shape[2] - 1
+    start, end = curves[:, :, :-1].copy(), curves[:, :, 1:].copy()  # contiguous, like _nearest_segment's
+    d_new = _segment_distance(np.repeat(xy, parts, axis=1).reshape(2, -1, parts), start.take(owner, axis=1),
+                              end.take(owner, axis=1)).min(axis=1)
     too_near = d_new < np.minimum(np.abs(prot.dist[idx]), clearance) - 1e-9
     crossed = _between(xy, owner, curves, lo, hi, exact)
     ok[owner[too_near | crossed]] = False
@@ -328,38 +388,39 @@ def _keeps_sides(exact: Exact, prot: Protected, lo, hi, c1, c2, clearance: float
 
 def _between(xy: np.ndarray, owner: np.ndarray, curves: np.ndarray, lo: np.ndarray, hi: np.ndarray,
              exact: Exact) -> np.ndarray:
-    """Whether each point lies between its candidate curve and the exact run it replaces
-    (inside the closed polygon of the two, which share their end points): the curve has
-    passed over the point, which changes side. Even-odd ray casting towards +x."""
+    """Whether each point (``xy``: (2, N) planes) lies between its candidate curve (``curves``:
+    (2, R, T) polylines) and the exact run it replaces (inside the closed polygon of the two,
+    which share their end points): the curve has passed over the point, which changes side.
+    Even-odd ray casting towards +x."""
+    n_curve = curves.shape[2]
     n_seg = hi - lo
     n_exact = n_seg * _T_ORIG.size  # exact polygon edges: the samples, then back to the start
-    n_edges = (curves.shape[1] - 1) + n_exact
+    n_edges = (n_curve - 1) + n_exact
     e_owner = np.repeat(np.arange(lo.size), n_edges)
     k = np.arange(int(n_edges.sum())) - np.repeat(np.cumsum(n_edges) - n_edges, n_edges)
-    on_curve = k < curves.shape[1] - 1
-    j = np.where(on_curve, 0, k - (curves.shape[1] - 1))  # index along the exact samples
+    on_curve = k < n_curve - 1
+    j = np.where(on_curve, 0, k - (n_curve - 1))  # index along the exact samples
     seg, part = np.divmod(j, _T_ORIG.size)
-    seg = np.repeat(lo, n_edges) + seg
-    sample = exact.samples[np.minimum(seg, exact.samples.shape[0] - 1), part]
-    last = (part == _T_ORIG.size - 1)
-    nxt = np.where(last[:, None], exact.end[np.minimum(seg, exact.end.shape[0] - 1)],
-                   exact.samples[np.minimum(seg, exact.samples.shape[0] - 1), np.minimum(part + 1, _T_ORIG.size - 1)])
-    kc = np.minimum(k, curves.shape[1] - 2)
-    a = np.where(on_curve[:, None], curves[e_owner, kc], sample)
-    b = np.where(on_curve[:, None], curves[e_owner, kc + 1], nxt)
+    seg = np.minimum(np.repeat(lo, n_edges) + seg, exact.end.shape[0] - 1)
+    # the exact polyline of a segment is its samples and its end: an edge from point part to part + 1
+    polyline = exact.polyline.reshape(2, -1)
+    at = seg * (_T_ORIG.size + 1) + part
+    kc = e_owner * n_curve + np.minimum(k, n_curve - 2)
+    flat_curves = curves.reshape(2, -1)
+    a = np.where(on_curve, flat_curves.take(kc, axis=1), polyline.take(at, axis=1))
+    b = np.where(on_curve, flat_curves.take(kc + 1, axis=1), polyline.take(at + 1, axis=1))
     # pairs (point, edge of its candidate's polygon)
     first = np.cumsum(n_edges) - n_edges
     per_point = n_edges[owner]
-    p_idx = np.repeat(np.arange(xy.shape[0]), per_point)
+    p_idx = np.repeat(np.arange(xy.shape[1]), per_point)
     e_idx = np.arange(int(per_point.sum())) - np.repeat(np.cumsum(per_point) - per_point, per_point) \
         + np.repeat(first[owner], per_point)
-    q, ea, eb = xy[p_idx], a[e_idx], b[e_idx]
-    straddle = (ea[:, 1] > q[:, 1]) != (eb[:, 1] > q[:, 1])
-    dy = eb[:, 1] - ea[:, 1]
-    x_at = ea[:, 0] + (q[:, 1] - ea[:, 1]) * (eb[:, 0] - ea[:, 0]) / np.where(dy == 0, 1.0, dy)
-    hits = np.bincount(p_idx, weights=straddle & (x_at > q[:, 0]), minlength=xy.shape[0])
+    (qx, qy), (ax, ay), (bx, by) = xy.take(p_idx, axis=1), a.take(e_idx, axis=1), b.take(e_idx, axis=1)
+    straddle = (ay > qy) != (by > qy)
+    dy = by - ay
+    x_at = ax + (qy - ay) * (bx - ax) / np.where(dy == 0, 1.0, dy)
+    hits = np.bincount(p_idx, weights=straddle & (x_at > qx), minlength=xy.shape[1])
     return hits.astype(np.int64) % 2 == 1
-
 
 
 # --- geometry helpers -----------------------------------------------------------------------
@@ -385,11 +446,31 @@ def _unit(v: np.ndarray) -> np.ndarray:
 
 
 def _segment_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance of points ``q`` to segments ``ab``, all x and y planes ``(2, ...)`` of one
+    shape. In place where it can: these arrays are large, and fresh memory costs more here
+    than the arithmetic."""
     ab = b - a
-    t = np.clip(_dot(q - a, ab) / np.maximum(_dot(ab, ab), 1e-300), 0.0, 1.0)
-    return _norm(q - (a + t[..., None] * ab))
+    qa = q - a
+    t = np.multiply(qa[0], ab[0])
+    t += np.multiply(qa[1], ab[1], out=qa[1])
+    length2 = np.multiply(ab[0], ab[0], out=qa[0])
+    length2 += np.multiply(ab[1], ab[1], out=qa[1])
+    t /= np.maximum(length2, 1e-300, out=length2)
+    np.minimum(np.maximum(t, 0.0, out=t), 1.0, out=t)  # np.clip without its Python overhead
+    off = np.subtract(q, np.add(a, np.multiply(ab, t, out=ab), out=ab), out=ab)
+    dist = np.multiply(off[0], off[0], out=t)
+    dist += np.multiply(off[1], off[1], out=off[1])
+    return np.sqrt(dist, out=dist)
 
 
-def _distance_to_polylines(q: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Distance of points ``(M, 2)`` to their polylines ``(M, V, 2)``."""
-    return _segment_distance(q[:, None], poly[:, :-1], poly[:, 1:]).min(axis=1)
+def _planes(points: np.ndarray) -> np.ndarray:
+    """``(2, N)`` x and y planes of ``(N, 2)`` points. The numerics work on planes: an
+    operation on (N, 2) points that broadcasts a per-point number, or picks rows by index,
+    runs an inner loop of 2 per point in numpy, several times slower; the arithmetic per
+    coordinate is the same, so are the numbers."""
+    return np.ascontiguousarray(points.T)
+
+
+def _flatten(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, p3: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """``(2, R, T)``: the points of cubics with ``(2, R)`` control planes at parameters ``t``."""
+    return evaluate_cubic(p0[..., None], p1[..., None], p2[..., None], p3[..., None], t)

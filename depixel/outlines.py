@@ -288,25 +288,27 @@ def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, kee
     end = np.empty((total, 2))
     span = np.full(total, -1, np.int64)
     line = ~curved[step]
-    end[line] = _on_grid(image.points[y[step[line]]], grid)
+    end[line] = _on_grid(image.points.take(y[step[line]], axis=0), grid)
     p = piece[step]
     on = ~line
     fwd = on & along[step]
     rev = on & ~along[step]
     src = pieces.ptr[np.maximum(p, 0)] + index
-    kind[fwd], ctrl[fwd], end[fwd] = pieces.kind[src[fwd]], pieces.ctrl[src[fwd]], pieces.end[src[fwd]]
-    ctrl2[fwd] = pieces.ctrl2[src[fwd]]
+    at = src[fwd]
+    kind[fwd], ctrl[fwd], end[fwd] = pieces.kind[at], pieces.ctrl.take(at, axis=0), pieces.end.take(at, axis=0)
+    ctrl2[fwd] = pieces.ctrl2.take(at, axis=0)
     span[fwd] = pieces.span_slot[src[fwd]]
     m = length[np.maximum(p, 0)]
     back = pieces.ptr[np.maximum(p, 0)] + m - 1 - index  # the segment traversed backwards
     kind[rev] = pieces.kind[back[rev]]
     reversed_cubic = pieces.kind[back[rev]] == CUBIC  # a cubic backwards swaps its control points
-    ctrl[rev] = np.where(reversed_cubic[:, None], pieces.ctrl2[back[rev]], pieces.ctrl[back[rev]])
-    ctrl2[rev] = np.where(reversed_cubic[:, None], pieces.ctrl[back[rev]], pieces.ctrl2[back[rev]])
+    at = back[rev]
+    ctrl[rev] = np.where(reversed_cubic[:, None], pieces.ctrl2.take(at, axis=0), pieces.ctrl.take(at, axis=0))
+    ctrl2[rev] = np.where(reversed_cubic[:, None], pieces.ctrl.take(at, axis=0), pieces.ctrl2.take(at, axis=0))
     span[rev] = pieces.span_slot[back[rev]]
     at_start = rev & (back == pieces.ptr[np.maximum(p, 0)])
-    end[rev & ~at_start] = pieces.end[back[rev & ~at_start] - 1]
-    end[at_start] = pieces.start[p[at_start]]
+    end[rev & ~at_start] = pieces.end.take(back[rev & ~at_start] - 1, axis=0)
+    end[at_start] = pieces.start.take(p[at_start], axis=0)
     seg_loop = loop_of[step]
     # where a loop goes on along its curve through a junction, the two halves of the span
     # there (the end of one piece, the start of the next) are that one span
@@ -336,12 +338,12 @@ def _merge_lines(kind, ctrl, ctrl2, end, loop_ptr, grid):
     first, last = loop_ptr[:-1][loop_of], loop_ptr[1:][loop_of] - 1
     before = np.where(k == first, last, k - 1)
     after = np.where(k == last, first, k + 1)
-    start = end[before]
+    start = end.take(before, axis=0)
     tol = 1e-12 if grid is None else 0.25 * grid * grid
     line = kind == LINE
-    a, b = end - start, end[after] - end
+    a, b = end - start, end.take(after, axis=0) - end
     turn = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    merge = line & line[after] & (np.abs(turn) <= tol) & ((a * b).sum(axis=1) > 0) & (after != k)
+    merge = line & line[after] & (np.abs(turn) <= tol) & (a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] > 0) & (after != k)
     if not merge.any():
         return kind, ctrl, ctrl2, end, loop_ptr
     keep = ~merge
@@ -349,4 +351,4 @@ def _merge_lines(kind, ctrl, ctrl2, end, loop_ptr, grid):
     keep |= (kept_per_loop[loop_of] == 0) & (k == last)  # never drop every segment of a loop
     loop_of = loop_of[keep]
     loop_ptr = np.searchsorted(loop_of, np.arange(loop_ptr.size)).astype(np.int64)
-    return kind[keep], ctrl[keep], ctrl2[keep], end[keep], loop_ptr
+    return kind[keep], ctrl.compress(keep, axis=0), ctrl2.compress(keep, axis=0), end.compress(keep, axis=0), loop_ptr

@@ -54,15 +54,18 @@ def simplify_pieces(pieces: BoundaryPieces, image: VectorImage, tolerance: float
     # halved until a cubic fits or one segment is left
     lo, hi = _chunks(pieces.ptr, _CHUNK)
     fitted: list[tuple[np.ndarray, ...]] = []
+    failed = []  # ranges that did not fit (a fit depends on its range alone)
     while lo.size:
         kind, c1, c2, ok = _fit_checked(exact, protected, lo, hi, tolerance, clearance, grid)
-        fitted.append((lo[ok], hi[ok], kind[ok], c1[ok], c2[ok]))
+        fitted.append((lo[ok], hi[ok], kind[ok], c1.compress(ok, axis=0), c2.compress(ok, axis=0)))
         lo, hi = lo[~ok], hi[~ok]
+        failed.append(_range_keys(lo, hi, pieces.ptr))
         mid = (lo + hi) // 2
         lo, hi = np.concatenate([lo, mid]), np.concatenate([mid, hi])
         more = hi - lo > 1
         lo, hi = lo[more], hi[more]
-    fitted = _merge_neighbours(exact, protected, pieces.ptr, fitted, tolerance, clearance, grid)
+    fitted = _merge_neighbours(exact, protected, pieces.ptr, fitted, np.sort(np.concatenate(failed)) if failed
+                               else np.zeros(0, np.int64), tolerance, clearance, grid)
     return _assemble(pieces, fitted)
 
 
@@ -91,28 +94,40 @@ def _chunks(ptr: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
-def _merge_neighbours(exact, protected, ptr, fitted, tolerance, clearance, grid):
-    """Try once to fit one curve over two neighbouring fitted ranges of a piece."""
+def _range_keys(lo: np.ndarray, hi: np.ndarray, ptr: np.ndarray) -> np.ndarray:
+    """One int64 number per range [lo, hi) of exact segments (``ptr[-1]`` of them)."""
+    return lo.astype(np.int64) * (int(ptr[-1]) + 1) + hi
+
+
+def _merge_neighbours(exact, protected, ptr, fitted, failed, tolerance, clearance, grid):
+    """Try once to fit one curve over two neighbouring fitted ranges of a piece (not
+    again over a range that did not fit before: ``failed``, sorted :func:`_range_keys`)."""
     if not fitted:
         return fitted
     lo, hi, kinds, c1, c2 = (np.concatenate([f[i] for f in fitted]) for i in range(5))
     order = np.argsort(lo, kind="stable")
-    lo, hi, kinds, c1, c2 = lo[order], hi[order], kinds[order], c1[order], c2[order]
+    lo, hi, kinds, c1, c2 = lo[order], hi[order], kinds[order], c1.take(order, axis=0), c2.take(order, axis=0)
     piece_of = np.searchsorted(ptr, lo, side="right") - 1
     for parity in (0, 1):
         if lo.size < 2:
             break
         touching = (hi[:-1] == lo[1:]) & (piece_of[:-1] == piece_of[1:])
         a = np.flatnonzero(touching & (np.arange(lo.size - 1) % 2 == parity))
+        key = _range_keys(lo[a], hi[a + 1], ptr)
+        at = np.minimum(np.searchsorted(failed, key), failed.size - 1)
+        a = a[(failed[at] != key) if failed.size else slice(None)]
         if a.size == 0:
             continue
         mk, m1, m2, ok = _fit_checked(exact, protected, lo[a], hi[a + 1], tolerance, clearance, grid)
-        a, mk, m1, m2 = a[ok], mk[ok], m1[ok], m2[ok]
+        a, mk, m1, m2 = a[ok], mk[ok], m1.compress(ok, axis=0), m2.compress(ok, axis=0)
         hi[a] = hi[a + 1]
-        kinds[a], c1[a], c2[a] = mk, m1, m2
+        kinds[a] = mk
+        for axis in range(2):  # 1-d assignments: (N, 2) rows one by one are slow
+            c1[a, axis], c2[a, axis] = m1[:, axis], m2[:, axis]
         keep = np.ones(lo.size, bool)
         keep[a + 1] = False
-        lo, hi, kinds, c1, c2, piece_of = lo[keep], hi[keep], kinds[keep], c1[keep], c2[keep], piece_of[keep]
+        lo, hi, kinds, piece_of = lo[keep], hi[keep], kinds[keep], piece_of[keep]
+        c1, c2 = c1.compress(keep, axis=0), c2.compress(keep, axis=0)
     return [(lo, hi, kinds, c1, c2)]
 
 def _assemble(pieces: BoundaryPieces, fitted) -> BoundaryPieces:
@@ -129,11 +144,13 @@ def _assemble(pieces: BoundaryPieces, fitted) -> BoundaryPieces:
     np.add.at(cover, his, -1)
     replaced = np.cumsum(cover)[:n] > 0
     keep = ~replaced | (head >= 0)
-    kind = np.where(head >= 0, kinds[np.maximum(head, 0)] if los.size else CUBIC, pieces.kind).astype(np.uint8)
-    ctrl = np.where((head >= 0)[:, None], c1s[np.maximum(head, 0)] if los.size else 0.0, pieces.ctrl)
-    ctrl2 = np.where((head >= 0)[:, None], c2s[np.maximum(head, 0)] if los.size else 0.0, pieces.ctrl2)
-    end = np.where((head >= 0)[:, None], pieces.end[np.maximum(his[np.maximum(head, 0)] - 1, 0)] if los.size else 0.0,
+    at = np.maximum(head, 0)
+    kind = np.where(head >= 0, kinds[at] if los.size else CUBIC, pieces.kind).astype(np.uint8)
+    ctrl = np.where((head >= 0)[:, None], c1s.take(at, axis=0) if los.size else 0.0, pieces.ctrl)
+    ctrl2 = np.where((head >= 0)[:, None], c2s.take(at, axis=0) if los.size else 0.0, pieces.ctrl2)
+    end = np.where((head >= 0)[:, None], pieces.end.take(np.maximum(his[at] - 1, 0), axis=0) if los.size else 0.0,
                    pieces.end)
     piece = np.repeat(np.arange(len(pieces)), np.diff(pieces.ptr))[keep]
     ptr = np.searchsorted(piece, np.arange(len(pieces) + 1)).astype(np.int64)
-    return pieces.replace_segments(pieces.start, ptr, kind[keep], ctrl[keep], end[keep], ctrl2[keep])
+    return pieces.replace_segments(pieces.start, ptr, kind[keep], ctrl.compress(keep, axis=0),
+                                   end.compress(keep, axis=0), ctrl2.compress(keep, axis=0))

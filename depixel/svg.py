@@ -183,8 +183,8 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     use_rel = flags_rel.length < flags_abs.length
     use_rel &= cmd != Z
     letter = np.where(use_rel, cmd + 8, cmd)  # 0-7 upper case, 8-15 lower case
-    prev_letter = np.r_[-1, letter[:-1]]
-    new_shape = np.r_[True, shape_of_cmd[1:] != shape_of_cmd[:-1]]
+    prev_letter = _prepend(-1, letter[:-1])
+    new_shape = _prepend(True, shape_of_cmd[1:] != shape_of_cmd[:-1])
     implicit = ((letter == prev_letter) & (cmd != M) & (cmd != Z)) | \
         ((letter == L) & (prev_letter == M)) | ((letter == L + 8) & (prev_letter == M + 8))
     implicit &= ~new_shape
@@ -202,7 +202,7 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     num_k = np.arange(num_cmd.size) - np.repeat(np.cumsum(n_num) - n_num, n_num)
     num_pos = tok_start[num_cmd] + (~implicit[num_cmd]) + num_k
     rel_num = use_rel[num_cmd]
-    flat = num_cmd * _W + num_k
+    flat = num_cmd * _W + num_k  # the number's place in (C, 6) argument tables
     minus = np.where(rel_num, flags_rel.minus[flat], flags_abs.minus[flat])
     dot_start = np.where(rel_num, flags_rel.dot_start[flat], flags_abs.dot_start[flat])
     has_dot = np.where(rel_num, flags_rel.has_dot[flat], flags_abs.has_dot[flat])
@@ -212,16 +212,16 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     # with "-", or with "." after a number that has a point
     tok_has_dot = np.zeros(n_tok, bool)
     tok_has_dot[num_pos] = has_dot
-    prev_is_number = np.r_[False, is_number[:-1]]
+    prev_is_number = _prepend(False, is_number[:-1])
     sep = np.zeros(n_tok, bool)
-    sep[num_pos] = prev_is_number[num_pos] & ~minus & ~(dot_start & np.r_[False, tok_has_dot[:-1]][num_pos])
+    sep[num_pos] = prev_is_number[num_pos] & ~minus & ~(dot_start & _prepend(False, tok_has_dot[:-1])[num_pos])
     tok_shape = np.repeat(shape_of_cmd, tok_count)
-    sep &= np.r_[False, tok_shape[1:] == tok_shape[:-1]]
+    sep &= _prepend(False, tok_shape[1:] == tok_shape[:-1])
 
     table, (letter_row, abs_row, rel_row, space_row) = stack([letters, texts_abs, texts_rel, Texts.of([" "])])
     row = np.empty(n_tok, np.int64)
     row[tok_start[~implicit]] = letter_row + letter[~implicit]
-    row[num_pos] = np.where(rel_num, rel_row, abs_row) + flat
+    row[num_pos] = np.where(rel_num, rel_row, abs_row) + np.cumsum(_used(arity).ravel())[flat] - 1  # used only
     # interleave the separators: token i becomes [space] + token
     out_count = 1 + sep.astype(np.int64)
     out_start = np.cumsum(out_count) - out_count
@@ -238,6 +238,15 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     return [text[bounds[i] : bounds[i + 1]] for i in range(len(outlines))]
 
 
+def _prepend(first: int | bool, values: np.ndarray) -> np.ndarray:
+    """``np.r_[first, values]`` (of ``values``' dtype) without the cost of ``np.r_``, ~10 µs
+    a call, ten calls a batch of shapes."""
+    out = np.empty(values.size + 1, values.dtype)
+    out[0] = first
+    out[1:] = values
+    return out
+
+
 def _commands(outlines: Outlines, unit: float) -> tuple[np.ndarray, np.ndarray]:
     """Command codes and absolute arguments (``(C, 6)`` int64 in 10^-precision units) of
     every path: per loop M, its segments (the last one left out when it is a line: Z draws
@@ -250,7 +259,7 @@ def _commands(outlines: Outlines, unit: float) -> tuple[np.ndarray, np.ndarray]:
     loop_len = np.diff(outlines.loop_ptr)
     seg_loop = np.repeat(np.arange(n_loop), loop_len)
     last = outlines.loop_ptr[1:] - 1
-    start = end[last]  # each loop starts where its last segment ends
+    start = end.take(last, axis=0)  # each loop starts where its last segment ends
     seg_start = np.roll(end, 1, axis=0)
     seg_start[outlines.loop_ptr[:-1]] = start
     drop = np.zeros(kind.size, bool)
@@ -266,70 +275,68 @@ def _commands(outlines: Outlines, unit: float) -> tuple[np.ndarray, np.ndarray]:
     horizontal = (kind == LINE) & (end[:, 1] == seg_start[:, 1])
     vertical = (kind == LINE) & (end[:, 0] == seg_start[:, 0]) & ~horizontal
     code = np.where(horizontal, H, np.where(vertical, V, code))
-    args = np.zeros((kind.size, _W), np.int64)
-    args[:, :2] = end
-    args[code == H, 0] = end[code == H, 0]
-    args[code == V, 0] = end[code == V, 1]
-    quad = code == Q
-    args[quad, :2] = ctrl[quad]
-    args[quad, 2:4] = end[quad]
-    cubic = code == C
-    args[cubic, :2] = ctrl[cubic]
-    args[cubic, 2:4] = ctrl2[cubic]
-    args[cubic, 4:6] = end[cubic]
-
-    # interleave: loop l = [M start] + its kept segments + [Z]
+    # the arguments column by column (whole columns: numpy handles rows of (K, 6) one by one):
+    # lines and T their end (H its x, V its y), Q control and end, C both controls and end
+    quad, cubic = code == Q, code == C
+    curve = quad | cubic
+    zero = np.zeros(kind.size, np.int64)
+    columns = [np.where(curve, ctrl[:, 0], np.where(code == V, end[:, 1], end[:, 0])),
+               np.where(curve, ctrl[:, 1], end[:, 1]),
+               np.where(quad, end[:, 0], np.where(cubic, ctrl2[:, 0], zero)),
+               np.where(quad, end[:, 1], np.where(cubic, ctrl2[:, 1], zero)),
+               np.where(cubic, end[:, 0], zero), np.where(cubic, end[:, 1], zero)]
+    # interleave: loop l = [M start] + its kept segments + [Z], as rows of one table:
+    # the segments' arguments, then each loop's M, then a row of zeros for Z
+    table = np.stack(columns, axis=1)
+    moves = np.zeros((n_loop, _W), np.int64)
+    moves[:, :2] = start
+    table = np.concatenate([table, moves, np.zeros((1, _W), np.int64)])
     keep = ~drop
     per_loop = np.bincount(seg_loop[keep], minlength=n_loop) + 2
     loop_first = np.cumsum(per_loop) - per_loop
     total = int(per_loop.sum())
     cmd = np.empty(total, np.int64)
-    out = np.zeros((total, _W), np.int64)
+    source = np.full(total, table.shape[0] - 1)  # the table row of every command
     cmd[loop_first] = M
-    out[loop_first, :2] = start
+    source[loop_first] = kind.size + np.arange(n_loop)
     cmd[loop_first + per_loop - 1] = Z
     seg_index = np.flatnonzero(keep)
     rank_in_loop = np.arange(seg_index.size) - np.repeat(np.cumsum(per_loop - 2) - (per_loop - 2), per_loop - 2)
     pos = loop_first[seg_loop[seg_index]] + 1 + rank_in_loop
     cmd[pos] = code[seg_index]
-    out[pos] = args[seg_index]
-    return cmd, out
+    source[pos] = seg_index
+    return cmd, table.take(source, axis=0)
 
 
 def _relative(cmd: np.ndarray, absolute: np.ndarray, shape_of_cmd: np.ndarray) -> np.ndarray:
     """The arguments relative to the current point before each command."""
     n = cmd.size
-    # end point of every command (Z returns to its loop's M)
-    end = np.zeros((n, 2), np.int64)
-    x_only, y_only = cmd == H, cmd == V
-    pair = ~(x_only | y_only) & (cmd != Z)
-    end_col = np.where((cmd == Q)[:, None], absolute[:, 2:4], np.where((cmd == C)[:, None], absolute[:, 4:6],
-                                                                         absolute[:, 0:2]))
-    # H keeps y, V keeps x: fill those from the running point below
-    loop_m = np.maximum.accumulate(np.where(cmd == M, np.arange(n), 0))
-    end[pair] = end_col[pair]
-    end[cmd == Z] = absolute[loop_m[cmd == Z], 0:2]
+    rows = np.arange(n)
+    x_only, y_only, close = cmd == H, cmd == V, cmd == Z
+    pair = ~(x_only | y_only | close)
+    # end point of every command (Z returns to its loop's M; H and V set one coordinate)
+    loop_m = np.maximum.accumulate(np.where(cmd == M, rows, 0))
+    end_at = np.where(close, loop_m * _W, rows * _W + np.where(cmd == Q, 2, np.where(cmd == C, 4, 0)))
+    flat = absolute.ravel()
+    sets = pair | close
+    end_x, end_y = np.where(sets, flat[end_at], 0), np.where(sets, flat[end_at + 1], 0)
     # propagate x (for V) and y (for H): the last command that set that coordinate
-    set_x = pair | x_only | (cmd == Z)
-    set_y = pair | y_only | (cmd == Z)
-    x_src = np.maximum.accumulate(np.where(set_x, np.arange(n), 0))
-    y_src = np.maximum.accumulate(np.where(set_y, np.arange(n), 0))
-    x_val = np.where(x_only, absolute[:, 0], end[:, 0])
-    y_val = np.where(y_only, absolute[:, 0], end[:, 1])
-    cur = np.stack([x_val[x_src], y_val[y_src]], axis=1)  # current point after each command
-    before = np.zeros((n, 2), np.int64)
-    before[1:] = cur[:-1]
-    new_shape = np.r_[True, shape_of_cmd[1:] != shape_of_cmd[:-1]]
-    before[new_shape] = 0
-    rel = absolute.copy()
-    rel[pair, 0:2] -= before[pair]
-    q = (cmd == Q) | (cmd == C)
-    rel[q, 2:4] -= before[q]
-    c = cmd == C
-    rel[c, 4:6] -= before[c]
-    rel[x_only, 0] -= before[x_only, 0]
-    rel[y_only, 0] -= before[y_only, 1]
-    return rel
+    x_src = np.maximum.accumulate(np.where(sets | x_only, rows, 0))
+    y_src = np.maximum.accumulate(np.where(sets | y_only, rows, 0))
+    x_val = np.where(x_only, absolute[:, 0], end_x)
+    y_val = np.where(y_only, absolute[:, 0], end_y)
+    # the current point before each command (the origin at a new path)
+    new_shape = _prepend(True, shape_of_cmd[1:] != shape_of_cmd[:-1])
+    before_x = np.where(new_shape, 0, _prepend(0, x_val[x_src][:-1]))
+    before_y = np.where(new_shape, 0, _prepend(0, y_val[y_src][:-1]))
+    two = (cmd == Q) | (cmd == C)  # commands with a second and a third point
+    three = cmd == C
+    zero = np.zeros(n, np.int64)
+    offset = np.stack([np.where(pair | x_only, before_x, np.where(y_only, before_y, zero)),
+                       np.where(pair, before_y, zero),
+                       np.where(two, before_x, zero), np.where(two, before_y, zero),
+                       np.where(three, before_x, zero), np.where(three, before_y, zero)], axis=1)
+    return absolute - offset
 
 
 class _Flags:
@@ -340,17 +347,24 @@ class _Flags:
         self.minus, self.dot_start, self.has_dot, self.length = minus, dot_start, has_dot, length
 
 
+def _used(arity: np.ndarray) -> np.ndarray:
+    """``(C, 6)``: which argument columns each command uses."""
+    return np.arange(_W)[None, :] < arity[:, None]
+
+
 def _format(args: np.ndarray, arity: np.ndarray, precision: int) -> tuple[Texts, _Flags]:
-    """Compact text of every argument (one string per number, ``(C*6,)`` rows) and flags."""
+    """Compact text of every argument a command uses (one string per number, in order) and
+    flags of all ``(C*6,)`` arguments."""
     values = args.ravel()
-    texts = numbers(values / 10.0**precision, precision, compact=True)
+    used = _used(arity)
+    texts = numbers(values[used.ravel()] / 10.0**precision, precision, compact=True)
     scale = 10**precision
     whole, frac = np.divmod(np.abs(values), scale)
     minus = values < 0
     has_dot = frac != 0
     dot_start = (whole == 0) & has_dot & ~minus
-    used = np.arange(_W)[None, :] < arity[:, None]
-    length = texts.length.reshape(-1, _W)
+    length = np.zeros(args.shape, np.int64)
+    length[used] = texts.length
     # a space between two numbers of one command unless the second starts with "-" or "."
     sep = np.zeros((args.shape[0], _W), bool)
     m, d, hd = minus.reshape(-1, _W), dot_start.reshape(-1, _W), has_dot.reshape(-1, _W)

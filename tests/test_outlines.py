@@ -448,6 +448,24 @@ def test_a_pixel_reached_only_through_a_diagonal_is_covered_by_the_face_around_i
     assert centres[3, 3] >= 250  # the g shape covers the pocket
 
 
+@pytest.mark.parametrize("name", ["ghost.png", "mushroom.png"])
+def test_the_one_pass_and_the_two_pass_fit_give_the_same_curves(name, monkeypatch):
+    """curvefit.fit tests a range's quadratic and cubic in one pass when there are few
+    ranges, the cubic only where the quadratic failed when there are many: a speed choice
+    that must not show in the result."""
+    import depixel.curvefit as curvefit
+
+    vector = depixelize(load_image(fixture_pngs_by_name(name))).vector
+    results = []
+    for fused in (0, 1 << 30):  # always two passes, always one
+        monkeypatch.setattr(curvefit, "FUSED_RANGES", fused)
+        out = build_outlines(vector, "stacked", grid=1e-2, simplify=0.25)
+        results.append((out.kind, np.nan_to_num(out.ctrl, nan=-1), np.nan_to_num(out.ctrl2, nan=-1), out.end))
+    assert (results[0][0] == CUBIC).any() or (results[0][0] == QUAD).any()
+    for a, b in zip(*results):
+        assert a.shape == b.shape and np.array_equal(a, b)
+
+
 def test_simplification_keeps_small_shapes_in_shape():
     """A small closed curve (the ghost's eyes, about 0.6 × 1.6 px) may deviate only by a
     fraction of its size, whatever the tolerance: its area stays within 10 % of the exact
