@@ -59,11 +59,18 @@ def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
         for i in range(2):
             rhs[:, i] += np.bincount(index[a[edge]], displacement[b[edge], i], minlength=m)
     diagonal = degree[free][:, None].astype(np.float64)
+    # x[fv] summed into the rows fu (and x[fu] into fv), both columns by one bincount over
+    # the flattened (M, 2) array: each bin adds its terms in the same order as a bincount
+    # per column would. Rows are gathered with take(axis=0), several times faster than
+    # fancy indexing of an (M, 2) array.
+    to_u = (2 * fu[:, None] + np.arange(2)).ravel()
+    to_v = (2 * fv[:, None] + np.arange(2)).ravel()
 
     def apply(x: np.ndarray) -> np.ndarray:
+        neighbours = np.bincount(to_u, x.take(fv, axis=0).ravel(), minlength=2 * m)
+        neighbours += np.bincount(to_v, x.take(fu, axis=0).ravel(), minlength=2 * m)
         out = diagonal * x
-        for i in range(2):
-            out[:, i] -= np.bincount(fu, x[fv, i], minlength=m) + np.bincount(fv, x[fu, i], minlength=m)
+        out -= neighbours.reshape(m, 2)
         return out
 
     out = positions.copy()
@@ -78,16 +85,23 @@ def conjugate_gradients(apply: Callable[[np.ndarray], np.ndarray], rhs: np.ndarr
     x = np.zeros_like(rhs)
     r = rhs.copy()
     p = r.copy()
-    rr = (r * r).sum(axis=0)
+    rr = column_dots(r, r)
     target = 1e-18 * max(float(rr.max()), 1e-30)
     for _ in range(4 * rhs.shape[0] + 10):
         if rr.max() <= target:
             break
         ap = apply(p)
-        step = rr / np.maximum((p * ap).sum(axis=0), 1e-300)
+        step = rr / np.maximum(column_dots(p, ap), 1e-300)
         x += step * p
         r -= step * ap
-        rr_new = (r * r).sum(axis=0)
-        p = r + (rr_new / np.maximum(rr, 1e-300)) * p
+        rr_new = column_dots(r, r)
+        p *= rr_new / np.maximum(rr, 1e-300)
+        p += r
         rr = rr_new
     return x
+
+
+def column_dots(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(K,) the dot products of the columns of ``a`` and ``b`` (M, K), summed row after row
+    in order (the order of ``(a * b).sum(axis=0)``, at half its cost on long columns)."""
+    return (a * b).cumsum(axis=0)[-1]
