@@ -72,7 +72,11 @@ def centre_clearance(image: VectorImage, pixels: np.ndarray | None = None, sampl
 
 
 def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, samples: int = 3) -> np.ndarray:
-    """:func:`centre_clearance` of a :class:`depixel.splines.Drawing` of ``cells``."""
+    """:func:`centre_clearance` of a :class:`depixel.splines.Drawing` of ``cells``.
+
+    Every segment of the flattened edges is paired with the wanted pixels on its two sides,
+    and all pairs are measured in one pass (the per-pixel minimum of the squared distances,
+    then one square root: the same numbers as a minimum of square roots)."""
     curved_edge = np.zeros(len(cells.edges), bool)
     curved_edge[drawing.edges] = True
     control_row = np.zeros(len(cells.edges), np.int64)  # where each curved edge's controls are
@@ -80,43 +84,40 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
     h, w = cells.shape
     n_px = h * w
     wanted = np.ones(n_px, bool) if pixels is None else pixels
+    wanted_at = np.append(wanted, False)  # indexed by a pixel or -1 (no pixel)
     sides = cells.edge_pixels
-    use = (wanted[np.maximum(sides, 0)] & (sides >= 0)).any(axis=1)
-    pix_all, hits_all, dist_all = [], [], []
-    for curved in (False, True):  # a straight edge is one segment, a curve 2 * samples
-        edge = np.flatnonzero(use & (curved_edge == curved))
-        a, b = drawing.points[cells.edges[edge, 0]], drawing.points[cells.edges[edge, 1]]
-        if curved:
-            poly = flatten_edges(a, drawing.controls[control_row[edge]], b, samples)  # (E', 2 * samples + 1, 2)
-        else:
-            poly = np.stack([a, b], axis=1)
-        p0, p1 = poly[:, :-1], poly[:, 1:]
-        for side in (0, 1):
-            pix = sides[edge, side]
-            has = (pix >= 0) & wanted[np.maximum(pix, 0)]
-            rows, cols = np.divmod(pix[has], w)
-            cx, cy = (cols + 0.5)[:, None], (rows + 0.5)[:, None]
-            q0, q1 = p0[has], p1[has]
-            straddle = (q0[..., 1] > cy) != (q1[..., 1] > cy)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                x_at = q0[..., 0] + (cy - q0[..., 1]) * (q1[..., 0] - q0[..., 0]) / (q1[..., 1] - q0[..., 1])
-            hits_all.append((straddle & (x_at > cx)).sum(axis=1))
-            seg = q1 - q0
-            rel_x, rel_y = cx - q0[..., 0], cy - q0[..., 1]
-            length2 = np.maximum(seg[..., 0] ** 2 + seg[..., 1] ** 2, 1e-12)
-            along = np.clip((rel_x * seg[..., 0] + rel_y * seg[..., 1]) / length2, 0.0, 1.0)
-            dx, dy = rel_x - along * seg[..., 0], rel_y - along * seg[..., 1]
-            dist_all.append(np.sqrt((dx * dx + dy * dy).min(axis=1)))
-            pix_all.append(pix[has])
-    pix = np.concatenate(pix_all)
-    count = np.bincount(pix, weights=np.concatenate(hits_all), minlength=n_px)
+    use = wanted_at[sides[:, 0]] | wanted_at[sides[:, 1]]
+    # the segments: a straight edge is one, a curve 2 * samples
+    straight, curved = np.flatnonzero(use & ~curved_edge), np.flatnonzero(use & curved_edge)
+    points = drawing.points
+    ends = cells.edges.take(curved, axis=0)
+    poly = flatten_edges(points.take(ends[:, 0], axis=0), drawing.controls.take(control_row[curved], axis=0),
+                         points.take(ends[:, 1], axis=0), samples)  # (C, 2 * samples + 1, 2)
+    ends = cells.edges.take(straight, axis=0)
+    p0 = np.concatenate([points.take(ends[:, 0], axis=0), poly[:, :-1].reshape(-1, 2)])
+    p1 = np.concatenate([points.take(ends[:, 1], axis=0), poly[:, 1:].reshape(-1, 2)])
+    segment_edge = np.concatenate([straight, np.repeat(curved, 2 * samples)])
+    # (segment, pixel) pairs: the wanted pixels on either side of each segment
+    pix = sides.take(segment_edge, axis=0)
+    has = wanted_at[pix]
+    segment = np.nonzero(has)[0]
+    pix = pix[has]
+    q0, q1 = p0.take(segment, axis=0), p1.take(segment, axis=0)
+    rows, cols = np.divmod(pix, w)
+    cx, cy = cols + 0.5, rows + 0.5
+    straddle = (q0[:, 1] > cy) != (q1[:, 1] > cy)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x_at = q0[:, 0] + (cy - q0[:, 1]) * (q1[:, 0] - q0[:, 0]) / (q1[:, 1] - q0[:, 1])
+    count = np.bincount(pix[straddle & (x_at > cx)], minlength=n_px)
+    seg = q1 - q0
+    rel_x, rel_y = cx - q0[:, 0], cy - q0[:, 1]
+    length2 = np.maximum(seg[:, 0] ** 2 + seg[:, 1] ** 2, 1e-12)
+    along = np.clip((rel_x * seg[:, 0] + rel_y * seg[:, 1]) / length2, 0.0, 1.0)
+    dx, dy = rel_x - along * seg[:, 0], rel_y - along * seg[:, 1]
     nearest = np.full(n_px, np.inf)
-    if pix.size:
-        order = np.argsort(pix, kind="stable")
-        sorted_pix = pix[order]
-        starts = np.flatnonzero(np.r_[True, sorted_pix[1:] != sorted_pix[:-1]])
-        nearest[sorted_pix[starts]] = np.minimum.reduceat(np.concatenate(dist_all)[order], starts)
-    inside = count.astype(np.int64) % 2 == 1
+    np.minimum.at(nearest, pix, dx * dx + dy * dy)
+    nearest = np.sqrt(nearest)
+    inside = count % 2 == 1
     return np.where(wanted, np.where(inside, nearest, -nearest), np.inf)
 
 
@@ -131,24 +132,26 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
     initial = splines.drawing(start)
     prev, nxt = splines.neighbours()
     n_px = cells.shape[0] * cells.shape[1]
-    floor = np.full(n_px, np.nan)  # min(margin, initial clearance), filled in on demand
+    floor = np.full(n_px, np.nan)  # min(margin, initial clearance), filled in where needed
     reference = initial  # geometry already verified (or initial), to find what changed since
     for _ in range(rounds):
         current = splines.drawing(positions)  # the same curved edges as the reference, in the same order
-        moved = np.abs(current.points - reference.points).max(axis=1) > 1e-12
-        changed = moved[cells.edges].any(axis=1)
-        bent = np.subtract(current.controls, reference.controls)
-        changed[current.edges] |= np.abs(bent, out=bent).max(axis=(1, 2)) > 1e-12
-        del bent
+        moved = _differs(current.points, reference.points)
+        changed = moved[cells.edges[:, 0]] | moved[cells.edges[:, 1]]
+        changed[current.edges] |= _differs(current.controls, reference.controls)
         pixels = np.zeros(n_px, bool)
         sides = cells.edge_pixels[changed].ravel()
         pixels[sides[sides >= 0]] = True
         if not pixels.any():
             break
-        missing = pixels & np.isnan(floor)
+        clearance = _clearance(cells, current, pixels)
+        # a clearance of at least the margin passes whatever the initial clearance: only
+        # the centres below it are measured in the initial drawing
+        low = pixels & (clearance < margin - 1e-9)
+        missing = low & np.isnan(floor)
         if missing.any():
             floor[missing] = np.minimum(_clearance(cells, initial, missing)[missing], margin)
-        ok = ~pixels | (_clearance(cells, current, pixels) >= floor - 1e-9)
+        ok = ~low | (clearance >= floor - 1e-9)
         reference = current
         if ok.all():
             break
@@ -163,3 +166,13 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
         nodes = union(nodes, splines.curve_nodes[on])
         positions[nodes] = start[nodes]
     return positions
+
+
+def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(n,) bool: some coordinate of row i of ``a`` and ``b`` (n, ...) differs by more than
+    1e-12 (the columns are or-ed one by one: a reduction over a short last axis is slow)."""
+    far = (np.abs(a - b) > 1e-12).reshape(len(a), -1)
+    out = far[:, 0].copy()
+    for column in far.T[1:]:
+        out |= column
+    return out
