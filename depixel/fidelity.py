@@ -171,7 +171,7 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
 def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(n,) bool: some coordinate of row i of ``a`` and ``b`` (n, ...) differs by more than
     1e-12 (the columns are or-ed one by one: a reduction over a short last axis is slow)."""
-    far = (np.abs(a - b) > 1e-12).reshape(len(a), -1)
+    far = (np.abs(a - b) > 1e-12).reshape(len(a), int(np.prod(a.shape[1:])))
     out = far[:, 0].copy()
     for column in far.T[1:]:
         out |= column
