@@ -71,12 +71,19 @@ def centre_clearance(image: VectorImage, pixels: np.ndarray | None = None, sampl
     return _clearance(image.cells, Drawing(image.points, curved, image.controls[curved]), pixels, samples)
 
 
-def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, samples: int = 3) -> np.ndarray:
-    """:func:`centre_clearance` of a :class:`depixel.splines.Drawing` of ``cells``.
+def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, samples: int = 3,
+               below: float = np.inf) -> np.ndarray:
+    """:func:`centre_clearance` of a :class:`depixel.splines.Drawing` of ``cells``, exact
+    where it is below ``below``; a centre inside its cell by at least ``below`` gets some
+    value ≥ ``below``.
 
-    Every segment of the flattened edges is paired with the wanted pixels on its two sides,
-    and all pairs are measured in one pass (the per-pixel minimum of the squared distances,
-    then one square root: the same numbers as a minimum of square roots)."""
+    Each edge is paired with the wanted pixels on its two sides. An edge whose bounding box
+    (its end points and Bézier controls) lies more than ``below`` from the centre is not
+    flattened: it cannot bring the centre nearer, and it crosses the centre's ray an odd
+    number of times only if the box lies right of the centre and its ends on both sides of
+    the centre's row. The other pairs are measured segment by segment in one pass (the
+    per-pixel minimum of the squared distances, then one square root: the same numbers as a
+    minimum of square roots). Centres found outside are measured again exactly."""
     curved_edge = np.zeros(len(cells.edges), bool)
     curved_edge[drawing.edges] = True
     control_row = np.zeros(len(cells.edges), np.int64)  # where each curved edge's controls are
@@ -84,31 +91,46 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
     h, w = cells.shape
     n_px = h * w
     wanted = np.ones(n_px, bool) if pixels is None else pixels
-    wanted_at = np.append(wanted, False)  # indexed by a pixel or -1 (no pixel)
-    sides = cells.edge_pixels
-    use = wanted_at[sides[:, 0]] | wanted_at[sides[:, 1]]
-    # the segments: a straight edge is one, a curve 2 * samples
-    straight, curved = np.flatnonzero(use & ~curved_edge), np.flatnonzero(use & curved_edge)
-    points = drawing.points
-    ends = cells.edges.take(curved, axis=0)
-    poly = flatten_edges(points.take(ends[:, 0], axis=0), drawing.controls.take(control_row[curved], axis=0),
-                         points.take(ends[:, 1], axis=0), samples)  # (C, 2 * samples + 1, 2)
-    ends = cells.edges.take(straight, axis=0)
-    p0 = np.concatenate([points.take(ends[:, 0], axis=0), poly[:, :-1].reshape(-1, 2)])
-    p1 = np.concatenate([points.take(ends[:, 1], axis=0), poly[:, 1:].reshape(-1, 2)])
-    segment_edge = np.concatenate([straight, np.repeat(curved, 2 * samples)])
-    # (segment, pixel) pairs: the wanted pixels on either side of each segment
-    pix = sides.take(segment_edge, axis=0)
-    has = wanted_at[pix]
-    segment = np.nonzero(has)[0]
-    pix = pix[has]
-    q0, q1 = p0.take(segment, axis=0), p1.take(segment, axis=0)
+    has = np.append(wanted, False)[cells.edge_pixels]  # (E, 2); a side without a pixel is -1
+    edge = np.nonzero(has)[0]
+    pix = cells.edge_pixels[has]
     rows, cols = np.divmod(pix, w)
     cx, cy = cols + 0.5, rows + 0.5
+    ends = cells.edges.take(edge, axis=0)
+    a, b = drawing.points.take(ends[:, 0], axis=0), drawing.points.take(ends[:, 1], axis=0)
+    count = np.zeros(n_px, np.int64)  # crossings of the ray from each centre towards +x
+    if np.isfinite(below):
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        bent = np.flatnonzero(curved_edge[edge])
+        controls = drawing.controls.take(control_row[edge[bent]], axis=0)
+        for i in range(3):
+            lo[bent] = np.minimum(lo[bent], controls[:, i])
+            hi[bent] = np.maximum(hi[bent], controls[:, i])
+        right = lo[:, 0] - cx > below
+        far = right | (cx - hi[:, 0] > below) | (lo[:, 1] - cy > below) | (cy - hi[:, 1] > below)
+        count += np.bincount(pix[right & ((a[:, 1] > cy) != (b[:, 1] > cy))], minlength=n_px)
+        near = np.flatnonzero(~far)
+        edge, pix, cx, cy, a, b = edge[near], pix[near], cx[near], cy[near], a[near], b[near]
+    # the segments of the pairs left: a straight edge is one, a curve 2 * samples
+    bent = curved_edge[edge]
+    flat = np.zeros(len(cells.edges), bool)
+    flat[edge[bent]] = True
+    flat = np.flatnonzero(flat)  # each curved edge flattened once
+    row = np.zeros(len(cells.edges), np.int64)
+    row[flat] = np.arange(flat.size)
+    ends = cells.edges.take(flat, axis=0)
+    poly = flatten_edges(drawing.points.take(ends[:, 0], axis=0), drawing.controls.take(control_row[flat], axis=0),
+                         drawing.points.take(ends[:, 1], axis=0), samples)  # (F, 2 * samples + 1, 2)
+    poly = poly.take(row[edge[bent]], axis=0)
+    q0 = np.concatenate([a[~bent], poly[:, :-1].reshape(-1, 2)])
+    q1 = np.concatenate([b[~bent], poly[:, 1:].reshape(-1, 2)])
+    pix = np.concatenate([pix[~bent], np.repeat(pix[bent], 2 * samples)])
+    cx = np.concatenate([cx[~bent], np.repeat(cx[bent], 2 * samples)])
+    cy = np.concatenate([cy[~bent], np.repeat(cy[bent], 2 * samples)])
     straddle = (q0[:, 1] > cy) != (q1[:, 1] > cy)
     with np.errstate(divide="ignore", invalid="ignore"):
         x_at = q0[:, 0] + (cy - q0[:, 1]) * (q1[:, 0] - q0[:, 0]) / (q1[:, 1] - q0[:, 1])
-    count = np.bincount(pix[straddle & (x_at > cx)], minlength=n_px)
+    count += np.bincount(pix[straddle & (x_at > cx)], minlength=n_px)
     seg = q1 - q0
     rel_x, rel_y = cx - q0[:, 0], cy - q0[:, 1]
     length2 = np.maximum(seg[:, 0] ** 2 + seg[:, 1] ** 2, 1e-12)
@@ -118,7 +140,11 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
     np.minimum.at(nearest, pix, dx * dx + dy * dy)
     nearest = np.sqrt(nearest)
     inside = count % 2 == 1
-    return np.where(wanted, np.where(inside, nearest, -nearest), np.inf)
+    clearance = np.where(wanted, np.where(inside, nearest, -nearest), np.inf)
+    outside = wanted & ~inside
+    if np.isfinite(below) and outside.any():  # every edge counts for a centre outside
+        clearance[outside] = _clearance(cells, drawing, outside, samples)[outside]
+    return clearance
 
 
 def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
@@ -144,13 +170,13 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
         pixels[sides[sides >= 0]] = True
         if not pixels.any():
             break
-        clearance = _clearance(cells, current, pixels)
+        clearance = _clearance(cells, current, pixels, below=margin)
         # a clearance of at least the margin passes whatever the initial clearance: only
         # the centres below it are measured in the initial drawing
         low = pixels & (clearance < margin - 1e-9)
         missing = low & np.isnan(floor)
         if missing.any():
-            floor[missing] = np.minimum(_clearance(cells, initial, missing)[missing], margin)
+            floor[missing] = np.minimum(_clearance(cells, initial, missing, below=margin)[missing], margin)
         ok = ~low | (clearance >= floor - 1e-9)
         reference = current
         if ok.all():
