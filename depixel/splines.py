@@ -166,7 +166,8 @@ class SplineSet:
         plan = self._snap_plan
         if plan.ends.size:
             for _ in range(self.snap_passes):
-                ctrl[plan.ends] = midpoint(*span(ctrl[plan.before], ctrl[plan.through], ctrl[plan.after],
+                ctrl[plan.ends] = midpoint(*span(ctrl.take(plan.before, axis=0), ctrl.take(plan.through, axis=0),
+                                                 ctrl.take(plan.after, axis=0),
                                                  plan.before_is_end, plan.after_is_end))
         return ctrl
 
@@ -182,7 +183,7 @@ class SplineSet:
     def controls_for(self, positions: np.ndarray) -> np.ndarray:
         """(P, 2) control point of every slot for node ``positions`` (N, 2), with T-junction
         ends snapped."""
-        return self.snap(positions[self.curve_nodes])
+        return self.snap(positions.take(self.curve_nodes, axis=0))
 
     def spans(self, ctrl: np.ndarray) -> Bezier:
         """The quadratic Bézier span ``(start, C_j, stop)`` of every slot, each (P, 2), for
@@ -242,7 +243,8 @@ class SplineSet:
         for part in batch_slices(a.size, GEOMETRY_BATCH):  # the Béziers' temporaries are several times the result
             a_part = a[part]
             b_part = nxt[a_part]
-            trio = between_curve_points(ctrl[a_part], ctrl[b_part], s[a_part], s[b_part], end[a_part], end[b_part])
+            trio = between_curve_points(ctrl.take(a_part, axis=0), ctrl.take(b_part, axis=0), s.take(a_part, axis=0),
+                                        s.take(b_part, axis=0), end[a_part], end[b_part])
             controls[part] = np.where(self.slot_forward[a_part, None, None], trio, trio[:, ::-1])
         return Drawing(display, self.slot_edges[a], controls)
 
