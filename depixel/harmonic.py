@@ -53,55 +53,57 @@ def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
     m = int(free.sum())
     inner = free[u] & free[v]
     fu, fv = index[u[inner]], index[v[inner]]
-    rhs = np.zeros((m, 2))
+    # the unknowns as two rows (x, y) of M: a (2,) factor broadcast over (M, 2) would run
+    # numpy's inner loop two elements at a time
+    rhs = np.zeros((2, m))
     for a, b in ((u, v), (v, u)):  # a free, b fixed
         edge = free[a] & ~free[b]
         for i in range(2):
-            rhs[:, i] += np.bincount(index[a[edge]], displacement[b[edge], i], minlength=m)
-    diagonal = degree[free][:, None].astype(np.float64)
-    # x[fv] summed into the rows fu (and x[fu] into fv), both columns by one bincount over
-    # the flattened (M, 2) array: each bin adds its terms in the same order as a bincount
-    # per column would. Rows are gathered with take(axis=0), several times faster than
-    # fancy indexing of an (M, 2) array.
-    to_u = (2 * fu[:, None] + np.arange(2)).ravel()
-    to_v = (2 * fv[:, None] + np.arange(2)).ravel()
+            rhs[i] += np.bincount(index[a[edge]], displacement[b[edge], i], minlength=m)
+    diagonal = degree[free].astype(np.float64)
+    # x[:, fv] summed into the columns fu (and x[:, fu] into fv), both rows by one bincount
+    # over the flattened (2, M) array: each bin adds its terms in the same order as a
+    # bincount per row would
+    to_u = np.concatenate([fu, fu + m])
+    to_v = np.concatenate([fv, fv + m])
 
     def apply(x: np.ndarray) -> np.ndarray:
-        neighbours = np.bincount(to_u, x.take(fv, axis=0).ravel(), minlength=2 * m)
-        neighbours += np.bincount(to_v, x.take(fu, axis=0).ravel(), minlength=2 * m)
+        neighbours = np.bincount(to_u, x.take(fv, axis=1).ravel(), minlength=2 * m)
+        neighbours += np.bincount(to_v, x.take(fu, axis=1).ravel(), minlength=2 * m)
         out = diagonal * x
-        out -= neighbours.reshape(m, 2)
+        out -= neighbours.reshape(2, m)
         return out
 
     out = positions.copy()
-    out[free] = start[free] + conjugate_gradients(apply, rhs)
+    out[free] = start[free] + conjugate_gradients(apply, rhs).T
     return out
 
 
 def conjugate_gradients(apply: Callable[[np.ndarray], np.ndarray], rhs: np.ndarray) -> np.ndarray:
-    """Solve ``apply(x) = rhs`` for a symmetric positive definite operator, every column of
-    ``rhs`` (M, K) at once, to a residual 1e-9 of the right-hand side's (far below the
+    """Solve ``apply(x) = rhs`` for a symmetric positive definite operator, every row of
+    ``rhs`` (K, M) at once, to a residual 1e-9 of the right-hand side's (far below the
     output precision)."""
     x = np.zeros_like(rhs)
     r = rhs.copy()
     p = r.copy()
-    rr = column_dots(r, r)
+    rr = row_dots(r, r)
     target = 1e-18 * max(float(rr.max()), 1e-30)
-    for _ in range(4 * rhs.shape[0] + 10):
+    for _ in range(4 * rhs.shape[1] + 10):
         if rr.max() <= target:
             break
         ap = apply(p)
-        step = rr / np.maximum(column_dots(p, ap), 1e-300)
+        step = (rr / np.maximum(row_dots(p, ap), 1e-300))[:, None]
         x += step * p
         r -= step * ap
-        rr_new = column_dots(r, r)
-        p *= rr_new / np.maximum(rr, 1e-300)
+        rr_new = row_dots(r, r)
+        p *= (rr_new / np.maximum(rr, 1e-300))[:, None]
         p += r
         rr = rr_new
     return x
 
 
-def column_dots(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(K,) the dot products of the columns of ``a`` and ``b`` (M, K), summed row after row
-    in order (the order of ``(a * b).sum(axis=0)``, at half its cost on long columns)."""
-    return (a * b).cumsum(axis=0)[-1]
+def row_dots(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(K,) the dot products of the rows of ``a`` and ``b`` (K, M), summed element after
+    element in order (``cumsum``: the order of the sums this solver was first written with,
+    ``(a * b).sum(axis=0)`` over (M, K) columns, which its output depends on)."""
+    return (a * b).cumsum(axis=1)[:, -1]
