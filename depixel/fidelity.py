@@ -83,7 +83,8 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
     number of times only if the box lies right of the centre and its ends on both sides of
     the centre's row. The other pairs are measured segment by segment in one pass (the
     per-pixel minimum of the squared distances, then one square root: the same numbers as a
-    minimum of square roots). Centres found outside are measured again exactly."""
+    minimum of square roots). The far edges of the centres found outside are measured
+    after all."""
     curved_edge = np.zeros(len(cells.edges), bool)
     curved_edge[drawing.edges] = True
     control_row = np.zeros(len(cells.edges), np.int64)  # where each curved edge's controls are
@@ -98,7 +99,40 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
     cx, cy = cols + 0.5, rows + 0.5
     ends = cells.edges.take(edge, axis=0)
     a, b = drawing.points.take(ends[:, 0], axis=0), drawing.points.take(ends[:, 1], axis=0)
-    count = np.zeros(n_px, np.int64)  # crossings of the ray from each centre towards +x
+
+    def measure(pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Ray crossings and squared nearest distance (H*W,) of the pairs ``pairs``,
+        segment by segment: a straight edge is one, a curve 2 * samples."""
+        e, p, x, y = edge[pairs], pix[pairs], cx[pairs], cy[pairs]
+        bent = curved_edge[e]
+        flat = np.zeros(len(cells.edges), bool)
+        flat[e[bent]] = True
+        flat = np.flatnonzero(flat)  # each curved edge flattened once
+        row = np.zeros(len(cells.edges), np.int64)
+        row[flat] = np.arange(flat.size)
+        ends = cells.edges.take(flat, axis=0)
+        poly = flatten_edges(drawing.points.take(ends[:, 0], axis=0), drawing.controls.take(control_row[flat], axis=0),
+                             drawing.points.take(ends[:, 1], axis=0), samples)  # (F, 2 * samples + 1, 2)
+        poly = poly.take(row[e[bent]], axis=0)
+        straight = pairs[~bent]
+        q0 = np.concatenate([a.take(straight, axis=0), poly[:, :-1].reshape(-1, 2)])
+        q1 = np.concatenate([b.take(straight, axis=0), poly[:, 1:].reshape(-1, 2)])
+        p = np.concatenate([p[~bent], np.repeat(p[bent], 2 * samples)])
+        x = np.concatenate([x[~bent], np.repeat(x[bent], 2 * samples)])
+        y = np.concatenate([y[~bent], np.repeat(y[bent], 2 * samples)])
+        straddle = (q0[:, 1] > y) != (q1[:, 1] > y)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x_at = q0[:, 0] + (y - q0[:, 1]) * (q1[:, 0] - q0[:, 0]) / (q1[:, 1] - q0[:, 1])
+        crossings = np.bincount(p[straddle & (x_at > x)], minlength=n_px)
+        seg = q1 - q0
+        rel_x, rel_y = x - q0[:, 0], y - q0[:, 1]
+        length2 = np.maximum(seg[:, 0] ** 2 + seg[:, 1] ** 2, 1e-12)
+        along = np.clip((rel_x * seg[:, 0] + rel_y * seg[:, 1]) / length2, 0.0, 1.0)
+        dx, dy = rel_x - along * seg[:, 0], rel_y - along * seg[:, 1]
+        nearest2 = np.full(n_px, np.inf)
+        np.minimum.at(nearest2, p, dx * dx + dy * dy)
+        return crossings, nearest2
+
     if np.isfinite(below):
         lo, hi = np.minimum(a, b), np.maximum(a, b)
         bent = np.flatnonzero(curved_edge[edge])
@@ -108,43 +142,17 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
             hi[bent] = np.maximum(hi[bent], controls[:, i])
         right = lo[:, 0] - cx > below
         far = right | (cx - hi[:, 0] > below) | (lo[:, 1] - cy > below) | (cy - hi[:, 1] > below)
+        count, nearest2 = measure(np.flatnonzero(~far))
         count += np.bincount(pix[right & ((a[:, 1] > cy) != (b[:, 1] > cy))], minlength=n_px)
-        near = np.flatnonzero(~far)
-        edge, pix, cx, cy, a, b = edge[near], pix[near], cx[near], cy[near], a[near], b[near]
-    # the segments of the pairs left: a straight edge is one, a curve 2 * samples
-    bent = curved_edge[edge]
-    flat = np.zeros(len(cells.edges), bool)
-    flat[edge[bent]] = True
-    flat = np.flatnonzero(flat)  # each curved edge flattened once
-    row = np.zeros(len(cells.edges), np.int64)
-    row[flat] = np.arange(flat.size)
-    ends = cells.edges.take(flat, axis=0)
-    poly = flatten_edges(drawing.points.take(ends[:, 0], axis=0), drawing.controls.take(control_row[flat], axis=0),
-                         drawing.points.take(ends[:, 1], axis=0), samples)  # (F, 2 * samples + 1, 2)
-    poly = poly.take(row[edge[bent]], axis=0)
-    q0 = np.concatenate([a[~bent], poly[:, :-1].reshape(-1, 2)])
-    q1 = np.concatenate([b[~bent], poly[:, 1:].reshape(-1, 2)])
-    pix = np.concatenate([pix[~bent], np.repeat(pix[bent], 2 * samples)])
-    cx = np.concatenate([cx[~bent], np.repeat(cx[bent], 2 * samples)])
-    cy = np.concatenate([cy[~bent], np.repeat(cy[bent], 2 * samples)])
-    straddle = (q0[:, 1] > cy) != (q1[:, 1] > cy)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x_at = q0[:, 0] + (cy - q0[:, 1]) * (q1[:, 0] - q0[:, 0]) / (q1[:, 1] - q0[:, 1])
-    count += np.bincount(pix[straddle & (x_at > cx)], minlength=n_px)
-    seg = q1 - q0
-    rel_x, rel_y = cx - q0[:, 0], cy - q0[:, 1]
-    length2 = np.maximum(seg[:, 0] ** 2 + seg[:, 1] ** 2, 1e-12)
-    along = np.clip((rel_x * seg[:, 0] + rel_y * seg[:, 1]) / length2, 0.0, 1.0)
-    dx, dy = rel_x - along * seg[:, 0], rel_y - along * seg[:, 1]
-    nearest = np.full(n_px, np.inf)
-    np.minimum.at(nearest, pix, dx * dx + dy * dy)
-    nearest = np.sqrt(nearest)
+        # a centre outside its cell is measured against every edge (its crossings are counted)
+        again = np.flatnonzero(far & (count[pix] % 2 == 0))
+        if again.size:
+            nearest2 = np.minimum(nearest2, measure(again)[1])
+    else:
+        count, nearest2 = measure(np.arange(edge.size))
+    nearest = np.sqrt(nearest2)
     inside = count % 2 == 1
-    clearance = np.where(wanted, np.where(inside, nearest, -nearest), np.inf)
-    outside = wanted & ~inside
-    if np.isfinite(below) and outside.any():  # every edge counts for a centre outside
-        clearance[outside] = _clearance(cells, drawing, outside, samples)[outside]
-    return clearance
+    return np.where(wanted, np.where(inside, nearest, -nearest), np.inf)
 
 
 def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
