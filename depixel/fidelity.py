@@ -135,11 +135,11 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
 
     if np.isfinite(below):
         lo, hi = np.minimum(a, b), np.maximum(a, b)
-        bent = np.flatnonzero(curved_edge[edge])
-        controls = drawing.controls.take(control_row[edge[bent]], axis=0)
-        for i in range(3):
-            lo[bent] = np.minimum(lo[bent], controls[:, i])
-            hi[bent] = np.maximum(hi[bent], controls[:, i])
+        if drawing.edges.size:
+            controls = drawing.controls.take(control_row[edge], axis=0)  # any row for a straight edge
+            bent = curved_edge[edge][:, None]
+            lo = np.where(bent, np.minimum(np.minimum(np.minimum(lo, controls[:, 0]), controls[:, 1]), controls[:, 2]), lo)
+            hi = np.where(bent, np.maximum(np.maximum(np.maximum(hi, controls[:, 0]), controls[:, 1]), controls[:, 2]), hi)
         right = lo[:, 0] - cx > below
         far = right | (cx - hi[:, 0] > below) | (lo[:, 1] - cy > below) | (cy - hi[:, 1] > below)
         count, nearest2 = measure(np.flatnonzero(~far))
