@@ -25,7 +25,7 @@ def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
     ``reach`` edges of a displaced node; farther free nodes are held at their place (the
     harmonic field has decayed to nothing there), which keeps full frames cheap. The
     solver is conjugate gradients in numpy (the system is symmetric positive definite),
-    run to far below the output precision.
+    run to well below the output precision (:func:`conjugate_gradients`).
     """
     cells = splines.cells
     n = len(start)
@@ -81,13 +81,14 @@ def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
 
 def conjugate_gradients(apply: Callable[[np.ndarray], np.ndarray], rhs: np.ndarray) -> np.ndarray:
     """Solve ``apply(x) = rhs`` for a symmetric positive definite operator, every row of
-    ``rhs`` (K, M) at once, to a residual 1e-9 of the right-hand side's (far below the
-    output precision)."""
+    ``rhs`` (K, M) at once, to a residual 1e-5 of the right-hand side's: on the paper
+    corpus and the game frames the solution is then within 4e-5 px of the converged one,
+    far below the SVG's 0.01 px (half the iterations of a 1e-9 residual)."""
     x = np.zeros_like(rhs)
     r = rhs.copy()
     p = r.copy()
     rr = row_dots(r, r)
-    target = 1e-18 * max(float(rr.max()), 1e-30)
+    target = 1e-10 * max(float(rr.max()), 1e-30)
     for _ in range(4 * rhs.shape[1] + 10):
         if rr.max() <= target:
             break
