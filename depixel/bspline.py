@@ -64,7 +64,8 @@ def slot_spans(ctrl: np.ndarray, prev: np.ndarray, nxt: np.ndarray, end: np.ndar
     Rows of end slots are meaningless (an end point has no span of its own; the curve's
     first and last spans start and stop on it)."""
     p_prev, p_next = np.maximum(prev[part], 0), np.maximum(nxt[part], 0)
-    return span(ctrl[p_prev], ctrl[part], ctrl[p_next], end[p_prev][:, None], end[p_next][:, None])
+    return span(ctrl.take(p_prev, axis=0), ctrl[part], ctrl.take(p_next, axis=0), end[p_prev][:, None],
+                end[p_next][:, None])
 
 
 def midpoint(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> np.ndarray:

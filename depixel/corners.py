@@ -148,23 +148,23 @@ def detect_run_corners(splines: SplineSet, params: Params = Params()) -> np.ndar
     # nodes are at least a quarter pixel apart diagonally (0.35 px): this many steps reach
     steps = int(np.ceil(params.run_reach / 0.35))
 
-    def run(step: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Vector from each slot's node to the far end of its straight run along ``step``,
-        and the slot of that far end (-1 for none). Only the runs still growing are
-        carried from one step to the next, :data:`RUN_BATCH` slots at a time."""
-        chord = np.zeros((node.size, 2))
-        far_slot = np.full(node.size, -1, dtype=np.int64)
-        for part in batch_slices(interior.size, RUN_BATCH):
-            rows = walk = interior[part]  # the runs still growing
+    def run(step: np.ndarray, at: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Vector from the node ``at`` each of ``starts`` to the far end of its straight run
+        along ``step``, and the index of that far end (-1 for none). Only the runs still
+        growing are carried from one step to the next, :data:`RUN_BATCH` at a time."""
+        chord = np.zeros((at.size, 2))
+        far_slot = np.full(at.size, -1, dtype=np.int64)
+        for part in batch_slices(starts.size, RUN_BATCH):
+            rows = walk = starts[part]  # the runs still growing
+            start = q.take(at[rows], axis=0)
             passed = np.empty((rows.size, steps, 2))  # the far node of every earlier step
             for i in range(steps):
                 walk = step[walk]
                 go = walk >= 0
-                rows, walk, passed = rows[go], walk[go], passed[go]
-                far = q[node[walk]]
-                start = q[node[rows]]
+                rows, walk, start, passed = rows[go], walk[go], start[go], passed[go]
+                far = q.take(at[walk], axis=0)
                 candidate = far - start
-                length = np.linalg.norm(candidate, axis=1)
+                length = np.sqrt(candidate[:, 0] * candidate[:, 0] + candidate[:, 1] * candidate[:, 1])
                 # every node passed must stay near the new chord
                 rel = passed[:, :i] - start[:, None]
                 cross = np.abs(candidate[:, None, 0] * rel[..., 1] - candidate[:, None, 1] * rel[..., 0])
@@ -173,7 +173,7 @@ def detect_run_corners(splines: SplineSet, params: Params = Params()) -> np.ndar
                 far_slot[rows[ok]] = walk[ok]
                 go = ok & (length < params.run_reach)
                 passed[:, i] = far
-                rows, walk, passed = rows[go], walk[go], passed[go]
+                rows, walk, start, passed = rows[go], walk[go], start[go], passed[go]
                 if rows.size == 0:
                     break
         return chord, far_slot
@@ -183,12 +183,16 @@ def detect_run_corners(splines: SplineSet, params: Params = Params()) -> np.ndar
         cos = (u * v).sum(axis=1) / np.maximum(np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1), 1e-12)
         return np.arccos(np.clip(cos, -1.0, 1.0))
 
-    back, _ = run(prev)
+    # both directions in one walk: index j + P is slot j walking ahead
+    p = node.size
+    chord, far_slot = run(np.concatenate([prev, np.where(nxt >= 0, nxt + p, -1)]), np.concatenate([node, node]),
+                          np.concatenate([interior, interior + p]))
+    back, ahead_all = chord[:p], chord[p:]
+    ahead_end_all = np.where(far_slot[p:] >= 0, far_slot[p:] - p, -1)
     # both patterns need a long run behind: the rest is tested on those slots alone
     lb = np.linalg.norm(back, axis=1)
     slot = interior[lb[interior] >= long]
     lb, back = lb[slot], back[slot]
-    ahead_all, ahead_end_all = run(nxt)
     ahead, ahead_end = ahead_all[slot], ahead_end_all[slot]
     la = np.linalg.norm(ahead, axis=1)
     incoming = -back  # direction of travel arriving at the node

@@ -71,8 +71,20 @@ def centre_clearance(image: VectorImage, pixels: np.ndarray | None = None, sampl
     return _clearance(image.cells, Drawing(image.points, curved, image.controls[curved]), pixels, samples)
 
 
-def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, samples: int = 3) -> np.ndarray:
-    """:func:`centre_clearance` of a :class:`depixel.splines.Drawing` of ``cells``."""
+def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, samples: int = 3,
+               below: float = np.inf) -> np.ndarray:
+    """:func:`centre_clearance` of a :class:`depixel.splines.Drawing` of ``cells``, exact
+    where it is below ``below``; a centre inside its cell by at least ``below`` gets some
+    value ≥ ``below``.
+
+    Each edge is paired with the wanted pixels on its two sides. An edge whose bounding box
+    (its end points and Bézier controls) lies more than ``below`` from the centre is not
+    flattened: it cannot bring the centre nearer, and it crosses the centre's ray an odd
+    number of times only if the box lies right of the centre and its ends on both sides of
+    the centre's row. The other pairs are measured segment by segment in one pass (the
+    per-pixel minimum of the squared distances, then one square root: the same numbers as a
+    minimum of square roots). The far edges of the centres found outside are measured
+    after all."""
     curved_edge = np.zeros(len(cells.edges), bool)
     curved_edge[drawing.edges] = True
     control_row = np.zeros(len(cells.edges), np.int64)  # where each curved edge's controls are
@@ -80,43 +92,66 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
     h, w = cells.shape
     n_px = h * w
     wanted = np.ones(n_px, bool) if pixels is None else pixels
-    sides = cells.edge_pixels
-    use = (wanted[np.maximum(sides, 0)] & (sides >= 0)).any(axis=1)
-    pix_all, hits_all, dist_all = [], [], []
-    for curved in (False, True):  # a straight edge is one segment, a curve 2 * samples
-        edge = np.flatnonzero(use & (curved_edge == curved))
-        a, b = drawing.points[cells.edges[edge, 0]], drawing.points[cells.edges[edge, 1]]
-        if curved:
-            poly = flatten_edges(a, drawing.controls[control_row[edge]], b, samples)  # (E', 2 * samples + 1, 2)
-        else:
-            poly = np.stack([a, b], axis=1)
-        p0, p1 = poly[:, :-1], poly[:, 1:]
-        for side in (0, 1):
-            pix = sides[edge, side]
-            has = (pix >= 0) & wanted[np.maximum(pix, 0)]
-            rows, cols = np.divmod(pix[has], w)
-            cx, cy = (cols + 0.5)[:, None], (rows + 0.5)[:, None]
-            q0, q1 = p0[has], p1[has]
-            straddle = (q0[..., 1] > cy) != (q1[..., 1] > cy)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                x_at = q0[..., 0] + (cy - q0[..., 1]) * (q1[..., 0] - q0[..., 0]) / (q1[..., 1] - q0[..., 1])
-            hits_all.append((straddle & (x_at > cx)).sum(axis=1))
-            seg = q1 - q0
-            rel_x, rel_y = cx - q0[..., 0], cy - q0[..., 1]
-            length2 = np.maximum(seg[..., 0] ** 2 + seg[..., 1] ** 2, 1e-12)
-            along = np.clip((rel_x * seg[..., 0] + rel_y * seg[..., 1]) / length2, 0.0, 1.0)
-            dx, dy = rel_x - along * seg[..., 0], rel_y - along * seg[..., 1]
-            dist_all.append(np.sqrt((dx * dx + dy * dy).min(axis=1)))
-            pix_all.append(pix[has])
-    pix = np.concatenate(pix_all)
-    count = np.bincount(pix, weights=np.concatenate(hits_all), minlength=n_px)
-    nearest = np.full(n_px, np.inf)
-    if pix.size:
-        order = np.argsort(pix, kind="stable")
-        sorted_pix = pix[order]
-        starts = np.flatnonzero(np.r_[True, sorted_pix[1:] != sorted_pix[:-1]])
-        nearest[sorted_pix[starts]] = np.minimum.reduceat(np.concatenate(dist_all)[order], starts)
-    inside = count.astype(np.int64) % 2 == 1
+    has = np.append(wanted, False)[cells.edge_pixels]  # (E, 2); a side without a pixel is -1
+    edge = np.nonzero(has)[0]
+    pix = cells.edge_pixels[has]
+    rows, cols = np.divmod(pix, w)
+    cx, cy = cols + 0.5, rows + 0.5
+    ends = cells.edges.take(edge, axis=0)
+    a, b = drawing.points.take(ends[:, 0], axis=0), drawing.points.take(ends[:, 1], axis=0)
+
+    def measure(pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Ray crossings and squared nearest distance (H*W,) of the pairs ``pairs``,
+        segment by segment: a straight edge is one, a curve 2 * samples."""
+        e, p, x, y = edge[pairs], pix[pairs], cx[pairs], cy[pairs]
+        bent = curved_edge[e]
+        flat = np.zeros(len(cells.edges), bool)
+        flat[e[bent]] = True
+        flat = np.flatnonzero(flat)  # each curved edge flattened once
+        row = np.zeros(len(cells.edges), np.int64)
+        row[flat] = np.arange(flat.size)
+        ends = cells.edges.take(flat, axis=0)
+        poly = flatten_edges(drawing.points.take(ends[:, 0], axis=0), drawing.controls.take(control_row[flat], axis=0),
+                             drawing.points.take(ends[:, 1], axis=0), samples)  # (F, 2 * samples + 1, 2)
+        poly = poly.take(row[e[bent]], axis=0)
+        straight = pairs[~bent]
+        q0 = np.concatenate([a.take(straight, axis=0), poly[:, :-1].reshape(-1, 2)])
+        q1 = np.concatenate([b.take(straight, axis=0), poly[:, 1:].reshape(-1, 2)])
+        p = np.concatenate([p[~bent], np.repeat(p[bent], 2 * samples)])
+        x = np.concatenate([x[~bent], np.repeat(x[bent], 2 * samples)])
+        y = np.concatenate([y[~bent], np.repeat(y[bent], 2 * samples)])
+        straddle = (q0[:, 1] > y) != (q1[:, 1] > y)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x_at = q0[:, 0] + (y - q0[:, 1]) * (q1[:, 0] - q0[:, 0]) / (q1[:, 1] - q0[:, 1])
+        crossings = np.bincount(p[straddle & (x_at > x)], minlength=n_px)
+        seg = q1 - q0
+        rel_x, rel_y = x - q0[:, 0], y - q0[:, 1]
+        length2 = np.maximum(seg[:, 0] ** 2 + seg[:, 1] ** 2, 1e-12)
+        along = np.clip((rel_x * seg[:, 0] + rel_y * seg[:, 1]) / length2, 0.0, 1.0)
+        dx, dy = rel_x - along * seg[:, 0], rel_y - along * seg[:, 1]
+        nearest2 = np.full(n_px, np.inf)
+        np.minimum.at(nearest2, p, dx * dx + dy * dy)
+        return crossings, nearest2
+
+    if np.isfinite(below):
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        if drawing.edges.size:
+            controls = drawing.controls.take(control_row[edge], axis=0)  # any row for a straight edge
+            bent = curved_edge[edge][:, None]
+            lo = np.where(bent, np.minimum(np.minimum(np.minimum(lo, controls[:, 0]), controls[:, 1]), controls[:, 2]), lo)
+            hi = np.where(bent, np.maximum(np.maximum(np.maximum(hi, controls[:, 0]), controls[:, 1]), controls[:, 2]), hi)
+        right = lo[:, 0] - cx > below
+        far = right | (cx - hi[:, 0] > below) | (lo[:, 1] - cy > below) | (cy - hi[:, 1] > below)
+        count, nearest2 = measure(np.flatnonzero(~far))
+        count += np.bincount(pix[right & ((a[:, 1] > cy) != (b[:, 1] > cy))], minlength=n_px)
+        # a centre outside its cell is measured against every edge (its crossings are counted)
+        again = np.flatnonzero(far & (count[pix] % 2 == 0))
+        if again.size:
+            nearest2 = np.minimum(nearest2, measure(again)[1])
+    else:
+        count, nearest2 = measure(np.arange(edge.size))
+    nearest = np.sqrt(nearest2)
+    inside = count % 2 == 1
     return np.where(wanted, np.where(inside, nearest, -nearest), np.inf)
 
 
@@ -131,24 +166,26 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
     initial = splines.drawing(start)
     prev, nxt = splines.neighbours()
     n_px = cells.shape[0] * cells.shape[1]
-    floor = np.full(n_px, np.nan)  # min(margin, initial clearance), filled in on demand
+    floor = np.full(n_px, np.nan)  # min(margin, initial clearance), filled in where needed
     reference = initial  # geometry already verified (or initial), to find what changed since
     for _ in range(rounds):
         current = splines.drawing(positions)  # the same curved edges as the reference, in the same order
-        moved = np.abs(current.points - reference.points).max(axis=1) > 1e-12
-        changed = moved[cells.edges].any(axis=1)
-        bent = np.subtract(current.controls, reference.controls)
-        changed[current.edges] |= np.abs(bent, out=bent).max(axis=(1, 2)) > 1e-12
-        del bent
+        moved = _differs(current.points, reference.points)
+        changed = moved[cells.edges[:, 0]] | moved[cells.edges[:, 1]]
+        changed[current.edges] |= _differs(current.controls, reference.controls)
         pixels = np.zeros(n_px, bool)
         sides = cells.edge_pixels[changed].ravel()
         pixels[sides[sides >= 0]] = True
         if not pixels.any():
             break
-        missing = pixels & np.isnan(floor)
+        clearance = _clearance(cells, current, pixels, below=margin)
+        # a clearance of at least the margin passes whatever the initial clearance: only
+        # the centres below it are measured in the initial drawing
+        low = pixels & (clearance < margin - 1e-9)
+        missing = low & np.isnan(floor)
         if missing.any():
-            floor[missing] = np.minimum(_clearance(cells, initial, missing)[missing], margin)
-        ok = ~pixels | (_clearance(cells, current, pixels) >= floor - 1e-9)
+            floor[missing] = np.minimum(_clearance(cells, initial, missing, below=margin)[missing], margin)
+        ok = ~low | (clearance >= floor - 1e-9)
         reference = current
         if ok.all():
             break
@@ -163,3 +200,13 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
         nodes = union(nodes, splines.curve_nodes[on])
         positions[nodes] = start[nodes]
     return positions
+
+
+def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(n,) bool: some coordinate of row i of ``a`` and ``b`` (n, ...) differs by more than
+    1e-12 (the columns are or-ed one by one: a reduction over a short last axis is slow)."""
+    far = (np.abs(a - b) > 1e-12).reshape(len(a), int(np.prod(a.shape[1:])))
+    out = far[:, 0].copy()
+    for column in far.T[1:]:
+        out |= column
+    return out

@@ -25,7 +25,7 @@ def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
     ``reach`` edges of a displaced node; farther free nodes are held at their place (the
     harmonic field has decayed to nothing there), which keeps full frames cheap. The
     solver is conjugate gradients in numpy (the system is symmetric positive definite),
-    run to far below the output precision.
+    run to well below the output precision (:func:`conjugate_gradients`).
     """
     cells = splines.cells
     n = len(start)
@@ -53,41 +53,58 @@ def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
     m = int(free.sum())
     inner = free[u] & free[v]
     fu, fv = index[u[inner]], index[v[inner]]
-    rhs = np.zeros((m, 2))
+    # the unknowns as two rows (x, y) of M: a (2,) factor broadcast over (M, 2) would run
+    # numpy's inner loop two elements at a time
+    rhs = np.zeros((2, m))
     for a, b in ((u, v), (v, u)):  # a free, b fixed
         edge = free[a] & ~free[b]
         for i in range(2):
-            rhs[:, i] += np.bincount(index[a[edge]], displacement[b[edge], i], minlength=m)
-    diagonal = degree[free][:, None].astype(np.float64)
+            rhs[i] += np.bincount(index[a[edge]], displacement[b[edge], i], minlength=m)
+    diagonal = degree[free].astype(np.float64)
+    # x[:, fv] summed into the columns fu (and x[:, fu] into fv), both rows by one bincount
+    # over the flattened (2, M) array: each bin adds its terms in the same order as a
+    # bincount per row would
+    to_u = np.concatenate([fu, fu + m])
+    to_v = np.concatenate([fv, fv + m])
 
     def apply(x: np.ndarray) -> np.ndarray:
+        neighbours = np.bincount(to_u, x.take(fv, axis=1).ravel(), minlength=2 * m)
+        neighbours += np.bincount(to_v, x.take(fu, axis=1).ravel(), minlength=2 * m)
         out = diagonal * x
-        for i in range(2):
-            out[:, i] -= np.bincount(fu, x[fv, i], minlength=m) + np.bincount(fv, x[fu, i], minlength=m)
+        out -= neighbours.reshape(2, m)
         return out
 
     out = positions.copy()
-    out[free] = start[free] + conjugate_gradients(apply, rhs)
+    out[free] = start[free] + conjugate_gradients(apply, rhs).T
     return out
 
 
 def conjugate_gradients(apply: Callable[[np.ndarray], np.ndarray], rhs: np.ndarray) -> np.ndarray:
-    """Solve ``apply(x) = rhs`` for a symmetric positive definite operator, every column of
-    ``rhs`` (M, K) at once, to a residual 1e-9 of the right-hand side's (far below the
-    output precision)."""
+    """Solve ``apply(x) = rhs`` for a symmetric positive definite operator, every row of
+    ``rhs`` (K, M) at once, to a residual 1e-5 of the right-hand side's: on the paper
+    corpus and the game frames the solution is then within 4e-5 px of the converged one,
+    far below the SVG's 0.01 px (half the iterations of a 1e-9 residual)."""
     x = np.zeros_like(rhs)
     r = rhs.copy()
     p = r.copy()
-    rr = (r * r).sum(axis=0)
-    target = 1e-18 * max(float(rr.max()), 1e-30)
-    for _ in range(4 * rhs.shape[0] + 10):
+    rr = row_dots(r, r)
+    target = 1e-10 * max(float(rr.max()), 1e-30)
+    for _ in range(4 * rhs.shape[1] + 10):
         if rr.max() <= target:
             break
         ap = apply(p)
-        step = rr / np.maximum((p * ap).sum(axis=0), 1e-300)
+        step = (rr / np.maximum(row_dots(p, ap), 1e-300))[:, None]
         x += step * p
         r -= step * ap
-        rr_new = (r * r).sum(axis=0)
-        p = r + (rr_new / np.maximum(rr, 1e-300)) * p
+        rr_new = row_dots(r, r)
+        p *= (rr_new / np.maximum(rr, 1e-300))[:, None]
+        p += r
         rr = rr_new
     return x
+
+
+def row_dots(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(K,) the dot products of the rows of ``a`` and ``b`` (K, M), summed element after
+    element in order (``cumsum``: the order of the sums this solver was first written with,
+    ``(a * b).sum(axis=0)`` over (M, K) columns, which its output depends on)."""
+    return (a * b).cumsum(axis=1)[:, -1]

@@ -77,6 +77,22 @@ class _SnapPlan(NamedTuple):
     before_is_end: np.ndarray
     after_is_end: np.ndarray
 
+    def move(self, ctrl: np.ndarray) -> bool:
+        """One snapping pass over these ends, in place; whether any of them moved."""
+        snapped = midpoint(*span(ctrl.take(self.before, axis=0), ctrl.take(self.through, axis=0),
+                                 ctrl.take(self.after, axis=0), self.before_is_end, self.after_is_end))
+        moved = not np.array_equal(snapped, ctrl.take(self.ends, axis=0))
+        ctrl[self.ends] = snapped
+        return moved
+
+    def chained(self, n_slots: int) -> _SnapPlan:
+        """The ends whose snap point depends on another snapped end (a neighbour of their
+        slot is one): after the first pass only they can still move."""
+        snapped = np.zeros(n_slots, bool)
+        snapped[self.ends] = True
+        rows = np.flatnonzero(snapped[self.before] | snapped[self.after])
+        return _SnapPlan(*(field[rows] for field in self))
+
 
 @dataclass(frozen=True, eq=False)
 class SplineSet:
@@ -163,26 +179,31 @@ class SplineSet:
         the curve continuing through their node (iterated: those points may depend on
         other snapped ends). Returns a new array."""
         ctrl = ctrl.copy()
-        plan = self._snap_plan
+        plan, chained = self._snap_plans
         if plan.ends.size:
-            for _ in range(self.snap_passes):
-                ctrl[plan.ends] = midpoint(*span(ctrl[plan.before], ctrl[plan.through], ctrl[plan.after],
-                                                 plan.before_is_end, plan.after_is_end))
+            plan.move(ctrl)
+            # the other ends would get the same points again, and so would these once a
+            # pass leaves them where they are
+            for _ in range(self.snap_passes - 1 if chained.ends.size else 0):
+                if not chained.move(ctrl):
+                    break
         return ctrl
 
     @cached_property
-    def _snap_plan(self) -> _SnapPlan:
-        """Indices :meth:`snap` needs, computed once per SplineSet."""
+    def _snap_plans(self) -> tuple[_SnapPlan, _SnapPlan]:
+        """Indices :meth:`snap` needs, computed once per SplineSet: every T-junction end,
+        and those of them snapped again after the first pass."""
         ends, through = self.snap_pairs()
         prev, nxt = self.neighbours()
         end = (prev < 0) | (nxt < 0)
         a, b = prev[through], nxt[through]
-        return _SnapPlan(ends, through, a, b, end[a][:, None], end[b][:, None])
+        plan = _SnapPlan(ends, through, a, b, end[a][:, None], end[b][:, None])
+        return plan, plan.chained(self.n_slots)
 
     def controls_for(self, positions: np.ndarray) -> np.ndarray:
         """(P, 2) control point of every slot for node ``positions`` (N, 2), with T-junction
         ends snapped."""
-        return self.snap(positions[self.curve_nodes])
+        return self.snap(positions.take(self.curve_nodes, axis=0))
 
     def spans(self, ctrl: np.ndarray) -> Bezier:
         """The quadratic Bézier span ``(start, C_j, stop)`` of every slot, each (P, 2), for
@@ -242,7 +263,8 @@ class SplineSet:
         for part in batch_slices(a.size, GEOMETRY_BATCH):  # the Béziers' temporaries are several times the result
             a_part = a[part]
             b_part = nxt[a_part]
-            trio = between_curve_points(ctrl[a_part], ctrl[b_part], s[a_part], s[b_part], end[a_part], end[b_part])
+            trio = between_curve_points(ctrl.take(a_part, axis=0), ctrl.take(b_part, axis=0), s.take(a_part, axis=0),
+                                        s.take(b_part, axis=0), end[a_part], end[b_part])
             controls[part] = np.where(self.slot_forward[a_part, None, None], trio, trio[:, ::-1])
         return Drawing(display, self.slot_edges[a], controls)
 

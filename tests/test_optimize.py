@@ -12,7 +12,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 from hypothesis.extra.numpy import arrays
 
 from depixel.image import load_image
-from depixel.fidelity import centre_clearance
+from depixel.fidelity import _clearance, centre_clearance
 from depixel.params import Params
 from depixel.pipeline import depixelize
 from depixel.raster import render_rgba
@@ -176,6 +176,24 @@ def images(draw) -> np.ndarray:
 def test_random_images_keep_every_pixel_centre(rgba):
     clearance = centre_clearance(depixelize(rgba).vector)
     assert clearance.min() > 0, f"rgba = np.array({rgba.tolist()}, np.uint8)"
+
+
+
+@settings(max_examples=12, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@given(images(), st.integers(0, 2**32 - 1))
+def test_the_clearance_bounded_below_is_exact_under_the_bound(rgba, seed):
+    """The revert measures with ``below=margin``: edges far from a centre are not
+    flattened. Below the bound it must give the exact clearance (also for centres pushed
+    out of their cells), above it anything at least the bound."""
+    optimized = depixelize(rgba).optimized
+    shaken = optimized.positions + np.random.default_rng(seed).normal(0.0, 0.3, optimized.positions.shape)
+    drawing = optimized.splines.drawing(shaken)
+    exact = _clearance(optimized.splines.cells, drawing, None)
+    for below in (0.075, 0.3):
+        bounded = _clearance(optimized.splines.cells, drawing, None, below=below)
+        low = exact < below
+        assert np.array_equal(bounded[low], exact[low])
+        assert (bounded[~low] >= below).all()
 
 
 # --- switching it off ---------------------------------------------------------------------------
