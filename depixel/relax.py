@@ -72,7 +72,8 @@ def relax(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: 
     for _ in range(params.iterations):
         for c in rng.permutation(len(classes)):
             group = classes[c]
-            ctrl[group.members] = step(model, ctrl, anchor, group, rng, params)
+            moved = step(model, ctrl, anchor, group, rng, params)
+            ctrl[:, 0][group.members], ctrl[:, 1][group.members] = moved.T  # a plane at a time (docs/performance.md)
         ctrl = splines.snap(ctrl)  # ends that sit on a moved curve follow it
     return Relaxed(ctrl, movable, energy_before, model.total(ctrl, anchor))
 
@@ -90,18 +91,20 @@ def step(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group,
     draws = rng.unit_pairs(size[0] * size[1])  # (angle, radius) in the unit square, per trial
     angle = (2.0 * np.pi) * draws[:, 0].reshape(size)
     radius = params.radius * np.sqrt(draws[:, 1]).reshape(size)
-    moved = np.empty((size[0], 2))
+    moved = np.empty((2, size[0]))  # x and y planes
     for part in batch_slices(size[0], max(1, STEP_TRIALS // (params.candidates + 1 + len(GRADIENT_STEPS)))):
-        moved[part] = _best_trials(model, ctrl, anchor, group.part(part), angle[part], radius[part], params)
-    return moved
+        moved[:, part] = _best_trials(model, ctrl, anchor, group.part(part), angle[part], radius[part], params)
+    return moved.T
 
 
 def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, angle: np.ndarray,
                  radius: np.ndarray, params: Params) -> np.ndarray:
-    """:func:`step` for the members of ``group``, given their random offsets (angle, radius)."""
+    """:func:`step` for the members of ``group``, given their random offsets (angle, radius).
+    Rows are picked with ``take`` and masks applied with ``putmask``: numpy 2's fancy indexing
+    copies the rows of these arrays one at a time (docs/performance.md)."""
     members, k = angle.shape
-    around = ctrl[group.around].transpose(0, 2, 1)[..., None]  # (5, 2, M, 1): member, a, b, a2, b2
-    home = anchor[group.members].T[..., None]
+    around = ctrl.take(group.around, axis=0).transpose(0, 2, 1)[..., None]  # (5, 2, M, 1): member, a, b, a2, b2
+    home = anchor.take(group.members, axis=0).T[..., None]
     # trials (2, M, 1+K+L): x and y planes; column 0 = stay, then K random, then L down the gradient
     trial = np.empty((2, members, 1 + k + len(GRADIENT_STEPS)))
     trial[:, :, :1] = around[0]
@@ -111,20 +114,21 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
     energy, offset2, points = model.evaluate(around, home, group, trial)
     too_far = offset2 > params.max_offset**2
     too_far[:, 0] = False
-    energy[too_far] = np.inf  # never taken
+    np.putmask(energy, too_far, np.inf)  # never taken
     best = np.argmin(energy, axis=1)  # ties keep the lower index
     # the trial taken must not bring a curve closer to a protected point than allowed (unless
     # it was closer already): the best trial is checked against staying; where it is refused,
     # every trial is checked and the best one allowed is taken (staying always is)
     rows = np.flatnonzero(best > 0)
-    pair = np.stack([np.zeros_like(rows), best[rows]], axis=1)
-    clear = model.clearance_of(points[..., rows[:, None], pair], group, rows)
+    trials = trial.shape[-1]
+    pair = (rows * trials)[:, None] + np.stack([np.zeros_like(rows), best.take(rows)], axis=1)  # flat (member, trial)
+    clear = model.clearance_of(points.reshape(points.shape[:3] + (-1,)).take(pair, axis=-1), group, rows)
     rows = rows[(clear[:, 1] < params.centre_clearance) & (clear[:, 1] < clear[:, 0])]
     if rows.size:
-        clear = model.clearance_of(points[..., rows, :], group, rows)
+        clear = model.clearance_of(points.take(rows, axis=3), group, rows)
         refused = (clear < params.centre_clearance) & (clear < clear[:, :1])
-        best[rows] = np.argmin(np.where(refused, np.inf, energy[rows]), axis=1)
-    return trial[:, np.arange(best.size), best].T
+        best[rows] = np.argmin(np.where(refused, np.inf, energy.take(rows, axis=0)), axis=1)
+    return trial.reshape(2, -1).take(np.arange(0, best.size * trials, trials) + best, axis=1)  # (2, M)
 
 
 @dataclass(frozen=True, eq=False)
@@ -138,8 +142,9 @@ class Group:
     end_b: np.ndarray
     end_a2: np.ndarray
     end_b2: np.ndarray
-    keep: np.ndarray  # (2, 3, M, 1) bool: halves (first, second) of the spans before,
-    #                   own, after counted in E_s (False for the span of an end a or b)
+    keep: np.ndarray  # (2, 3, M, 1) 1.0 or 0.0: halves (first, second) of the spans before,
+    #                   own, after counted in E_s (0 for the span of an end a or b; float, not
+    #                   bool: numpy casts a bool operand through a buffer, slower)
     protected: np.ndarray  # (2, M, 1, 1, Q) float32 x and y of the points the spans must keep clear of
     scale: np.ndarray  # (2, 3, 1, M, 1) d0 and d1 of the spans before, own, after over their control legs
     slope: np.ndarray  # (3, 3, M, 1) ∂E_s/∂φ of d0, dm, d1 of each span, times how fast each turns
@@ -201,7 +206,7 @@ class Energy:
         return Group(
             members, np.stack([members, a, b, a2, b2]).astype(np.int32),
             col(self.end[a]), col(self.end[b]), col(self.end[a2]), col(self.end[b2]),
-            np.moveaxis(keep, 2, 0)[..., None],
+            np.moveaxis(keep, 2, 0).astype(float)[..., None],
             # a compact copy (not a view of the padded rows); float32 holds these exactly
             np.moveaxis(protected, 2, 0).astype(np.float32)[:, :, None, None, :],
             scale[:, :, None, :, None], slope[..., None],
@@ -268,12 +273,19 @@ class Energy:
         """(R, K) smallest distance from the three spans of the members ``rows``, given by
         their :meth:`points` (3, 3, 2, R, K), to their protected points (pixel centres
         beside them, diagonal-link corners)."""
-        p0, p1, p2 = points[..., None]
-        # the points at t = 0, ¼, ½, ¾, 1 of each span (3, 2, R, K, 5); the before span
-        # without its last point, the after span without its first (the own span's ends)
-        flat = _W0 * p0 + _W1 * p1 + _W2 * p2
-        flat = np.concatenate([flat[0, ..., :-1], flat[1], flat[2, ..., 1:]], axis=-1)  # (2, R, K, 3n+1)
-        d = (flat[..., None] - g.protected[:, rows]) ** 2  # (2, R, K, 3n+1, Q)
+        # the points at t = 0, ¼, ½, ¾, 1 of each span on a leading axis (5, 3, 2, R, K); the
+        # before span without its last point, the after span without its first (the own span's
+        # ends); then the 3n+1 points of each trial in a contiguous row, the protected points
+        # broadcast over them (2, R, K, Q, 3n+1): a minimum over contiguous rows is fast, over
+        # a middle axis slow
+        p0, p1, p2 = points
+        flat = _W0[:, None, None, None, None] * p0 + _W1[:, None, None, None, None] * p1 \
+            + _W2[:, None, None, None, None] * p2
+        flat = np.concatenate([flat[:-1, 0], flat[:, 1], flat[1:, 2]])  # (3n+1, 2, R, K)
+        r = flat.shape[2]
+        q = g.protected.shape[-1]
+        flat = np.ascontiguousarray(flat.transpose(1, 2, 3, 0))[:, :, :, None, :]
+        d = (flat - g.protected.take(rows, axis=1).reshape(2, r, 1, q, 1).astype(float)) ** 2
         return np.sqrt((d[0] + d[1]).min(axis=(-1, -2)))
 
     def clearance(self, ctrl: np.ndarray, g: Group, trial: np.ndarray, rows: np.ndarray) -> np.ndarray:
