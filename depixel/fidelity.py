@@ -138,8 +138,9 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
         if drawing.edges.size:
             controls = drawing.controls.take(control_row[edge], axis=0)  # any row for a straight edge
             bent = curved_edge[edge][:, None]
-            lo = np.where(bent, np.minimum(np.minimum(np.minimum(lo, controls[:, 0]), controls[:, 1]), controls[:, 2]), lo)
-            hi = np.where(bent, np.maximum(np.maximum(np.maximum(hi, controls[:, 0]), controls[:, 1]), controls[:, 2]), hi)
+            first, second, third = controls[:, 0], controls[:, 1], controls[:, 2]
+            lo = np.where(bent, np.minimum(np.minimum(np.minimum(lo, first), second), third), lo)
+            hi = np.where(bent, np.maximum(np.maximum(np.maximum(hi, first), second), third), hi)
         right = lo[:, 0] - cx > below
         far = right | (cx - hi[:, 0] > below) | (lo[:, 1] - cy > below) | (cy - hi[:, 1] > below)
         count, nearest2 = measure(np.flatnonzero(~far))
