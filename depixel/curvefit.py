@@ -31,10 +31,10 @@ _RELATIVE_TOLERANCE = 1 / 16
 def _piece_tolerance(pieces: BoundaryPieces, exact: Exact, tolerance: float) -> np.ndarray:
     """(K,) the tolerance of every exact segment: ``tolerance``, or less on small pieces."""
     piece = np.repeat(np.arange(len(pieces)), np.diff(pieces.ptr))
-    owner = np.repeat(piece, exact.samples.shape[1])
+    owner = np.repeat(piece, exact.part_start.shape[2])
     extent = []
     for axis in range(2):  # 1-d ufunc.at: on (N, 2) it handles every item on its own, ~20× slower
-        coord = exact.samples[:, :, axis].ravel()
+        coord = exact.part_start[axis].ravel()  # the samples
         low, high = np.full(len(pieces), np.inf), np.full(len(pieces), -np.inf)
         np.minimum.at(low, owner, coord)
         np.maximum.at(high, owner, coord)
@@ -63,13 +63,18 @@ class Exact:
                                         self.end - self.start))
         self.tan_end = _unit(np.where((np.abs(self.end - c2) > 0).any(axis=1)[:, None], self.end - c2,
                                       self.end - self.start))
-        self.samples = flatten_cubic(self.start, c1, c2, self.end, _T_ORIG)  # (K, 4, 2)
-        polyline = np.concatenate([self.samples, self.end[:, None]], axis=1)  # (K, 5, 2): samples, end
-        #: (2, K, 5) the polylines as x and y planes (see _planes), and (2, K, 4) the starts
-        #: and ends of their parts (contiguous: numpy's loops run over whole rows)
-        self.polyline = np.ascontiguousarray(polyline.transpose(2, 0, 1))
-        self.part_start, self.part_end = self.polyline[:, :, :-1].copy(), self.polyline[:, :, 1:].copy()
-        step = _norm(np.diff(polyline, axis=1))
+        samples = flatten_cubic(self.start, c1, c2, self.end, _T_ORIG)  # (K, 4, 2)
+        polyline = np.concatenate([samples, self.end[:, None]], axis=1)  # (K, 5, 2): samples, end
+        del samples
+        #: (2, K, 4) the starts (the samples) and the ends of the parts of each segment's polyline,
+        #: x and y planes (see _planes), each contiguous: numpy's loops run over whole rows. Only
+        #: these two are kept (~128 bytes a segment; the writer holds them for every segment)
+        self.part_start = np.ascontiguousarray(polyline[:, :-1].transpose(2, 0, 1))
+        self.part_end = np.ascontiguousarray(polyline[:, 1:].transpose(2, 0, 1))
+        del polyline
+        dx, dy = self.part_end - self.part_start  # the same differences as np.diff of the polyline
+        step = np.sqrt(dx * dx + dy * dy)
+        del dx, dy
         self.length = step.sum(axis=1)  # polyline length of each segment
         self.arc = np.cumsum(step, axis=1) - step  # arc length of each sample within its segment
         self.arc_before = np.cumsum(self.length) - self.length  # arc length before each segment (global)
@@ -253,7 +258,7 @@ class _Samples:
         count = hi - lo
         owner = np.repeat(np.arange(lo.size), count)
         seg = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count) + np.repeat(lo, count)
-        self.points = exact.polyline[:, :, :-1].take(seg, axis=1).reshape(2, -1)  # (2, S) every range's samples
+        self.points = exact.part_start.take(seg, axis=1).reshape(2, -1)  # (2, S) every range's samples
         self.count = count * _T_ORIG.size  # samples of each range, which start at first
         self.first = np.cumsum(self.count) - self.count
         sample_owner = np.repeat(owner, _T_ORIG.size)
@@ -402,13 +407,12 @@ def _between(xy: np.ndarray, owner: np.ndarray, curves: np.ndarray, lo: np.ndarr
     j = np.where(on_curve, 0, k - (n_curve - 1))  # index along the exact samples
     seg, part = np.divmod(j, _T_ORIG.size)
     seg = np.minimum(np.repeat(lo, n_edges) + seg, exact.end.shape[0] - 1)
-    # the exact polyline of a segment is its samples and its end: an edge from point part to part + 1
-    polyline = exact.polyline.reshape(2, -1)
-    at = seg * (_T_ORIG.size + 1) + part
+    # the exact polyline of a segment is its samples and its end: its part ``part`` is an edge
+    at = seg * _T_ORIG.size + part
     kc = e_owner * n_curve + np.minimum(k, n_curve - 2)
     flat_curves = curves.reshape(2, -1)
-    a = np.where(on_curve, flat_curves.take(kc, axis=1), polyline.take(at, axis=1))
-    b = np.where(on_curve, flat_curves.take(kc + 1, axis=1), polyline.take(at + 1, axis=1))
+    a = np.where(on_curve, flat_curves.take(kc, axis=1), exact.part_start.reshape(2, -1).take(at, axis=1))
+    b = np.where(on_curve, flat_curves.take(kc + 1, axis=1), exact.part_end.reshape(2, -1).take(at, axis=1))
     # pairs (point, edge of its candidate's polygon)
     first = np.cumsum(n_edges) - n_edges
     per_point = n_edges[owner]
