@@ -1,9 +1,11 @@
-"""Set operations on arrays that do not load ``numpy.ma``.
+"""Array helpers around numpy's slow or costly paths.
 
 numpy 2.x's ``np.unique`` (and ``union1d``, which calls it) imports ``numpy.ma`` on its
 first call without ``return_index``/``return_inverse``/``return_counts``, to check for a
 masked array: ~45 ms of every process, a tenth of a whole ``depixel convert``. Asking for
-the indices takes the sorting path instead and returns the same values.
+the indices takes the sorting path instead and returns the same values. numpy 2.4 copies
+the rows of an (N, k) array one at a time under fancy-index assignment (``a[i] = b``), so
+:func:`set_rows` writes them a column at a time.
 """
 from __future__ import annotations
 
@@ -18,6 +20,22 @@ def unique(values: np.ndarray, axis: int | None = None) -> np.ndarray:
 def union(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``np.union1d(a, b)``: the distinct values of both, sorted."""
     return unique(np.concatenate([np.ravel(a), np.ravel(b)]))
+
+
+def in_sorted(sorted_keys: np.ndarray, keys: np.ndarray) -> np.ndarray:
+    """(len(keys),) bool: whether each of ``keys`` is among ``sorted_keys`` (sorted, 1-d): one
+    binary search each, for integer keys packed from several numbers."""
+    if sorted_keys.size == 0:
+        return np.zeros(keys.shape, bool)
+    at = np.minimum(np.searchsorted(sorted_keys, keys), sorted_keys.size - 1)
+    return sorted_keys[at] == keys
+
+
+def set_rows(target: np.ndarray, rows: np.ndarray, values: np.ndarray) -> None:
+    """``target[rows] = values`` for an (N, k) ``target``, a column at a time (the same
+    result, several times faster than numpy's row-by-row copy)."""
+    for column in range(target.shape[1]):
+        target[rows, column] = values[:, column]
 
 
 def batch_slices(n: int, batch: int) -> list[slice]:

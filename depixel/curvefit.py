@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .arrays import batch_slices
+from .arrays import batch_slices, set_rows
 from .boundaries import CUBIC, QUAD, BoundaryPieces
 from .bspline import cubic_weights, elevate, evaluate_cubic, flatten_cubic
 from .cells import link_corners
@@ -66,11 +66,10 @@ class Exact:
         samples = flatten_cubic(self.start, c1, c2, self.end, _T_ORIG)  # (K, 4, 2)
         polyline = np.concatenate([samples, self.end[:, None]], axis=1)  # (K, 5, 2): samples, end
         del samples
-        #: (2, K, 4) the starts (the samples) and the ends of the parts of each segment's polyline,
-        #: x and y planes (see _planes), each contiguous: numpy's loops run over whole rows. Only
-        #: these two are kept (~128 bytes a segment; the writer holds them for every segment)
-        self.part_start = np.ascontiguousarray(polyline[:, :-1].transpose(2, 0, 1))
-        self.part_end = np.ascontiguousarray(polyline[:, 1:].transpose(2, 0, 1))
+        #: (2, K, 4) the starts (the samples) and the ends of the parts of each segment's polyline
+        #: (:func:`_parts`). Only these two are kept (~128 bytes a segment; the writer holds them
+        #: for every segment)
+        self.part_start, self.part_end = _parts(polyline.transpose(2, 0, 1))
         del polyline
         dx, dy = self.part_end - self.part_start  # the same differences as np.diff of the polyline
         step = np.sqrt(dx * dx + dy * dy)
@@ -241,8 +240,8 @@ def fit(exact: Exact, prot: Protected, lo: np.ndarray, hi: np.ndarray, tolerance
         c1, c2 = _cubic_controls(exact, samples, rest, lo[rest], hi[rest], grid)
         cubic_ok[rest] = passes(rest, c1, c2)
         r1, r2 = np.full_like(q, np.nan), np.full_like(q, np.nan)
-        for axis in range(2):  # 1-d assignments: (N, 2) rows one by one are slow
-            r1[rest, axis], r2[rest, axis] = c1[:, axis], c2[:, axis]
+        set_rows(r1, rest, c1)
+        set_rows(r2, rest, c2)
     kind = np.where(quad_ok, QUAD, CUBIC).astype(np.uint8)
     first = np.where(quad_ok[:, None], q, r1)
     second = np.where(quad_ok[:, None], np.nan, r2)
@@ -382,7 +381,7 @@ def _keeps_sides(exact: Exact, prot: Protected, lo, hi, c1, c2, clearance: float
                       _planes(exact.end.take(hi - 1, axis=0)), _T_FIT)  # (2, R, T)
     xy = prot.xy.take(idx, axis=1)
     parts = curves.shape[2] - 1
-    start, end = curves[:, :, :-1].copy(), curves[:, :, 1:].copy()  # contiguous, like _nearest_segment's
+    start, end = _parts(curves)
     d_new = _segment_distance(np.repeat(xy, parts, axis=1).reshape(2, -1, parts), start.take(owner, axis=1),
                               end.take(owner, axis=1)).min(axis=1)
     too_near = d_new < np.minimum(np.abs(prot.dist[idx]), clearance) - 1e-9
@@ -473,6 +472,12 @@ def _planes(points: np.ndarray) -> np.ndarray:
     runs an inner loop of 2 per point in numpy, several times slower; the arithmetic per
     coordinate is the same, so are the numbers."""
     return np.ascontiguousarray(points.T)
+
+
+def _parts(polylines: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The starts and the ends of the parts of polylines ``(2, R, V)`` (x and y planes), two
+    contiguous ``(2, R, V - 1)`` arrays: numpy's loops then run over whole rows."""
+    return np.ascontiguousarray(polylines[:, :, :-1]), np.ascontiguousarray(polylines[:, :, 1:])
 
 
 def _flatten(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, p3: np.ndarray, t: np.ndarray) -> np.ndarray:

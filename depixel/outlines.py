@@ -39,7 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .arrays import batch_bounds
+from .arrays import batch_bounds, in_sorted
 from .boundaries import CUBIC, LINE, QUAD, BoundaryPieces, build_pieces, junction_nodes
 from .holes import loops_to_keep, probe_keys
 from .loops import Loops, trace_loops
@@ -235,8 +235,7 @@ def _batch_entries(faces: FaceBoundaries, owner: np.ndarray, member: np.ndarray,
     # a half-edge bounds the union unless the face across is a member of the same shape
     n = faces.n_faces + 1
     other_key = shape_face * n + other
-    pos = np.minimum(np.searchsorted(member_key, other_key), member_key.size - 1)
-    inside = (other >= 0) & (member_key[pos] == other_key)
+    inside = (other >= 0) & in_sorted(member_key, other_key)
     return shape_face[~inside], entry[~inside]
 
 

@@ -27,7 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .arrays import batch_slices
+from .arrays import batch_slices, set_rows
 from .bspline import Bezier, half_turns, span
 from .fidelity import protected_points, unique_rows
 from .params import Params
@@ -72,8 +72,7 @@ def relax(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: 
     for _ in range(params.iterations):
         for c in rng.permutation(len(classes)):
             group = classes[c]
-            moved = step(model, ctrl, anchor, group, rng, params)
-            ctrl[:, 0][group.members], ctrl[:, 1][group.members] = moved.T  # a plane at a time (docs/performance.md)
+            set_rows(ctrl, group.members, step(model, ctrl, anchor, group, rng, params))
         ctrl = splines.snap(ctrl)  # ends that sit on a moved curve follow it
     return Relaxed(ctrl, movable, energy_before, model.total(ctrl, anchor))
 

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .arrays import batch_bounds
+from .arrays import batch_bounds, in_sorted, set_rows
 from .boundaries import CUBIC, BoundaryPieces
 from .curvefit import BATCH, Exact, Protected, fit
 from .vector import VectorImage
@@ -113,17 +113,15 @@ def _merge_neighbours(exact, protected, ptr, fitted, failed, tolerance, clearanc
             break
         touching = (hi[:-1] == lo[1:]) & (piece_of[:-1] == piece_of[1:])
         a = np.flatnonzero(touching & (np.arange(lo.size - 1) % 2 == parity))
-        key = _range_keys(lo[a], hi[a + 1], ptr)
-        at = np.minimum(np.searchsorted(failed, key), failed.size - 1)
-        a = a[(failed[at] != key) if failed.size else slice(None)]
+        a = a[~in_sorted(failed, _range_keys(lo[a], hi[a + 1], ptr))]
         if a.size == 0:
             continue
         mk, m1, m2, ok = _fit_checked(exact, protected, lo[a], hi[a + 1], tolerance, clearance, grid)
         a, mk, m1, m2 = a[ok], mk[ok], m1.compress(ok, axis=0), m2.compress(ok, axis=0)
         hi[a] = hi[a + 1]
         kinds[a] = mk
-        for axis in range(2):  # 1-d assignments: (N, 2) rows one by one are slow
-            c1[a, axis], c2[a, axis] = m1[:, axis], m2[:, axis]
+        set_rows(c1, a, m1)
+        set_rows(c2, a, m2)
         keep = np.ones(lo.size, bool)
         keep[a + 1] = False
         lo, hi, kinds, piece_of = lo[keep], hi[keep], kinds[keep], piece_of[keep]

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .arrays import batch_bounds, union, unique
+from .arrays import batch_bounds, in_sorted, union, unique
 from .vector import VectorImage, faces_and_regions
 
 #: shape roles, for the labels of an editor's layers panel
@@ -259,8 +259,7 @@ class FaceTopology:
             cand = h[idx]
             ok = self.opaque[cand] & (self.rank[cand] > self.rank[f])
             cand_key = f[ok] * n + cand[ok]
-            pos = np.minimum(np.searchsorted(keys, cand_key), keys.size - 1)
-            fresh = keys[pos] != cand_key
+            fresh = ~in_sorted(keys, cand_key)
             cand_key, weight = cand_key[fresh], w[idx][ok][fresh]
             if cand_key.size == 0:
                 return keys

@@ -1,11 +1,11 @@
-"""depixel/arrays.py: set operations without numpy.ma, and the batches of batched work."""
+"""depixel/arrays.py: set operations without numpy.ma, sorted-key lookups, row writes, batches."""
 from __future__ import annotations
 
 import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from depixel.arrays import batch_bounds, batch_slices, union, unique
+from depixel.arrays import batch_bounds, batch_slices, in_sorted, set_rows, union, unique
 
 
 @given(st.lists(st.integers(0, 50), max_size=60), st.integers(1, 120))
@@ -30,3 +30,21 @@ def test_unique_and_union_are_numpys():
     assert union(a, b).tolist() == np.union1d(a, b).tolist()
     rows = np.array([[1, 2], [0, 5], [1, 2]])
     assert unique(rows, axis=0).tolist() == [[0, 5], [1, 2]]
+
+
+def test_in_sorted_finds_exactly_the_keys_present_and_takes_an_empty_table():
+    table = np.array([2, 5, 9, 40], np.int64)
+    keys = np.array([0, 2, 3, 9, 40, 41, 5], np.int64)
+    assert in_sorted(table, keys).tolist() == [False, True, False, True, True, False, True]
+    assert in_sorted(np.zeros(0, np.int64), keys).tolist() == [False] * keys.size
+
+
+def test_set_rows_writes_the_rows_given_as_fancy_assignment_would():
+    rng = np.random.default_rng(3)
+    target = rng.random((20, 2))
+    rows = np.array([4, 0, 17, 9])
+    values = rng.random((4, 2))
+    expected = target.copy()
+    expected[rows] = values
+    set_rows(target, rows, values)
+    assert np.array_equal(target, expected)
