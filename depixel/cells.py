@@ -160,10 +160,12 @@ def _cell_polygons(edges: np.ndarray, edge_pixels: np.ndarray, n_cells: int):
     """Trace each cell's boundary with the cell on the right (clockwise on screen)."""
     left, right = edge_pixels[:, 0], edge_pixels[:, 1]
     on_right, on_left = right >= 0, left >= 0
-    # the half-edges as trace_loops takes them (int64: it would copy anything else)
-    owner = np.concatenate([right[on_right], left[on_left]], dtype=np.int64)
-    u = np.concatenate([edges[on_right, 0], edges[on_left, 1]], dtype=np.int64)
-    v = np.concatenate([edges[on_right, 1], edges[on_left, 0]], dtype=np.int64)
+    # the half-edges as trace_loops takes them (int64: it would copy anything else), a
+    # column at a time (numpy's boolean row selection of an (E, 2) array copies row by row)
+    start, stop = edges[:, 0], edges[:, 1]
+    owner = np.concatenate([right.compress(on_right), left.compress(on_left)], dtype=np.int64)
+    u = np.concatenate([start.compress(on_right), stop.compress(on_left)], dtype=np.int64)
+    v = np.concatenate([stop.compress(on_right), start.compress(on_left)], dtype=np.int64)
     edge_of = np.concatenate([np.flatnonzero(on_right), np.flatnonzero(on_left)]).astype(INDEX)
     del on_right, on_left
     loops = trace_loops(owner, u, v)

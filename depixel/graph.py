@@ -34,42 +34,46 @@ def component_roots(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def cycle_leaders(nxt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """For a permutation ``nxt``: the smallest index on each element's cycle, and each
-    element's number of steps from that leader along ``nxt`` (both ``(n,) int64``).
+    element's number of steps from that leader along ``nxt`` (both ``(n,)``, int32 when
+    ``n < 2**31``, else int64).
 
-    Works on 32-bit indices where they suffice and updates in place: the caller's
-    permutation can be as large as every half-edge of an image."""
+    Works on 32-bit indices where they suffice, and in a few buffers reused by every round
+    (a fresh array of a frame's size costs more in page faults than the gather that fills
+    it): the caller's permutation can be as large as every half-edge of an image."""
     n = nxt.size
     index = np.int32 if n < 2**31 else np.int64
     nxt = nxt.astype(index)
+    ahead, spare = np.empty(n, index), np.empty(n, index)
+    moved = np.empty(n, bool)
     # leader: min over the next 2^t elements, doubling t until it stops changing (then
     # every cycle is shorter than the window)
     leader = np.minimum(np.arange(n, dtype=index), nxt)
-    jump = nxt[nxt]
+    jump = nxt.take(nxt)
     while True:
-        ahead = leader[jump]
-        if not (ahead < leader).any():
+        leader.take(jump, out=ahead, mode="clip")  # every index is valid: "clip" is not buffered
+        if not np.less(ahead, leader, out=moved).any():
             break
         np.minimum(leader, ahead, out=leader)
-        del ahead
-        jump = jump[jump]
-    del jump, ahead
+        jump.take(jump, out=spare, mode="clip")
+        jump, spare = spare, jump
+    del jump
     # steps to the cycle's last element (the one before its leader), by list ranking on
     # the cycle cut open there; position from the leader follows from the cycle length
-    last = nxt == leader
+    last = np.equal(nxt, leader, out=moved)
     succ = np.where(last, np.arange(n, dtype=index), nxt)
     del nxt
-    to_end = (~last).astype(index)
-    del last
+    to_end = np.logical_not(last).astype(index)
     while True:
-        ahead = succ[succ]
-        if np.array_equal(ahead, succ):  # everything points at its cycle's last element
+        succ.take(succ, out=ahead, mode="clip")
+        if not np.not_equal(ahead, succ, out=moved).any():  # everything points at its cycle's last element
             break
-        to_end += to_end[succ]
-        succ = ahead
-    del succ, ahead
-    position = to_end[leader].astype(np.int64)  # the cycle's length - 1, minus the steps to its end
+        to_end.take(succ, out=spare, mode="clip")
+        to_end += spare
+        succ, ahead = ahead, succ
+    del succ, ahead, spare, moved
+    position = to_end.take(leader)  # the cycle's length - 1, minus the steps to its end
     position -= to_end
-    return leader.astype(np.int64), position
+    return leader, position
 
 
 def _jump_to_roots(parent: np.ndarray) -> np.ndarray:

@@ -57,10 +57,24 @@ def trace_loops(owner: np.ndarray, u: np.ndarray, v: np.ndarray, points: np.ndar
     if points is not None:
         _pair_by_angle(nxt, owner, u, v, out_order, in_order, points)
     leader, position = cycle_leaders(nxt)
-    order = _argsort_pairs(owner, leader * n + position)  # by owner, leader, then along the loop
-    starts = np.flatnonzero(position[order] == 0)
-    ptr = np.r_[starts, n].astype(np.int64)
-    return Loops(owner=owner[order][starts], ptr=ptr, halfedges=order)
+    del nxt
+    # the half-edges by owner, leader, then along the loop: the loops (one per leader, the
+    # half-edge at position 0) ordered by owner and leader, each half-edge placed at its
+    # loop's start plus its position (no sort of all the half-edges)
+    leaders = np.flatnonzero(position == 0)  # ascending, so a stable sort by owner keeps them in order
+    loop_owner = owner.take(leaders)
+    by_owner = np.argsort(loop_owner, kind="stable")
+    leaders, loop_owner = leaders.take(by_owner), loop_owner.take(by_owner)
+    ptr = np.zeros(leaders.size + 1, np.int64)
+    np.cumsum(np.bincount(leader, minlength=n).take(leaders), out=ptr[1:])
+    start = np.empty(n, np.int64)  # at the leaders only
+    start[leaders] = ptr[:-1]
+    place = start.take(leader)
+    place += position
+    del start, leader, position
+    order = np.empty(n, np.int64)
+    order[place] = np.arange(n, dtype=np.int64)
+    return Loops(owner=loop_owner, ptr=ptr, halfedges=order)
 
 
 def _pair_by_angle(nxt: np.ndarray, owner: np.ndarray, u: np.ndarray, v: np.ndarray, out_order: np.ndarray,

@@ -42,34 +42,48 @@ class Chains(NamedTuple):
 
 
 
-def visible_edges(cells: CellGraph) -> np.ndarray:
-    """(E,) bool: edges between two pixels that are not linked (dissimilar colours)."""
-    left, right = cells.edge_pixels[:, 0], cells.edge_pixels[:, 1]
-    return (left >= 0) & (right >= 0) & ~linked_edges(cells)
+def visible_edges(cells: CellGraph, linked: np.ndarray | None = None) -> np.ndarray:
+    """(E,) bool: edges between two pixels that are not linked (dissimilar colours);
+    ``linked`` is :func:`linked_edges` if the caller has it."""
+    linked = linked_edges(cells) if linked is None else linked
+    return (np.minimum(cells.edge_pixels[:, 0], cells.edge_pixels[:, 1]) >= 0) & ~linked
 
 
 def shading_edges(cells: CellGraph, visible: np.ndarray, params: Params) -> np.ndarray:
     """(E,) bool: visible edges whose two colours are within ``shading_distance`` in YUV."""
     g = cells.graph
+    at = np.flatnonzero(visible)  # only they can be shading edges
+    left, right = cells.edge_pixels[:, 0].take(at), cells.edge_pixels[:, 1].take(at)  # both inside
     yuv = g.yuv().reshape(-1, 3)
+    # the norm of the YUV difference a channel at a time (numpy's row gathers of an (N, 3)
+    # array copy row by row), the squares summed in the order ``np.linalg.norm`` sums them
+    square = np.zeros(at.size)
+    for channel in range(3):
+        column = yuv[:, channel]
+        delta = column.take(left)
+        delta -= column.take(right)
+        delta *= delta
+        square += delta
     alpha = g.rgba.reshape(-1, 4)[:, 3]
-    left, right = np.maximum(cells.edge_pixels[:, 0], 0), np.maximum(cells.edge_pixels[:, 1], 0)
-    dist = np.linalg.norm(yuv[left] - yuv[right], axis=1)
-    clear_mismatch = (alpha[left] == 0) != (alpha[right] == 0)
-    return visible & (dist <= params.shading_distance) & ~clear_mismatch
+    clear_mismatch = (alpha.take(left) == 0) != (alpha.take(right) == 0)
+    shading = np.zeros(visible.shape, bool)
+    shading[at] = (np.sqrt(square) <= params.shading_distance) & ~clear_mismatch
+    return shading
 
 
-def band_edges(cells: CellGraph) -> np.ndarray:
-    """(E,) bool: invisible edges (between linked, similar pixels) whose colours differ.
+def band_edges(cells: CellGraph, linked: np.ndarray | None = None) -> np.ndarray:
+    """(E,) bool: invisible edges (between linked, similar pixels) whose colours differ;
+    ``linked`` is :func:`linked_edges` if the caller has it.
 
     Not in the paper, whose regions are shaded smoothly by its renderer (§3.5): in an SVG
     with one flat fill per face, the boundaries between the colour bands of one region
     become curves too, so the bands read as steps of a gradient rather than a mosaic of
     cells."""
+    linked = linked_edges(cells) if linked is None else linked
     left, right = cells.edge_pixels[:, 0], cells.edge_pixels[:, 1]
-    rgba = cells.graph.rgba.reshape(-1, 4)
-    differ = (rgba[np.maximum(left, 0)] != rgba[np.maximum(right, 0)]).any(axis=1)
-    return (left >= 0) & (right >= 0) & linked_edges(cells) & differ
+    colour = np.ascontiguousarray(cells.graph.rgba).view(np.uint32).ravel()  # one number per RGBA
+    differ = colour.take(np.maximum(left, 0)) != colour.take(np.maximum(right, 0))
+    return (np.minimum(left, right) >= 0) & linked & differ
 
 
 def pair_ends(cells: CellGraph, edges: np.ndarray, shading: np.ndarray) -> HalfEnds:

@@ -43,7 +43,7 @@ from .cells import INDEX, CellGraph
 from .frozen import freeze
 from .pairing import HalfEnds, band_edges, chain_curves, pair_ends, shading_edges, visible_edges
 from .params import Params
-from .vector import CurveTable, VectorImage
+from .vector import CurveTable, VectorImage, linked_edges
 
 #: slots whose curve geometry is computed together: bounds the temporaries of the spans and
 #: Béziers (a few hundred bytes a slot) whatever the number of slots
@@ -296,10 +296,11 @@ def extract_splines(cells: CellGraph, params: Params = Params()) -> SplineSet:
     Contours (visible edges) are paired by the paper's rules. Shading-band edges
     (:func:`band_edges`) are paired among themselves by the same rules at nodes no contour
     touches, and end where they meet a contour (a T-junction, snapped as the paper's)."""
-    visible = visible_edges(cells)
+    linked = linked_edges(cells)
+    visible = visible_edges(cells, linked)
     shading = shading_edges(cells, visible, params)
     contours = pair_ends(cells, np.flatnonzero(visible), shading)
-    bands = pair_ends(cells, np.flatnonzero(band_edges(cells)), np.zeros(len(cells.edges), bool))
+    bands = pair_ends(cells, np.flatnonzero(band_edges(cells, linked)), np.zeros(len(cells.edges), bool))
     on_contour = np.zeros(len(cells.nodes), dtype=bool)
     on_contour[contours.node] = True
     band_partner = np.where(on_contour[bands.node] | (bands.partner < 0), -1, bands.partner + contours.node.size)

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .cells import DIAGONAL, CellGraph
+from .cells import DIAGONAL, HORIZONTAL, VERTICAL, CellGraph
 from .frozen import freeze
 from .graph import component_roots
 
@@ -95,17 +95,18 @@ def linked_edges(cells: CellGraph) -> np.ndarray:
     """
     g = cells.graph
     h, w = g.shape
-    left, right = cells.edge_pixels[:, 0], cells.edge_pixels[:, 1]
-    inside = (left >= 0) & (right >= 0)
-    a, b = np.minimum(left, right), np.maximum(left, right)
-    linked = np.zeros(len(left), dtype=bool)
-    same_row = inside & (b - a == 1) & (b % w != 0) & (cells.edge_kind != DIAGONAL)  # not 1- or 2-wide wraps
-    vertical_pair = inside & (b - a == w) & (cells.edge_kind != DIAGONAL)
-    ra, ca = np.divmod(np.where(inside, a, 0), w)
-    linked[same_row] = g.right[ra[same_row], ca[same_row]]
-    linked[vertical_pair] = g.down[ra[vertical_pair], ca[vertical_pair]]
-    linked[inside & (cells.edge_kind == DIAGONAL)] = True
-    return linked
+    # per edge kind and pixel, the link to the pixel below (HORIZONTAL: a horizontal pixel
+    # edge has its pixels above and below it), to the right (VERTICAL) or across (DIAGONAL):
+    # the smaller pixel of an edge picks its link from its kind's row
+    link = np.zeros((3, h, w), dtype=bool)
+    link[HORIZONTAL, :-1, :] = g.down
+    link[VERTICAL, :, :-1] = g.right
+    link[DIAGONAL] = True
+    first = np.minimum(cells.edge_pixels[:, 0], cells.edge_pixels[:, 1]).astype(np.intp)  # -1: outside
+    inside = first >= 0
+    np.maximum(first, 0, out=first)
+    first += cells.edge_kind.astype(np.intp) * (h * w)
+    return link.ravel().take(first) & inside
 
 
 def label_components(n: int, pairs: np.ndarray) -> np.ndarray:
