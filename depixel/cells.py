@@ -28,7 +28,6 @@ import numpy as np
 
 from .crossings import CrossingResolution
 from .frozen import freeze
-from .loops import trace_loops
 from .similarity import SimilarityGraph
 
 # edge kinds
@@ -95,8 +94,8 @@ def build_cell_graph(resolved: CrossingResolution | SimilarityGraph) -> CellGrap
     split_anti[1:-1, 1:-1] = graph.diag_anti
     nodes = _template_nodes(split_main, split_anti)
     edges, edge_pixels, edge_kind = _pixel_edges(split_main, split_anti)
+    cell_ptr, cell_nodes, cell_edges = _cell_polygons(split_main, split_anti, edges)
     del split_main, split_anti
-    cell_ptr, cell_nodes, cell_edges = _cell_polygons(edges, edge_pixels, h * w)
     return CellGraph(graph, nodes, edges, edge_pixels, edge_kind, cell_ptr, cell_nodes, cell_edges)
 
 
@@ -156,20 +155,42 @@ def _pixel_edges(split_main: np.ndarray, split_anti: np.ndarray) -> tuple[np.nda
     return edges, edge_pixels, edge_kind
 
 
-def _cell_polygons(edges: np.ndarray, edge_pixels: np.ndarray, n_cells: int):
-    """Trace each cell's boundary with the cell on the right (clockwise on screen)."""
-    left, right = edge_pixels[:, 0], edge_pixels[:, 1]
-    on_right, on_left = right >= 0, left >= 0
-    # the half-edges as trace_loops takes them (int64: it would copy anything else), a
-    # column at a time (numpy's boolean row selection of an (E, 2) array copies row by row)
-    start, stop = edges[:, 0], edges[:, 1]
-    owner = np.concatenate([right.compress(on_right), left.compress(on_left)], dtype=np.int64)
-    u = np.concatenate([start.compress(on_right), stop.compress(on_left)], dtype=np.int64)
-    v = np.concatenate([stop.compress(on_right), start.compress(on_left)], dtype=np.int64)
-    edge_of = np.concatenate([np.flatnonzero(on_right), np.flatnonzero(on_left)]).astype(INDEX)
-    del on_right, on_left
-    loops = trace_loops(owner, u, v)
-    del owner, v
-    if len(loops) != n_cells or not np.array_equal(loops.owner, np.arange(n_cells)):
-        raise AssertionError("every cell must have exactly one boundary loop")
-    return loops.ptr.astype(INDEX), u[loops.halfedges].astype(INDEX), edge_of[loops.halfedges]
+def _cell_polygons(split_main: np.ndarray, split_anti: np.ndarray,
+                   edges: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each cell's boundary with the cell on the right (clockwise on screen): ``cell_ptr``,
+    ``cell_nodes`` and ``cell_edges`` (see :class:`CellGraph`).
+
+    Read off the templates instead of traced: going clockwise round pixel (r, c) from its
+    top edge, its boundary is that edge, the "/" link's edge at its top-right corner (it is
+    that link's bottom-left pixel), its right edge, the "\\" link's edge at its
+    bottom-right corner, its bottom edge, the "/" edge at its bottom-left corner, its left
+    edge and the "\\" edge at its top-left corner, each where it exists. These are the
+    loops :func:`depixel.loops.trace_loops` finds, each from the same half-edge: its first
+    among the edges with a pixel on their right (run u → v), then those with one on their
+    left (v → u), in edge order, is always the top edge (the horizontal edges come first)."""
+    h, w = split_main.shape[0] - 1, split_main.shape[1] - 1
+    n_horizontal, n_vertical = (h + 1) * w, h * (w + 1)
+    split = split_main | split_anti
+    diagonal = np.zeros((h + 1, w + 1), dtype=INDEX)  # the link's edge at each split lattice point
+    diagonal[split] = n_horizontal + n_vertical + np.arange(int(split.sum()), dtype=INDEX)
+    pixel = np.arange(h * w, dtype=INDEX).reshape(h, w)
+    west = n_horizontal + pixel + np.arange(h, dtype=INDEX)[:, None]  # vertical edge (r, c): r (w + 1) + c
+    # per slot: the edge, whether the pixel is on its right (then it runs u → v), where it
+    # exists (None: always)
+    slots = ((pixel, True, None), (diagonal[:-1, 1:], True, split_anti[:-1, 1:]), (west + 1, True, None),
+             (diagonal[1:, 1:], False, split_main[1:, 1:]), (pixel + w, False, None),
+             (diagonal[1:, :-1], False, split_anti[1:, :-1]), (west, False, None),
+             (diagonal[:-1, :-1], True, split_main[:-1, :-1]))
+    edge = np.empty((h * w, len(slots)), dtype=INDEX)
+    present = np.ones((h * w, len(slots)), dtype=bool)
+    for k, (slot_edge, _, there) in enumerate(slots):
+        edge[:, k] = slot_edge.ravel()
+        if there is not None:
+            present[:, k] = there.ravel()
+    present = present.ravel()
+    forward = np.array([right for _, right, _ in slots])
+    cell_edges = edge.ravel().compress(present)
+    start = np.where(forward, edges[:, 0].take(edge), edges[:, 1].take(edge))  # where each half-edge starts
+    cell_ptr = np.zeros(h * w + 1, dtype=INDEX)
+    np.cumsum(present.reshape(h * w, len(slots)).sum(axis=1), out=cell_ptr[1:])
+    return cell_ptr, start.ravel().compress(present), cell_edges

@@ -79,7 +79,7 @@ def cycle_leaders(nxt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _jump_to_roots(parent: np.ndarray) -> np.ndarray:
     """Pointer jumping until every element points at a root (``parent[r] == r``)."""
     while True:
-        grand = parent[parent]
-        if np.array_equal(grand, parent):
+        grand = parent.take(parent)
+        if not (grand != parent).any():  # np.array_equal's checks cost more than this on a sprite
             return parent
         parent = grand

@@ -1,8 +1,9 @@
 """Closed boundary loops from directed half-edges, vectorized.
 
-Shared by the cell stage (one loop per pixel cell) and the SVG exporter (outlines of unions
-of cells). Input: half-edges ``(owner, u, v)`` such that at every ``(owner, node)`` as many
-half-edges enter as leave — true for the boundary of any union of cells. Output: the loops,
+Used by the SVG exporter (outlines of unions of cells); the cell stage reads its one loop
+per pixel cell off the templates, the same loops this would trace (tests/test_cells.py).
+Input: half-edges ``(owner, u, v)`` such that at every ``(owner, node)`` as many half-edges
+enter as leave — true for the boundary of any union of cells. Output: the loops,
 each as a run of half-edge indices in traversal order.
 """
 from __future__ import annotations

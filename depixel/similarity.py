@@ -58,15 +58,17 @@ class SimilarityGraph:
 
     def edge_list(self) -> np.ndarray:
         """All links as ``(M, 2) int64`` pairs of flat pixel indices (row-major)."""
+        return np.stack(self.edge_ends(), axis=1)
+
+    def edge_ends(self) -> tuple[np.ndarray, np.ndarray]:
+        """The two columns of :meth:`edge_list`, ``(M,) int64`` each (rows picked from each
+        column once, not as pairs)."""
         h, w = self.shape
         idx = np.arange(h * w).reshape(h, w)
-        parts = [
-            np.stack([idx[:, :-1][self.right], idx[:, 1:][self.right]], axis=1),
-            np.stack([idx[:-1, :][self.down], idx[1:, :][self.down]], axis=1),
-            np.stack([idx[:-1, :-1][self.diag_main], idx[1:, 1:][self.diag_main]], axis=1),
-            np.stack([idx[:-1, 1:][self.diag_anti], idx[1:, :-1][self.diag_anti]], axis=1),
-        ]
-        return np.concatenate(parts, axis=0).reshape(-1, 2)
+        links = ((self.right, idx[:, :-1], idx[:, 1:]), (self.down, idx[:-1, :], idx[1:, :]),
+                 (self.diag_main, idx[:-1, :-1], idx[1:, 1:]), (self.diag_anti, idx[:-1, 1:], idx[1:, :-1]))
+        return (np.concatenate([a[link] for link, a, _ in links]),
+                np.concatenate([b[link] for link, _, b in links]))
 
     def with_diagonals(self, diag_main: np.ndarray, diag_anti: np.ndarray) -> SimilarityGraph:
         """The same graph with other diagonal links (used by crossing resolution)."""

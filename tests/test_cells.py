@@ -9,6 +9,7 @@ from hypothesis.extra.numpy import arrays
 from depixel.cells import build_cell_graph
 from depixel.crossings import resolve_crossings
 from depixel.image import load_image
+from depixel.loops import trace_loops
 from depixel.similarity import build_similarity_graph
 
 from conftest import art, corpus_pngs, fixture_pngs
@@ -104,3 +105,30 @@ def test_single_pixel_cell_is_a_centred_half_square():
     poly = cg.cell_polygon(4)
     assert sorted(map(tuple, poly.tolist())) == [(5, 5), (5, 7), (7, 5), (7, 7)]
     assert cg.cell_areas()[4] == 0.25
+
+
+def _traced_polygons(cg):
+    """The cell polygons as :func:`trace_loops` traces them from the half-edges with a
+    pixel on their right (u → v), then those with one on their left (v → u)."""
+    left, right = cg.edge_pixels[:, 0], cg.edge_pixels[:, 1]
+    on_right, on_left = right >= 0, left >= 0
+    owner = np.concatenate([right[on_right], left[on_left]])
+    u = np.concatenate([cg.edges[on_right, 0], cg.edges[on_left, 1]])
+    v = np.concatenate([cg.edges[on_right, 1], cg.edges[on_left, 0]])
+    edge_of = np.concatenate([np.flatnonzero(on_right), np.flatnonzero(on_left)])
+    loops = trace_loops(owner, u, v)
+    assert np.array_equal(loops.owner, np.arange(cg.shape[0] * cg.shape[1]))  # one loop per cell
+    return loops.ptr, u[loops.halfedges], edge_of[loops.halfedges]
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(arrays(np.uint8, st.tuples(st.integers(1, 9), st.integers(1, 9)), elements=st.integers(0, 3)))
+def test_cell_polygons_are_the_traced_loops(indices):
+    """The polygons read off the templates are exactly the loops tracing finds, each from the
+    same first half-edge (so the cell stage's output did not change when it stopped tracing)."""
+    palette = np.array([[0, 0, 0, 255], [40, 40, 40, 255], [255, 255, 255, 255], [0, 0, 0, 0]], np.uint8)
+    cg = cells_of(palette[indices])
+    ptr, nodes, edges = _traced_polygons(cg)
+    assert np.array_equal(cg.cell_ptr, ptr)
+    assert np.array_equal(cg.cell_nodes, nodes)
+    assert np.array_equal(cg.cell_edges, edges)
