@@ -55,3 +55,21 @@ def test_graph_arrays_and_degree():
     deg = g.degree()
     assert deg[1, 1] == 8 and deg[0, 0] == 3 and deg[0, 1] == 5
     assert len(g.edge_list()) == deg.sum() // 2
+
+
+def test_edge_ends_are_the_links():
+    """Every link once, as a pair of flat pixel indices, right, down, "\\" then "/" links."""
+    rng = np.random.default_rng(5)
+    palette = np.array([[0, 0, 0, 255], [255, 255, 255, 255], [0, 0, 0, 0]], np.uint8)
+    for _ in range(30):
+        h, w = (int(x) for x in rng.integers(1, 7, 2))
+        g = build_similarity_graph(palette[rng.integers(0, 3, (h, w))])
+        expected = []
+        for link, (dr, dc), (r0, c0) in ((g.right, (0, 1), (0, 0)), (g.down, (1, 0), (0, 0)),
+                                         (g.diag_main, (1, 1), (0, 0)), (g.diag_anti, (1, -1), (0, 1))):
+            for r, c in zip(*np.nonzero(link)):
+                a = (r + r0) * w + c + c0
+                expected.append((a, a + dr * w + dc))
+        a, b = g.edge_ends()
+        assert list(zip(a.tolist(), b.tolist())) == expected
+        assert np.array_equal(g.edge_list(), np.array(expected, np.int64).reshape(-1, 2))
