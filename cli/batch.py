@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import glob
 import os
-import traceback
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
@@ -30,7 +29,7 @@ from depixel.svg import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
 from .options import error_message
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # never compared: eq would cost ~1 ms a start to create
 class Options:
     """How to convert each file (the same for every job of a batch)."""
 
@@ -54,7 +53,7 @@ class Options:
     transparent: str | tuple[int, int, int] | None = None
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Job:
     source: Path
     output: Path  # with frames="all", the name the frame names derive from
@@ -66,7 +65,7 @@ class Job:
 DONE, INTERRUPTED, CANCELLED = "done", "interrupted", "cancelled"
 
 
-@dataclass
+@dataclass(eq=False)
 class Outcome:
     source: Path
     output: Path | None = None  # the planned output (the base of the frame names)
@@ -77,6 +76,13 @@ class Outcome:
     error: str | None = None
     traceback: str | None = None
     state: str = DONE  # or INTERRUPTED (running when stopped) or CANCELLED (never started)
+
+
+def current_traceback() -> str:
+    """``traceback.format_exc()``, the module imported only when a job fails (~1 ms a start)."""
+    import traceback  # noqa: PLC0415
+
+    return traceback.format_exc()
 
 
 def frame_targets(job: Job) -> list[tuple[int, Path]]:
@@ -111,15 +117,15 @@ def run_job(job: Job) -> Outcome:
             out.notes.append(f"{display_name(job.source)}: has {n} frames, converted the first "
                              "(--frames all converts each)")
     except DepixelError as exc:
-        out.error, out.traceback = error_message(exc), traceback.format_exc()
+        out.error, out.traceback = error_message(exc), current_traceback()
     except MemoryError:
         out.error = f"{display_name(job.source)}: not enough memory to convert it"
     except OSError as exc:  # e.g. a name too long to look up
         out.error = f"{display_name(job.output)}: cannot write ({exc.strerror or exc})"
-        out.traceback = traceback.format_exc()
+        out.traceback = current_traceback()
     except Exception as exc:  # a bug: still one line, the traceback with --debug
         out.error = f"{display_name(job.source)}: internal error ({type(exc).__name__}: {exc})"
-        out.traceback = traceback.format_exc()
+        out.traceback = current_traceback()
     return out
 
 

@@ -6,7 +6,6 @@ import io
 import json
 import sys
 import time
-import traceback
 from dataclasses import replace
 from pathlib import Path
 
@@ -20,7 +19,7 @@ from depixel.pipeline import STAGES
 from depixel.prepare import lossy_format
 from depixel.svg import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
 
-from .batch import CANCELLED, DONE, Job, Options, Outcome, record_prepared, summary
+from .batch import CANCELLED, DONE, Job, Options, Outcome, current_traceback, record_prepared, summary
 from .batch_inputs import expand_inputs, make_folders, plan
 from .batch_run import Progress, auto_jobs, cores, run
 from .options import (
@@ -77,8 +76,9 @@ def jobs_option(text: str) -> str | int:
         raise argparse.ArgumentTypeError(f"expected auto or a number of processes, not {text!r}") from None
 
 
-def add_parser(sub) -> None:
-    p = sub.add_parser("convert", help="convert pixel art to SVG, PNG or PDF", description=DESCRIPTION,
+def add_parser(sub, name: str, help: str) -> None:
+    """Define the subcommand ``name`` (convert) with its arguments."""
+    p = sub.add_parser(name, help=help, description=DESCRIPTION,
                        usage="%(prog)s INPUT... (-o FILE | --out-dir DIR) [options]",
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.set_defaults(run=run_convert, parser=p)
@@ -253,7 +253,7 @@ def _convert_stream(source: str, output: str, options: Options) -> Outcome:
         if options.frames == "first" and (n := frame_count(data)) > 1:
             out.notes.append(f"{name}: has {n} frames, converted the first (--frames all converts each)")
     except DepixelError as exc:
-        out.error, out.traceback = error_message(exc), traceback.format_exc()
+        out.error, out.traceback = error_message(exc), current_traceback()
     return out
 
 

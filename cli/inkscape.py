@@ -40,8 +40,9 @@ restart Inkscape after installing.
 """
 
 
-def add_parser(sub) -> None:
-    p = sub.add_parser("inkscape", help="install or remove the Inkscape extension", description=DESCRIPTION,
+def add_parser(sub, name: str, help: str) -> None:
+    """Define the subcommand ``name`` (inkscape) with its actions and arguments."""
+    p = sub.add_parser(name, help=help, description=DESCRIPTION,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     actions = p.add_subparsers(dest="action", metavar="ACTION", parser_class=type(p), required=True)
     for name, run, text in (("install", run_install, "copy the extension into Inkscape's extensions folder"),

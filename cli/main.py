@@ -7,6 +7,8 @@ Every command builds its options, calls the library and maps a library error
 from __future__ import annotations
 
 import argparse
+import importlib
+import os
 import re
 import sys
 from typing import NoReturn, cast
@@ -14,12 +16,30 @@ from typing import NoReturn, cast
 import depixel
 from depixel.errors import DepixelError, ParameterError
 
-from . import convert, inkscape, tools
 from .options import Exit, error_exit, error_message, say
 from .pool import Interrupted, Signals
 
 
+def _help_width() -> int:
+    """The width argparse gives help text, as ``shutil.get_terminal_size`` finds it (the
+    ``COLUMNS`` variable, else the terminal of stdout, else 80) minus 2: argparse imports
+    ``shutil`` for it, with the compression modules shutil loads (~4 ms of every start)."""
+    try:
+        columns = int(os.environ["COLUMNS"])
+    except (KeyError, ValueError):
+        columns = 0
+    if columns <= 0:
+        try:
+            columns = os.get_terminal_size(sys.__stdout__.fileno()).columns  # type: ignore[union-attr]
+        except (AttributeError, ValueError, OSError):
+            columns = 0
+    return (columns or 80) - 2
+
+
 class _Parser(argparse.ArgumentParser):
+    def _get_formatter(self) -> argparse.HelpFormatter:
+        return self.formatter_class(prog=self.prog, width=_help_width())  # type: ignore[call-arg]
+
     def error(self, message: str) -> NoReturn:  # one line naming the (sub)command, exit code 2
         choice = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
         if choice:
@@ -64,7 +84,23 @@ class _Version(argparse.Action):
         parser.exit(Exit.OK)
 
 
-def build_parser() -> argparse.ArgumentParser:
+#: The subcommands in ``--help`` order: name, help line, and the module of this package
+#: whose ``add_parser(sub, name, help)`` defines the command's arguments.
+COMMANDS = (
+    ("convert", "convert pixel art to SVG, PNG or PDF", "convert"),
+    ("render", "render an SVG to PNG or PDF", "tools"),
+    ("diff", "compare two SVG/PNG images (for CI)", "tools"),
+    ("inspect", "draw every pipeline stage (like the paper's Figure 3)", "tools"),
+    ("inkscape", "install or remove the Inkscape extension", "inkscape"),
+)
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The ``depixel`` parser. With ``command``, only that subcommand's arguments are
+    defined (and only its module imported): the others are listed with their help line
+    alone, which is all ``depixel --help`` and a mistyped command show. Defining every
+    command and importing their modules cost ~3 ms of parsers and ~5 ms of imports
+    (``shutil`` for Inkscape's) in every start."""
     parser = _Parser(prog="depixel", description="Turn pixel art into smooth, resolution-independent SVG "
                      "(Kopf & Lischinski, Depixelizing Pixel Art, 2011).",
                      epilog="exit codes: 0 success, 1 a file failed (diff: images differ), 2 usage error "
@@ -72,16 +108,24 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action=_Version, help="show the versions of depixel and its dependencies")
     parser.add_argument("--debug", action="store_true", help="show the full traceback on errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
-    convert.add_parser(sub)
-    tools.add_parsers(sub)
-    inkscape.add_parser(sub)
+    for name, help_line, module in COMMANDS:
+        if command is None or name == command:
+            importlib.import_module(f".{module}", __package__).add_parser(sub, name, help_line)
+        else:
+            sub.add_parser(name, help=help_line)
     return parser
+
+
+def command_of(argv: list[str]) -> str:
+    """The subcommand ``argv`` asks for: its first argument that is not an option (the
+    top-level options take no value), or "" when there is none."""
+    return next((arg for arg in argv if not arg.startswith("-")), "")
 
 
 def main(argv: list[str] | None = None) -> int:
     with Signals() as signals:  # Ctrl-C and SIGTERM, from here to the end: see depixel_cli/pool.py
         try:
-            parser = build_parser()
+            parser = build_parser(command_of(sys.argv[1:] if argv is None else argv))
             args, extras = parser.parse_known_args(argv)
             if extras:
                 cast(_Parser, getattr(args, "parser", parser)).unrecognized(extras)

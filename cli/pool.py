@@ -83,7 +83,7 @@ class Signals:
             raise Interrupted(signum)
 
 
-@dataclass
+@dataclass(eq=False)
 class Finished:
     """What :func:`run_jobs` reports for one job: its result, or why there is none."""
 

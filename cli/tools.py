@@ -66,10 +66,14 @@ the 1x image the pipeline converted second.
 """
 
 
-def add_parsers(sub) -> None:
-    _raw = argparse.RawDescriptionHelpFormatter
-    render = sub.add_parser("render", help="render an SVG to PNG or PDF", description=RENDER_DESCRIPTION,
-                            formatter_class=_raw)
+def add_parser(sub, name: str, help: str) -> None:
+    """Define the subcommand ``name`` (render, diff or inspect) with its arguments."""
+    {"render": _add_render, "diff": _add_diff, "inspect": _add_inspect}[name](sub, help)
+
+
+def _add_render(sub, help: str) -> None:
+    render = sub.add_parser("render", help=help, description=RENDER_DESCRIPTION,
+                            formatter_class=argparse.RawDescriptionHelpFormatter)
     render.set_defaults(run=run_render, parser=render)
     render.add_argument("input", metavar="IN.svg", help="SVG file; - reads stdin")
     render.add_argument("-o", "--output", required=True, metavar="OUT", help="PNG or PDF file; - writes to stdout")
@@ -84,8 +88,10 @@ def add_parsers(sub) -> None:
     render.add_argument("--background", type=colour, metavar="COLOR", help="opaque background (default transparent)")
     _debug(render)
 
-    diff = sub.add_parser("diff", help="compare two SVG/PNG images (for CI)", description=DIFF_DESCRIPTION,
-                          formatter_class=_raw)
+
+def _add_diff(sub, help: str) -> None:
+    diff = sub.add_parser("diff", help=help, description=DIFF_DESCRIPTION,
+                          formatter_class=argparse.RawDescriptionHelpFormatter)
     diff.set_defaults(run=run_diff, parser=diff)
     diff.add_argument("a", metavar="A", help="SVG or PNG")
     diff.add_argument("b", metavar="B", help="SVG or PNG")
@@ -112,8 +118,10 @@ def add_parsers(sub) -> None:
     diff.add_argument("--json", action="store_true", help="print the report as JSON on stdout")
     _debug(diff)
 
-    inspect = sub.add_parser("inspect", help="draw every pipeline stage (like the paper's Figure 3)",
-                             description=INSPECT_DESCRIPTION, formatter_class=_raw)
+
+def _add_inspect(sub, help: str) -> None:
+    inspect = sub.add_parser("inspect", help=help, description=INSPECT_DESCRIPTION,
+                             formatter_class=argparse.RawDescriptionHelpFormatter)
     inspect.set_defaults(run=run_inspect, parser=inspect)
     inspect.add_argument("input", metavar="IN", help="pixel-art image")
     inspect.add_argument("-o", "--output", metavar="PNG", help="one PNG with every stage")

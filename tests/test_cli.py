@@ -283,8 +283,12 @@ def test_svg_conversion_loads_only_what_it_needs(tmp_path, name):
     numpy 2's ``np.unique`` would import ``numpy.ma`` (~45 ms; depixel/arrays.py), neither
     the atomic write nor the spelling hints need ``tempfile`` or ``difflib`` (~3 and ~2 ms),
     a PNG needs no JPEG reader (~7 ms with the ``subprocess`` module it imports), and the
-    relaxation draws from depixel/splitmix.py, not ``numpy.random`` (~13 ms)."""
-    unneeded = ("cairosvg", "cairocffi", "scipy", "numpy.ma", "tempfile", "difflib", "numpy.random")
+    relaxation draws from depixel/splitmix.py, not ``numpy.random`` (~13 ms); the options
+    stamp takes CPython's own SHA-256, not OpenSSL's through ``hashlib`` (~4 ms); only the
+    command run has its arguments and module (``depixel_cli.tools``, ``depixel_cli.inkscape``),
+    and the help width does not need ``shutil`` (~4 ms)."""
+    unneeded = ("cairosvg", "cairocffi", "scipy", "numpy.ma", "tempfile", "difflib", "numpy.random", "_hashlib",
+                "shutil", "depixel_cli.tools", "depixel_cli.inkscape")
     if name.endswith(".png"):  # nor the JPEG decoder's chroma model (~3 ms)
         unneeded += ("PIL.JpegImagePlugin", "subprocess", "depixel.chroma", "depixel.chroma_unmix")
     code = (
@@ -294,3 +298,32 @@ def test_svg_conversion_loads_only_what_it_needs(tmp_path, name):
     )
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert run.stdout.split() == ["0"], run.stderr
+
+
+def test_only_the_command_run_gets_its_arguments():
+    """The other commands are listed with their help line alone (``depixel --help`` and a
+    mistyped command show no more); the one asked for is defined in full."""
+    from depixel_cli.main import build_parser, command_of
+
+    assert command_of(["--debug", "convert", "a.png", "-o", "b.svg"]) == "convert"
+    assert command_of(["--version"]) == "" and command_of([]) == ""
+
+    def options(parser, name):
+        sub = next(a for a in parser._actions if a.dest == "command")
+        return {o for a in sub.choices[name]._actions for o in a.option_strings}
+
+    every, only = build_parser(), build_parser("convert")
+    assert options(only, "convert") == options(every, "convert") and "--out-dir" in options(only, "convert")
+    assert options(only, "diff") == {"-h", "--help"} and "--max-ratio" in options(every, "diff")
+    assert only.format_help() == every.format_help()
+
+
+def test_help_width_is_the_terminal_width_as_shutil_finds_it(monkeypatch):
+    from depixel_cli.main import _help_width
+
+    monkeypatch.setenv("COLUMNS", "63")
+    assert _help_width() == 61 == shutil.get_terminal_size().columns - 2
+    monkeypatch.setenv("COLUMNS", "junk")
+    assert _help_width() == shutil.get_terminal_size().columns - 2
+    monkeypatch.delenv("COLUMNS")
+    assert _help_width() == shutil.get_terminal_size().columns - 2
