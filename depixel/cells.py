@@ -101,15 +101,22 @@ def build_cell_graph(resolved: CrossingResolution | SimilarityGraph) -> CellGrap
 
 def _template_nodes(split_main: np.ndarray, split_anti: np.ndarray) -> np.ndarray:
     """(N, 2) node positions: slot 0 at every lattice point, then slot 1 of every lattice
-    point a link splits (``split_*`` (H+1, W+1) bool), in scanline order."""
+    point a link splits (``split_*`` (H+1, W+1) bool), in scanline order. Slot 0 is moved
+    by (-1, +1) at a "\\" link (A) and by (-1, -1) at a "/" link (C); slot 1 lies at
+    (+1, -1) (B) or (+1, +1) (D). Written a coordinate at a time."""
     split = split_main | split_anti
-    ii, jj = np.mgrid[0 : split.shape[0], 0 : split.shape[1]]
-    base = np.stack([4 * jj, 4 * ii], axis=-1).astype(INDEX)
-    offset0 = np.zeros_like(base)
-    offset0[split_main] = (-1, 1)  # A, towards the bottom-left pixel
-    offset0[split_anti] = (-1, -1)  # C, towards the top-left pixel
-    offset1 = np.where(split_main[..., None], np.array([1, -1], INDEX), np.array([1, 1], INDEX))  # B or D
-    return np.concatenate([(base + offset0).reshape(-1, 2), (base + offset1)[split]], axis=0)
+    rows, cols = split.shape
+    x = np.arange(0, 4 * cols, 4, dtype=INDEX)
+    y = np.arange(0, 4 * rows, 4, dtype=INDEX)[:, None]
+    at = np.flatnonzero(split)
+    nodes = np.empty((rows * cols + at.size, 2), dtype=INDEX)
+    lattice = nodes[: rows * cols]
+    lattice[:, 0] = (x - split).ravel()
+    lattice[:, 1] = (y + (split_main.view(np.int8) - split_anti.view(np.int8))).ravel()
+    second = nodes[rows * cols :]
+    second[:, 0] = x.take(at % cols) + 1
+    second[:, 1] = y.ravel().take(at // cols) + np.where(split_main.ravel().take(at), -1, 1)
+    return nodes
 
 
 def _pixel_edges(split_main: np.ndarray, split_anti: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -131,27 +138,30 @@ def _pixel_edges(split_main: np.ndarray, split_anti: np.ndarray) -> tuple[np.nda
     pixel = np.full((h + 2, w + 2), -1, dtype=INDEX)
     pixel[1:-1, 1:-1] = np.arange(h * w, dtype=INDEX).reshape(h, w)
 
+    # written a column at a time into the (E, 2) arrays: the horizontal edges, the vertical
+    # ones, then the links'
+    at = np.flatnonzero(split)
+    n_h, n_v = (h + 1) * w, h * (w + 1)
+    edges = np.empty((n_h + n_v + at.size, 2), dtype=INDEX)
+    edge_pixels = np.empty_like(edges)
+    h_e, v_e, d_e = edges[:n_h], edges[n_h : n_h + n_v], edges[n_h + n_v :]
+    h_p, v_p, d_p = edge_pixels[:n_h], edge_pixels[n_h : n_h + n_v], edge_pixels[n_h + n_v :]
     # horizontal edges (i, j) → (i, j+1): pixel above on the left, pixel below on the right
-    h_uv = np.stack([right_end[:, :-1].ravel(), left_end[:, 1:].ravel()], axis=1)
-    h_lr = np.stack([pixel[:-1, 1:-1].ravel(), pixel[1:, 1:-1].ravel()], axis=1)
+    h_e[:, 0], h_e[:, 1] = right_end[:, :-1].ravel(), left_end[:, 1:].ravel()
+    h_p[:, 0], h_p[:, 1] = pixel[:-1, 1:-1].ravel(), pixel[1:, 1:-1].ravel()
     # vertical edges (i, j) → (i+1, j): pixel to the east on the left, west on the right
-    v_uv = np.stack([down_end[:-1, :].ravel(), up_end[1:, :].ravel()], axis=1)
-    v_lr = np.stack([pixel[1:-1, 1:].ravel(), pixel[1:-1, :-1].ravel()], axis=1)
+    v_e[:, 0], v_e[:, 1] = down_end[:-1, :].ravel(), up_end[1:, :].ravel()
+    v_p[:, 0], v_p[:, 1] = pixel[1:-1, 1:].ravel(), pixel[1:-1, :-1].ravel()
     # link edges: "\\" A → B with top-left on the left; "/" C → D with top-right on the left
-    d_uv = np.stack([lattice[split], second[split]], axis=1)
-    si, sj = np.nonzero(split)
-    is_main = split_main[si, sj]
-    d_left = np.where(is_main, pixel[si, sj], pixel[si, sj + 1])
-    d_right = np.where(is_main, pixel[si + 1, sj + 1], pixel[si + 1, sj])
-    d_lr = np.stack([d_left, d_right], axis=1)
-
-    edges = np.concatenate([h_uv, v_uv, d_uv], axis=0)
-    edge_pixels = np.concatenate([h_lr, v_lr, d_lr], axis=0)
-    edge_kind = np.concatenate([
-        np.full(len(h_uv), HORIZONTAL, np.uint8),
-        np.full(len(v_uv), VERTICAL, np.uint8),
-        np.full(len(d_uv), DIAGONAL, np.uint8),
-    ])
+    d_e[:, 0], d_e[:, 1] = at, second.ravel().take(at)  # a lattice point's slot 0 is its scanline index
+    top_left = at + at // (w + 1)  # pixel[i, j] in the padded (h + 2, w + 2) pixel array, flat
+    is_main = split_main.ravel().take(at)
+    pixel = pixel.ravel()
+    d_p[:, 0] = np.where(is_main, pixel.take(top_left), pixel.take(top_left + 1))
+    d_p[:, 1] = np.where(is_main, pixel.take(top_left + w + 3), pixel.take(top_left + w + 2))
+    edge_kind = np.full(len(edges), DIAGONAL, np.uint8)
+    edge_kind[:n_h] = HORIZONTAL
+    edge_kind[n_h : n_h + n_v] = VERTICAL
     return edges, edge_pixels, edge_kind
 
 

@@ -90,13 +90,17 @@ def pair_ends(cells: CellGraph, edges: np.ndarray, shading: np.ndarray) -> HalfE
     """Pair the ends of the curve edges ``edges`` (K,) at every node, by the number of
     curve edges meeting there: two continue each other; at three (a T-junction) one pair
     is joined by :func:`_t_junction_pairs`; at one or four and more every curve ends."""
-    node = cells.edges[edges].ravel().astype(INDEX)
-    n_half = node.size
+    n_half = 2 * edges.size
+    node = np.empty(n_half, dtype=INDEX)  # the ends of each edge in turn, a column at a time
+    node[0::2], node[1::2] = cells.edges[:, 0].take(edges), cells.edges[:, 1].take(edges)
     partner = np.full(n_half, -1, dtype=INDEX)
     order = np.argsort(node, kind="stable")
-    sorted_nodes = node[order]
-    starts = np.flatnonzero(np.r_[True, sorted_nodes[1:] != sorted_nodes[:-1]])
-    counts = np.diff(np.r_[starts, n_half])
+    sorted_nodes = node.take(order)
+    new_node = np.empty(n_half + 1, dtype=bool)  # where each node's run starts, and the end
+    new_node[0] = new_node[-1] = True
+    np.not_equal(sorted_nodes[1:], sorted_nodes[:-1], out=new_node[1:-1])
+    bounds = np.flatnonzero(new_node)
+    starts, counts = bounds[:-1], np.diff(bounds)
 
     two = starts[counts == 2]
     partner[order[two]] = order[two + 1]
@@ -117,8 +121,8 @@ def _t_junction_pairs(cells: CellGraph, node: np.ndarray, h: np.ndarray,
     contour edges when exactly one of the three is a shading edge (``is_shading`` (T, 3)),
     else the pair closest to a straight line (the first such pair on a tie)."""
     here = node[h[:, 0]]
-    other = node[h ^ 1]  # the far node of each edge
-    direction = cells.nodes[other].astype(np.float64) - cells.nodes[here][:, None, :]
+    other = node.take(h ^ 1)  # the far node of each edge
+    direction = cells.nodes.take(other, axis=0).astype(np.float64) - cells.nodes.take(here, axis=0)[:, None, :]
     direction /= np.linalg.norm(direction, axis=2, keepdims=True)
     pairs = np.array([(0, 1), (0, 2), (1, 2)])
     cosine = np.einsum("tpk,tpk->tp", direction[:, pairs[:, 0]], direction[:, pairs[:, 1]])
