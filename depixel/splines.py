@@ -37,7 +37,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .arrays import batch_slices
+from .arrays import batch_slices, set_rows
 from .bspline import Bezier, between_curve_points, midpoint, slot_spans, span
 from .cells import INDEX, CellGraph
 from .frozen import freeze
@@ -82,7 +82,7 @@ class _SnapPlan(NamedTuple):
         snapped = midpoint(*span(ctrl.take(self.before, axis=0), ctrl.take(self.through, axis=0),
                                  ctrl.take(self.after, axis=0), self.before_is_end, self.after_is_end))
         moved = not np.array_equal(snapped, ctrl.take(self.ends, axis=0))
-        ctrl[self.ends] = snapped
+        set_rows(ctrl, self.ends, snapped)
         return moved
 
     def chained(self, n_slots: int) -> _SnapPlan:
@@ -227,7 +227,7 @@ class SplineSet:
         """(N, 2) ``positions`` with every curve's inner nodes moved to their curve points ``s``."""
         display = positions.copy()
         inner = ~self.is_end()
-        display[self.curve_nodes[inner]] = s[inner]
+        set_rows(display, self.curve_nodes.compress(inner), s.compress(inner, axis=0))
         return display
 
     def display_points(self, positions: np.ndarray) -> np.ndarray:
@@ -249,7 +249,7 @@ class SplineSet:
         curved = np.zeros(n_edges, dtype=bool)
         curved[edge] = True
         controls = np.zeros((n_edges, 3, 2), dtype=np.float64)
-        controls[edge] = trio
+        set_rows(controls.reshape(n_edges, 6), edge, trio.reshape(-1, 6))
         return Geometry(points, curved, controls)
 
     def _drawing(self, ctrl: np.ndarray, positions: np.ndarray) -> Drawing:
