@@ -156,12 +156,15 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
     return np.where(wanted, np.where(inside, nearest, -nearest), np.inf)
 
 
-def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
-                        margin: float, rounds: int = 8) -> np.ndarray:
+def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.ndarray, margin: float,
+                        rounds: int = 8, drawing: Drawing | None = None) -> tuple[np.ndarray, Drawing]:
     """Undo moves around any cell whose pixel centre came closer than ``margin`` to its
     boundary (or left it), until none does. Moves made elsewhere on a curve (a T-junction
     end follows the curve it ends on) can reach a cell the relaxation did not check.
-    Only cells next to an edge whose geometry changed are measured."""
+    Only cells next to an edge whose geometry changed are measured.
+
+    Returns the positions and their drawing (the last one measured, or a new one when
+    the rounds ran out); ``drawing``: that of ``positions``, when the caller has it."""
     cells = splines.cells
     positions = positions.copy()
     initial = splines.drawing(start)
@@ -169,8 +172,10 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
     n_px = cells.shape[0] * cells.shape[1]
     floor = np.full(n_px, np.nan)  # min(margin, initial clearance), filled in where needed
     reference = initial  # geometry already verified (or initial), to find what changed since
-    for _ in range(rounds):
-        current = splines.drawing(positions)  # the same curved edges as the reference, in the same order
+    current = splines.drawing(positions) if drawing is None else drawing
+    for round_ in range(rounds):
+        if round_:
+            current = splines.drawing(positions)  # the same curved edges as the reference, in the same order
         moved = _differs(current.points, reference.points)
         changed = moved[cells.edges[:, 0]] | moved[cells.edges[:, 1]]
         changed[current.edges] |= _differs(current.controls, reference.controls)
@@ -178,7 +183,7 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
         sides = cells.edge_pixels[changed].ravel()
         pixels[sides[sides >= 0]] = True
         if not pixels.any():
-            break
+            return positions, current
         clearance = _clearance(cells, current, pixels, below=margin)
         # a clearance of at least the margin passes whatever the initial clearance: only
         # the centres below it are measured in the initial drawing
@@ -189,7 +194,7 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
         ok = ~low | (clearance >= floor - 1e-9)
         reference = current
         if ok.all():
-            break
+            return positions, current
         bad = np.flatnonzero(~ok)
         touched = np.isin(cells.edge_pixels, bad).any(axis=1)
         nodes = unique(cells.edges[touched])
@@ -200,7 +205,7 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
             on[near] = True
         nodes = union(nodes, splines.curve_nodes[on])
         positions[nodes] = start[nodes]
-    return positions
+    return positions, splines.drawing(positions)
 
 
 def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -11,13 +11,15 @@ from collections.abc import Callable
 
 import numpy as np
 
+from .arrays import set_rows
 from .splines import SplineSet
 
 
 def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
-                 corners: np.ndarray, reach: int = 6) -> np.ndarray:
+                 corners: np.ndarray, reach: int = 6, display: np.ndarray | None = None) -> np.ndarray:
     """(N, 2) ``positions`` with the free nodes moved by the harmonic interpolation of the
     constrained displacements (``start`` → ``positions`` (N, 2); ``corners`` (N,) bool).
+    ``display``: the display points of ``positions`` when the caller has drawn them already.
 
     Constrained: every curve node (displaced from its initial place to its display point),
     the border and corners (not displaced). The system — each free node's displacement is
@@ -34,7 +36,8 @@ def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
     border = (q[:, 0] == 0) | (q[:, 1] == 0) | (q[:, 0] == 4 * w) | (q[:, 1] == 4 * h)
     on_curve = np.zeros(n, dtype=bool)
     on_curve[splines.curve_nodes] = True
-    display = splines.display_points(positions)
+    if display is None:
+        display = splines.display_points(positions)
     displacement = np.where(on_curve[:, None], display - start, 0.0)
     u, v = cells.edges[:, 0], cells.edges[:, 1]
     near = np.abs(displacement).max(axis=1) > 1e-12
@@ -76,6 +79,16 @@ def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
 
     out = positions.copy()
     out[free] = start[free] + conjugate_gradients(apply, rhs).T
+    return out
+
+
+def follow(display: np.ndarray, before: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """(N, 2) the display points of ``after`` from those of ``before`` (``display``), when
+    ``after`` moved nodes off the curves alone (as :func:`harmonic_map` does): a moved node
+    is shown where it is, the curves and their display points stay."""
+    moved = np.flatnonzero((after[:, 0] != before[:, 0]) | (after[:, 1] != before[:, 1]))
+    out = display.copy()
+    set_rows(out, moved, after.take(moved, axis=0))
     return out
 
 

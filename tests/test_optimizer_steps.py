@@ -8,8 +8,8 @@ import pytest
 
 from depixel.bspline import evaluate, half_turns, midpoint
 from depixel.corners import detect_corners, detect_square_corners, excluded_halves
-from depixel.fidelity import centre_clearance
-from depixel.harmonic import harmonic_map
+from depixel.fidelity import centre_clearance, keep_centres_inside
+from depixel.harmonic import follow, harmonic_map
 from depixel.params import Params
 from depixel.pipeline import depixelize
 from depixel.raster import render_rgba
@@ -283,6 +283,50 @@ def test_harmonic_map_runs_in_the_pipeline():
     q = opt.splines.cells.nodes
     inside = ~on_curve & (q > 0).all(axis=1) & (q[:, 0] < 4 * 14) & (q[:, 1] < 4 * 11)
     assert np.abs(opt.positions[inside] - opt.initial[inside]).max() > 0.01
+
+
+def test_follow_gives_the_display_points_of_nodes_moved_off_the_curves():
+    result = depixelize(DIAMOND)
+    opt = result.optimized
+    splines = opt.splines
+    before = opt.positions
+    off_curve = np.ones(len(before), bool)
+    off_curve[splines.curve_nodes] = False
+    after = before.copy()
+    after[off_curve] += 0.125
+    display = splines.display_points(before)
+    followed = follow(display, before, after)
+    assert np.array_equal(followed, splines.display_points(after))
+    assert not np.array_equal(followed, display)
+
+
+def test_the_optimized_result_draws_its_positions():
+    """The drawing kept from the revert is that of the final positions: the output is what
+    drawing them again gives, array for array."""
+    for img in (DIAMOND, CHAINED_T):
+        opt = depixelize(img).optimized
+        again = opt.splines.vector_image(opt.positions, stage="optimized")
+        kept = opt.vector_image()
+        for name in ("points", "curved", "controls"):
+            assert np.array_equal(getattr(kept, name), getattr(again, name)), name
+        assert kept.curves is not None and again.curves is not None
+        assert np.array_equal(kept.curves.ctrl, again.curves.ctrl)
+        assert np.array_equal(kept.curves.edge_slot, again.curves.edge_slot)
+
+
+@pytest.mark.parametrize("rounds", [1, 8])
+def test_the_revert_returns_the_drawing_of_its_positions(rounds):
+    opt = depixelize(DIAMOND).optimized
+    splines = opt.splines
+    wild = opt.initial + np.random.default_rng(5).uniform(-0.6, 0.6, opt.initial.shape)
+    positions, drawing = keep_centres_inside(splines, opt.initial, wild, 0.075, rounds)
+    assert not np.array_equal(positions, wild)  # something was put back
+    again = splines.drawing(positions)
+    for kept, drawn in zip(drawing, again):
+        assert np.array_equal(kept, drawn)
+    # given the drawing of the positions it starts from, the same result
+    given = keep_centres_inside(splines, opt.initial, wild, 0.075, rounds, splines.drawing(wild))
+    assert np.array_equal(given[0], positions)
 
 
 # --- the fidelity guard of each move ------------------------------------------------------------
