@@ -9,7 +9,7 @@ import pytest
 from depixel.bspline import evaluate, half_turns, midpoint
 from depixel.corners import detect_corners, detect_square_corners, excluded_halves
 from depixel.fidelity import centre_clearance, keep_centres_inside
-from depixel.harmonic import follow, harmonic_map
+from depixel.harmonic import conjugate_gradients, follow, harmonic_map, row_dots
 from depixel.params import Params
 from depixel.pipeline import depixelize
 from depixel.raster import render_rgba
@@ -283,6 +283,29 @@ def test_harmonic_map_runs_in_the_pipeline():
     q = opt.splines.cells.nodes
     inside = ~on_curve & (q > 0).all(axis=1) & (q[:, 0] < 4 * 14) & (q[:, 1] < 4 * 11)
     assert np.abs(opt.positions[inside] - opt.initial[inside]).max() > 0.01
+
+
+def test_conjugate_gradients_solves_each_row_to_the_residual_it_promises():
+    rng = np.random.default_rng(7)
+    root = rng.normal(size=(40, 40))
+    matrix = root @ root.T + 40 * np.eye(40)  # symmetric positive definite
+    rhs = rng.normal(size=(3, 40))
+
+    def apply(x: np.ndarray, out: np.ndarray) -> None:
+        out[...] = x @ matrix
+
+    x = conjugate_gradients(apply, rhs)
+    exact = np.linalg.solve(matrix, rhs.T).T
+    assert x.shape == rhs.shape
+    residual = np.linalg.norm(x @ matrix - rhs, axis=1)
+    assert (residual <= 1e-5 * np.linalg.norm(rhs, axis=1).max() * 1.0001).all()
+    assert np.abs(x - exact).max() < 1e-5
+
+
+def test_row_dots_are_the_dot_products_of_the_rows():
+    a, b = np.arange(6.0).reshape(2, 3), np.array([[1.0, 2.0, 3.0], [-1.0, 0.5, 2.0]])
+    assert row_dots(a, b) == [8.0, 9.0]
+    assert row_dots(a, b, np.empty((2, 3))) == [8.0, 9.0]
 
 
 def test_follow_gives_the_display_points_of_nodes_moved_off_the_curves():
