@@ -304,7 +304,7 @@ def test_conjugate_gradients_solves_each_row_to_the_residual_it_promises():
 
 def test_row_dots_are_the_dot_products_of_the_rows():
     a, b = np.arange(6.0).reshape(2, 3), np.array([[1.0, 2.0, 3.0], [-1.0, 0.5, 2.0]])
-    assert row_dots(a, b) == [8.0, 9.0]
+    assert row_dots(a, b) == [8.0, -3.0 + 2.0 + 10.0]
     assert row_dots(a, b, np.empty((2, 3))) == [8.0, 9.0]
 
 
