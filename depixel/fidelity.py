@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from .arrays import union, unique
-from .bspline import flatten_edges
+from .bspline import flatten_edges_planes
 from .cells import CellGraph, link_corners
 from .splines import Drawing, SplineSet
 from .vector import VectorImage
@@ -93,16 +93,22 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
     n_px = h * w
     wanted = np.ones(n_px, bool) if pixels is None else pixels
     has = np.append(wanted, False)[cells.edge_pixels]  # (E, 2); a side without a pixel is -1
-    edge = np.nonzero(has)[0]
-    pix = cells.edge_pixels[has]
+    side = np.flatnonzero(has)  # edge e's sides are 2 e and 2 e + 1
+    edge = side >> 1
+    pix = cells.edge_pixels.ravel().take(side)
     rows, cols = np.divmod(pix, w)
     cx, cy = cols + 0.5, rows + 0.5
+    # everything below as x and y columns: numpy runs the rows of an (N, 2) array two
+    # elements at a time
+    point_x, point_y = drawing.points.T.copy()  # take() copies a strided array whole first
     ends = cells.edges.take(edge, axis=0)
-    a, b = drawing.points.take(ends[:, 0], axis=0), drawing.points.take(ends[:, 1], axis=0)
+    start, stop = ends[:, 0], ends[:, 1]
+    ax, ay, bx, by = point_x.take(start), point_y.take(start), point_x.take(stop), point_y.take(stop)
 
     def measure(pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Ray crossings and squared nearest distance (H*W,) of the pairs ``pairs``,
-        segment by segment: a straight edge is one, a curve 2 * samples."""
+        segment by segment: a straight edge is one, a curve 2 * samples (the order of the
+        segments does not matter: a count and a minimum per pixel)."""
         e, p, x, y = edge[pairs], pix[pairs], cx[pairs], cy[pairs]
         bent = curved_edge[e]
         flat = np.zeros(len(cells.edges), bool)
@@ -111,40 +117,46 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
         row = np.zeros(len(cells.edges), np.int64)
         row[flat] = np.arange(flat.size)
         ends = cells.edges.take(flat, axis=0)
-        poly = flatten_edges(drawing.points.take(ends[:, 0], axis=0), drawing.controls.take(control_row[flat], axis=0),
-                             drawing.points.take(ends[:, 1], axis=0), samples)  # (F, 2 * samples + 1, 2)
-        poly = poly.take(row[e[bent]], axis=0)
+        poly_x, poly_y = flatten_edges_planes(drawing.points.take(ends[:, 0], axis=0),
+                                              drawing.controls.take(control_row[flat], axis=0),
+                                              drawing.points.take(ends[:, 1], axis=0), samples)  # (2 * samples + 1, F)
+        of_pair = row[e[bent]]
+        poly_x, poly_y = poly_x.take(of_pair, axis=1), poly_y.take(of_pair, axis=1)
         straight = pairs[~bent]
-        q0 = np.concatenate([a.take(straight, axis=0), poly[:, :-1].reshape(-1, 2)])
-        q1 = np.concatenate([b.take(straight, axis=0), poly[:, 1:].reshape(-1, 2)])
-        p = np.concatenate([p[~bent], np.repeat(p[bent], 2 * samples)])
-        x = np.concatenate([x[~bent], np.repeat(x[bent], 2 * samples)])
-        y = np.concatenate([y[~bent], np.repeat(y[bent], 2 * samples)])
-        straddle = (q0[:, 1] > y) != (q1[:, 1] > y)
+        q0_x = np.concatenate([ax.take(straight), poly_x[:-1].ravel()])
+        q0_y = np.concatenate([ay.take(straight), poly_y[:-1].ravel()])
+        q1_x = np.concatenate([bx.take(straight), poly_x[1:].ravel()])
+        q1_y = np.concatenate([by.take(straight), poly_y[1:].ravel()])
+        p = np.concatenate([p[~bent]] + [p[bent]] * (2 * samples))  # the segments piece by piece
+        x = np.concatenate([x[~bent]] + [x[bent]] * (2 * samples))
+        y = np.concatenate([y[~bent]] + [y[bent]] * (2 * samples))
+        seg_x, seg_y = q1_x - q0_x, q1_y - q0_y
+        rel_x, rel_y = x - q0_x, y - q0_y
+        straddle = (q0_y > y) != (q1_y > y)
         with np.errstate(divide="ignore", invalid="ignore"):
-            x_at = q0[:, 0] + (y - q0[:, 1]) * (q1[:, 0] - q0[:, 0]) / (q1[:, 1] - q0[:, 1])
+            x_at = q0_x + rel_y * seg_x / seg_y
         crossings = np.bincount(p[straddle & (x_at > x)], minlength=n_px)
-        seg = q1 - q0
-        rel_x, rel_y = x - q0[:, 0], y - q0[:, 1]
-        length2 = np.maximum(seg[:, 0] ** 2 + seg[:, 1] ** 2, 1e-12)
-        along = np.clip((rel_x * seg[:, 0] + rel_y * seg[:, 1]) / length2, 0.0, 1.0)
-        dx, dy = rel_x - along * seg[:, 0], rel_y - along * seg[:, 1]
+        length2 = np.maximum(seg_x**2 + seg_y**2, 1e-12)
+        along = np.clip((rel_x * seg_x + rel_y * seg_y) / length2, 0.0, 1.0)
+        dx, dy = rel_x - along * seg_x, rel_y - along * seg_y
         nearest2 = np.full(n_px, np.inf)
         np.minimum.at(nearest2, p, dx * dx + dy * dy)
         return crossings, nearest2
 
     if np.isfinite(below):
-        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        lo_x, hi_x, lo_y, hi_y = np.minimum(ax, bx), np.maximum(ax, bx), np.minimum(ay, by), np.maximum(ay, by)
         if drawing.edges.size:
             controls = drawing.controls.take(control_row[edge], axis=0)  # any row for a straight edge
-            bent = curved_edge[edge][:, None]
-            first, second, third = controls[:, 0], controls[:, 1], controls[:, 2]
-            lo = np.where(bent, np.minimum(np.minimum(np.minimum(lo, first), second), third), lo)
-            hi = np.where(bent, np.maximum(np.maximum(np.maximum(hi, first), second), third), hi)
-        right = lo[:, 0] - cx > below
-        far = right | (cx - hi[:, 0] > below) | (lo[:, 1] - cy > below) | (cy - hi[:, 1] > below)
+            bent = curved_edge[edge]
+            c = [controls[:, i, axis] for axis in range(2) for i in range(3)]  # x of c0, c1, c2, y of them
+            lo_x = np.where(bent, np.minimum(np.minimum(np.minimum(lo_x, c[0]), c[1]), c[2]), lo_x)
+            hi_x = np.where(bent, np.maximum(np.maximum(np.maximum(hi_x, c[0]), c[1]), c[2]), hi_x)
+            lo_y = np.where(bent, np.minimum(np.minimum(np.minimum(lo_y, c[3]), c[4]), c[5]), lo_y)
+            hi_y = np.where(bent, np.maximum(np.maximum(np.maximum(hi_y, c[3]), c[4]), c[5]), hi_y)
+        right = lo_x - cx > below
+        far = right | (cx - hi_x > below) | (lo_y - cy > below) | (cy - hi_y > below)
         count, nearest2 = measure(np.flatnonzero(~far))
-        count += np.bincount(pix[right & ((a[:, 1] > cy) != (b[:, 1] > cy))], minlength=n_px)
+        count += np.bincount(pix[right & ((ay > cy) != (by > cy))], minlength=n_px)
         # a centre outside its cell is measured against every edge (its crossings are counted)
         again = np.flatnonzero(far & (count[pix] % 2 == 0))
         if again.size:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from depixel.bspline import evaluate, half_turns, midpoint
+from depixel.bspline import evaluate, flatten_edges, flatten_edges_planes, half_turns, midpoint
 from depixel.corners import detect_corners, detect_square_corners, excluded_halves
 from depixel.fidelity import centre_clearance, keep_centres_inside
 from depixel.harmonic import conjugate_gradients, follow, harmonic_map, row_dots
@@ -66,6 +66,18 @@ def test_turning_of_each_half_is_the_integral_of_the_curvature():
         assert float(second) == pytest.approx(numerical_turning(p0, p1, p2, 0.5, 1.0), abs=1e-6)
         checked += 1
     assert checked > 20
+
+
+@pytest.mark.parametrize("count", [0, 1, 37])
+def test_flattened_edges_as_planes_are_the_same_numbers(count):
+    rng = np.random.default_rng(count)
+    start, stop = rng.normal(size=(count, 2)) * 9, rng.normal(size=(count, 2)) * 9
+    controls = rng.normal(size=(count, 3, 2)) * 9
+    rows = flatten_edges(start, controls, stop, 3)  # (E, 7, 2)
+    planes = flatten_edges_planes(start, controls, stop, 3)  # (7, E) each
+    for axis in range(2):
+        assert planes[axis].shape == (7, count)
+        assert np.array_equal(planes[axis], rows[..., axis].T)  # bit for bit, not approximately
 
 
 def test_smoothness_counts_only_the_kept_halves():
