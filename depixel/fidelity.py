@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .arrays import union, unique
+from .arrays import set_rows
 from .bspline import flatten_edges_planes
 from .cells import CellGraph, link_corners
 from .splines import Drawing, SplineSet
@@ -101,7 +101,11 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
     # everything below as x and y columns: numpy runs the rows of an (N, 2) array two
     # elements at a time
     point_x, point_y = drawing.points.T.copy()  # take() copies a strided array whole first
-    ends = cells.edges.take(edge, axis=0)
+    # the end points of every edge with a wanted pixel (each pair's edge: ``of``)
+    listed = has[:, 0] | has[:, 1]
+    listed_edge = np.flatnonzero(listed)
+    of = (np.cumsum(listed) - 1).take(edge)
+    ends = cells.edges.take(listed_edge, axis=0)
     start, stop = ends[:, 0], ends[:, 1]
     ax, ay, bx, by = point_x.take(start), point_y.take(start), point_x.take(stop), point_y.take(stop)
 
@@ -122,7 +126,7 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
                                               drawing.points.take(ends[:, 1], axis=0), samples)  # (2 * samples + 1, F)
         of_pair = row[e[bent]]
         poly_x, poly_y = poly_x.take(of_pair, axis=1), poly_y.take(of_pair, axis=1)
-        straight = pairs[~bent]
+        straight = of.take(pairs.compress(~bent))
         q0_x = np.concatenate([ax.take(straight), poly_x[:-1].ravel()])
         q0_y = np.concatenate([ay.take(straight), poly_y[:-1].ravel()])
         q1_x = np.concatenate([bx.take(straight), poly_x[1:].ravel()])
@@ -144,21 +148,22 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
         return crossings, nearest2
 
     if np.isfinite(below):
+        # each listed edge's box, then each pair's centre against its edge's box
         lo_x, hi_x, lo_y, hi_y = np.minimum(ax, bx), np.maximum(ax, bx), np.minimum(ay, by), np.maximum(ay, by)
         if drawing.edges.size:
-            controls = drawing.controls.take(control_row[edge], axis=0)  # any row for a straight edge
-            bent = curved_edge[edge]
+            controls = drawing.controls.take(control_row.take(listed_edge), axis=0)  # any row for a straight edge
+            bent = curved_edge.take(listed_edge)
             c = [controls[:, i, axis] for axis in range(2) for i in range(3)]  # x of c0, c1, c2, y of them
             lo_x = np.where(bent, np.minimum(np.minimum(np.minimum(lo_x, c[0]), c[1]), c[2]), lo_x)
             hi_x = np.where(bent, np.maximum(np.maximum(np.maximum(hi_x, c[0]), c[1]), c[2]), hi_x)
             lo_y = np.where(bent, np.minimum(np.minimum(np.minimum(lo_y, c[3]), c[4]), c[5]), lo_y)
             hi_y = np.where(bent, np.maximum(np.maximum(np.maximum(hi_y, c[3]), c[4]), c[5]), hi_y)
-        right = lo_x - cx > below
-        far = right | (cx - hi_x > below) | (lo_y - cy > below) | (cy - hi_y > below)
+        right = lo_x.take(of) - cx > below
+        far = right | (cx - hi_x.take(of) > below) | (lo_y.take(of) - cy > below) | (cy - hi_y.take(of) > below)
         count, nearest2 = measure(np.flatnonzero(~far))
-        count += np.bincount(pix[right & ((ay > cy) != (by > cy))], minlength=n_px)
+        count += np.bincount(pix[right & ((ay.take(of) > cy) != (by.take(of) > cy))], minlength=n_px)
         # a centre outside its cell is measured against every edge (its crossings are counted)
-        again = np.flatnonzero(far & (count[pix] % 2 == 0))
+        again = np.flatnonzero(far & (count % 2 == 0).take(pix))
         if again.size:
             nearest2 = np.minimum(nearest2, measure(again)[1])
     else:
@@ -188,12 +193,13 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
     for round_ in range(rounds):
         if round_:
             current = splines.drawing(positions)  # the same curved edges as the reference, in the same order
-        moved = _differs(current.points, reference.points)
-        changed = moved[cells.edges[:, 0]] | moved[cells.edges[:, 1]]
+        moved = _differs(current.points, reference.points).take(cells.edges)  # (E, 2)
+        changed = moved[:, 0] | moved[:, 1]
         changed[current.edges] |= _differs(current.controls, reference.controls)
-        pixels = np.zeros(n_px, bool)
-        sides = cells.edge_pixels[changed].ravel()
-        pixels[sides[sides >= 0]] = True
+        # the pixels beside the changed edges (a side without a pixel, -1, marks the extra last entry)
+        beside = np.zeros(n_px + 1, bool)
+        beside[cells.edge_pixels.compress(changed, axis=0).ravel()] = True
+        pixels = beside[:-1]
         if not pixels.any():
             return positions, current
         clearance = _clearance(cells, current, pixels, below=margin)
@@ -207,16 +213,17 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
         reference = current
         if ok.all():
             return positions, current
-        bad = np.flatnonzero(~ok)
-        touched = np.isin(cells.edge_pixels, bad).any(axis=1)
-        nodes = unique(cells.edges[touched])
+        bad = np.append(~ok, False).take(cells.edge_pixels)  # (E, 2)
+        revert = np.zeros(len(positions), bool)  # the nodes of the edges around a bad cell
+        revert[cells.edges.compress(bad[:, 0] | bad[:, 1], axis=0).ravel()] = True
         # widen to the whole neighbourhood on the curves through those nodes
-        on = np.isin(splines.curve_nodes, nodes)
+        on = revert.take(splines.curve_nodes)
         for step in (prev, nxt):
             near = step[on & (step >= 0)]
             on[near] = True
-        nodes = union(nodes, splines.curve_nodes[on])
-        positions[nodes] = start[nodes]
+        revert[splines.curve_nodes.compress(on)] = True
+        nodes = np.flatnonzero(revert)
+        set_rows(positions, nodes, start.take(nodes, axis=0))
     return positions, splines.drawing(positions)
 
 
