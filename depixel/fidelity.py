@@ -34,29 +34,33 @@ def protected_points(splines: SplineSet, slots: np.ndarray | slice = slice(None)
     cells = splines.cells
     w = cells.shape[1]
     edge = splines.slot_edges[slots]
-    pix = np.where(edge[..., None] >= 0, cells.edge_pixels[np.maximum(edge, 0)], -1)
+    pix = np.where((edge >= 0)[..., None], cells.edge_pixels.take(np.maximum(edge, 0), axis=0), -1)
     rows, cols = np.divmod(np.maximum(pix, 0), w)
-    centre = np.stack([cols + 0.5, rows + 0.5], axis=-1).astype(np.float64)
-    side = np.where((pix >= 0)[..., None], centre, FAR)  # (..., 2, 2)
-    q = cells.nodes[splines.curve_nodes[slots]]
-    split, lattice = link_corners(q)
-    link = np.where(split[..., None], lattice / 4.0, FAR)[..., None, :]
-    return np.concatenate([side, link], axis=-2)
+    out = np.empty(edge.shape + (3, 2))
+    out[..., :2, 0] = np.where(pix >= 0, cols + 0.5, FAR)  # the centres beside the edge
+    out[..., :2, 1] = np.where(pix >= 0, rows + 0.5, FAR)
+    split, lattice = link_corners(cells.nodes.take(splines.curve_nodes[slots], axis=0))
+    out[..., 2, :] = np.where(split[..., None], lattice / 4.0, FAR)
+    return out
 
 
 def unique_rows(points: np.ndarray) -> np.ndarray:
-    """(M, Q, 2) → (M, Q', 2): each row's distinct points first, padded with :data:`FAR`."""
+    """(M, Q, 2) → (M, Q', 2): each row's distinct points first, padded with :data:`FAR`.
+
+    The points are ordered by a key of both coordinates, sorted as indices (one gather of
+    the points at the end, flat ``take`` instead of ``take_along_axis``)."""
+    m, q = points.shape[:2]
     key = points[..., 0] * 4096.0 + points[..., 1]
-    order = np.argsort(key, axis=1)
-    key = np.take_along_axis(key, order, axis=1)
-    pts = np.take_along_axis(points, order[..., None], axis=1)
-    repeat = np.zeros(key.shape, bool)
-    repeat[:, 1:] = key[:, 1:] == key[:, :-1]
-    pts = np.where((repeat | (pts[..., 0] >= FAR))[..., None], FAR, pts)
-    keep = np.argsort(pts[..., 0] >= FAR, axis=1, kind="stable")
-    pts = np.take_along_axis(pts, keep[..., None], axis=1)
-    width = max(int((pts[..., 0] < FAR).sum(axis=1).max(initial=0)), 1)
-    return pts[:, :width]
+    base = (np.arange(m) * q)[:, None]
+    order = np.argsort(key, axis=1) + base  # flat indices, by key
+    sorted_key = key.ravel().take(order)
+    drop = points[..., 0].ravel().take(order) >= FAR
+    drop[:, 1:] |= sorted_key[:, 1:] == sorted_key[:, :-1]
+    count = q - drop.sum(axis=1)
+    width = max(int(count.max(initial=0)), 1)
+    kept = order.ravel().take(np.argsort(drop, axis=1, kind="stable")[:, :width] + base)  # the kept ones first
+    pts = points.reshape(-1, 2).take(kept.ravel(), axis=0).reshape(m, width, 2)
+    return np.where((np.arange(width) < count[:, None])[..., None], pts, FAR)
 
 
 def centre_clearance(image: VectorImage, pixels: np.ndarray | None = None, samples: int = 3) -> np.ndarray:

@@ -8,7 +8,7 @@ import pytest
 
 from depixel.bspline import evaluate, flatten_edges, flatten_edges_planes, half_turns, midpoint
 from depixel.corners import detect_corners, detect_square_corners, excluded_halves
-from depixel.fidelity import centre_clearance, keep_centres_inside
+from depixel.fidelity import FAR, centre_clearance, keep_centres_inside, protected_points, unique_rows
 from depixel.harmonic import conjugate_gradients, follow, harmonic_map, row_dots
 from depixel.params import Params
 from depixel.pipeline import depixelize
@@ -362,6 +362,40 @@ def test_the_revert_returns_the_drawing_of_its_positions(rounds):
     # given the drawing of the positions it starts from, the same result
     given = keep_centres_inside(splines, opt.initial, wild, 0.075, rounds, splines.drawing(wild))
     assert np.array_equal(given[0], positions)
+
+
+def test_unique_rows_keeps_each_rows_distinct_points_in_key_order():
+    points = np.array([
+        [[2.5, 1.5], [FAR, FAR], [0.5, 3.5], [2.5, 1.5], [1.0, 2.0]],
+        [[FAR, FAR], [4.5, 0.5], [FAR, FAR], [4.5, 0.5], [4.5, 0.5]],
+        [[FAR, FAR]] * 5,
+    ])
+    out = unique_rows(points)
+    assert out.shape == (3, 3, 2)  # as wide as the row with the most distinct points
+    assert out[0].tolist() == [[0.5, 3.5], [1.0, 2.0], [2.5, 1.5]]  # ordered by x, then y
+    assert out[1].tolist() == [[4.5, 0.5], [FAR, FAR], [FAR, FAR]]
+    assert (out[2] == FAR).all()
+    assert unique_rows(np.full((0, 4, 2), FAR)).shape == (0, 1, 2)
+
+
+def test_protected_points_are_the_centres_beside_each_edge_and_the_split_corner():
+    for img in (CHAINED_T, DIAMOND):  # open ends with no pixel beyond; split corners of diagonal links
+        splines = splines_of(img)
+        cells = splines.cells
+        w = cells.shape[1]
+        slots = np.arange(splines.curve_nodes.size).reshape(-1, 1)
+        got = protected_points(splines, slots)
+        assert got.shape == (slots.shape[0], 1, 3, 2)
+        assert np.array_equal(got[:, 0], protected_points(splines))
+        for slot, row in zip(slots[:, 0], got[:, 0]):
+            edge = splines.slot_edges[slot]
+            for side in range(2):
+                pixel = cells.edge_pixels[edge, side] if edge >= 0 else -1
+                want = [FAR, FAR] if pixel < 0 else [pixel % w + 0.5, pixel // w + 0.5]
+                assert row[side].tolist() == want
+            node = cells.nodes[splines.curve_nodes[slot]]
+            split = bool((np.abs(node - 4 * np.round(node / 4)) == 1).all())
+            assert row[2].tolist() == (list(np.round(node / 4)) if split else [FAR, FAR])
 
 
 # --- the fidelity guard of each move ------------------------------------------------------------
