@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .arrays import batch_slices
+from .arrays import batch_slices, set_rows
 from .cells import link_corners
 from .frozen import freeze
 from .params import Params
@@ -50,8 +50,9 @@ class Corners:
         """(N, 2) the nodes' initial positions with every right-angle corner moved onto its
         lattice point (the cut made by the diagonal link is undone)."""
         start = splines.positions.copy()
-        q = splines.cells.nodes[self.square]
-        start[self.square] = 4 * np.round(q / 4.0) / 4.0
+        square = np.flatnonzero(self.square)
+        q = splines.cells.nodes.take(square, axis=0)
+        set_rows(start, square, 4 * np.round(q / 4.0) / 4.0)
         return start
 
 

@@ -63,7 +63,7 @@ def optimize_splines(splines: SplineSet, corners: Corners, params: Params = Para
     start = corners.place(splines)
     relaxed = relax(splines, start, corners.nodes, excluded_halves(splines, corners.nodes), params)
     positions = start.copy()
-    positions[splines.curve_nodes[relaxed.movable]] = relaxed.ctrl[relaxed.movable]
+    set_rows(positions, splines.curve_nodes.compress(relaxed.movable), relaxed.ctrl.compress(relaxed.movable, axis=0))
     energy_before, energy_after = relaxed.energy_before, relaxed.energy_after
     del relaxed  # the control points live on in the positions; free them for the steps below
     # the relaxed curves are drawn once: the harmonic map needs their display points, the
