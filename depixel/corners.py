@@ -162,32 +162,35 @@ def detect_run_corners(splines: SplineSet, params: Params = Params()) -> np.ndar
         chord_x, chord_y = np.zeros(at.size), np.zeros(at.size)
         far_slot = np.full(at.size, -1, dtype=np.int64)
         for part in batch_slices(starts.size, RUN_BATCH):
-            rows = walk = starts[part]  # the runs still growing
-            first = at.take(rows)
-            start_x, start_y = qx.take(first), qy.take(first)
-            passed_x, passed_y = np.empty((rows.size, steps)), np.empty((rows.size, steps))  # every earlier far node
+            # per run still growing: its row and the slot it reached (ids), and in one float
+            # array (filtered by one compress a step) its start x, y, then the x and then the
+            # y of the far node of every earlier step
+            ids = np.stack([starts[part], step.take(starts[part])], axis=1)
+            ids = ids.compress(ids[:, 1] >= 0, axis=0)
+            first = at.take(ids[:, 0])
+            geo = np.empty((ids.shape[0], 2 + 2 * steps))
+            geo[:, 0], geo[:, 1] = qx.take(first), qy.take(first)
             for i in range(steps):
-                walk = step.take(walk)
-                go = walk >= 0
-                rows, walk, start_x, start_y, passed_x, passed_y = (
-                    a.compress(go, axis=0) for a in (rows, walk, start_x, start_y, passed_x, passed_y))
+                if ids.shape[0] == 0:
+                    break
+                rows, walk = ids[:, 0], ids[:, 1]
+                start_x, start_y = geo[:, 0], geo[:, 1]
                 far = at.take(walk)
                 far_x, far_y = qx.take(far), qy.take(far)
                 candidate_x, candidate_y = far_x - start_x, far_y - start_y
                 length = np.sqrt(candidate_x * candidate_x + candidate_y * candidate_y)
                 # every node passed must stay near the new chord
-                rel_x, rel_y = passed_x[:, :i] - start_x[:, None], passed_y[:, :i] - start_y[:, None]
+                rel_x = geo[:, 2:2 + i] - start_x[:, None]
+                rel_y = geo[:, 2 + steps:2 + steps + i] - start_y[:, None]
                 cross = np.abs(candidate_x[:, None] * rel_y - candidate_y[:, None] * rel_x)
                 ok = (cross <= (tolerance * np.maximum(length, 1e-9))[:, None]).all(axis=1)
                 done = rows.compress(ok)
                 chord_x[done], chord_y[done], far_slot[done] = (
                     candidate_x.compress(ok), candidate_y.compress(ok), walk.compress(ok))
-                go = ok & (length < params.run_reach)
-                passed_x[:, i], passed_y[:, i] = far_x, far_y
-                rows, walk, start_x, start_y, passed_x, passed_y = (
-                    a.compress(go, axis=0) for a in (rows, walk, start_x, start_y, passed_x, passed_y))
-                if rows.size == 0:
-                    break
+                geo[:, 2 + i], geo[:, 2 + steps + i] = far_x, far_y
+                ids[:, 1] = step.take(walk)  # the next step, if the run goes on
+                go = ok & (length < params.run_reach) & (ids[:, 1] >= 0)
+                ids, geo = ids.compress(go, axis=0), geo.compress(go, axis=0)
         return chord_x, chord_y, far_slot
 
     def turn(ux: np.ndarray, uy: np.ndarray, vx: np.ndarray, vy: np.ndarray) -> np.ndarray:
