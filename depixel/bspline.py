@@ -155,6 +155,22 @@ def flatten_edges(start: np.ndarray, controls: np.ndarray, stop: np.ndarray, pie
     return np.concatenate([flatten(*first, pieces), flatten(*second, pieces)[:, 1:]], axis=1)
 
 
+
+def flatten_edges_planes(start: np.ndarray, controls: np.ndarray, stop: np.ndarray,
+                         pieces: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`flatten_edges` as x and y planes ``(2 * pieces + 1, E)`` (point j of edge e at
+    ``[j, e]``), the same numbers: every operation runs along the E edges instead of over
+    rows of two coordinates."""
+    t = np.arange(pieces + 1) / pieces  # the weights of evaluate(), computed as it does
+    weights = ((1 - t) ** 2)[:, None], (2 * t * (1 - t))[:, None], (t**2)[:, None]
+    planes = []
+    for axis in range(2):
+        c0, c1, c2 = controls[:, 0, axis], controls[:, 1, axis], controls[:, 2, axis]
+        first = weights[0] * start[:, axis] + weights[1] * c0 + weights[2] * c1
+        second = weights[0] * c1 + weights[1] * c2 + weights[2] * stop[:, axis]
+        planes.append(np.concatenate([first, second[1:]]))
+    return planes[0], planes[1]
+
 # --- cubic Béziers: the SVG writer's simplified curves (depixel/curvefit.py) ---------------------
 
 def elevate(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

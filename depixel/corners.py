@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .arrays import batch_slices
+from .arrays import batch_slices, set_rows
 from .cells import link_corners
 from .frozen import freeze
 from .params import Params
@@ -50,8 +50,9 @@ class Corners:
         """(N, 2) the nodes' initial positions with every right-angle corner moved onto its
         lattice point (the cut made by the diagonal link is undone)."""
         start = splines.positions.copy()
-        q = splines.cells.nodes[self.square]
-        start[self.square] = 4 * np.round(q / 4.0) / 4.0
+        square = np.flatnonzero(self.square)
+        q = splines.cells.nodes.take(square, axis=0)
+        set_rows(start, square, 4 * np.round(q / 4.0) / 4.0)
         return start
 
 
@@ -85,22 +86,24 @@ def detect_square_corners(splines: SplineSet) -> np.ndarray:
     prev2, next2 = prev[prev1], nxt[next1]
     ok = (prev2 >= 0) & (next2 >= 0)
     slot, prev1, next1, prev2, next2 = slot[ok], prev1[ok], next1[ok], prev2[ok], next2[ok]
-    k = q[node[slot]]
+    k = q.take(node.take(slot), axis=0)
     lattice = 4 * np.round(k / 4.0).astype(np.int64)
     off = k - lattice
     sx, sy = off[:, 0], off[:, 1]
-    leg_x = lattice + 4 * np.stack([sx, np.zeros_like(sx)], axis=1)
-    leg_y = lattice + 4 * np.stack([np.zeros_like(sy), sy], axis=1)
-    far_x = lattice + 8 * np.stack([sx, np.zeros_like(sx)], axis=1)
-    far_y = lattice + 8 * np.stack([np.zeros_like(sy), sy], axis=1)
+    lx, ly = lattice[:, 0], lattice[:, 1]
+    # the pattern's points as x and y columns: the legs P + 4(sx, 0), P + 4(0, sy) and the
+    # points beyond them P + 8(sx, 0), P + 8(0, sy)
+    leg_x, leg_y, far_x, far_y = lx + 4 * sx, ly + 4 * sy, lx + 8 * sx, ly + 8 * sy
 
-    def same(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-        return (u == v).all(axis=1)
+    def at(slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        point = q.take(node.take(slots), axis=0)
+        return point[:, 0], point[:, 1]
 
-    a, b = q[node[prev1]], q[node[next1]]
-    a2, b2 = q[node[prev2]], q[node[next2]]
-    forward = same(a, leg_x) & same(b, leg_y) & same(a2, far_x) & same(b2, far_y)
-    backward = same(a, leg_y) & same(b, leg_x) & same(a2, far_y) & same(b2, far_x)
+    (ax, ay), (bx, by), (a2x, a2y), (b2x, b2y) = at(prev1), at(next1), at(prev2), at(next2)
+    forward = ((ax == leg_x) & (ay == ly) & (bx == lx) & (by == leg_y)
+               & (a2x == far_x) & (a2y == ly) & (b2x == lx) & (b2y == far_y))
+    backward = ((ax == lx) & (ay == leg_y) & (bx == leg_x) & (by == ly)
+                & (a2x == lx) & (a2y == far_y) & (b2x == far_x) & (b2y == ly))
     match = forward | backward
     # The cut must come from a redundant link: the pixel opposite the corner is linked to
     # both linked pixels, so restoring the corner cannot disconnect a thin diagonal line.
@@ -141,70 +144,84 @@ def detect_run_corners(splines: SplineSet, params: Params = Params()) -> np.ndar
     """
     tolerance, short, long = params.run_tolerance, params.run_short, params.run_long
     min_turn, min_bend = np.radians(params.run_turn), np.radians(params.run_bend)
-    q = splines.cells.nodes.astype(np.float64) / 4.0
+    nodes = splines.cells.nodes
+    # the node coordinates (px) as x and y columns: numpy runs an (N, 2) array's rows two
+    # elements at a time, and copies them one by one under fancy indexing
+    qx, qy = nodes[:, 0] / 4.0, nodes[:, 1] / 4.0
     prev, nxt = splines.neighbours()
     node = splines.curve_nodes
     interior = np.flatnonzero((prev >= 0) & (nxt >= 0))
     # nodes are at least a quarter pixel apart diagonally (0.35 px): this many steps reach
     steps = int(np.ceil(params.run_reach / 0.35))
 
-    def run(step: np.ndarray, at: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Vector from the node ``at`` each of ``starts`` to the far end of its straight run
-        along ``step``, and the index of that far end (-1 for none). Only the runs still
-        growing are carried from one step to the next, :data:`RUN_BATCH` at a time."""
-        chord = np.zeros((at.size, 2))
+    def run(step: np.ndarray, at: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Vector (x, y) from the node ``at`` each of ``starts`` to the far end of its
+        straight run along ``step``, and the index of that far end (-1 for none). Only the
+        runs still growing are carried from one step to the next, :data:`RUN_BATCH` at a
+        time."""
+        chord_x, chord_y = np.zeros(at.size), np.zeros(at.size)
         far_slot = np.full(at.size, -1, dtype=np.int64)
         for part in batch_slices(starts.size, RUN_BATCH):
-            rows = walk = starts[part]  # the runs still growing
-            start = q.take(at[rows], axis=0)
-            passed = np.empty((rows.size, steps, 2))  # the far node of every earlier step
+            # per run still growing: its row and the slot it reached (ids), and in one float
+            # array (filtered by one compress a step) its start x, y, then the x and then the
+            # y of the far node of every earlier step
+            ids = np.stack([starts[part], step.take(starts[part])], axis=1)
+            ids = ids.compress(ids[:, 1] >= 0, axis=0)
+            first = at.take(ids[:, 0])
+            geo = np.empty((ids.shape[0], 2 + 2 * steps))
+            geo[:, 0], geo[:, 1] = qx.take(first), qy.take(first)
             for i in range(steps):
-                walk = step[walk]
-                go = walk >= 0
-                rows, walk, start, passed = rows[go], walk[go], start[go], passed[go]
-                far = q.take(at[walk], axis=0)
-                candidate = far - start
-                length = np.sqrt(candidate[:, 0] * candidate[:, 0] + candidate[:, 1] * candidate[:, 1])
-                # every node passed must stay near the new chord
-                rel = passed[:, :i] - start[:, None]
-                cross = np.abs(candidate[:, None, 0] * rel[..., 1] - candidate[:, None, 1] * rel[..., 0])
-                ok = (cross <= (tolerance * np.maximum(length, 1e-9))[:, None]).all(axis=1)
-                chord[rows[ok]] = candidate[ok]
-                far_slot[rows[ok]] = walk[ok]
-                go = ok & (length < params.run_reach)
-                passed[:, i] = far
-                rows, walk, start, passed = rows[go], walk[go], start[go], passed[go]
-                if rows.size == 0:
+                if ids.shape[0] == 0:
                     break
-        return chord, far_slot
+                rows, walk = ids[:, 0], ids[:, 1]
+                start_x, start_y = geo[:, 0], geo[:, 1]
+                far = at.take(walk)
+                far_x, far_y = qx.take(far), qy.take(far)
+                candidate_x, candidate_y = far_x - start_x, far_y - start_y
+                length = np.sqrt(candidate_x * candidate_x + candidate_y * candidate_y)
+                # every node passed must stay near the new chord
+                rel_x = geo[:, 2:2 + i] - start_x[:, None]
+                rel_y = geo[:, 2 + steps:2 + steps + i] - start_y[:, None]
+                cross = np.abs(candidate_x[:, None] * rel_y - candidate_y[:, None] * rel_x)
+                ok = (cross <= (tolerance * np.maximum(length, 1e-9))[:, None]).all(axis=1)
+                done = rows.compress(ok)
+                chord_x[done], chord_y[done], far_slot[done] = (
+                    candidate_x.compress(ok), candidate_y.compress(ok), walk.compress(ok))
+                geo[:, 2 + i], geo[:, 2 + steps + i] = far_x, far_y
+                ids[:, 1] = step.take(walk)  # the next step, if the run goes on
+                go = ok & (length < params.run_reach) & (ids[:, 1] >= 0)
+                ids, geo = ids.compress(go, axis=0), geo.compress(go, axis=0)
+        return chord_x, chord_y, far_slot
 
-    def turn(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    def turn(ux: np.ndarray, uy: np.ndarray, vx: np.ndarray, vy: np.ndarray) -> np.ndarray:
         """Angle between directions u and v (0 = straight on)."""
-        cos = (u * v).sum(axis=1) / np.maximum(np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1), 1e-12)
+        norms = np.sqrt(ux * ux + uy * uy) * np.sqrt(vx * vx + vy * vy)
+        cos = (ux * vx + uy * vy) / np.maximum(norms, 1e-12)
         return np.arccos(np.clip(cos, -1.0, 1.0))
 
     # both directions in one walk: index j + P is slot j walking ahead
     p = node.size
-    chord, far_slot = run(np.concatenate([prev, np.where(nxt >= 0, nxt + p, -1)]), np.concatenate([node, node]),
-                          np.concatenate([interior, interior + p]))
-    back, ahead_all = chord[:p], chord[p:]
+    chord_x, chord_y, far_slot = run(np.concatenate([prev, np.where(nxt >= 0, nxt + p, -1)]),
+                                     np.concatenate([node, node]), np.concatenate([interior, interior + p]))
+    ahead_all_x, ahead_all_y = chord_x[p:], chord_y[p:]
     ahead_end_all = np.where(far_slot[p:] >= 0, far_slot[p:] - p, -1)
     # both patterns need a long run behind: the rest is tested on those slots alone
-    lb = np.linalg.norm(back, axis=1)
-    slot = interior[lb[interior] >= long]
-    lb, back = lb[slot], back[slot]
-    ahead, ahead_end = ahead_all[slot], ahead_end_all[slot]
-    la = np.linalg.norm(ahead, axis=1)
-    incoming = -back  # direction of travel arriving at the node
-    sharp = (la >= long) & (turn(incoming, ahead) >= min_turn)
+    back_x, back_y = chord_x[:p], chord_y[:p]
+    lb = np.sqrt(back_x * back_x + back_y * back_y)
+    slot = interior.compress(lb.take(interior) >= long)
+    in_x, in_y = -back_x.take(slot), -back_y.take(slot)  # direction of travel arriving at the node
+    ahead_x, ahead_y, ahead_end = ahead_all_x.take(slot), ahead_all_y.take(slot), ahead_end_all.take(slot)
+    la = np.sqrt(ahead_x * ahead_x + ahead_y * ahead_y)
+    bend_in = turn(in_x, in_y, ahead_x, ahead_y)
+    sharp = (la >= long) & (bend_in >= min_turn)
 
     k = np.maximum(ahead_end, 0)
-    after = ahead_all[k]
+    after_x, after_y = ahead_all_x.take(k), ahead_all_y.take(k)
     bevel = ((ahead_end >= 0) & (la >= short) & (la < long)
-             & (np.linalg.norm(after, axis=1) >= long)
-             & (turn(incoming, ahead) >= min_bend) & (turn(ahead, after) >= min_bend)
-             & (turn(incoming, after) >= min_turn))
-    corners = np.zeros(len(q), dtype=bool)
+             & (np.sqrt(after_x * after_x + after_y * after_y) >= long)
+             & (bend_in >= min_bend) & (turn(ahead_x, ahead_y, after_x, after_y) >= min_bend)
+             & (turn(in_x, in_y, after_x, after_y) >= min_turn))
+    corners = np.zeros(len(nodes), dtype=bool)
     corners[node[slot[sharp]]] = True
     corners[node[slot[bevel]]] = True
     corners[node[k[bevel]]] = True  # the bevel's far end

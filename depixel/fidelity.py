@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .arrays import union, unique
-from .bspline import flatten_edges
+from .arrays import set_rows
+from .bspline import flatten_edges_planes
 from .cells import CellGraph, link_corners
 from .splines import Drawing, SplineSet
 from .vector import VectorImage
@@ -34,29 +34,33 @@ def protected_points(splines: SplineSet, slots: np.ndarray | slice = slice(None)
     cells = splines.cells
     w = cells.shape[1]
     edge = splines.slot_edges[slots]
-    pix = np.where(edge[..., None] >= 0, cells.edge_pixels[np.maximum(edge, 0)], -1)
+    pix = np.where((edge >= 0)[..., None], cells.edge_pixels.take(np.maximum(edge, 0), axis=0), -1)
     rows, cols = np.divmod(np.maximum(pix, 0), w)
-    centre = np.stack([cols + 0.5, rows + 0.5], axis=-1).astype(np.float64)
-    side = np.where((pix >= 0)[..., None], centre, FAR)  # (..., 2, 2)
-    q = cells.nodes[splines.curve_nodes[slots]]
-    split, lattice = link_corners(q)
-    link = np.where(split[..., None], lattice / 4.0, FAR)[..., None, :]
-    return np.concatenate([side, link], axis=-2)
+    out = np.empty(edge.shape + (3, 2))
+    out[..., :2, 0] = np.where(pix >= 0, cols + 0.5, FAR)  # the centres beside the edge
+    out[..., :2, 1] = np.where(pix >= 0, rows + 0.5, FAR)
+    split, lattice = link_corners(cells.nodes.take(splines.curve_nodes[slots], axis=0))
+    out[..., 2, :] = np.where(split[..., None], lattice / 4.0, FAR)
+    return out
 
 
 def unique_rows(points: np.ndarray) -> np.ndarray:
-    """(M, Q, 2) → (M, Q', 2): each row's distinct points first, padded with :data:`FAR`."""
+    """(M, Q, 2) → (M, Q', 2): each row's distinct points first, padded with :data:`FAR`.
+
+    The points are ordered by a key of both coordinates, sorted as indices (one gather of
+    the points at the end, flat ``take`` instead of ``take_along_axis``)."""
+    m, q = points.shape[:2]
     key = points[..., 0] * 4096.0 + points[..., 1]
-    order = np.argsort(key, axis=1)
-    key = np.take_along_axis(key, order, axis=1)
-    pts = np.take_along_axis(points, order[..., None], axis=1)
-    repeat = np.zeros(key.shape, bool)
-    repeat[:, 1:] = key[:, 1:] == key[:, :-1]
-    pts = np.where((repeat | (pts[..., 0] >= FAR))[..., None], FAR, pts)
-    keep = np.argsort(pts[..., 0] >= FAR, axis=1, kind="stable")
-    pts = np.take_along_axis(pts, keep[..., None], axis=1)
-    width = max(int((pts[..., 0] < FAR).sum(axis=1).max(initial=0)), 1)
-    return pts[:, :width]
+    base = (np.arange(m) * q)[:, None]
+    order = np.argsort(key, axis=1) + base  # flat indices, by key
+    sorted_key = key.ravel().take(order)
+    drop = points[..., 0].ravel().take(order) >= FAR
+    drop[:, 1:] |= sorted_key[:, 1:] == sorted_key[:, :-1]
+    count = q - drop.sum(axis=1)
+    width = max(int(count.max(initial=0)), 1)
+    kept = order.ravel().take(np.argsort(drop, axis=1, kind="stable")[:, :width] + base)  # the kept ones first
+    pts = points.reshape(-1, 2).take(kept.ravel(), axis=0).reshape(m, width, 2)
+    return np.where((np.arange(width) < count[:, None])[..., None], pts, FAR)
 
 
 def centre_clearance(image: VectorImage, pixels: np.ndarray | None = None, samples: int = 3) -> np.ndarray:
@@ -93,16 +97,26 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
     n_px = h * w
     wanted = np.ones(n_px, bool) if pixels is None else pixels
     has = np.append(wanted, False)[cells.edge_pixels]  # (E, 2); a side without a pixel is -1
-    edge = np.nonzero(has)[0]
-    pix = cells.edge_pixels[has]
+    side = np.flatnonzero(has)  # edge e's sides are 2 e and 2 e + 1
+    edge = side >> 1
+    pix = cells.edge_pixels.ravel().take(side)
     rows, cols = np.divmod(pix, w)
     cx, cy = cols + 0.5, rows + 0.5
-    ends = cells.edges.take(edge, axis=0)
-    a, b = drawing.points.take(ends[:, 0], axis=0), drawing.points.take(ends[:, 1], axis=0)
+    # everything below as x and y columns: numpy runs the rows of an (N, 2) array two
+    # elements at a time
+    point_x, point_y = drawing.points.T.copy()  # take() copies a strided array whole first
+    # the end points of every edge with a wanted pixel (each pair's edge: ``of``)
+    listed = has[:, 0] | has[:, 1]
+    listed_edge = np.flatnonzero(listed)
+    of = (np.cumsum(listed) - 1).take(edge)
+    ends = cells.edges.take(listed_edge, axis=0)
+    start, stop = ends[:, 0], ends[:, 1]
+    ax, ay, bx, by = point_x.take(start), point_y.take(start), point_x.take(stop), point_y.take(stop)
 
     def measure(pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Ray crossings and squared nearest distance (H*W,) of the pairs ``pairs``,
-        segment by segment: a straight edge is one, a curve 2 * samples."""
+        segment by segment: a straight edge is one, a curve 2 * samples (the order of the
+        segments does not matter: a count and a minimum per pixel)."""
         e, p, x, y = edge[pairs], pix[pairs], cx[pairs], cy[pairs]
         bent = curved_edge[e]
         flat = np.zeros(len(cells.edges), bool)
@@ -111,42 +125,49 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
         row = np.zeros(len(cells.edges), np.int64)
         row[flat] = np.arange(flat.size)
         ends = cells.edges.take(flat, axis=0)
-        poly = flatten_edges(drawing.points.take(ends[:, 0], axis=0), drawing.controls.take(control_row[flat], axis=0),
-                             drawing.points.take(ends[:, 1], axis=0), samples)  # (F, 2 * samples + 1, 2)
-        poly = poly.take(row[e[bent]], axis=0)
-        straight = pairs[~bent]
-        q0 = np.concatenate([a.take(straight, axis=0), poly[:, :-1].reshape(-1, 2)])
-        q1 = np.concatenate([b.take(straight, axis=0), poly[:, 1:].reshape(-1, 2)])
-        p = np.concatenate([p[~bent], np.repeat(p[bent], 2 * samples)])
-        x = np.concatenate([x[~bent], np.repeat(x[bent], 2 * samples)])
-        y = np.concatenate([y[~bent], np.repeat(y[bent], 2 * samples)])
-        straddle = (q0[:, 1] > y) != (q1[:, 1] > y)
+        poly_x, poly_y = flatten_edges_planes(drawing.points.take(ends[:, 0], axis=0),
+                                              drawing.controls.take(control_row[flat], axis=0),
+                                              drawing.points.take(ends[:, 1], axis=0), samples)  # (2 * samples + 1, F)
+        of_pair = row[e[bent]]
+        poly_x, poly_y = poly_x.take(of_pair, axis=1), poly_y.take(of_pair, axis=1)
+        straight = of.take(pairs.compress(~bent))
+        q0_x = np.concatenate([ax.take(straight), poly_x[:-1].ravel()])
+        q0_y = np.concatenate([ay.take(straight), poly_y[:-1].ravel()])
+        q1_x = np.concatenate([bx.take(straight), poly_x[1:].ravel()])
+        q1_y = np.concatenate([by.take(straight), poly_y[1:].ravel()])
+        p = np.concatenate([p[~bent]] + [p[bent]] * (2 * samples))  # the segments piece by piece
+        x = np.concatenate([x[~bent]] + [x[bent]] * (2 * samples))
+        y = np.concatenate([y[~bent]] + [y[bent]] * (2 * samples))
+        seg_x, seg_y = q1_x - q0_x, q1_y - q0_y
+        rel_x, rel_y = x - q0_x, y - q0_y
+        straddle = (q0_y > y) != (q1_y > y)
         with np.errstate(divide="ignore", invalid="ignore"):
-            x_at = q0[:, 0] + (y - q0[:, 1]) * (q1[:, 0] - q0[:, 0]) / (q1[:, 1] - q0[:, 1])
+            x_at = q0_x + rel_y * seg_x / seg_y
         crossings = np.bincount(p[straddle & (x_at > x)], minlength=n_px)
-        seg = q1 - q0
-        rel_x, rel_y = x - q0[:, 0], y - q0[:, 1]
-        length2 = np.maximum(seg[:, 0] ** 2 + seg[:, 1] ** 2, 1e-12)
-        along = np.clip((rel_x * seg[:, 0] + rel_y * seg[:, 1]) / length2, 0.0, 1.0)
-        dx, dy = rel_x - along * seg[:, 0], rel_y - along * seg[:, 1]
+        length2 = np.maximum(seg_x**2 + seg_y**2, 1e-12)
+        along = np.clip((rel_x * seg_x + rel_y * seg_y) / length2, 0.0, 1.0)
+        dx, dy = rel_x - along * seg_x, rel_y - along * seg_y
         nearest2 = np.full(n_px, np.inf)
         np.minimum.at(nearest2, p, dx * dx + dy * dy)
         return crossings, nearest2
 
     if np.isfinite(below):
-        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        # each listed edge's box, then each pair's centre against its edge's box
+        lo_x, hi_x, lo_y, hi_y = np.minimum(ax, bx), np.maximum(ax, bx), np.minimum(ay, by), np.maximum(ay, by)
         if drawing.edges.size:
-            controls = drawing.controls.take(control_row[edge], axis=0)  # any row for a straight edge
-            bent = curved_edge[edge][:, None]
-            first, second, third = controls[:, 0], controls[:, 1], controls[:, 2]
-            lo = np.where(bent, np.minimum(np.minimum(np.minimum(lo, first), second), third), lo)
-            hi = np.where(bent, np.maximum(np.maximum(np.maximum(hi, first), second), third), hi)
-        right = lo[:, 0] - cx > below
-        far = right | (cx - hi[:, 0] > below) | (lo[:, 1] - cy > below) | (cy - hi[:, 1] > below)
+            controls = drawing.controls.take(control_row.take(listed_edge), axis=0)  # any row for a straight edge
+            bent = curved_edge.take(listed_edge)
+            c = [controls[:, i, axis] for axis in range(2) for i in range(3)]  # x of c0, c1, c2, y of them
+            lo_x = np.where(bent, np.minimum(np.minimum(np.minimum(lo_x, c[0]), c[1]), c[2]), lo_x)
+            hi_x = np.where(bent, np.maximum(np.maximum(np.maximum(hi_x, c[0]), c[1]), c[2]), hi_x)
+            lo_y = np.where(bent, np.minimum(np.minimum(np.minimum(lo_y, c[3]), c[4]), c[5]), lo_y)
+            hi_y = np.where(bent, np.maximum(np.maximum(np.maximum(hi_y, c[3]), c[4]), c[5]), hi_y)
+        right = lo_x.take(of) - cx > below
+        far = right | (cx - hi_x.take(of) > below) | (lo_y.take(of) - cy > below) | (cy - hi_y.take(of) > below)
         count, nearest2 = measure(np.flatnonzero(~far))
-        count += np.bincount(pix[right & ((a[:, 1] > cy) != (b[:, 1] > cy))], minlength=n_px)
+        count += np.bincount(pix[right & ((ay.take(of) > cy) != (by.take(of) > cy))], minlength=n_px)
         # a centre outside its cell is measured against every edge (its crossings are counted)
-        again = np.flatnonzero(far & (count[pix] % 2 == 0))
+        again = np.flatnonzero(far & (count % 2 == 0).take(pix))
         if again.size:
             nearest2 = np.minimum(nearest2, measure(again)[1])
     else:
@@ -156,12 +177,15 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
     return np.where(wanted, np.where(inside, nearest, -nearest), np.inf)
 
 
-def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
-                        margin: float, rounds: int = 8) -> np.ndarray:
+def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.ndarray, margin: float,
+                        rounds: int = 8, drawing: Drawing | None = None) -> tuple[np.ndarray, Drawing]:
     """Undo moves around any cell whose pixel centre came closer than ``margin`` to its
     boundary (or left it), until none does. Moves made elsewhere on a curve (a T-junction
     end follows the curve it ends on) can reach a cell the relaxation did not check.
-    Only cells next to an edge whose geometry changed are measured."""
+    Only cells next to an edge whose geometry changed are measured.
+
+    Returns the positions and their drawing (the last one measured, or a new one when
+    the rounds ran out); ``drawing``: that of ``positions``, when the caller has it."""
     cells = splines.cells
     positions = positions.copy()
     initial = splines.drawing(start)
@@ -169,16 +193,19 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
     n_px = cells.shape[0] * cells.shape[1]
     floor = np.full(n_px, np.nan)  # min(margin, initial clearance), filled in where needed
     reference = initial  # geometry already verified (or initial), to find what changed since
-    for _ in range(rounds):
-        current = splines.drawing(positions)  # the same curved edges as the reference, in the same order
-        moved = _differs(current.points, reference.points)
-        changed = moved[cells.edges[:, 0]] | moved[cells.edges[:, 1]]
+    current = splines.drawing(positions) if drawing is None else drawing
+    for round_ in range(rounds):
+        if round_:
+            current = splines.drawing(positions)  # the same curved edges as the reference, in the same order
+        moved = _differs(current.points, reference.points).take(cells.edges)  # (E, 2)
+        changed = moved[:, 0] | moved[:, 1]
         changed[current.edges] |= _differs(current.controls, reference.controls)
-        pixels = np.zeros(n_px, bool)
-        sides = cells.edge_pixels[changed].ravel()
-        pixels[sides[sides >= 0]] = True
+        # the pixels beside the changed edges (a side without a pixel, -1, marks the extra last entry)
+        beside = np.zeros(n_px + 1, bool)
+        beside[cells.edge_pixels.compress(changed, axis=0).ravel()] = True
+        pixels = beside[:-1]
         if not pixels.any():
-            break
+            return positions, current
         clearance = _clearance(cells, current, pixels, below=margin)
         # a clearance of at least the margin passes whatever the initial clearance: only
         # the centres below it are measured in the initial drawing
@@ -189,18 +216,19 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
         ok = ~low | (clearance >= floor - 1e-9)
         reference = current
         if ok.all():
-            break
-        bad = np.flatnonzero(~ok)
-        touched = np.isin(cells.edge_pixels, bad).any(axis=1)
-        nodes = unique(cells.edges[touched])
+            return positions, current
+        bad = np.append(~ok, False).take(cells.edge_pixels)  # (E, 2)
+        revert = np.zeros(len(positions), bool)  # the nodes of the edges around a bad cell
+        revert[cells.edges.compress(bad[:, 0] | bad[:, 1], axis=0).ravel()] = True
         # widen to the whole neighbourhood on the curves through those nodes
-        on = np.isin(splines.curve_nodes, nodes)
+        on = revert.take(splines.curve_nodes)
         for step in (prev, nxt):
             near = step[on & (step >= 0)]
             on[near] = True
-        nodes = union(nodes, splines.curve_nodes[on])
-        positions[nodes] = start[nodes]
-    return positions
+        revert[splines.curve_nodes.compress(on)] = True
+        nodes = np.flatnonzero(revert)
+        set_rows(positions, nodes, start.take(nodes, axis=0))
+    return positions, splines.drawing(positions)
 
 
 def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -11,13 +11,15 @@ from collections.abc import Callable
 
 import numpy as np
 
+from .arrays import set_rows
 from .splines import SplineSet
 
 
 def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
-                 corners: np.ndarray, reach: int = 6) -> np.ndarray:
+                 corners: np.ndarray, reach: int = 6, display: np.ndarray | None = None) -> np.ndarray:
     """(N, 2) ``positions`` with the free nodes moved by the harmonic interpolation of the
     constrained displacements (``start`` → ``positions`` (N, 2); ``corners`` (N,) bool).
+    ``display``: the display points of ``positions`` when the caller has drawn them already.
 
     Constrained: every curve node (displaced from its initial place to its display point),
     the border and corners (not displaced). The system — each free node's displacement is
@@ -34,15 +36,23 @@ def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
     border = (q[:, 0] == 0) | (q[:, 1] == 0) | (q[:, 0] == 4 * w) | (q[:, 1] == 4 * h)
     on_curve = np.zeros(n, dtype=bool)
     on_curve[splines.curve_nodes] = True
-    display = splines.display_points(positions)
-    displacement = np.where(on_curve[:, None], display - start, 0.0)
+    if display is None:
+        display = splines.display_points(positions)
+    # the displacements as x and y columns (an (N, 2) array would run numpy's inner loops
+    # two elements at a time)
+    moved_x = np.where(on_curve, display[:, 0] - start[:, 0], 0.0)
+    moved_y = np.where(on_curve, display[:, 1] - start[:, 1], 0.0)
     u, v = cells.edges[:, 0], cells.edges[:, 1]
-    near = np.abs(displacement).max(axis=1) > 1e-12
+    near = (np.abs(moved_x) > 1e-12) | (np.abs(moved_y) > 1e-12)
+    # grown one edge at a time; an edge with a near end has both ends near after its round,
+    # so only the edges with neither end near are looked at again
+    open_u, open_v = u, v
     for _ in range(reach):
-        grown = near.copy()
-        grown[u[near[v]]] = True
-        grown[v[near[u]]] = True
-        near = grown
+        near_u, near_v = near.take(open_u), near.take(open_v)
+        near[open_u.compress(near_v)] = True
+        near[open_v.compress(near_u)] = True
+        rest = ~(near_u | near_v)
+        open_u, open_v = open_u.compress(rest), open_v.compress(rest)
     free = ~(on_curve | border | corners) & near
     if not free.any():
         return positions
@@ -51,60 +61,89 @@ def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
     # free–fixed edges for the right-hand side
     index = np.cumsum(free) - 1
     m = int(free.sum())
-    inner = free[u] & free[v]
-    fu, fv = index[u[inner]], index[v[inner]]
+    free_u, free_v = free.take(u), free.take(v)
+    inner = free_u & free_v
+    fu, fv = index.take(u.compress(inner)), index.take(v.compress(inner))
     # the unknowns as two rows (x, y) of M: a (2,) factor broadcast over (M, 2) would run
     # numpy's inner loop two elements at a time
     rhs = np.zeros((2, m))
-    for a, b in ((u, v), (v, u)):  # a free, b fixed
-        edge = free[a] & ~free[b]
-        for i in range(2):
-            rhs[i] += np.bincount(index[a[edge]], displacement[b[edge], i], minlength=m)
-    diagonal = degree[free].astype(np.float64)
+    for a, b, edge in ((u, v, free_u & ~free_v), (v, u, free_v & ~free_u)):  # a free, b fixed
+        at, fixed = index.take(a.compress(edge)), b.compress(edge)
+        for i, moved in enumerate((moved_x, moved_y)):
+            rhs[i] += np.bincount(at, moved.take(fixed), minlength=m)
+    diagonal = np.tile(degree[free].astype(np.float64), 2)
     # x[:, fv] summed into the columns fu (and x[:, fu] into fv), both rows by one bincount
     # over the flattened (2, M) array: each bin adds its terms in the same order as a
-    # bincount per row would
+    # bincount per row would; both gathers are one take of the flattened x
     to_u = np.concatenate([fu, fu + m])
     to_v = np.concatenate([fv, fv + m])
+    gather = np.concatenate([fv, fv + m, fu, fu + m])
+    half = to_u.size
 
-    def apply(x: np.ndarray) -> np.ndarray:
-        neighbours = np.bincount(to_u, x.take(fv, axis=1).ravel(), minlength=2 * m)
-        neighbours += np.bincount(to_v, x.take(fu, axis=1).ravel(), minlength=2 * m)
-        out = diagonal * x
-        out -= neighbours.reshape(2, m)
-        return out
+    def apply(x: np.ndarray, out: np.ndarray) -> None:
+        terms = x.reshape(-1).take(gather)
+        neighbours = np.bincount(to_u, terms[:half], minlength=2 * m)
+        neighbours += np.bincount(to_v, terms[half:], minlength=2 * m)
+        flat = out.reshape(-1)
+        np.multiply(diagonal, x.reshape(-1), out=flat)
+        flat -= neighbours
 
+    x = conjugate_gradients(apply, rhs)
     out = positions.copy()
-    out[free] = start[free] + conjugate_gradients(apply, rhs).T
+    nodes = np.flatnonzero(free)
+    for i in range(2):  # a column at a time: the same sums as start[free] + x.T, without row copies
+        out[nodes, i] = start[:, i].take(nodes) + x[i]
     return out
 
 
-def conjugate_gradients(apply: Callable[[np.ndarray], np.ndarray], rhs: np.ndarray) -> np.ndarray:
-    """Solve ``apply(x) = rhs`` for a symmetric positive definite operator, every row of
-    ``rhs`` (K, M) at once, to a residual 1e-5 of the right-hand side's: on the paper
-    corpus and the game frames the solution is then within 4e-5 px of the converged one,
-    far below the SVG's 0.01 px (half the iterations of a 1e-9 residual)."""
-    x = np.zeros_like(rhs)
-    r = rhs.copy()
-    p = r.copy()
-    rr = row_dots(r, r)
-    target = 1e-10 * max(float(rr.max()), 1e-30)
+def follow(display: np.ndarray, before: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """(N, 2) the display points of ``after`` from those of ``before`` (``display``), when
+    ``after`` moved nodes off the curves alone (as :func:`harmonic_map` does): a moved node
+    is shown where it is, the curves and their display points stay."""
+    moved = np.flatnonzero((after[:, 0] != before[:, 0]) | (after[:, 1] != before[:, 1]))
+    out = display.copy()
+    set_rows(out, moved, after.take(moved, axis=0))
+    return out
+
+
+def conjugate_gradients(apply: Callable[[np.ndarray, np.ndarray], None], rhs: np.ndarray) -> np.ndarray:
+    """Solve ``A x = rhs`` for a symmetric positive definite operator (``apply(x, out)``
+    writes A x into ``out``), every row of ``rhs`` (K, M) at once, to a residual 1e-5 of the
+    right-hand side's: on the paper corpus and the game frames the solution is then within
+    4e-5 px of the converged one, far below the SVG's 0.01 px (half the iterations of a
+    1e-9 residual).
+
+    Per iteration a fixed set of whole-array operations into preallocated buffers (the
+    cost of a sprite's small system is the number of numpy calls, of a frame's the fresh
+    memory): x and r are updated together as one (2, K, M) array, the per-row numbers are
+    Python floats (r − s·Ap is computed as r + (−s)·Ap, which rounds the same)."""
+    k = rhs.shape[0]
+    state = np.zeros((2,) + rhs.shape)  # x, r
+    x, r = state
+    r[...] = rhs
+    directions = np.empty_like(state)  # p, A p
+    p, ap = directions
+    p[...] = rhs
+    change = np.empty_like(state)
+    product = np.empty_like(rhs)
+    rr = row_dots(r, r, product)
+    target = 1e-10 * max(max(rr), 1e-30)
     for _ in range(4 * rhs.shape[1] + 10):
-        if rr.max() <= target:
+        if max(rr) <= target:
             break
-        ap = apply(p)
-        step = (rr / np.maximum(row_dots(p, ap), 1e-300))[:, None]
-        x += step * p
-        r -= step * ap
-        rr_new = row_dots(r, r)
-        p *= (rr_new / np.maximum(rr, 1e-300))[:, None]
+        apply(p, ap)
+        step = [a / max(b, 1e-300) for a, b in zip(rr, row_dots(p, ap, product))]
+        np.multiply(directions, np.array(step + [-s for s in step]).reshape(2, k, 1), out=change)
+        state += change
+        rr_new = row_dots(r, r, product)
+        p *= np.array([a / max(b, 1e-300) for a, b in zip(rr_new, rr)]).reshape(k, 1)
         p += r
         rr = rr_new
     return x
 
 
-def row_dots(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(K,) the dot products of the rows of ``a`` and ``b`` (K, M), summed element after
-    element in order (``cumsum``: the order of the sums this solver was first written with,
-    ``(a * b).sum(axis=0)`` over (M, K) columns, which its output depends on)."""
-    return (a * b).cumsum(axis=1)[:, -1]
+def row_dots(a: np.ndarray, b: np.ndarray, product: np.ndarray | None = None) -> list[float]:
+    """The dot products of the rows of ``a`` and ``b`` (K, M), by numpy's pairwise sum
+    (``product`` (K, M): a buffer to work in). An in-order sum (``cumsum``) was 3–6× slower
+    per call, and its last bits did not show in any output (docs/performance.md)."""
+    return np.add.reduce(np.multiply(a, b, out=product), axis=1).tolist()

@@ -16,13 +16,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .arrays import set_rows
 from .corners import Corners, excluded_halves
 from .fidelity import keep_centres_inside
 from .frozen import freeze
-from .harmonic import harmonic_map
+from .harmonic import follow, harmonic_map
 from .params import Params
 from .relax import relax
-from .splines import SplineSet
+from .splines import Drawing, SplineSet
 from .vector import VectorImage
 
 
@@ -37,12 +38,23 @@ class OptimizedSplines:
     positions: np.ndarray  # (N, 2) final positions: relaxed curve nodes, harmonic others
     energy_before: float  # total E_s + E_p before relaxation
     energy_after: float  # and after
+    drawing: Drawing  # the curves drawn with the final positions (the output's geometry)
 
     def __post_init__(self) -> None:
         freeze(self)
 
     def vector_image(self) -> VectorImage:
-        return self.splines.vector_image(self.positions, stage="optimized")
+        """The output: :attr:`drawing` with every edge's controls (zero where straight), as
+        ``splines.vector_image(positions)`` would draw it again."""
+        cells = self.splines.cells
+        n_edges = len(cells.edges)
+        curved = np.zeros(n_edges, dtype=bool)
+        curved[self.drawing.edges] = True
+        controls = np.zeros((n_edges, 6), dtype=np.float64)  # (E, 3, 2) written as rows of 6
+        set_rows(controls, self.drawing.edges, self.drawing.controls.reshape(-1, 6))
+        ctrl = self.splines.controls_for(self.positions)
+        return VectorImage(cells, self.drawing.points, curved, controls.reshape(n_edges, 3, 2), "optimized",
+                           self.splines.curve_table(ctrl, curved))
 
 
 def optimize_splines(splines: SplineSet, corners: Corners, params: Params = Params()) -> OptimizedSplines:
@@ -51,9 +63,14 @@ def optimize_splines(splines: SplineSet, corners: Corners, params: Params = Para
     start = corners.place(splines)
     relaxed = relax(splines, start, corners.nodes, excluded_halves(splines, corners.nodes), params)
     positions = start.copy()
-    positions[splines.curve_nodes[relaxed.movable]] = relaxed.ctrl[relaxed.movable]
+    set_rows(positions, splines.curve_nodes.compress(relaxed.movable), relaxed.ctrl.compress(relaxed.movable, axis=0))
     energy_before, energy_after = relaxed.energy_before, relaxed.energy_after
     del relaxed  # the control points live on in the positions; free them for the steps below
-    positions = harmonic_map(splines, start, positions, corners.nodes, params.harmonic_reach)
-    positions = keep_centres_inside(splines, start, positions, params.centre_clearance / 2, params.revert_rounds)
-    return OptimizedSplines(splines, corners, start, positions, energy_before, energy_after)
+    # the relaxed curves are drawn once: the harmonic map needs their display points, the
+    # revert's first round the whole drawing (the harmonic map moves no curve node)
+    drawing = splines.drawing(positions)
+    mapped = harmonic_map(splines, start, positions, corners.nodes, params.harmonic_reach, drawing.points)
+    drawing = drawing._replace(points=follow(drawing.points, positions, mapped))
+    positions, drawing = keep_centres_inside(splines, start, mapped, params.centre_clearance / 2,
+                                             params.revert_rounds, drawing)
+    return OptimizedSplines(splines, corners, start, positions, energy_before, energy_after, drawing)

@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from depixel.bspline import evaluate, half_turns, midpoint
+from depixel.bspline import evaluate, flatten_edges, flatten_edges_planes, half_turns, midpoint
 from depixel.corners import detect_corners, detect_square_corners, excluded_halves
-from depixel.fidelity import centre_clearance
-from depixel.harmonic import harmonic_map
+from depixel.fidelity import FAR, centre_clearance, keep_centres_inside, protected_points, unique_rows
+from depixel.harmonic import conjugate_gradients, follow, harmonic_map, row_dots
 from depixel.params import Params
 from depixel.pipeline import depixelize
 from depixel.raster import render_rgba
@@ -66,6 +66,18 @@ def test_turning_of_each_half_is_the_integral_of_the_curvature():
         assert float(second) == pytest.approx(numerical_turning(p0, p1, p2, 0.5, 1.0), abs=1e-6)
         checked += 1
     assert checked > 20
+
+
+@pytest.mark.parametrize("count", [0, 1, 37])
+def test_flattened_edges_as_planes_are_the_same_numbers(count):
+    rng = np.random.default_rng(count)
+    start, stop = rng.normal(size=(count, 2)) * 9, rng.normal(size=(count, 2)) * 9
+    controls = rng.normal(size=(count, 3, 2)) * 9
+    rows = flatten_edges(start, controls, stop, 3)  # (E, 7, 2)
+    planes = flatten_edges_planes(start, controls, stop, 3)  # (7, E) each
+    for axis in range(2):
+        assert planes[axis].shape == (7, count)
+        assert np.array_equal(planes[axis], rows[..., axis].T)  # bit for bit, not approximately
 
 
 def test_smoothness_counts_only_the_kept_halves():
@@ -283,6 +295,107 @@ def test_harmonic_map_runs_in_the_pipeline():
     q = opt.splines.cells.nodes
     inside = ~on_curve & (q > 0).all(axis=1) & (q[:, 0] < 4 * 14) & (q[:, 1] < 4 * 11)
     assert np.abs(opt.positions[inside] - opt.initial[inside]).max() > 0.01
+
+
+def test_conjugate_gradients_solves_each_row_to_the_residual_it_promises():
+    rng = np.random.default_rng(7)
+    root = rng.normal(size=(40, 40))
+    matrix = root @ root.T + 40 * np.eye(40)  # symmetric positive definite
+    rhs = rng.normal(size=(3, 40))
+
+    def apply(x: np.ndarray, out: np.ndarray) -> None:
+        out[...] = x @ matrix
+
+    x = conjugate_gradients(apply, rhs)
+    exact = np.linalg.solve(matrix, rhs.T).T
+    assert x.shape == rhs.shape
+    residual = np.linalg.norm(x @ matrix - rhs, axis=1)
+    assert (residual <= 1e-5 * np.linalg.norm(rhs, axis=1).max() * 1.0001).all()
+    assert np.abs(x - exact).max() < 1e-5
+
+
+def test_row_dots_are_the_dot_products_of_the_rows():
+    a, b = np.arange(6.0).reshape(2, 3), np.array([[1.0, 2.0, 3.0], [-1.0, 0.5, 2.0]])
+    assert row_dots(a, b) == [8.0, -3.0 + 2.0 + 10.0]
+    assert row_dots(a, b, np.empty((2, 3))) == [8.0, 9.0]
+
+
+def test_follow_gives_the_display_points_of_nodes_moved_off_the_curves():
+    result = depixelize(DIAMOND)
+    opt = result.optimized
+    splines = opt.splines
+    before = opt.positions
+    off_curve = np.ones(len(before), bool)
+    off_curve[splines.curve_nodes] = False
+    after = before.copy()
+    after[off_curve] += 0.125
+    display = splines.display_points(before)
+    followed = follow(display, before, after)
+    assert np.array_equal(followed, splines.display_points(after))
+    assert not np.array_equal(followed, display)
+
+
+def test_the_optimized_result_draws_its_positions():
+    """The drawing kept from the revert is that of the final positions: the output is what
+    drawing them again gives, array for array."""
+    for img in (DIAMOND, CHAINED_T):
+        opt = depixelize(img).optimized
+        again = opt.splines.vector_image(opt.positions, stage="optimized")
+        kept = opt.vector_image()
+        for name in ("points", "curved", "controls"):
+            assert np.array_equal(getattr(kept, name), getattr(again, name)), name
+        assert kept.curves is not None and again.curves is not None
+        assert np.array_equal(kept.curves.ctrl, again.curves.ctrl)
+        assert np.array_equal(kept.curves.edge_slot, again.curves.edge_slot)
+
+
+@pytest.mark.parametrize("rounds", [1, 8])
+def test_the_revert_returns_the_drawing_of_its_positions(rounds):
+    opt = depixelize(DIAMOND).optimized
+    splines = opt.splines
+    wild = opt.initial + np.random.default_rng(5).uniform(-0.6, 0.6, opt.initial.shape)
+    positions, drawing = keep_centres_inside(splines, opt.initial, wild, 0.075, rounds)
+    assert not np.array_equal(positions, wild)  # something was put back
+    again = splines.drawing(positions)
+    for kept, drawn in zip(drawing, again):
+        assert np.array_equal(kept, drawn)
+    # given the drawing of the positions it starts from, the same result
+    given = keep_centres_inside(splines, opt.initial, wild, 0.075, rounds, splines.drawing(wild))
+    assert np.array_equal(given[0], positions)
+
+
+def test_unique_rows_keeps_each_rows_distinct_points_in_key_order():
+    points = np.array([
+        [[2.5, 1.5], [FAR, FAR], [0.5, 3.5], [2.5, 1.5], [1.0, 2.0]],
+        [[FAR, FAR], [4.5, 0.5], [FAR, FAR], [4.5, 0.5], [4.5, 0.5]],
+        [[FAR, FAR]] * 5,
+    ])
+    out = unique_rows(points)
+    assert out.shape == (3, 3, 2)  # as wide as the row with the most distinct points
+    assert out[0].tolist() == [[0.5, 3.5], [1.0, 2.0], [2.5, 1.5]]  # ordered by x, then y
+    assert out[1].tolist() == [[4.5, 0.5], [FAR, FAR], [FAR, FAR]]
+    assert (out[2] == FAR).all()
+    assert unique_rows(np.full((0, 4, 2), FAR)).shape == (0, 1, 2)
+
+
+def test_protected_points_are_the_centres_beside_each_edge_and_the_split_corner():
+    for img in (CHAINED_T, DIAMOND):  # open ends with no pixel beyond; split corners of diagonal links
+        splines = splines_of(img)
+        cells = splines.cells
+        w = cells.shape[1]
+        slots = np.arange(splines.curve_nodes.size).reshape(-1, 1)
+        got = protected_points(splines, slots)
+        assert got.shape == (slots.shape[0], 1, 3, 2)
+        assert np.array_equal(got[:, 0], protected_points(splines))
+        for slot, row in zip(slots[:, 0], got[:, 0]):
+            edge = splines.slot_edges[slot]
+            for side in range(2):
+                pixel = cells.edge_pixels[edge, side] if edge >= 0 else -1
+                want = [FAR, FAR] if pixel < 0 else [pixel % w + 0.5, pixel // w + 0.5]
+                assert row[side].tolist() == want
+            node = cells.nodes[splines.curve_nodes[slot]]
+            split = bool((np.abs(node - 4 * np.round(node / 4)) == 1).all())
+            assert row[2].tolist() == (list(np.round(node / 4)) if split else [FAR, FAR])
 
 
 # --- the fidelity guard of each move ------------------------------------------------------------
