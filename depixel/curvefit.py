@@ -23,6 +23,7 @@ from .vector import VectorImage
 
 _T_ORIG = np.array([0.0, 0.25, 0.5, 0.75])  # samples of each exact segment
 _T_FIT = np.linspace(0.0, 1.0, 17)  # samples of a fitted cubic (its polyline)
+_W_FIT = cubic_weights(_T_FIT)  # their Bernstein weights, (T,) each
 #: a piece may deviate by at most this fraction of its size (the diagonal of its bounding
 #: box), so a small closed curve — an eye, a dot — keeps its shape at any tolerance
 _RELATIVE_TOLERANCE = 1 / 16
@@ -221,9 +222,8 @@ def fit(exact: Exact, prot: Protected, lo: np.ndarray, hi: np.ndarray, tolerance
     limit = np.minimum(tolerance, exact.tolerance[lo])  # the run's piece's own limit
 
     def passes(rows: np.ndarray, c1: np.ndarray, c2: np.ndarray) -> np.ndarray:
-        ok = samples.within(rows, c1, c2, limit[rows])
-        ok[ok] = _keeps_sides(exact, prot, lo[rows[ok]], hi[rows[ok]], c1.compress(ok, axis=0),
-                              c2.compress(ok, axis=0), clearance)
+        ok, curves = samples.within(rows, c1, c2, limit[rows])
+        ok[ok] = _keeps_sides(exact, prot, lo[rows[ok]], hi[rows[ok]], curves.compress(ok, axis=1), clearance)
         return ok
 
     quads = np.flatnonzero(has_q)
@@ -274,14 +274,16 @@ class _Samples:
         at = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count - self.first[rows], count)
         return np.repeat(np.arange(rows.size), count), at
 
-    def within(self, rows: np.ndarray, c1: np.ndarray, c2: np.ndarray, tolerance: np.ndarray) -> np.ndarray:
+    def within(self, rows: np.ndarray, c1: np.ndarray, c2: np.ndarray, tolerance: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray]:
         """For candidate cubics (p0, c1, c2, p3) of the ranges ``rows`` (``c1``, ``c2``: (M, 2)):
         every sample of the range lies within ``tolerance`` of the cubic, and the cubic is not
-        more than 10 % longer than the run (no loop or bulge between samples)."""
+        more than 10 % longer than the run (no loop or bulge between samples); and the
+        candidates' polylines (2, M, T) (:func:`_flatten`), which the side test uses too."""
         # the shape test first (one polyline per candidate), then the samples of the
         # candidates that pass it: the costly part, each sample on its own
         p0, p1, p2, p3 = self.p0.take(rows, axis=1), _planes(c1), _planes(c2), self.p3.take(rows, axis=1)
-        curve = _flatten(p0, p1, p2, p3, _T_FIT)  # (2, M, T)
+        curve = _flatten(p0, p1, p2, p3)  # (2, M, T)
         step = np.diff(curve, axis=2)
         length = np.sqrt(step[0] ** 2 + step[1] ** 2).sum(axis=1)
         chord = np.sqrt((p3[0] - p0[0]) ** 2 + (p3[1] - p0[1]) ** 2)
@@ -311,8 +313,10 @@ class _Samples:
         off = evaluate_cubic(q0, q1, q2, q3, u) - points
         d = np.sqrt(off[0] ** 2 + off[1] ** 2)
         worst = np.zeros(rows.size)
-        np.maximum.at(worst, o, d)
-        return ok & (worst <= tolerance)
+        if cand.size:  # the samples of each candidate are consecutive, at least 4 of them
+            count = self.count.take(rows.take(cand))
+            worst[cand] = np.maximum.reduceat(d, np.cumsum(count) - count)
+        return ok & (worst <= tolerance), curve
 
 
 def _quadratic_control(exact: Exact, p0: np.ndarray, p3: np.ndarray, lo: np.ndarray, hi: np.ndarray,
@@ -341,8 +345,10 @@ def _cubic_controls(exact: Exact, samples: _Samples, rows: np.ndarray, lo: np.nd
     t0, t1 = exact.tan_start.take(lo, axis=0), exact.tan_end.take(hi - 1, axis=0)
     o, at = samples.of(rows)
     u = samples.u[at]
-    # P(u) = B0 p0 + B1 (p0 + a t0) + B2 (p3 - b t1) + B3 p3
-    b0, b1, b2, b3 = cubic_weights(u)
+    # P(u) = B0 p0 + B1 (p0 + a t0) + B2 (p3 - b t1) + B3 p3 (cubic_weights, the cubes
+    # from the samples: np.power is slow)
+    s = 1 - u
+    b0, b1, b2, b3 = samples.cubes[0].take(at), 3 * u * s**2, 3 * u**2 * s, samples.cubes[1].take(at)
     r = samples.points.take(at, axis=1) - (b0 + b1) * p0.take(o, axis=1) - (b2 + b3) * p3.take(o, axis=1)
     va, vb = b1 * _planes(t0).take(o, axis=1), -b2 * _planes(t1).take(o, axis=1)
     n = rows.size
@@ -366,9 +372,10 @@ def _cubic_controls(exact: Exact, samples: _Samples, rows: np.ndarray, lo: np.nd
     return c1, c2
 
 
-def _keeps_sides(exact: Exact, prot: Protected, lo, hi, c1, c2, clearance: float) -> np.ndarray:
+def _keeps_sides(exact: Exact, prot: Protected, lo, hi, curves: np.ndarray, clearance: float) -> np.ndarray:
     """No protected point nearest to the exact segments lo-1 .. hi changes side or comes
-    nearer than min(its distance to the exact curve, clearance)."""
+    nearer to the new curve (``curves``: its polyline (2, R, T)) than min(its distance to
+    the exact curve, clearance)."""
     first = np.searchsorted(prot.seg, lo - 1)
     last = np.searchsorted(prot.seg, hi + 1)
     count = last - first
@@ -377,8 +384,6 @@ def _keeps_sides(exact: Exact, prot: Protected, lo, hi, c1, c2, clearance: float
         return ok
     owner = np.repeat(np.arange(lo.size), count)
     idx = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count) + np.repeat(first, count)
-    curves = _flatten(_planes(exact.start.take(lo, axis=0)), _planes(c1), _planes(c2),
-                      _planes(exact.end.take(hi - 1, axis=0)), _T_FIT)  # (2, R, T)
     xy = prot.xy.take(idx, axis=1)
     parts = curves.shape[2] - 1
     start, end = _parts(curves)
@@ -412,17 +417,19 @@ def _between(xy: np.ndarray, owner: np.ndarray, curves: np.ndarray, lo: np.ndarr
     flat_curves = curves.reshape(2, -1)
     a = np.where(on_curve, flat_curves.take(kc, axis=1), exact.part_start.reshape(2, -1).take(at, axis=1))
     b = np.where(on_curve, flat_curves.take(kc + 1, axis=1), exact.part_end.reshape(2, -1).take(at, axis=1))
-    # pairs (point, edge of its candidate's polygon)
+    # pairs (point, edge of its candidate's polygon); only the pairs whose edge straddles the
+    # point's height can count, so the rest of the test runs on those alone
     first = np.cumsum(n_edges) - n_edges
     per_point = n_edges[owner]
     p_idx = np.repeat(np.arange(xy.shape[1]), per_point)
-    e_idx = np.arange(int(per_point.sum())) - np.repeat(np.cumsum(per_point) - per_point, per_point) \
-        + np.repeat(first[owner], per_point)
-    (qx, qy), (ax, ay), (bx, by) = xy.take(p_idx, axis=1), a.take(e_idx, axis=1), b.take(e_idx, axis=1)
-    straddle = (ay > qy) != (by > qy)
-    dy = by - ay
-    x_at = ax + (qy - ay) * (bx - ax) / np.where(dy == 0, 1.0, dy)
-    hits = np.bincount(p_idx, weights=straddle & (x_at > qx), minlength=xy.shape[1])
+    e_idx = np.arange(int(per_point.sum())) - np.repeat(np.cumsum(per_point) - per_point - first[owner], per_point)
+    qy, ay, by = xy[1].take(p_idx), a[1].take(e_idx), b[1].take(e_idx)
+    straddle = np.flatnonzero((ay > qy) != (by > qy))
+    p_idx, e_idx = p_idx.take(straddle), e_idx.take(straddle)
+    qy, ay, by = qy.take(straddle), ay.take(straddle), by.take(straddle)
+    qx, ax, bx = xy[0].take(p_idx), a[0].take(e_idx), b[0].take(e_idx)
+    x_at = ax + (qy - ay) * (bx - ax) / (by - ay)  # by != ay where the edge straddles
+    hits = np.bincount(p_idx, weights=x_at > qx, minlength=xy.shape[1])
     return hits.astype(np.int64) % 2 == 1
 
 
@@ -480,6 +487,8 @@ def _parts(polylines: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.ascontiguousarray(polylines[:, :, :-1]), np.ascontiguousarray(polylines[:, :, 1:])
 
 
-def _flatten(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, p3: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """``(2, R, T)``: the points of cubics with ``(2, R)`` control planes at parameters ``t``."""
-    return evaluate_cubic(p0[..., None], p1[..., None], p2[..., None], p3[..., None], t)
+def _flatten(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, p3: np.ndarray) -> np.ndarray:
+    """``(2, R, T)``: the points of cubics with ``(2, R)`` control planes at the parameters
+    ``_T_FIT`` (:func:`depixel.bspline.evaluate_cubic`, its weights computed once)."""
+    b0, b1, b2, b3 = _W_FIT
+    return b0 * p0[..., None] + b1 * p1[..., None] + b2 * p2[..., None] + b3 * p3[..., None]

@@ -1,0 +1,16 @@
+"""depixel/curvefit.py's numerics that the speed work reshaped: they must give the very
+numbers of the plain formulas (the output is compared byte for byte)."""
+from __future__ import annotations
+
+import numpy as np
+
+from depixel.bspline import evaluate_cubic
+from depixel.curvefit import _T_FIT, _flatten
+
+
+def test_flatten_is_evaluate_cubic_at_the_fit_parameters_to_the_bit():
+    rng = np.random.default_rng(3)
+    p0, p1, p2, p3 = (rng.uniform(-50, 300, (2, 40)) for _ in range(4))
+    plain = evaluate_cubic(p0[..., None], p1[..., None], p2[..., None], p3[..., None], _T_FIT)
+    assert plain.shape == (2, 40, _T_FIT.size)
+    assert np.array_equal(_flatten(p0, p1, p2, p3), plain)
