@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from depixel.bspline import evaluate_cubic
-from depixel.curvefit import _T_FIT, _flatten
+from depixel.curvefit import _T_FIT, _flatten, _per_sample
 
 
 def test_flatten_is_evaluate_cubic_at_the_fit_parameters_to_the_bit():
@@ -14,3 +14,11 @@ def test_flatten_is_evaluate_cubic_at_the_fit_parameters_to_the_bit():
     plain = evaluate_cubic(p0[..., None], p1[..., None], p2[..., None], p3[..., None], _T_FIT)
     assert plain.shape == (2, 40, _T_FIT.size)
     assert np.array_equal(_flatten(p0, p1, p2, p3), plain)
+
+
+def test_per_sample_repeats_each_item_like_a_gather():
+    planes = np.arange(2 * 3 * 5, dtype=float).reshape(2, 3, 5)
+    count = np.array([2, 0, 3])
+    out = _per_sample(planes, count)
+    assert out.shape == (2, 5, 5)
+    assert np.array_equal(out, planes.take([0, 0, 2, 2, 2], axis=1))
