@@ -98,7 +98,7 @@ def test_fitting_ahead_saves_passes_and_changes_no_curve(name, monkeypatch):
     for budget in (0, 1 << 30):  # never ahead, always
         calls = []
         monkeypatch.setattr(simplify, "SPECULATIVE_SEGMENTS", budget)
-        monkeypatch.setattr(simplify, "fit", lambda *args: calls.append(1) or real_fit(*args))
+        monkeypatch.setattr(simplify, "fit", lambda *args, calls=calls: calls.append(1) or real_fit(*args))
         out = build_outlines(vector, "stacked", grid=1e-2, simplify=0.25)
         results.append((out.kind, np.nan_to_num(out.ctrl, nan=-1), np.nan_to_num(out.ctrl2, nan=-1), out.end))
         passes.append(len(calls))
