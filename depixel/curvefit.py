@@ -121,7 +121,7 @@ class Protected:
             xys.append(xy)
         edge, xy = curved[np.concatenate(whiches)], np.concatenate(xys)
         near_xy, near_dist, near_seg = [], [], []
-        for batch in batch_slices(edge.size, BATCH // 4):  # 16 distances a point: (2, P', 4, 4) arrays
+        for batch in batch_slices(edge.size, BATCH // 2):  # ~7 distances a point: (2, V, 4) arrays
             dist, signed, seg = _nearest_segment(xy[batch], segments_of(edge[batch]), exact)
             near = np.isfinite(dist) & (dist < reach) & (dist > 1e-9)
             near_xy.append(xy[batch].compress(near, axis=0))
@@ -153,17 +153,22 @@ def _nearest_segment(xy: np.ndarray, seg_of: np.ndarray, exact: Exact
     """Distance of points ``xy`` (P, 2) to the nearest of their candidate segments ``seg_of``
     (P, 4) (the polylines of their samples and end), that distance signed by the side, and
     that segment."""
-    candidate = np.maximum(seg_of, 0)
-    a, b = exact.part_start.take(candidate, axis=1), exact.part_end.take(candidate, axis=1)  # (2, P, 4, 4)
-    q = np.repeat(_planes(xy), a[0, 0].size, axis=1).reshape(a.shape)
-    d = _segment_distance(q, a, b)  # (P, 4, 4)
-    d = np.where((seg_of >= 0)[:, :, None], d, np.inf)
+    # the distances to the parts of the candidates that exist (less than half of them), in
+    # a (P, 4, 4) table where the others are infinite
+    valid = np.flatnonzero(seg_of >= 0)  # (point, candidate) pairs, flat
+    n_parts = exact.part_start.shape[2]
+    a = exact.part_start.take(seg_of.ravel().take(valid), axis=1)  # (2, V, 4)
+    b = exact.part_end.take(seg_of.ravel().take(valid), axis=1)
+    q = np.repeat(_planes(xy).take(valid // seg_of.shape[1], axis=1), n_parts, axis=1).reshape(a.shape)
+    d = np.full(seg_of.shape + (n_parts,), np.inf)
+    d.ravel()[(valid[:, None] * n_parts + np.arange(n_parts)).ravel()] = _segment_distance(q, a, b).ravel()
     flat = d.reshape(d.shape[0], -1).argmin(axis=1)
-    which, part = np.divmod(flat, d.shape[2])
+    which, part = np.divmod(flat, n_parts)
     rows = np.arange(xy.shape[0])
     dist = d[rows, which, part]
-    pa, pb = a[:, rows, which, part], b[:, rows, which, part]
-    ab, aq = pb - pa, q[:, :, 0, 0] - pa
+    nearest = np.maximum(seg_of[rows, which], 0) * n_parts + part  # flat part
+    pa, pb = exact.part_start.reshape(2, -1).take(nearest, axis=1), exact.part_end.reshape(2, -1).take(nearest, axis=1)
+    ab, aq = pb - pa, _planes(xy) - pa
     side = np.sign(ab[0] * aq[1] - ab[1] * aq[0])
     return dist, dist * np.where(side == 0, 1.0, side), seg_of[rows, which]
 
