@@ -17,11 +17,12 @@ import numpy as np
 
 from .arrays import batch_slices, set_rows
 from .boundaries import CUBIC, QUAD, BoundaryPieces
-from .bspline import cubic_weights, elevate, evaluate_cubic, flatten_cubic
+from .bspline import cubic_weights, elevate, evaluate_cubic
 from .cells import link_corners
 from .vector import VectorImage
 
 _T_ORIG = np.array([0.0, 0.25, 0.5, 0.75])  # samples of each exact segment
+_W_ORIG = cubic_weights(_T_ORIG[:, None])  # their Bernstein weights, (4, 1) each as in flatten_cubic
 _T_FIT = np.linspace(0.0, 1.0, 17)  # samples of a fitted cubic (its polyline)
 _W_FIT = cubic_weights(_T_FIT)  # their Bernstein weights, (T,) each
 #: a piece may deviate by at most this fraction of its size (the diagonal of its bounding
@@ -64,13 +65,16 @@ class Exact:
                                         self.end - self.start))
         self.tan_end = _unit(np.where((np.abs(self.end - c2) > 0).any(axis=1)[:, None], self.end - c2,
                                       self.end - self.start))
-        samples = flatten_cubic(self.start, c1, c2, self.end, _T_ORIG)  # (K, 4, 2)
-        polyline = np.concatenate([samples, self.end[:, None]], axis=1)  # (K, 5, 2): samples, end
-        del samples
+        # flatten_cubic's samples (the same products and sums) on x and y planes with the
+        # segments innermost: (2, 4, K), then (2, 5, K) with the ends
+        b0, b1, b2, b3 = _W_ORIG
+        p0, p1, p2, p3 = (_planes(p)[:, None, :] for p in (self.start, c1, c2, self.end))
+        polyline = np.concatenate([b0 * p0 + b1 * p1 + b2 * p2 + b3 * p3, p3], axis=1)
+        del p0, p1, p2, p3
         #: (2, K, 4) the starts (the samples) and the ends of the parts of each segment's polyline
         #: (:func:`_parts`). Only these two are kept (~128 bytes a segment; the writer holds them
         #: for every segment)
-        self.part_start, self.part_end = _parts(polyline.transpose(2, 0, 1))
+        self.part_start, self.part_end = _parts(polyline.transpose(0, 2, 1))
         del polyline
         dx, dy = self.part_end - self.part_start  # the same differences as np.diff of the polyline
         step = np.sqrt(dx * dx + dy * dy)

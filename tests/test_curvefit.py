@@ -22,3 +22,24 @@ def test_per_sample_repeats_each_item_like_a_gather():
     out = _per_sample(planes, count)
     assert out.shape == (2, 5, 5)
     assert np.array_equal(out, planes.take([0, 0, 2, 2, 2], axis=1))
+
+
+
+def test_exact_samples_are_flatten_cubics_to_the_bit():
+    """Exact computes the samples of the exact segments on planes, segments innermost: the
+    same numbers as bspline.flatten_cubic's (K, 4, 2) layout."""
+    from conftest import FIXTURES
+
+    from depixel import depixelize, load_image
+    from depixel.bspline import flatten_cubic
+    from depixel.curvefit import _T_ORIG, Exact, _as_cubic
+    from depixel.outlines import OutlineShapes
+
+    pieces = OutlineShapes(depixelize(load_image(FIXTURES / "mushroom.png")).vector, "stacked", grid=0.01, simplify=0.0).pieces
+    exact = Exact(pieces, 0.25)
+    c1, c2 = _as_cubic(exact.start, pieces.kind, pieces.ctrl, pieces.ctrl2, exact.end)
+    samples = flatten_cubic(exact.start, c1, c2, exact.end, _T_ORIG).transpose(2, 0, 1)  # (2, K, 4)
+    assert samples.shape[1] > 50
+    assert np.array_equal(exact.part_start, samples)
+    assert np.array_equal(exact.part_end[:, :, :-1], samples[:, :, 1:])
+    assert np.array_equal(exact.part_end[:, :, -1], exact.end.T)
