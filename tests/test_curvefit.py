@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from depixel.bspline import evaluate_cubic
-from depixel.curvefit import _T_FIT, _flatten, _per_sample
+from depixel.curvefit import _T_FIT, _cube, _flatten, _per_sample
 
 
 def test_flatten_is_evaluate_cubic_at_the_fit_parameters_to_the_bit():
@@ -23,6 +23,11 @@ def test_per_sample_repeats_each_item_like_a_gather():
     assert out.shape == (2, 5, 5)
     assert np.array_equal(out, planes.take([0, 0, 2, 2, 2], axis=1))
 
+
+def test_cube_is_the_product_within_two_ulps_of_numpys_power():
+    x = np.random.default_rng(5).uniform(0.0, 1.0, 10_000)  # chord-length parameters and 1 - them
+    assert np.array_equal(_cube(x), x * x * x)
+    np.testing.assert_array_max_ulp(_cube(x), x**3, maxulp=2)
 
 
 def test_exact_samples_are_flatten_cubics_to_the_bit():
