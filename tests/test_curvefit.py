@@ -40,7 +40,8 @@ def test_exact_samples_are_flatten_cubics_to_the_bit():
     from depixel.curvefit import _T_ORIG, Exact, _as_cubic
     from depixel.outlines import OutlineShapes
 
-    pieces = OutlineShapes(depixelize(load_image(FIXTURES / "mushroom.png")).vector, "stacked", grid=0.01, simplify=0.0).pieces
+    vector = depixelize(load_image(FIXTURES / "mushroom.png")).vector
+    pieces = OutlineShapes(vector, "stacked", grid=0.01, simplify=0.0).pieces
     exact = Exact(pieces, 0.25)
     c1, c2 = _as_cubic(exact.start, pieces.kind, pieces.ctrl, pieces.ctrl2, exact.end)
     samples = flatten_cubic(exact.start, c1, c2, exact.end, _T_ORIG).transpose(2, 0, 1)  # (2, K, 4)
