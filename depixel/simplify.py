@@ -53,34 +53,89 @@ def simplify_pieces(pieces: BoundaryPieces, image: VectorImage, tolerance: float
     # _CHUNK segments (a cubic within 0.1 px seldom spans more spans of the spline), then
     # halved until a cubic fits or one segment is left
     lo, hi = _chunks(pieces.ptr, _CHUNK)
+    fits = _Fits(exact, protected, pieces.ptr, tolerance, clearance, grid)
     fitted: list[tuple[np.ndarray, ...]] = []
     failed = []  # ranges that did not fit (a fit depends on its range alone)
     while lo.size:
-        kind, c1, c2, ok = _fit_checked(exact, protected, lo, hi, tolerance, clearance, grid)
+        kind, c1, c2, ok = fits.get(lo, hi, _descendants(lo, hi, SPECULATIVE_SEGMENTS - int((hi - lo).sum())))
         fitted.append((lo[ok], hi[ok], kind[ok], c1.compress(ok, axis=0), c2.compress(ok, axis=0)))
         lo, hi = lo[~ok], hi[~ok]
         failed.append(_range_keys(lo, hi, pieces.ptr))
-        mid = (lo + hi) // 2
-        lo, hi = np.concatenate([lo, mid]), np.concatenate([mid, hi])
-        more = hi - lo > 1
-        lo, hi = lo[more], hi[more]
-    fitted = _merge_neighbours(exact, protected, pieces.ptr, fitted, np.sort(np.concatenate(failed)) if failed
-                               else np.zeros(0, np.int64), tolerance, clearance, grid)
+        lo, hi = _halves(lo, hi)
+    fitted = _merge_neighbours(fits, pieces.ptr, fitted, np.sort(np.concatenate(failed)) if failed
+                               else np.zeros(0, np.int64))
     return _assemble(pieces, fitted)
 
 
 _CHUNK = 8
+#: a pass of fits costs about a millisecond of numpy calls whatever its size, plus a few µs
+#: a segment: up to this many segments in all, a pass also fits the ranges the next passes
+#: may ask for (the halves of its ranges, the merges after this one). The result does not
+#: depend on it (a fit depends on its range alone)
+SPECULATIVE_SEGMENTS = 256
 
 
-def _fit_checked(exact: Exact, protected: Protected, lo: np.ndarray, hi: np.ndarray, tolerance: float,
-                 clearance: float, grid: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`fit` of every range [lo, hi), a batch at a time."""
-    bounds = batch_bounds(hi - lo + 2, BATCH)  # samples and protected points grow with the segments
-    if len(bounds) <= 1:
-        return fit(exact, protected, lo, hi, tolerance, clearance, grid)
-    parts = [fit(exact, protected, lo[a:b], hi[a:b], tolerance, clearance, grid) for a, b in bounds]
-    kinds, c1s, c2s, oks = zip(*parts)
-    return np.concatenate(kinds), np.concatenate(c1s), np.concatenate(c2s), np.concatenate(oks)
+class _Fits:
+    """:func:`fit` of ranges [lo, hi) of exact segments, each range fitted once, a batch at a
+    time (:data:`BATCH`): ranges that later passes may ask for can be fitted ahead, in the
+    same pass."""
+
+    def __init__(self, exact: Exact, protected: Protected, ptr: np.ndarray, tolerance: float, clearance: float,
+                 grid: float | None) -> None:
+        self.exact, self.protected, self.ptr = exact, protected, ptr
+        self.tolerance, self.clearance, self.grid = tolerance, clearance, grid
+        self.keys = np.zeros(0, np.int64)  # sorted _range_keys of the ranges fitted so far
+        self.kind, self.ok = np.zeros(0, np.uint8), np.zeros(0, bool)
+        self.c1, self.c2 = np.zeros((0, 2)), np.zeros((0, 2))
+
+    def get(self, lo: np.ndarray, hi: np.ndarray, ahead: tuple[np.ndarray, np.ndarray] | None = None
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(kind, c1, c2, ok)`` of the ranges [lo, hi) (:func:`fit`); the ranges ``ahead``
+        (lo, hi) are fitted in the same pass where they are new, for later calls."""
+        keys = _range_keys(lo, hi, self.ptr)
+        if not in_sorted(self.keys, keys).all():  # a pass (only then one ahead)
+            wanted = keys if ahead is None else np.concatenate([keys, _range_keys(*ahead, self.ptr)])
+            new = np.unique(wanted[~in_sorted(self.keys, wanted)], return_index=True)[0]
+            new_lo, new_hi = np.divmod(new, int(self.ptr[-1]) + 1)
+            kind, c1, c2, ok = self._fit(new_lo, new_hi)
+            order = np.argsort(np.concatenate([self.keys, new]), kind="stable")
+            self.keys = np.concatenate([self.keys, new])[order]
+            self.kind, self.ok = np.concatenate([self.kind, kind])[order], np.concatenate([self.ok, ok])[order]
+            self.c1 = np.concatenate([self.c1, c1]).take(order, axis=0)
+            self.c2 = np.concatenate([self.c2, c2]).take(order, axis=0)
+        at = np.searchsorted(self.keys, keys)
+        return self.kind[at], self.c1.take(at, axis=0), self.c2.take(at, axis=0), self.ok[at]
+
+    def _fit(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        bounds = batch_bounds(hi - lo + 2, BATCH)  # samples and protected points grow with the segments
+        parts = [fit(self.exact, self.protected, lo[a:b], hi[a:b], self.tolerance, self.clearance, self.grid)
+                 for a, b in bounds]
+        if len(parts) == 1:
+            return parts[0]
+        kinds, c1s, c2s, oks = zip(*parts)
+        return np.concatenate(kinds), np.concatenate(c1s), np.concatenate(c2s), np.concatenate(oks)
+
+
+def _halves(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The two halves of every range [lo, hi) that have more than one segment."""
+    mid = (lo + hi) // 2
+    lo, hi = np.concatenate([lo, mid]), np.concatenate([mid, hi])
+    more = hi - lo > 1
+    return lo[more], hi[more]
+
+
+def _descendants(lo: np.ndarray, hi: np.ndarray, budget: int) -> tuple[np.ndarray, np.ndarray]:
+    """The halves of the ranges [lo, hi), their halves and so on, whole levels while they
+    hold at most ``budget`` segments in all: the ranges the halving may ask for next."""
+    los, his = [], []
+    while True:
+        lo, hi = _halves(lo, hi)
+        budget -= int((hi - lo).sum())
+        if lo.size == 0 or budget < 0:
+            break
+        los.append(lo)
+        his.append(hi)
+    return (np.concatenate(los), np.concatenate(his)) if los else (lo[:0], hi[:0])
 
 
 def _chunks(ptr: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
@@ -99,7 +154,7 @@ def _range_keys(lo: np.ndarray, hi: np.ndarray, ptr: np.ndarray) -> np.ndarray:
     return lo.astype(np.int64) * (int(ptr[-1]) + 1) + hi
 
 
-def _merge_neighbours(exact, protected, ptr, fitted, failed, tolerance, clearance, grid):
+def _merge_neighbours(fits: _Fits, ptr, fitted, failed):
     """Try once to fit one curve over two neighbouring fitted ranges of a piece (not
     again over a range that did not fit before: ``failed``, sorted :func:`_range_keys`)."""
     if not fitted:
@@ -116,7 +171,8 @@ def _merge_neighbours(exact, protected, ptr, fitted, failed, tolerance, clearanc
         a = a[~in_sorted(failed, _range_keys(lo[a], hi[a + 1], ptr))]
         if a.size == 0:
             continue
-        mk, m1, m2, ok = _fit_checked(exact, protected, lo[a], hi[a + 1], tolerance, clearance, grid)
+        ahead = _next_merges(lo, hi, touching, a, failed, ptr) if parity == 0 else None
+        mk, m1, m2, ok = fits.get(lo[a], hi[a + 1], ahead)
         a, mk, m1, m2 = a[ok], mk[ok], m1.compress(ok, axis=0), m2.compress(ok, axis=0)
         hi[a] = hi[a + 1]
         kinds[a] = mk
@@ -127,6 +183,33 @@ def _merge_neighbours(exact, protected, ptr, fitted, failed, tolerance, clearanc
         lo, hi, kinds, piece_of = lo[keep], hi[keep], kinds[keep], piece_of[keep]
         c1, c2 = c1.compress(keep, axis=0), c2.compress(keep, axis=0)
     return [(lo, hi, kinds, c1, c2)]
+
+
+def _next_merges(lo: np.ndarray, hi: np.ndarray, touching: np.ndarray, a: np.ndarray, failed: np.ndarray,
+                 ptr: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Every range the second merge pass may try whatever the first one (merging the
+    ranges ``a`` with ``a + 1`` of the sorted fitted ranges [lo, hi)) keeps: two, three or
+    four neighbouring fitted ranges; None when they hold more than
+    :data:`SPECULATIVE_SEGMENTS` segments with the first pass's."""
+    n = lo.size
+    merging = np.zeros(n + 2, bool)
+    merging[a] = True
+    near = np.zeros(n + 1, bool)  # near[j]: ranges j and j + 1 touch
+    near[: n - 1] = touching
+    j = np.arange(n)
+    # the unions of the ranges j, j + 1 (and j + 2, j + 3) that a pass of merges can leave
+    # side by side, by the first range j and their number
+    pair = near[:n] & ~merging[:n]  # (those merging are asked for now)
+    three = (merging[:n] & near[1:]) | (merging[1 : n + 1] & near[:n])  # (j, j + 1), j + 2 or j, (j + 1, j + 2)
+    four = merging[:n] & merging[2:] & near[1:]  # (j, j + 1), (j + 2, j + 3)
+    first = np.concatenate([j[pair], j[three], j[four]])
+    count = np.repeat([2, 3, 4], [int(pair.sum()), int(three.sum()), int(four.sum())])
+    ahead_lo, ahead_hi = lo[first], hi[first + count - 1]
+    keep = ~in_sorted(failed, _range_keys(ahead_lo, ahead_hi, ptr))
+    ahead_lo, ahead_hi = ahead_lo[keep], ahead_hi[keep]
+    if int((ahead_hi - ahead_lo).sum()) + int((hi[a + 1] - lo[a]).sum()) > SPECULATIVE_SEGMENTS:
+        return None
+    return ahead_lo, ahead_hi
 
 def _assemble(pieces: BoundaryPieces, fitted) -> BoundaryPieces:
     """The pieces with each fitted range replaced by its cubic."""

@@ -178,8 +178,7 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     # previous loop of the same path, or the origin)
     absolute = args  # (C, 6) int64 units, (x, y) pairs; H has x, V has y in column 0
     rel = _relative(cmd, absolute, shape_of_cmd)
-    texts_abs, flags_abs = _format(absolute, arity, precision)
-    texts_rel, flags_rel = _format(rel, arity, precision)
+    texts, (flags_abs, flags_rel) = _format((absolute, rel), arity, precision)
     use_rel = flags_rel.length < flags_abs.length
     use_rel &= cmd != Z
     letter = np.where(use_rel, cmd + 8, cmd)  # 0-7 upper case, 8-15 lower case
@@ -218,7 +217,8 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     tok_shape = np.repeat(shape_of_cmd, tok_count)
     sep &= _prepend(False, tok_shape[1:] == tok_shape[:-1])
 
-    table, (letter_row, abs_row, rel_row, space_row) = stack([letters, texts_abs, texts_rel, Texts.of([" "])])
+    table, (letter_row, abs_row, space_row) = stack([letters, texts, Texts.of([" "])])
+    rel_row = abs_row + len(texts) // 2  # the relative arguments' texts follow the absolute ones
     row = np.empty(n_tok, np.int64)
     row[tok_start[~implicit]] = letter_row + letter[~implicit]
     row[num_pos] = np.where(rel_num, rel_row, abs_row) + np.cumsum(_used(arity).ravel())[flat] - 1  # used only
@@ -352,22 +352,26 @@ def _used(arity: np.ndarray) -> np.ndarray:
     return np.arange(_W)[None, :] < arity[:, None]
 
 
-def _format(args: np.ndarray, arity: np.ndarray, precision: int) -> tuple[Texts, _Flags]:
-    """Compact text of every argument a command uses (one string per number, in order) and
-    flags of all ``(C*6,)`` arguments."""
-    values = args.ravel()
+def _format(tables: tuple[np.ndarray, np.ndarray], arity: np.ndarray, precision: int
+            ) -> tuple[Texts, tuple[_Flags, _Flags]]:
+    """Compact text of every argument a command uses (one string per number, in order: those
+    of the first table of ``(C, 6)`` arguments, then those of the second), and flags of all
+    ``(C*6,)`` arguments of each table. Both tables at once: the numpy calls cost more than
+    the arithmetic on a sprite's few hundred commands."""
+    values = np.stack(tables)  # (2, C, 6)
     used = _used(arity)
-    texts = numbers(values[used.ravel()] / 10.0**precision, precision, compact=True)
+    texts = numbers(values[:, used].ravel() / 10.0**precision, precision, compact=True)
     scale = 10**precision
     whole, frac = np.divmod(np.abs(values), scale)
     minus = values < 0
     has_dot = frac != 0
     dot_start = (whole == 0) & has_dot & ~minus
-    length = np.zeros(args.shape, np.int64)
-    length[used] = texts.length
+    length = np.zeros(values.shape, np.int64)
+    length[:, used] = texts.length.reshape(2, -1)
     # a space between two numbers of one command unless the second starts with "-" or "."
-    sep = np.zeros((args.shape[0], _W), bool)
-    m, d, hd = minus.reshape(-1, _W), dot_start.reshape(-1, _W), has_dot.reshape(-1, _W)
-    sep[:, 1:] = ~m[:, 1:] & ~(d[:, 1:] & hd[:, :-1])
-    total = np.where(used, length + sep, 0).sum(axis=1)
-    return texts, _Flags(minus, dot_start, has_dot, total)
+    sep = np.zeros(values.shape, bool)
+    sep[:, :, 1:] = ~minus[:, :, 1:] & ~(dot_start[:, :, 1:] & has_dot[:, :, :-1])
+    total = np.where(used, length + sep, 0).sum(axis=2)
+    abs_flags, rel_flags = (_Flags(minus[i].ravel(), dot_start[i].ravel(), has_dot[i].ravel(), total[i])
+                            for i in range(2))
+    return texts, (abs_flags, rel_flags)

@@ -133,3 +133,19 @@ def test_trace_loops_with_points_keeps_touching_loops_apart(cells, areas):
     loops = trace_loops(np.zeros(u.size, np.int64), u, v, points=points)
     got = sorted(_area(u[loops.halfedges[a:b]], points) for a, b in zip(loops.ptr[:-1], loops.ptr[1:]))
     assert got == areas
+
+
+def test_path_numbers_of_both_tables_are_formatted_in_one_table_with_their_flags():
+    """svg._format formats the absolute and the relative arguments together: the texts of
+    the first table's used arguments, then the second's; per command the length of its
+    numbers with the separators SVG needs."""
+    from depixel.svg import _format
+
+    absolute = np.array([[-50, 25, 0, 0, 0, 0], [100, 7, 300, 0, 0, 0]])  # hundredths
+    relative = np.array([[-50, -25, 0, 0, 0, 0], [0, 0, 0, 0, 0, 0]])
+    arity = np.array([2, 3])
+    texts, (abs_flags, rel_flags) = _format((absolute, relative), arity, 2)
+    assert texts.tolist() == ["-.5", ".25", "1", ".07", "3", "-.5", "-.25", "0", "0", "0"]
+    # "-.5.25": no space before ".25" after a number with a point; "1 .07 3"; "-.5-.25"; "0 0 0"
+    assert abs_flags.length.tolist() == [6, 7] and rel_flags.length.tolist() == [7, 5]
+    assert abs_flags.minus.reshape(2, 6)[:, :2].tolist() == [[True, False], [False, False]]

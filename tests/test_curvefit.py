@@ -1,0 +1,51 @@
+"""depixel/curvefit.py's numerics that the speed work reshaped: they must give the very
+numbers of the plain formulas (the output is compared byte for byte)."""
+from __future__ import annotations
+
+import numpy as np
+
+from depixel.bspline import evaluate_cubic
+from depixel.curvefit import _T_FIT, _cube, _flatten, _per_sample
+
+
+def test_flatten_is_evaluate_cubic_at_the_fit_parameters_to_the_bit():
+    rng = np.random.default_rng(3)
+    p0, p1, p2, p3 = (rng.uniform(-50, 300, (2, 40)) for _ in range(4))
+    plain = evaluate_cubic(p0[..., None], p1[..., None], p2[..., None], p3[..., None], _T_FIT)
+    assert plain.shape == (2, 40, _T_FIT.size)
+    assert np.array_equal(_flatten(p0, p1, p2, p3), plain)
+
+
+def test_per_sample_repeats_each_item_like_a_gather():
+    planes = np.arange(2 * 3 * 5, dtype=float).reshape(2, 3, 5)
+    count = np.array([2, 0, 3])
+    out = _per_sample(planes, count)
+    assert out.shape == (2, 5, 5)
+    assert np.array_equal(out, planes.take([0, 0, 2, 2, 2], axis=1))
+
+
+def test_cube_is_the_product_within_two_ulps_of_numpys_power():
+    x = np.random.default_rng(5).uniform(0.0, 1.0, 10_000)  # chord-length parameters and 1 - them
+    assert np.array_equal(_cube(x), x * x * x)
+    np.testing.assert_array_max_ulp(_cube(x), x**3, maxulp=2)
+
+
+def test_exact_samples_are_flatten_cubics_to_the_bit():
+    """Exact computes the samples of the exact segments on planes, segments innermost: the
+    same numbers as bspline.flatten_cubic's (K, 4, 2) layout."""
+    from conftest import FIXTURES
+
+    from depixel import depixelize, load_image
+    from depixel.bspline import flatten_cubic
+    from depixel.curvefit import _T_ORIG, Exact, _as_cubic
+    from depixel.outlines import OutlineShapes
+
+    vector = depixelize(load_image(FIXTURES / "mushroom.png")).vector
+    pieces = OutlineShapes(vector, "stacked", grid=0.01, simplify=0.0).pieces
+    exact = Exact(pieces, 0.25)
+    c1, c2 = _as_cubic(exact.start, pieces.kind, pieces.ctrl, pieces.ctrl2, exact.end)
+    samples = flatten_cubic(exact.start, c1, c2, exact.end, _T_ORIG).transpose(2, 0, 1)  # (2, K, 4)
+    assert samples.shape[1] > 50
+    assert np.array_equal(exact.part_start, samples)
+    assert np.array_equal(exact.part_end[:, :, :-1], samples[:, :, 1:])
+    assert np.array_equal(exact.part_end[:, :, -1], exact.end.T)
