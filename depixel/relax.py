@@ -11,14 +11,17 @@ a corner are left out (:func:`depixel.corners.excluded_halves`).
 The paper's relaxation, vectorized: ``iterations`` sweeps; in each sweep the slots are
 visited class by class, in a random order of the classes (slots of one class are three or
 more slots apart along their curve, so their energies are independent and they move
-together); each tries ``candidates`` random offsets within ``radius`` of its place and, as
-a line search, :data:`GRADIENT_STEPS` points down the gradient of its energy (analytic:
-:meth:`Energy.descent`), and keeps the best trial the guards allow, or stays (:func:`step`).
-A move farther than ``max_offset`` from p̂ or too close to a protected point
-(:mod:`depixel.fidelity`) is refused. T-junction ends follow the curve they end on after
-every sweep. All randomness comes from SplitMix64 seeded with ``seed``
+together); each tries ``candidates`` random offsets within ``radius`` of its place (a
+turned pattern: :func:`disc_offsets`), :data:`GRADIENT_STEPS` points down the gradient of
+its energy as a line search (analytic: :meth:`Energy.descent`) and its move of the sweep
+before once more, and keeps the best trial the guards allow, or stays (:func:`step`).
+After the first sweep only the slots within two slots of one that moved in the sweep
+before are tried (the others' energies are unchanged: :meth:`Energy.near`), and the sweeps
+stop once none moved. A move farther than ``max_offset`` from p̂ or too close to a
+protected point (:mod:`depixel.fidelity`) is refused. T-junction ends follow the curve
+they end on after every sweep. All randomness comes from SplitMix64 seeded with ``seed``
 (:mod:`depixel.splitmix`: ``numpy.random`` would cost every process ~13 ms to import); the
-draws depend only on array sizes, so a run is reproducible.
+draws depend only on array sizes and on the moves made, so a run is reproducible.
 """
 from __future__ import annotations
 
@@ -42,6 +45,8 @@ STEP_TRIALS = 1 << 15
 #: trials down the gradient of a slot's energy, at these multiples of ``radius`` from it (a
 #: short step where the energy curves fast, a long one where it is flat; docs/design.md)
 GRADIENT_STEPS = np.array([0.5, 2.0])
+#: the turn between consecutive trials of a slot's pattern of random trials, π(3 − √5)
+GOLDEN_ANGLE = np.pi * (3.0 - np.sqrt(5.0))
 
 
 class Relaxed(NamedTuple):
@@ -58,7 +63,9 @@ def relax(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: 
     """Relax the control points of ``splines`` from node positions ``start`` (N, 2).
 
     Open-curve ends and the slots at ``corners`` (N,) bool stay fixed; ``excluded`` (P, 2)
-    marks the span halves left out of E_s.
+    marks the span halves left out of E_s. After the first sweep only the slots of
+    :meth:`Energy.near` a slot that moved in the sweep before are tried again (the others'
+    energies did not change); the sweeps stop early once none moved.
     """
     prev, nxt = splines.neighbours()
     end = (prev < 0) | (nxt < 0)
@@ -69,47 +76,81 @@ def relax(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: 
     energy_before = model.total(ctrl, anchor)
     rng = SplitMix64(params.seed)
     classes = [model.prepare(m) for m in independent_classes(splines, movable) if m.size]
-    for _ in range(params.iterations):
+    active = movable  # the slots tried in this sweep
+    last = np.zeros_like(ctrl)  # each slot's move in the sweep before
+    for sweep in range(params.iterations):
+        before = ctrl.copy()
         for c in rng.permutation(len(classes)):
             group = classes[c]
-            set_rows(ctrl, group.members, step(model, ctrl, anchor, group, rng, params))
+            chosen = active.take(group.members)
+            if not chosen.all():
+                if not chosen.any():
+                    continue
+                group = group.part(np.flatnonzero(chosen))
+            offsets = disc_offsets(rng, group.members.size, params.candidates, params.radius)
+            # no last move to repeat in the first sweep
+            set_rows(ctrl, group.members, step(model, ctrl, anchor, group, offsets, params, last if sweep else None))
         ctrl = splines.snap(ctrl)  # ends that sit on a moved curve follow it
+        np.subtract(ctrl, before, out=last)
+        active = model.near((last != 0).any(axis=1)) & movable
+        if not active.any():
+            break
     return Relaxed(ctrl, movable, energy_before, model.total(ctrl, anchor))
 
 
-def step(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group,
-         rng: SplitMix64, params: Params) -> np.ndarray:
-    """(M, 2) new places of one class of independent slots: each tries ``candidates``
-    offsets uniform in the disc of ``radius`` and the points :data:`GRADIENT_STEPS` down its
-    gradient, and takes the trial of least energy that the guards allow, or stays. A trial
-    farther than ``max_offset`` from its anchor is never taken, nor one that brings a span
-    closer than ``centre_clearance`` to a protected point (and closer than staying would).
-    The offsets are drawn for the whole class, the trials are weighed :data:`STEP_TRIALS` at
-    a time (the members do not depend on each other)."""
-    size = (group.members.size, params.candidates)
-    draws = rng.unit_pairs(size[0] * size[1])  # (angle, radius) in the unit square, per trial
-    angle = (2.0 * np.pi) * draws[:, 0].reshape(size)
-    radius = params.radius * np.sqrt(draws[:, 1]).reshape(size)
-    moved = np.empty((2, size[0]))  # x and y planes
-    for part in batch_slices(size[0], max(1, STEP_TRIALS // (params.candidates + 1 + len(GRADIENT_STEPS)))):
-        moved[:, part] = _best_trials(model, ctrl, anchor, group.part(part), angle[part], radius[part], params)
+def disc_offsets(rng: SplitMix64, members: int, candidates: int, radius: float) -> np.ndarray:
+    """(2, M, K) random trial offsets within ``radius``: for each member the same pattern of
+    ``candidates`` points, turned by a random angle, its radii shifted by a random fraction.
+    Point i lies at radius ``radius·√((i + u)/K)`` (one point in each ring of equal area) and
+    angle ``θ + i·`` :data:`GOLDEN_ANGLE` (consecutive points far apart): the disc is covered
+    more evenly than by independent draws, so the best of K trials lies lower (docs/design.md).
+    One draw per member, not per trial."""
+    draws = rng.unit_pairs(members)  # (turn θ / 2π, radial shift u) per member
+    index = np.arange(candidates)
+    angle = (2.0 * np.pi) * draws[:, :1] + index * GOLDEN_ANGLE
+    rho = radius * np.sqrt((index + draws[:, 1:]) / candidates)
+    return np.stack([np.cos(angle) * rho, np.sin(angle) * rho])
+
+
+def step(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, offsets: np.ndarray,
+         params: Params, last: np.ndarray | None = None) -> np.ndarray:
+    """(M, 2) new places of one class of independent slots: each tries its ``offsets``
+    (2, M, K) from its place, the points :data:`GRADIENT_STEPS` down its gradient and, given
+    ``last`` (P, 2) (every slot's move in the sweep before), the same move again; and takes
+    the trial of least energy that the guards allow, or stays. A trial farther than
+    ``max_offset`` from its anchor is never taken, nor one that brings a span closer than
+    ``centre_clearance`` to a protected point (and closer than staying would). The trials are
+    weighed :data:`STEP_TRIALS` at a time (the members do not depend on each other)."""
+    members, k = offsets.shape[1:]
+    repeat = None if last is None else last.take(group.members, axis=0).T[..., None]  # (2, M, 1)
+    moved = np.empty((2, members))  # x and y planes
+    trials = 1 + k + len(GRADIENT_STEPS) + (repeat is not None)
+    for part in batch_slices(members, max(1, STEP_TRIALS // trials)):
+        sub = group if part.stop - part.start == members else group.part(part)
+        moved[:, part] = _best_trials(model, ctrl, anchor, sub, offsets[:, part],
+                                      None if repeat is None else repeat[:, part], params)
     return moved.T
 
 
-def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, angle: np.ndarray,
-                 radius: np.ndarray, params: Params) -> np.ndarray:
-    """:func:`step` for the members of ``group``, given their random offsets (angle, radius).
+def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, offsets: np.ndarray,
+                 repeat: np.ndarray | None, params: Params) -> np.ndarray:
+    """:func:`step` for the members of ``group``, given their random ``offsets`` (2, M, K)
+    and last moves ``repeat`` (2, M, 1) or None.
     Rows are picked with ``take`` and masks applied with ``putmask``: numpy 2's fancy indexing
     copies the rows of these arrays one at a time (docs/performance.md)."""
-    members, k = angle.shape
+    members, k = offsets.shape[1:]
     around = ctrl.take(group.around, axis=0).transpose(0, 2, 1)[..., None]  # (5, 2, M, 1): member, a, b, a2, b2
     home = anchor.take(group.members, axis=0).T[..., None]
-    # trials (2, M, 1+K+L): x and y planes; column 0 = stay, then K random, then L down the gradient
-    trial = np.empty((2, members, 1 + k + len(GRADIENT_STEPS)))
+    # trials (2, M, 1+K+L+R): x and y planes; column 0 = stay, then K random, L down the
+    # gradient and R (0 or 1) the last move again
+    grad = k + 1 + len(GRADIENT_STEPS)
+    trial = np.empty((2, members, grad + (repeat is not None)))
     trial[:, :, :1] = around[0]
-    np.add(around[0, 0], np.cos(angle) * radius, out=trial[0, :, 1:k + 1])
-    np.add(around[0, 1], np.sin(angle) * radius, out=trial[1, :, 1:k + 1])
-    np.add(around[0], model.descent(around, home, group) * (params.radius * GRADIENT_STEPS), out=trial[:, :, k + 1:])
+    np.add(around[0], offsets, out=trial[:, :, 1:k + 1])
+    descent = model.descent(around, home, group)
+    np.add(around[0], descent * (params.radius * GRADIENT_STEPS), out=trial[:, :, k + 1:grad])
+    if repeat is not None:
+        np.add(around[0], repeat, out=trial[:, :, grad:])
     energy, offset2, points = model.evaluate(around, home, group, trial)
     too_far = offset2 > params.max_offset**2
     too_far[:, 0] = False
@@ -294,6 +335,14 @@ class Energy:
         around = ctrl[g.around[:, rows]].transpose(0, 2, 1)[..., None]
         return self.clearance_of(self.points(around, g.part(rows), np.moveaxis(trial, -1, 0)), g, rows)
 
+    def near(self, moved: np.ndarray) -> np.ndarray:
+        """(P,) bool: the slots within two slots along their curve of a ``moved`` slot (P,)
+        bool, those whose energy a move of theirs changes."""
+        reach = np.append(moved, False)  # index -1 (past an open end) reads False
+        for _ in range(2):
+            reach[:-1] |= reach.take(self.prev) | reach.take(self.nxt)
+        return reach[:-1]
+
     def total(self, ctrl: np.ndarray, anchor: np.ndarray) -> float:
         """The energy of all the curves: E_s of every span plus E_p of every slot."""
         p = np.flatnonzero(~self.end)
@@ -316,16 +365,21 @@ def positional(p: np.ndarray, anchor: np.ndarray) -> np.ndarray:
 
 def independent_classes(splines: SplineSet, movable: np.ndarray) -> list[np.ndarray]:
     """Split movable slots into classes whose members are ≥ 3 slots apart along each curve
-    (a slot's energy involves its neighbours and theirs). Three classes by index modulo 3;
-    a closed curve whose length is not a multiple of 3 puts its last one or two slots in
-    two extra classes."""
+    (a slot's energy involves its neighbours and theirs): every three slots in a row along a
+    curve, around a closed one's seam too, have three colours. Colours 0-2 by index modulo 3;
+    a closed curve whose length is not a multiple of 3 ends in a slot of colour 3 (length
+    3q + 1) or in two blocks 0, 1, 2, 3 (length 3q + 2, from 8 on); a closed curve of 5
+    slots takes colours 0-4. Four classes, not five: a step is a fixed ~0.3 ms of numpy
+    calls however few members it moves (docs/performance.md)."""
     curve = splines.slot_curve()
     first = splines.curve_ptr[:-1][curve]
     length = np.diff(splines.curve_ptr)[curve]
     index = np.arange(curve.size) - first
     closed = splines.curve_closed[curve]
-    rest = length % 3
     colour = index % 3
-    tail = closed & (index >= length - rest)  # wrap-around leftovers of a closed curve
-    colour = np.where(tail, 3 + (index - (length - rest)), colour)
+    rest = length % 3
+    colour = np.where(closed & (rest == 1) & (index == length - 1), 3, colour)
+    block = closed & (rest == 2) & (index >= length - 8)  # 0, 1, 2, 3, 0, 1, 2, 3 at the end
+    colour = np.where(block, (index - (length - 8)) % 4, colour)
+    colour = np.where(closed & (length == 5), index, colour)
     return [np.flatnonzero(movable & (colour == c)) for c in range(5)]

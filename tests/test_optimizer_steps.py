@@ -13,8 +13,10 @@ from depixel.harmonic import conjugate_gradients, follow, harmonic_map, row_dots
 from depixel.params import Params
 from depixel.pipeline import depixelize
 from depixel.raster import render_rgba
-from depixel.relax import GRADIENT_STEPS, Energy, smoothness, step
+from depixel import relax as relax_module
+from depixel.relax import GRADIENT_STEPS, Energy, disc_offsets, independent_classes, relax, smoothness, step
 from depixel.splines import SplineSet, split_at
+from depixel.splitmix import SplitMix64
 from depixel.svg import to_svg
 from depixel.vector import faces
 
@@ -400,16 +402,9 @@ def test_protected_points_are_the_centres_beside_each_edge_and_the_split_corner(
 
 # --- the fidelity guard of each move ------------------------------------------------------------
 
-class Draws:
-    """Stands for the SplitMix64 stream in :func:`step`: hands out the given trials, each an
-    angle (radians) and a radius draw u (the trial lies at ``radius·√u``), as unit pairs."""
-
-    def __init__(self, angle: np.ndarray, u: np.ndarray):
-        self.pairs = np.stack([angle / (2 * np.pi), u], axis=-1).reshape(-1, 2)
-
-    def unit_pairs(self, count: int) -> np.ndarray:
-        assert count == len(self.pairs)
-        return self.pairs
+def offsets_at(angle: np.ndarray, radius: np.ndarray) -> np.ndarray:
+    """:func:`step`'s random offsets (2, M, K) at the given angles (radians) and radii."""
+    return np.stack([np.cos(angle) * radius, np.sin(angle) * radius])
 
 
 def test_a_move_closer_to_a_pixel_centre_than_the_clearance_is_refused():
@@ -428,18 +423,17 @@ def test_a_move_closer_to_a_pixel_centre_than_the_clearance_is_refused():
     angle = np.repeat(np.linspace(0, 2 * np.pi, 16, endpoint=False), 4)[None]
     radius = np.tile([0.1, 0.2, 0.3, 0.45], 16)[None]
     params = Params(radius=0.45, candidates=64)
-    draws = (angle, (radius / params.radius) ** 2)
     trial = ctrl[slot] + np.stack([np.cos(angle), np.sin(angle)], axis=-1) * radius[..., None]
     trial = np.concatenate([ctrl[slot][None, None], trial], axis=1)
     best = int(np.argmin(model.energy(ctrl, ctrl, group, trial)[0]))
     clearance = model.clearance(ctrl, group, trial, np.array([0]))[0]
     # the case: the best trial comes within 0.2 px of a protected point, staying does not
     assert best > 0 and clearance[best] < 0.2 <= clearance[0]
-    moved = step(model, ctrl, ctrl, group, Draws(*draws), params.replace(centre_clearance=0.0))
+    moved = step(model, ctrl, ctrl, group, offsets_at(angle, radius), params.replace(centre_clearance=0.0))
     assert moved[0] == pytest.approx(trial[0, best])
     # refused, the best trial gives way to the best one allowed (of the random trials and
     # those down the gradient), which is not staying here
-    taken = step(model, ctrl, ctrl, group, Draws(*draws), params.replace(centre_clearance=0.2))[0]
+    taken = step(model, ctrl, ctrl, group, offsets_at(angle, radius), params.replace(centre_clearance=0.2))[0]
     at = taken[None, None]
     assert not np.allclose(taken, trial[0, best]) and not np.array_equal(taken, ctrl[slot])
     assert model.clearance(ctrl, group, at, np.array([0]))[0, 0] >= 0.2
@@ -489,10 +483,10 @@ def test_a_step_down_the_gradient_lowers_the_energy_within_the_guards():
     model = Energy(splines, np.zeros((splines.n_slots, 2), bool))
     ctrl = splines.controls_for(splines.positions)
     group = model.prepare(np.array([slot]))
-    # one random trial, drawn at distance 0: only the trials down the gradient can move
+    # one random trial, at distance 0: only the trials down the gradient can move
     draws = (np.zeros((1, 1)), np.zeros((1, 1)))
     params = Params(candidates=1, radius=0.2, centre_clearance=0.0)
-    moved = step(model, ctrl, ctrl, group, Draws(*draws), params)[0]
+    moved = step(model, ctrl, ctrl, group, offsets_at(*draws), params)[0]
     stay = model.energy(ctrl, ctrl, group, ctrl[slot][None, None])[0, 0]
     assert model.energy(ctrl, ctrl, group, moved[None, None])[0, 0] < stay - 0.2
     # it went straight down the slope (towards the pixel centre at (5.5, 2.5)), by one of the steps
@@ -502,7 +496,125 @@ def test_a_step_down_the_gradient_lowers_the_energy_within_the_guards():
     # the same step is refused beyond max_offset, and where it nears the pixel centre
     # closer than centre_clearance (0.23 px, from 0.31 px)
     for guarded in (params.replace(max_offset=0.05), params.replace(centre_clearance=0.25)):
-        assert np.array_equal(step(model, ctrl, ctrl, group, Draws(*draws), guarded)[0], ctrl[slot])
+        assert np.array_equal(step(model, ctrl, ctrl, group, offsets_at(*draws), guarded)[0], ctrl[slot])
+
+
+# --- the sweeps: which slots are tried, with which trials -----------------------------------------
+
+BLOB = """
+..........
+...####...
+..######..
+.########.
+.#######..
+..#####...
+...###....
+..........
+"""
+
+
+def test_only_slots_near_a_moved_one_are_tried_again_and_the_sweeps_stop_when_none_moved(monkeypatch):
+    # every step is recorded (its members and which of them moved), a sweep begins with the
+    # shuffle of the classes; after the first sweep, the slots tried are exactly the movable
+    # ones within two slots along their curve of a slot that moved in the sweep before
+    splines = split_at(*(lambda s: (s, detect_corners(s, Params()).nodes))(splines_of(art(BLOB))))
+    assert splines.snap_pairs()[0].size == 0  # no T-junction end moves between the steps
+    corners = np.zeros(len(splines.positions), bool)
+    sweeps: list[list[tuple[np.ndarray, np.ndarray]]] = []
+    shuffle, real_step = SplitMix64.permutation, relax_module.step
+
+    def spy_shuffle(self: SplitMix64, n: int) -> np.ndarray:
+        sweeps.append([])
+        return shuffle(self, n)
+
+    def spy_step(model, ctrl, anchor, group, offsets, params, last=None):
+        moved = real_step(model, ctrl, anchor, group, offsets, params, last)
+        sweeps[-1].append((group.members.copy(), (moved != ctrl[group.members]).any(axis=1)))
+        return moved
+
+    monkeypatch.setattr(SplitMix64, "permutation", spy_shuffle)
+    monkeypatch.setattr(relax_module, "step", spy_step)
+    result = relax(splines, splines.positions, corners, np.zeros((splines.n_slots, 2), bool),
+                   Params(iterations=100))
+    prev, nxt = splines.neighbours()
+
+    def within_two(slots: set[int]) -> set[int]:
+        near = set(slots)
+        for _ in range(2):
+            near |= {int(n) for s in near for n in (prev[s], nxt[s]) if n >= 0}
+        return near
+
+    movable = set(np.flatnonzero(result.movable).tolist())
+    assert {int(m) for members, _ in sweeps[0] for m in members} == movable
+    narrowed = 0
+    for before, after in zip(sweeps, sweeps[1:]):
+        moved = {int(m) for members, went in before for m in members[went]}
+        tried = [int(m) for members, _ in after for m in members]
+        assert sorted(tried) == sorted(within_two(moved) & movable)
+        narrowed += len(tried) < len(movable)
+    assert narrowed >= 2  # the rule left slots out
+    # stopped early: the last sweep moved nothing, well before the 100 allowed
+    assert len(sweeps) < 100 and not any(went.any() for _, went in sweeps[-1])
+
+
+def test_a_slot_tries_its_last_move_again():
+    splines = splines_of(art(STEP))
+    slot = slot_at(splines, (5.25, 2.25))  # the inner node of a one-pixel step
+    model = Energy(splines, np.zeros((splines.n_slots, 2), bool))
+    ctrl = splines.controls_for(splines.positions)
+    group = model.prepare(np.array([slot]))
+    still = np.zeros((2, 1, 1))  # one random trial, at distance 0
+    params = Params(candidates=1, radius=0.0, centre_clearance=0.0)  # the gradient trials stay too
+    last = np.zeros_like(ctrl)
+    last[slot] = [0.07, 0.07]  # towards the pixel centre at (5.5, 2.5): lower
+    moved = step(model, ctrl, ctrl, group, still, params, last)[0]
+    assert np.array_equal(moved, ctrl[slot] + last[slot])
+    assert np.array_equal(step(model, ctrl, ctrl, group, still, params)[0], ctrl[slot])
+    # a move away from the centre is not repeated: it would raise the energy
+    assert np.array_equal(step(model, ctrl, ctrl, group, still, params, -last)[0], ctrl[slot])
+
+
+def test_random_trials_cover_the_disc_one_in_each_ring_of_equal_area():
+    k, radius = 8, 0.2
+    offsets = disc_offsets(SplitMix64(5), 50, k, radius)  # (2, M, K)
+    rho = np.hypot(*offsets)
+    ring = np.floor(k * (rho / radius) ** 2)  # rings of equal area: 0 .. k-1
+    assert (ring == np.arange(k)).all()
+    turn = np.diff(np.arctan2(offsets[1], offsets[0]), axis=1) % (2 * np.pi)
+    assert turn == pytest.approx(np.full_like(turn, np.pi * (3 - 5**0.5)))
+    first = np.arctan2(offsets[1, :, 0], offsets[0, :, 0])  # each member's pattern turned its own way
+    assert np.unique(np.round(first, 6)).size == 50
+    assert np.array_equal(offsets, disc_offsets(SplitMix64(5), 50, k, radius))  # seeded
+
+
+class Curves:
+    """The three fields of a SplineSet that :func:`independent_classes` reads."""
+
+    def __init__(self, lengths: list[int], closed: list[bool]):
+        self.curve_ptr = np.concatenate([[0], np.cumsum(lengths)])
+        self.curve_closed = np.array(closed)
+        self._curve = np.repeat(np.arange(len(lengths)), lengths)
+
+    def slot_curve(self) -> np.ndarray:
+        return self._curve
+
+
+def test_classes_are_three_slots_apart_in_four_colours():
+    lengths = list(range(1, 40))
+    curves = Curves(lengths + lengths, [True] * len(lengths) + [False] * len(lengths))
+    classes = independent_classes(curves, np.ones(curves.curve_ptr[-1], bool))
+    colour = np.empty(curves.curve_ptr[-1], int)
+    for c, members in enumerate(classes):
+        colour[members] = c
+    for first, length, closed in zip(curves.curve_ptr[:-1], lengths + lengths, curves.curve_closed):
+        own = colour[first:first + length]
+        # any three slots in a row (around a closed curve's seam too) differ in colour
+        ring = np.concatenate([own, own[:2]]) if closed and length >= 3 else own
+        for i in range(len(ring) - 2):
+            assert len({*ring[i:i + 3]}) == 3, (length, closed, own)
+        # four colours except around a closed curve of five slots
+        assert own.max() <= (4 if closed and length == 5 else 3)
+        assert own.max() <= 2 or closed
 
 
 # --- switches, end to end -------------------------------------------------------------------------
