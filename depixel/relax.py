@@ -109,7 +109,10 @@ def disc_offsets(rng: SplitMix64, members: int, candidates: int, radius: float) 
     index = np.arange(candidates)
     angle = (2.0 * np.pi) * draws[:, :1] + index * GOLDEN_ANGLE
     rho = radius * np.sqrt((index + draws[:, 1:]) / candidates)
-    return np.stack([np.cos(angle) * rho, np.sin(angle) * rho])
+    offsets = np.empty((2, members, candidates))
+    np.multiply(np.cos(angle), rho, out=offsets[0])
+    np.multiply(np.sin(angle), rho, out=offsets[1])
+    return offsets
 
 
 def step(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, offsets: np.ndarray,
@@ -125,9 +128,10 @@ def step(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, offs
     repeat = None if last is None else last.take(group.members, axis=0).T[..., None]  # (2, M, 1)
     moved = np.empty((2, members))  # x and y planes
     trials = 1 + k + len(GRADIENT_STEPS) + (repeat is not None)
+    if members * trials <= STEP_TRIALS:
+        return _best_trials(model, ctrl, anchor, group, offsets, repeat, params).T
     for part in batch_slices(members, max(1, STEP_TRIALS // trials)):
-        sub = group if part.stop - part.start == members else group.part(part)
-        moved[:, part] = _best_trials(model, ctrl, anchor, sub, offsets[:, part],
+        moved[:, part] = _best_trials(model, ctrl, anchor, group.part(part), offsets[:, part],
                                       None if repeat is None else repeat[:, part], params)
     return moved.T
 
@@ -139,18 +143,19 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
     Rows are picked with ``take`` and masks applied with ``putmask``: numpy 2's fancy indexing
     copies the rows of these arrays one at a time (docs/performance.md)."""
     members, k = offsets.shape[1:]
-    around = ctrl.take(group.around, axis=0).transpose(0, 2, 1)[..., None]  # (5, 2, M, 1): member, a, b, a2, b2
+    around = ctrl.take(group.around, axis=0).transpose(0, 2, 1)[..., None]  # (7, 2, M, 1): Group.around's rows
+    here = around[_MEMBER]
     home = anchor.take(group.members, axis=0).T[..., None]
     # trials (2, M, 1+K+L+R): x and y planes; column 0 = stay, then K random, L down the
     # gradient and R (0 or 1) the last move again
     grad = k + 1 + len(GRADIENT_STEPS)
     trial = np.empty((2, members, grad + (repeat is not None)))
-    trial[:, :, :1] = around[0]
-    np.add(around[0], offsets, out=trial[:, :, 1:k + 1])
+    trial[:, :, :1] = here
+    np.add(here, offsets, out=trial[:, :, 1:k + 1])
     descent = model.descent(around, home, group)
-    np.add(around[0], descent * (params.radius * GRADIENT_STEPS), out=trial[:, :, k + 1:grad])
+    np.add(here, descent * (params.radius * GRADIENT_STEPS), out=trial[:, :, k + 1:grad])
     if repeat is not None:
-        np.add(around[0], repeat, out=trial[:, :, grad:])
+        np.add(here, repeat, out=trial[:, :, grad:])
     energy, offset2, points = model.evaluate(around, home, group, trial)
     too_far = offset2 > params.max_offset**2
     too_far[:, 0] = False
@@ -161,9 +166,10 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
     # every trial is checked and the best one allowed is taken (staying always is)
     rows = np.flatnonzero(best > 0)
     trials = trial.shape[-1]
-    pair = (rows * trials)[:, None] + np.stack([np.zeros_like(rows), best.take(rows)], axis=1)  # flat (member, trial)
-    clear = model.clearance_of(points.reshape(points.shape[:3] + (-1,)).take(pair, axis=-1), group, rows)
-    rows = rows[(clear[:, 1] < params.centre_clearance) & (clear[:, 1] < clear[:, 0])]
+    if rows.size:
+        pair = (rows * trials)[:, None] + np.stack([np.zeros_like(rows), best.take(rows)], axis=1)  # (member, trial)
+        clear = model.clearance_of(points.reshape(points.shape[:3] + (-1,)).take(pair, axis=-1), group, rows)
+        rows = rows[(clear[:, 1] < params.centre_clearance) & (clear[:, 1] < clear[:, 0])]
     if rows.size:
         clear = model.clearance_of(points.take(rows, axis=3), group, rows)
         refused = (clear < params.centre_clearance) & (clear < clear[:, :1])
@@ -176,12 +182,12 @@ class Group:
     """One class of independent slots with every index its evaluation needs, precomputed."""
 
     members: np.ndarray  # (M,) slots being moved
-    around: np.ndarray  # (5, M) int32 the member, its previous slot a, next slot b, the slot
-    #                     before a (a itself when a is an end) a2, the slot after b b2
-    end_a: np.ndarray  # (M, 1) bool: a is an open-curve end (broadcastable over trials)
-    end_b: np.ndarray
-    end_a2: np.ndarray
-    end_b2: np.ndarray
+    around: np.ndarray  # (7, M) int32, rows in curve order: the slot before a (a itself when a
+    #                     is an end) a2, the previous slot a, the member, the next slot b, the
+    #                     slot after b b2; then a2's partner and b2's: the slot whose midpoint
+    #                     with it starts the span before (a; a2 itself when a2 is an open-curve
+    #                     end, (p + p)/2 = p) and ends the span after (b; b2 at an end)
+    ends: np.ndarray  # (2, M, 1) bool: a, b is an open-curve end (broadcastable over trials)
     keep: np.ndarray  # (2, 3, M, 1) 1.0 or 0.0: halves (first, second) of the spans before,
     #                   own, after counted in E_s (0 for the span of an end a or b; float, not
     #                   bool: numpy casts a bool operand through a buffer, slower)
@@ -191,17 +197,26 @@ class Group:
     #                    with the member (signs of the turns and lengths left out: Energy.descent)
 
     def part(self, members: slice | np.ndarray) -> Group:
-        """The group of some of the members (a slice or indices into ``members``)."""
-        return Group(self.members[members], self.around[:, members], self.end_a[members], self.end_b[members],
-                     self.end_a2[members], self.end_b2[members], self.keep[:, :, members],
-                     self.protected[:, members], self.scale[..., members, :], self.slope[:, :, members])
+        """The group of some of the members (a slice or indices into ``members``); indices are
+        gathered with ``take`` (numpy 2's fancy indexing is several times slower here)."""
+        if isinstance(members, slice):
+            return Group(self.members[members], self.around[:, members], self.ends[:, members],
+                         self.keep[:, :, members], self.protected[:, members], self.scale[..., members, :],
+                         self.slope[:, :, members])
+        return Group(self.members.take(members), self.around.take(members, axis=1), self.ends.take(members, axis=1),
+                     self.keep.take(members, axis=2), self.protected.take(members, axis=1),
+                     self.scale.take(members, axis=3), self.slope.take(members, axis=2))
 
 
-#: :attr:`Group.around` rows in curve order: a2, a, member, b, b2
-_POLYGON = [3, 1, 0, 2, 4]
-#: t of the points each span is checked at, and the weights of its Bézier points there
+#: :attr:`Group.around`'s rows
+_A2, _A, _MEMBER, _B, _B2, _A2_PARTNER, _B2_PARTNER = range(7)
+#: t of the points each span is checked at, and the weights of its Bézier points there (on
+#: the leading axis of the points)
 _T = np.arange(CLEARANCE_PIECES + 1) / CLEARANCE_PIECES
-_W0, _W1, _W2 = (1 - _T) ** 2, 2 * _T * (1 - _T), _T**2
+_W0, _W1, _W2 = (((1 - _T) ** 2), (2 * _T * (1 - _T)), (_T**2))
+_W0, _W1, _W2 = (w[:, None, None, None, None] for w in (_W0, _W1, _W2))
+#: the smallest positive float64: a floor for the descent's squared lengths
+_TINY = np.finfo(float).tiny
 
 
 class Energy:
@@ -244,8 +259,10 @@ class Energy:
         slope[2, 0], slope[2, 1] = 0.5 * second[0], -s_b * second[1]  # d1 (after: fixed)
 
         return Group(
-            members, np.stack([members, a, b, a2, b2]).astype(np.int32),
-            col(self.end[a]), col(self.end[b]), col(self.end[a2]), col(self.end[b2]),
+            members,
+            np.stack([a2, a, members, b, b2, np.where(self.end[a2], a2, a), np.where(self.end[b2], b2, b)]
+                     ).astype(np.int32),
+            np.stack([col(self.end[a]), col(self.end[b])]),
             # float32 holds these exactly (0, ±½, ±1 and their products): half the memory of
             # float64 for every slot of every class, the arithmetic still in float64
             np.moveaxis(keep, 2, 0).astype(np.float32)[..., None],
@@ -257,19 +274,24 @@ class Energy:
     @staticmethod
     def points(around: np.ndarray, g: Group, trial: np.ndarray) -> np.ndarray:
         """The three spans (before, own, after) of each member at ``trial`` (2, M, K), for
-        ``around`` = ``ctrl[g.around]`` as (5, 2, M, 1): ``(3, 3, 2, M, K)``, [Bézier point
-        P0-P2, span, coordinate]."""
-        c_a, c_b, c_a2, c_b2 = around[1:]
+        ``around`` = ``ctrl[g.around]`` as (7, 2, M, 1): ``(3, 3, 2, M, K)``, [Bézier point
+        P0-P2, span, coordinate]. Written in place: a step's fixed cost is its numpy calls."""
+        c_a2, c_a, _, c_b, c_b2, c_a2_partner, c_b2_partner = around
         points = np.empty((3, 3) + trial.shape)
-        m_a = (c_a + trial) / 2.0  # where the span before meets the own span
-        m_b = (trial + c_b) / 2.0  # and the own span the span after
-        points[0, 0] = np.where(g.end_a2, c_a2, (c_a2 + c_a) / 2.0)
-        points[0, 1] = np.where(g.end_a, c_a, m_a)
-        points[0, 2] = m_b
+        m_a, m_b = points[2, 0], points[0, 2]
+        np.add(c_a, trial, out=m_a)  # where the span before meets the own span
+        np.divide(m_a, 2.0, out=m_a)
+        np.add(trial, c_b, out=m_b)  # and the own span the span after
+        np.divide(m_b, 2.0, out=m_b)
+        np.add(c_a2, c_a2_partner, out=points[0, 0])
+        np.divide(points[0, 0], 2.0, out=points[0, 0])
+        np.copyto(points[0, 1], m_a)
+        np.copyto(points[0, 1], c_a, where=g.ends[0])
         points[1, 0], points[1, 1], points[1, 2] = c_a, trial, c_b
-        points[2, 0] = m_a
-        points[2, 1] = np.where(g.end_b, c_b, m_b)
-        points[2, 2] = np.where(g.end_b2, c_b2, (c_b + c_b2) / 2.0)
+        np.copyto(points[2, 1], m_b)
+        np.copyto(points[2, 1], c_b, where=g.ends[1])
+        np.add(c_b2_partner, c_b2, out=points[2, 2])
+        np.divide(points[2, 2], 2.0, out=points[2, 2])
         return points
 
     def evaluate(self, around: np.ndarray, anchor: np.ndarray, g: Group, trial: np.ndarray
@@ -278,11 +300,11 @@ class Energy:
         trial from its ``anchor`` (2, M, 1), and the spans' :meth:`points`."""
         points = self.points(around, g, trial)
         # half_turns of the three spans at once: d0 = P1 - P0, d1 = P2 - P1, dm = d0 + d1
-        d0, d1 = points[1] - points[0], points[2] - points[1]
-        dm = d0 + d1
-        u0, v0, u1, v1, um, vm = d0[:, 0], d0[:, 1], d1[:, 0], d1[:, 1], dm[:, 0], dm[:, 1]  # x: u, y: v
-        first = np.abs(np.arctan2(u0 * vm - v0 * um, u0 * um + v0 * vm))
-        second = np.abs(np.arctan2(um * v1 - vm * u1, um * u1 + vm * v1))
+        vec = np.empty_like(points)  # d0, dm, d1 of each span
+        np.subtract(points[1], points[0], out=vec[0])
+        np.subtract(points[2], points[1], out=vec[2])
+        np.add(vec[0], vec[2], out=vec[1])
+        first, second = _half_turns(vec)  # (3, M, K) each
         smooth = first * g.keep[0] + second * g.keep[1]  # (3, M, K): before, own, after
         offset = trial - anchor
         offset2 = offset[0] ** 2 + offset[1] ** 2
@@ -291,18 +313,20 @@ class Energy:
     def descent(self, around: np.ndarray, anchor: np.ndarray, g: Group) -> np.ndarray:
         """(2, M, 1) unit direction of steepest descent of each member's energy at its place
         (zero where the gradient vanishes), for ``around`` and ``anchor`` as in :meth:`evaluate`."""
-        poly = around[_POLYGON]  # a2, a, member, b, b2
-        edge = poly[1:] - poly[:-1]  # (4, 2, M, 1)
-        d0 = edge[:3] * g.scale[0]  # P1 - P0 of the spans before, own, after
-        d1 = edge[1:] * g.scale[1]  # P2 - P1
-        vec = np.stack([d0, d0 + d1, d1])  # (3, 3, 2, M, 1): d0, dm, d1 of each span
+        edge = around[_A:_B2 + 1] - around[_A2:_B2]  # (4, 2, M, 1) along a2, a, member, b, b2
+        vec = np.empty((3, 3) + edge.shape[1:])  # (3, 3, 2, M, 1): d0, dm, d1 of each span
+        d0, d1 = vec[0], vec[2]
+        np.multiply(edge[:3], g.scale[0], out=d0)  # P1 - P0 of the spans before, own, after
+        np.multiply(edge[1:], g.scale[1], out=d1)  # P2 - P1
+        np.add(d0, d1, out=vec[1])
         turn = np.sign(d0[:, 0] * d1[:, 1] - d0[:, 1] * d1[:, 0])  # (3, M, 1) the way each span turns
-        length2 = np.maximum(vec[:, :, 0] ** 2 + vec[:, :, 1] ** 2, np.finfo(float).tiny)
+        length2 = np.maximum(vec[:, :, 0] ** 2 + vec[:, :, 1] ** 2, _TINY)
         coef = g.slope * turn / length2  # (3, 3, M, 1)
-        offset = around[0] - anchor
+        offset = around[_MEMBER] - anchor
         push = 4.0 * (offset[0] ** 2 + offset[1] ** 2)  # E_p = |o|^4: gradient 4 |o|^2 o
-        grad = np.stack([push * offset[0] - (coef * vec[:, :, 1]).sum(axis=(0, 1)),
-                         push * offset[1] + (coef * vec[:, :, 0]).sum(axis=(0, 1))])
+        grad = np.empty(offset.shape)
+        np.subtract(push * offset[0], (coef * vec[:, :, 1]).sum(axis=(0, 1)), out=grad[0])
+        np.add(push * offset[1], (coef * vec[:, :, 0]).sum(axis=(0, 1)), out=grad[1])
         norm = np.sqrt(grad[0] ** 2 + grad[1] ** 2)
         return -grad / np.where(norm > 0, norm, 1.0)
 
@@ -317,18 +341,22 @@ class Energy:
         beside them, diagonal-link corners)."""
         # the points at t = 0, ¼, ½, ¾, 1 of each span on a leading axis (5, 3, 2, R, K); the
         # before span without its last point, the after span without its first (the own span's
-        # ends); then the 3n+1 points of each trial in a contiguous row, the protected points
-        # broadcast over them (2, R, K, Q, 3n+1): a minimum over contiguous rows is fast, over
-        # a middle axis slow
+        # ends); then the 3n+1 points of all the trials of a member in one contiguous row, each
+        # protected point broadcast over it (2, R, Q, K·(3n+1)): numpy's inner loop runs along
+        # that row (with a row of 3n+1 points per trial, as before, its overhead per row made
+        # the subtraction the costliest operation of a step). The minimum over the protected
+        # points runs across whole rows, then over each trial's 3n+1 points (a minimum is
+        # exact in any order)
         p0, p1, p2 = points
-        flat = _W0[:, None, None, None, None] * p0 + _W1[:, None, None, None, None] * p1 \
-            + _W2[:, None, None, None, None] * p2
+        flat = _W0 * p0 + _W1 * p1 + _W2 * p2
         flat = np.concatenate([flat[:-1, 0], flat[:, 1], flat[1:, 2]])  # (3n+1, 2, R, K)
-        r = flat.shape[2]
+        n, _, r, k = flat.shape
         q = g.protected.shape[-1]
-        flat = np.ascontiguousarray(flat.transpose(1, 2, 3, 0))[:, :, :, None, :]
-        d = (flat - g.protected.take(rows, axis=1).reshape(2, r, 1, q, 1).astype(float)) ** 2
-        return np.sqrt((d[0] + d[1]).min(axis=(-1, -2)))
+        flat = np.ascontiguousarray(flat.transpose(1, 2, 3, 0)).reshape(2, r, 1, k * n)
+        d = flat - g.protected.take(rows, axis=1).reshape(2, r, q, 1).astype(float)
+        np.square(d, out=d)  # in place: these are the largest arrays of a step
+        np.add(d[0], d[1], out=d[0])
+        return np.sqrt(d[0].min(axis=1).reshape(r, k, n).min(axis=-1))
 
     def clearance(self, ctrl: np.ndarray, g: Group, trial: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """(R, K) :meth:`clearance_of` the members ``rows`` at trial positions ``trial`` (R, K, 2)."""
@@ -350,6 +378,21 @@ class Energy:
         spans = span(ctrl[a], ctrl[p], ctrl[b], self.end[a][:, None], self.end[b][:, None])
         smooth = smoothness(spans, self.keep[p]).sum()
         return float(smooth + positional(ctrl, anchor).sum())
+
+
+def _half_turns(vec: np.ndarray) -> np.ndarray:
+    """(2, ...) :func:`depixel.bspline.half_turns` (first, second) of spans given by ``vec`` = (d0, dm, d1) on its
+    leading axis and x, y on its third, with both halves in one ``arctan2``: the first half
+    turns from d0 to dm, the second from dm to d1, so (d0, dm) and (dm, d1) are two
+    overlapping views of ``vec`` and each number is the same products in the same order."""
+    u, v = vec[:, :, 0], vec[:, :, 1]
+    from_u, from_v, to_u, to_v = u[:2], v[:2], u[1:], v[1:]  # (2, spans, ...): halves first, second
+    cross = from_u * to_v
+    cross -= from_v * to_u
+    dot = from_u * to_u
+    dot += from_v * to_v
+    turn = np.arctan2(cross, dot, out=cross)
+    return np.abs(turn, out=turn)
 
 
 def smoothness(spans: Bezier, keep: np.ndarray) -> np.ndarray:
