@@ -126,10 +126,10 @@ def step(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, offs
     weighed :data:`STEP_TRIALS` at a time (the members do not depend on each other)."""
     members, k = offsets.shape[1:]
     repeat = None if last is None else last.take(group.members, axis=0).T[..., None]  # (2, M, 1)
-    moved = np.empty((2, members))  # x and y planes
     trials = 1 + k + len(GRADIENT_STEPS) + (repeat is not None)
     if members * trials <= STEP_TRIALS:
         return _best_trials(model, ctrl, anchor, group, offsets, repeat, params).T
+    moved = np.empty((2, members))  # x and y planes
     for part in batch_slices(members, max(1, STEP_TRIALS // trials)):
         moved[:, part] = _best_trials(model, ctrl, anchor, group.part(part), offsets[:, part],
                                       None if repeat is None else repeat[:, part], params)
@@ -182,16 +182,17 @@ class Group:
     """One class of independent slots with every index its evaluation needs, precomputed."""
 
     members: np.ndarray  # (M,) slots being moved
-    around: np.ndarray  # (7, M) int32, rows in curve order: the slot before a (a itself when a
-    #                     is an end) a2, the previous slot a, the member, the next slot b, the
-    #                     slot after b b2; then a2's partner and b2's: the slot whose midpoint
-    #                     with it starts the span before (a; a2 itself when a2 is an open-curve
-    #                     end, (p + p)/2 = p) and ends the span after (b; b2 at an end)
+    around: np.ndarray  # (7, M) int32: in curve order the slot before a (a itself when a is an
+    #                     end) a2, the previous slot a, the member, the next slot b, the slot
+    #                     after b b2; then the partners of a2 and b2: the span before starts at
+    #                     the midpoint of a2 and its partner (a, or a2 itself where a2 is an
+    #                     open-curve end: (p + p)/2 is p exactly), the span after ends at that
+    #                     of b2 and its partner (b, or b2)
     ends: np.ndarray  # (2, M, 1) bool: a, b is an open-curve end (broadcastable over trials)
     keep: np.ndarray  # (2, 3, M, 1) 1.0 or 0.0: halves (first, second) of the spans before,
     #                   own, after counted in E_s (0 for the span of an end a or b; float, not
     #                   bool: numpy casts a bool operand through a buffer, slower)
-    protected: np.ndarray  # (2, M, 1, 1, Q) float32 x and y of the points the spans must keep clear of
+    protected: np.ndarray  # (2, M, Q, 1) float32 x and y of the points the spans must keep clear of
     scale: np.ndarray  # (2, 3, 1, M, 1) d0 and d1 of the spans before, own, after over their control legs
     slope: np.ndarray  # (3, 3, M, 1) ∂E_s/∂φ of d0, dm, d1 of each span, times how fast each turns
     #                    with the member (signs of the turns and lengths left out: Energy.descent)
@@ -213,8 +214,7 @@ _A2, _A, _MEMBER, _B, _B2, _A2_PARTNER, _B2_PARTNER = range(7)
 #: t of the points each span is checked at, and the weights of its Bézier points there (on
 #: the leading axis of the points)
 _T = np.arange(CLEARANCE_PIECES + 1) / CLEARANCE_PIECES
-_W0, _W1, _W2 = (((1 - _T) ** 2), (2 * _T * (1 - _T)), (_T**2))
-_W0, _W1, _W2 = (w[:, None, None, None, None] for w in (_W0, _W1, _W2))
+_W0, _W1, _W2 = (w[:, None, None, None, None] for w in ((1 - _T) ** 2, 2 * _T * (1 - _T), _T**2))
 #: the smallest positive float64: a floor for the descent's squared lengths
 _TINY = np.finfo(float).tiny
 
@@ -267,7 +267,7 @@ class Energy:
             # float64 for every slot of every class, the arithmetic still in float64
             np.moveaxis(keep, 2, 0).astype(np.float32)[..., None],
             # a compact copy (not a view of the padded rows); float32 holds these exactly
-            np.moveaxis(protected, 2, 0).astype(np.float32)[:, :, None, None, :],
+            np.moveaxis(protected, 2, 0).astype(np.float32)[..., None],
             scale.astype(np.float32)[:, :, None, :, None], slope.astype(np.float32)[..., None],
         )
 
@@ -275,7 +275,7 @@ class Energy:
     def points(around: np.ndarray, g: Group, trial: np.ndarray) -> np.ndarray:
         """The three spans (before, own, after) of each member at ``trial`` (2, M, K), for
         ``around`` = ``ctrl[g.around]`` as (7, 2, M, 1): ``(3, 3, 2, M, K)``, [Bézier point
-        P0-P2, span, coordinate]. Written in place: a step's fixed cost is its numpy calls."""
+        P0-P2, span, coordinate], written in place (no temporaries, no ``np.where``)."""
         c_a2, c_a, _, c_b, c_b2, c_a2_partner, c_b2_partner = around
         points = np.empty((3, 3) + trial.shape)
         m_a, m_b = points[2, 0], points[0, 2]
@@ -351,9 +351,8 @@ class Energy:
         flat = _W0 * p0 + _W1 * p1 + _W2 * p2
         flat = np.concatenate([flat[:-1, 0], flat[:, 1], flat[1:, 2]])  # (3n+1, 2, R, K)
         n, _, r, k = flat.shape
-        q = g.protected.shape[-1]
         flat = np.ascontiguousarray(flat.transpose(1, 2, 3, 0)).reshape(2, r, 1, k * n)
-        d = flat - g.protected.take(rows, axis=1).reshape(2, r, q, 1).astype(float)
+        d = flat - g.protected.take(rows, axis=1).astype(float)
         np.square(d, out=d)  # in place: these are the largest arrays of a step
         np.add(d[0], d[1], out=d[0])
         return np.sqrt(d[0].min(axis=1).reshape(r, k, n).min(axis=-1))
