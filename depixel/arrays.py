@@ -51,5 +51,7 @@ def batch_bounds(sizes: np.ndarray, batch: int) -> list[tuple[int, int]]:
     total = np.cumsum(sizes)
     if total.size == 0:
         return []
-    cuts = unique(np.r_[0, np.searchsorted(total, np.arange(batch, int(total[-1]), batch)), total.size])
+    if int(total[-1]) <= batch:  # one batch (a sprite's): no search
+        return [(0, int(total.size))]
+    cuts = unique(np.concatenate(([0], np.searchsorted(total, np.arange(batch, int(total[-1]), batch)), [total.size])))
     return list(zip(cuts[:-1].tolist(), cuts[1:].tolist()))

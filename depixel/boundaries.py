@@ -136,7 +136,7 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
     tail = ~end[last_slot] & ~seed
     n_full = length - 1 + seed  # a seeded piece: every slot's span, seed included
     count = head + n_full + tail
-    ptr = np.r_[0, np.cumsum(count)].astype(np.int64)
+    ptr = np.concatenate(([0], np.cumsum(count)), dtype=np.int64)
     total = int(ptr[-1])
     piece = np.repeat(np.arange(starts.size), count)
     offset = np.arange(total) - ptr[piece]

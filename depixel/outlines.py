@@ -151,7 +151,7 @@ class OutlineShapes:
         """The outlines of the shapes, consecutive batches of about :data:`LOOP_BATCH`
         boundary half-edges (the result does not depend on the batches)."""
         faces, member_ptr = self.faces, self.member_ptr
-        entries = np.r_[0, np.cumsum(np.diff(faces.entry_ptr)[self.member_key % (faces.n_faces + 1)])]  # running
+        entries = np.concatenate(([0], np.cumsum(np.diff(faces.entry_ptr)[self.member_key % (faces.n_faces + 1)])))  # running
         sizes = (entries[member_ptr[1:]] - entries[member_ptr[:-1]])[self.face]
         del entries
         for a, b in batch_bounds(sizes, LOOP_BATCH):
@@ -171,7 +171,7 @@ class OutlineShapes:
         kind, ctrl, ctrl2, end, loop_ptr = _segments_in_batches(self.image, self.pieces, loops, keep,
                                                                 faces.entry_edge[entry], u, self.grid)
         shape_rank = loops.owner[keep]
-        shape_ptr = np.asarray(np.searchsorted(shape_rank, np.r_[faces.rank[face], np.iinfo(np.int64).max]), np.int64)
+        shape_ptr = np.asarray(np.searchsorted(shape_rank, np.concatenate((faces.rank[face], [np.iinfo(np.int64).max]))), np.int64)
         return Outlines(
             shape=self.shape, layout=self.layout, grid=self.grid, face=face, rgba=self.rgba[first:stop],
             region=self.region[first:stop], role=self.role[first:stop], shape_ptr=shape_ptr,
@@ -276,7 +276,7 @@ def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, kee
     forward_edge = image.curves.edge_forward[edge] if image.curves is not None else np.ones(edge.size, bool)
     along = (x == u) == forward_edge
     enters = curved & np.where(along, pieces.edge_first[edge], pieces.edge_last[edge])
-    length = np.r_[np.diff(pieces.ptr), 0]  # (a sentinel for images without curves)
+    length = np.concatenate((np.diff(pieces.ptr), [0]))  # (a sentinel for images without curves)
     n_seg = np.where(curved, np.where(enters, length[np.maximum(piece, 0)], 0), 1)
     total = int(n_seg.sum())
     step = np.repeat(np.arange(edge.size), n_seg)

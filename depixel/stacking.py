@@ -83,7 +83,7 @@ class FaceTopology:
         self.entry_edge = entries(boundary, boundary)
         del order
         per_face = np.bincount(right[has_r], minlength=n) + np.bincount(left[has_l], minlength=n)
-        self.entry_ptr = np.r_[0, np.cumsum(per_face)]
+        self.entry_ptr = np.concatenate(([0], np.cumsum(per_face)))
 
         inner = has_l & has_r
         lo, hi = np.minimum(left[inner], right[inner]).astype(np.int64), np.maximum(left[inner], right[inner])
@@ -134,9 +134,9 @@ class FaceTopology:
         del key
         face_at = self.face_of_rank[drawn_first % n]
         del drawn_first
-        start = np.flatnonzero(np.r_[True, node[1:] != node[:-1]])
+        start = np.flatnonzero(np.concatenate(([True], node[1:] != node[:-1])))
         del node
-        count = np.diff(np.r_[start, face_at.size])
+        count = np.diff(np.concatenate((start, [face_at.size])))
         lowest = np.repeat(face_at[start], count)  # sorted by rank within each node
         crowded = np.repeat(count >= 3, count) & (face_at != lowest)
         corners = np.empty((int(crowded.sum()), 2), np.int32)
@@ -218,7 +218,7 @@ class FaceTopology:
         n = self.n_faces
         neighbours = self._neighbours(edge_cost)
         owner = keys // n
-        cuts = unique(np.r_[0, np.searchsorted(owner, owner[ABSORB_BATCH::ABSORB_BATCH]), keys.size])
+        cuts = unique(np.concatenate(([0], np.searchsorted(owner, owner[ABSORB_BATCH::ABSORB_BATCH]), [keys.size])))
         del owner
         return np.concatenate([self._grow(keys[a:b], neighbours)
                                for a, b in zip(cuts[:-1].tolist(), cuts[1:].tolist())] or [keys])
@@ -244,7 +244,7 @@ class FaceTopology:
             count[a:b] = np.bincount(face[inner] - a, minlength=b - a)
             others.append(other[inner].astype(np.int32))
             costs.append(cost[inner])
-        ptr = np.r_[0, np.cumsum(count)]
+        ptr = np.concatenate(([0], np.cumsum(count)))
         return ptr, np.concatenate(others), np.concatenate(costs), perimeter
 
     def _grow(self, keys: np.ndarray, neighbours: tuple[np.ndarray, ...]) -> np.ndarray:

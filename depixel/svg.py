@@ -106,7 +106,7 @@ class _Labels:
 
     def __init__(self, shapes: Outlines | OutlineShapes) -> None:
         region = shapes.region
-        self.run_start = np.r_[True, region[1:] != region[:-1]]
+        self.run_start = _prepend(True, region[1:] != region[:-1])
         self.run_id = np.cumsum(self.run_start) - 1
         self.run_size = np.bincount(self.run_id)
         rgba = shapes.rgba.astype(np.int64)
@@ -116,9 +116,6 @@ class _Labels:
         self.count = np.empty(key.size, np.int64)  # the how-manieth shape of its id
         self.count[order] = np.arange(key.size) - np.searchsorted(ranked, ranked) + 1
 
-    def grouped(self, s: int) -> bool:
-        return bool(self.run_size[self.run_id[s]] > 1)
-
 
 def _elements(outlines: Outlines, first: int, labels: _Labels, precision: int) -> str:
     """The ``<g>``/``<path>`` elements of a batch of shapes, the first being shape ``first``."""
@@ -126,23 +123,26 @@ def _elements(outlines: Outlines, first: int, labels: _Labels, precision: int) -
     if n == 0:
         return ""
     data = path_data(outlines, precision)
-    region = outlines.region
-    total = labels.run_id.size
+    stop = first + n
+    # Python lists: the loop reads a few numbers per shape (numpy scalars cost ~100 ns apiece)
+    run_id = labels.run_id[first:stop].tolist()
+    run_start = labels.run_start[first : stop + 1].tolist() + [True]  # the shape after the last too
+    run_size = labels.run_size.tolist()
     lines = []
-    for i, (role, (r, g, b, a), count) in enumerate(zip(outlines.role.tolist(), outlines.rgba.tolist(),
-                                                        labels.count[first : first + n].tolist())):
-        s = first + i
-        grouped = labels.grouped(s)
-        if grouped and labels.run_start[s]:
-            label = f"shading #{r:02x}{g:02x}{b:02x} ({labels.run_size[labels.run_id[s]]} tones)"
-            lines.append(f'<g id="region-{int(region[i])}-{int(labels.run_id[s])}" inkscape:label="{label}">\n')
+    for i, (role, (r, g, b, a), count, region) in enumerate(zip(outlines.role.tolist(), outlines.rgba.tolist(),
+                                                                labels.count[first:stop].tolist(),
+                                                                outlines.region.tolist())):
+        grouped = run_size[run_id[i]] > 1
+        if grouped and run_start[i]:
+            label = f"shading #{r:02x}{g:02x}{b:02x} ({run_size[run_id[i]]} tones)"
+            lines.append(f'<g id="region-{region}-{run_id[i]}" inkscape:label="{label}">\n')
         colour = f"#{r:02x}{g:02x}{b:02x}"
         opacity = "" if a == 255 else f' fill-opacity="{numbers(np.array([a / 255.0]), 3).tolist()[0]}"'
         base = f"{ROLES[role]}-{colour[1:]}"
         ident = base if count == 1 else f"{base}-{count}"
         lines.append(f'<path id="{ident}" inkscape:label="{ROLES[role]} {colour}" fill="{colour}"{opacity} '
                      f'd="{data[i]}"/>\n')
-        if grouped and (s + 1 == total or labels.run_start[s + 1]):
+        if grouped and run_start[i + 1]:
             lines.append("</g>\n")
     return "".join(lines)
 
@@ -231,10 +231,10 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     pieces = table.take(stream)
     # split per shape
     shape_tok_end = np.searchsorted(tok_shape, np.arange(len(outlines)) + 1)
-    out_end = np.r_[out_start, stream.size][shape_tok_end]
+    out_end = np.concatenate((out_start, [stream.size])).take(shape_tok_end)
     text = pieces.tobytes().decode("ascii")
     byte_end = np.cumsum(pieces.length)
-    bounds = np.r_[0, byte_end[out_end - 1]]
+    bounds = _prepend(0, byte_end.take(out_end - 1))
     return [text[bounds[i] : bounds[i + 1]] for i in range(len(outlines))]
 
 
@@ -360,18 +360,20 @@ def _format(tables: tuple[np.ndarray, np.ndarray], arity: np.ndarray, precision:
     the arithmetic on a sprite's few hundred commands."""
     values = np.stack(tables)  # (2, C, 6)
     used = _used(arity)
-    texts = numbers(values[:, used].ravel() / 10.0**precision, precision, compact=True)
+    at = np.flatnonzero(np.tile(used.ravel(), 2))  # the used numbers of both tables, flat
+    texts = numbers(values.ravel().take(at) / 10.0**precision, precision, compact=True)
     scale = 10**precision
-    whole, frac = np.divmod(np.abs(values), scale)
     minus = values < 0
-    has_dot = frac != 0
-    dot_start = (whole == 0) & has_dot & ~minus
+    has_dot = (values % scale) != 0
+    dot_start = (values > 0) & (values < scale)  # "0.…": a whole part of 0 and a fraction
     length = np.zeros(values.shape, np.int64)
-    length[:, used] = texts.length.reshape(2, -1)
+    length.ravel().put(at, texts.length)
     # a space between two numbers of one command unless the second starts with "-" or "."
-    sep = np.zeros(values.shape, bool)
-    sep[:, :, 1:] = ~minus[:, :, 1:] & ~(dot_start[:, :, 1:] & has_dot[:, :, :-1])
-    total = np.where(used, length + sep, 0).sum(axis=2)
+    # (the used columns are the first ones: the column before a used one is used)
+    sep = ~minus[:, :, 1:] & ~(dot_start[:, :, 1:] & has_dot[:, :, :-1])
+    sep &= used[:, 1:]
+    length[:, :, 1:] += sep
+    total = sum((length[:, :, j] for j in range(1, _W)), length[:, :, 0])  # (a sum over a short axis is slow)
     abs_flags, rel_flags = (_Flags(minus[i].ravel(), dot_start[i].ravel(), has_dot[i].ravel(), total[i])
                             for i in range(2))
     return texts, (abs_flags, rel_flags)
