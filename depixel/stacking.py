@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .arrays import batch_bounds, in_sorted, union, unique
+from .arrays import batch_bounds, in_sorted, sums_by_key, unique
 from .vector import VectorImage, faces_and_regions
 
 #: shape roles, for the labels of an editor's layers panel
@@ -236,8 +236,8 @@ class FaceTopology:
             lo, hi = int(self.entry_ptr[a]), int(self.entry_ptr[b])
             face = np.repeat(np.arange(a, b), np.diff(self.entry_ptr[a : b + 1]))
             other = self.entry_other[lo:hi]
-            key, inverse = np.unique(face * (n + 1) + np.where(other >= 0, other, n), return_inverse=True)
-            cost = np.bincount(inverse, weights=edge_cost[self.entry_edge[lo:hi]])
+            key, cost = sums_by_key(face * (n + 1) + np.where(other >= 0, other, n),
+                                    edge_cost.take(self.entry_edge[lo:hi]))
             face, other = np.divmod(key, n + 1)
             perimeter[a:b] = np.bincount(face - a, weights=cost, minlength=b - a)
             inner = other < n
@@ -252,24 +252,24 @@ class FaceTopology:
         n = self.n_faces
         nb_ptr, h, w, perimeter = neighbours
         while True:
-            owner, member = keys // n, keys % n
-            count = nb_ptr[member + 1] - nb_ptr[member]
-            idx = np.repeat(nb_ptr[member] - (np.cumsum(count) - count), count) + np.arange(int(count.sum()))
+            owner, member = np.divmod(keys, n)
+            start = nb_ptr.take(member)
+            count = nb_ptr.take(member + 1) - start
+            idx = np.repeat(start - (np.cumsum(count) - count), count) + np.arange(int(count.sum()))
             f = np.repeat(owner, count)
-            cand = h[idx]
-            ok = self.opaque[cand] & (self.rank[cand] > self.rank[f])
-            cand_key = f[ok] * n + cand[ok]
+            cand = h.take(idx)
+            ok = self.opaque.take(cand) & (self.rank.take(cand) > self.rank.take(f))
+            cand_key = f.compress(ok) * n + cand.compress(ok)
             fresh = ~in_sorted(keys, cand_key)
-            cand_key, weight = cand_key[fresh], w[idx][ok][fresh]
+            cand_key, weight = cand_key.compress(fresh), w.take(idx).compress(ok).compress(fresh)
             if cand_key.size == 0:
                 return keys
-            uniq, inv = np.unique(cand_key, return_inverse=True)
-            shared = np.bincount(inv, weights=weight)
-            gain = 2 * shared - perimeter[uniq % n]
-            add = uniq[gain > 1e-9]
+            uniq, shared = sums_by_key(cand_key, weight)
+            gain = 2 * shared - perimeter.take(uniq % n)
+            add = uniq.compress(gain > 1e-9)
             if add.size == 0:
                 return keys
-            keys = union(keys, add)
+            keys = np.sort(np.concatenate((keys, add)))  # none of them among the keys (fresh)
 
     def _roles(self, pairs: np.ndarray) -> np.ndarray:
         """(F,) int8 role of each face's shape: the lowest shape, when it covers most of the
