@@ -55,8 +55,8 @@ class FaceTopology:
         first_pixel = np.full(n, labels.size, np.int64)
         np.minimum.at(first_pixel, labels, np.arange(labels.size))
         self.first_pixel = first_pixel
-        self.face_rgba = image.rgba.reshape(-1, 4)[first_pixel]
-        self.face_region = region[first_pixel]
+        self.face_rgba = image.rgba.reshape(-1, 4).take(first_pixel, axis=0)
+        self.face_region = region.take(first_pixel)
         self.area = np.bincount(labels, minlength=n)
         alpha = self.face_rgba[:, 3]
         self.drawn = alpha > 0
@@ -64,20 +64,20 @@ class FaceTopology:
 
         # the face on the left and on the right of every cell edge (-1: outside the image)
         sides = cells.edge_pixels
-        left = np.where(sides[:, 0] >= 0, labels[np.maximum(sides[:, 0], 0)], -1)
-        right = np.where(sides[:, 1] >= 0, labels[np.maximum(sides[:, 1], 0)], -1)
+        left = np.where(sides[:, 0] >= 0, labels.take(np.maximum(sides[:, 0], 0)), -1)
+        right = np.where(sides[:, 1] >= 0, labels.take(np.maximum(sides[:, 1], 0)), -1)
         boundary = np.flatnonzero(left != right)
-        left, right = left[boundary], right[boundary]
+        left, right = left.take(boundary), right.take(boundary)
         # one entry per face side of a boundary edge, oriented with the face on the right,
         # sorted by face (stable); 32-bit, since an image has far fewer than 2^31 of anything
         has_r, has_l = right >= 0, left >= 0
-        order = np.argsort(np.concatenate([right[has_r], left[has_l]]), kind="stable")
+        order = np.argsort(np.concatenate([right.compress(has_r), left.compress(has_l)]), kind="stable")
 
         def entries(of_right: np.ndarray, of_left: np.ndarray, order: np.ndarray = order) -> np.ndarray:
-            return np.concatenate([of_right[has_r], of_left[has_l]], dtype=np.int32)[order]
+            return np.concatenate([of_right.compress(has_r), of_left.compress(has_l)], dtype=np.int32).take(order)
 
         self.entry_other = entries(left, right)
-        u, v = cells.edges[boundary, 0], cells.edges[boundary, 1]
+        u, v = cells.edges[:, 0].take(boundary), cells.edges[:, 1].take(boundary)
         self.entry_from, self.entry_to = entries(u, v), entries(v, u)
         del u, v
         self.entry_edge = entries(boundary, boundary)
@@ -121,8 +121,9 @@ class FaceTopology:
         others a seam opens at that point."""
         cells = self.cells
         n = self.n_faces
-        face_at = labels[np.repeat(np.arange(labels.size), np.diff(cells.cell_ptr))]
-        drawn_first = self.rank[face_at] + n * ~self.drawn[face_at]  # the lowest drawn face first
+        face_at = np.repeat(labels, np.diff(cells.cell_ptr))
+        drawn_first = self.rank.take(face_at)
+        drawn_first += n * ~self.drawn.take(face_at)  # the lowest drawn face first
         del face_at
         # one sorted key per (node, face) instead of a lexsort: ranks are distinct, so the
         # face comes back from its rank
@@ -132,15 +133,15 @@ class FaceTopology:
         del drawn_first
         node, drawn_first = np.divmod(_distinct(key), 2 * n)
         del key
-        face_at = self.face_of_rank[drawn_first % n]
+        face_at = self.face_of_rank.take(drawn_first % n)
         del drawn_first
         start = np.flatnonzero(np.concatenate(([True], node[1:] != node[:-1])))
         del node
         count = np.diff(np.concatenate((start, [face_at.size])))
-        lowest = np.repeat(face_at[start], count)  # sorted by rank within each node
+        lowest = np.repeat(face_at.take(start), count)  # sorted by rank within each node
         crowded = np.repeat(count >= 3, count) & (face_at != lowest)
         corners = np.empty((int(crowded.sum()), 2), np.int32)
-        corners[:, 0], corners[:, 1] = lowest[crowded], face_at[crowded]
+        corners[:, 0], corners[:, 1] = lowest.compress(crowded), face_at.compress(crowded)
         return corners
 
     def _depths(self, pairs: np.ndarray) -> np.ndarray:
@@ -300,5 +301,5 @@ def _distinct(values: np.ndarray) -> np.ndarray:
     argsort and no copy, where ``unique`` makes three)."""
     values.sort()
     first = np.ones(values.size, bool)
-    first[1:] = values[1:] != values[:-1]
-    return values[first]
+    np.not_equal(values[1:], values[:-1], out=first[1:])
+    return values.compress(first)
