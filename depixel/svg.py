@@ -21,7 +21,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from .arrays import batch_bounds
+from .arrays import batch_bounds, set_rows
 from .boundaries import CUBIC, LINE, QUAD
 from .outlines import Outlines, OutlineShapes, outline_shapes
 from .stacking import ROLES
@@ -166,7 +166,7 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     unit = 10.0**precision
     cmd, args = _commands(outlines, unit)
     n_cmd = cmd.size
-    arity = _ARITY[cmd]
+    arity = _ARITY.take(cmd)
     shape_of_loop = np.repeat(np.arange(len(outlines)), np.diff(outlines.shape_ptr))
     # every loop is M + segments + Z: the command's shape from its loop
     loop_len = np.diff(outlines.loop_ptr)
@@ -199,12 +199,12 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     number_rows = np.where(use_rel[:, None], 1, 0)  # which table: abs 0 / rel 1
     num_cmd = np.repeat(np.arange(n_cmd), n_num)
     num_k = np.arange(num_cmd.size) - np.repeat(np.cumsum(n_num) - n_num, n_num)
-    num_pos = tok_start[num_cmd] + (~implicit[num_cmd]) + num_k
-    rel_num = use_rel[num_cmd]
+    num_pos = tok_start.take(num_cmd) + (~implicit).take(num_cmd) + num_k
+    rel_num = use_rel.take(num_cmd)
     flat = num_cmd * _W + num_k  # the number's place in (C, 6) argument tables
-    minus = np.where(rel_num, flags_rel.minus[flat], flags_abs.minus[flat])
-    dot_start = np.where(rel_num, flags_rel.dot_start[flat], flags_abs.dot_start[flat])
-    has_dot = np.where(rel_num, flags_rel.has_dot[flat], flags_abs.has_dot[flat])
+    minus = np.where(rel_num, flags_rel.minus.take(flat), flags_abs.minus.take(flat))
+    dot_start = np.where(rel_num, flags_rel.dot_start.take(flat), flags_abs.dot_start.take(flat))
+    has_dot = np.where(rel_num, flags_rel.has_dot.take(flat), flags_abs.has_dot.take(flat))
     del number_rows
 
     # separators: a space before a number that follows a number, unless the number starts
@@ -213,7 +213,7 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     tok_has_dot[num_pos] = has_dot
     prev_is_number = _prepend(False, is_number[:-1])
     sep = np.zeros(n_tok, bool)
-    sep[num_pos] = prev_is_number[num_pos] & ~minus & ~(dot_start & _prepend(False, tok_has_dot[:-1])[num_pos])
+    sep[num_pos] = prev_is_number.take(num_pos) & ~minus & ~(dot_start & _prepend(False, tok_has_dot[:-1]).take(num_pos))
     tok_shape = np.repeat(shape_of_cmd, tok_count)
     sep &= _prepend(False, tok_shape[1:] == tok_shape[:-1])
 
@@ -221,7 +221,7 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     rel_row = abs_row + len(texts) // 2  # the relative arguments' texts follow the absolute ones
     row = np.empty(n_tok, np.int64)
     row[tok_start[~implicit]] = letter_row + letter[~implicit]
-    row[num_pos] = np.where(rel_num, rel_row, abs_row) + np.cumsum(_used(arity).ravel())[flat] - 1  # used only
+    row[num_pos] = np.where(rel_num, rel_row, abs_row) + np.cumsum(_used(arity).ravel()).take(flat) - 1  # used only
     # interleave the separators: token i becomes [space] + token
     out_count = 1 + sep.astype(np.int64)
     out_start = np.cumsum(out_count) - out_count
@@ -260,16 +260,20 @@ def _commands(outlines: Outlines, unit: float) -> tuple[np.ndarray, np.ndarray]:
     seg_loop = np.repeat(np.arange(n_loop), loop_len)
     last = outlines.loop_ptr[1:] - 1
     start = end.take(last, axis=0)  # each loop starts where its last segment ends
-    seg_start = np.roll(end, 1, axis=0)
-    seg_start[outlines.loop_ptr[:-1]] = start
+    seg_start = np.empty_like(end)  # the previous segment's end; a loop's first: the loop's start
+    seg_start[1:] = end[:-1]
+    set_rows(seg_start, outlines.loop_ptr[:-1], start)
     drop = np.zeros(kind.size, bool)
     drop[last[kind[last] == LINE]] = True
     # a quadratic whose control mirrors the previous quadratic's through its start is "T"
     first = np.zeros(kind.size, bool)
     first[outlines.loop_ptr[:-1]] = True
-    prev_ctrl = np.roll(ctrl, 1, axis=0)
-    prev_quad = np.roll(kind, 1) == QUAD
-    smooth = (kind == QUAD) & prev_quad & ~first & (ctrl == 2 * seg_start - prev_ctrl).all(axis=1)
+    smooth = kind == QUAD
+    smooth[1:] &= smooth[:-1].copy()  # after a quadratic (the first of a loop is left out)
+    smooth[:1] = False
+    smooth &= ~first
+    for c in range(2):  # (a test over a short axis is slow)
+        smooth[1:] &= ctrl[1:, c] == 2 * seg_start[1:, c] - ctrl[:-1, c]
 
     code = np.where(kind == LINE, L, np.where(kind == CUBIC, C, np.where(smooth, T, Q)))
     horizontal = (kind == LINE) & (end[:, 1] == seg_start[:, 1])
@@ -302,8 +306,8 @@ def _commands(outlines: Outlines, unit: float) -> tuple[np.ndarray, np.ndarray]:
     cmd[loop_first + per_loop - 1] = Z
     seg_index = np.flatnonzero(keep)
     rank_in_loop = np.arange(seg_index.size) - np.repeat(np.cumsum(per_loop - 2) - (per_loop - 2), per_loop - 2)
-    pos = loop_first[seg_loop[seg_index]] + 1 + rank_in_loop
-    cmd[pos] = code[seg_index]
+    pos = loop_first.take(seg_loop.take(seg_index)) + 1 + rank_in_loop
+    cmd[pos] = code.take(seg_index)
     source[pos] = seg_index
     return cmd, table.take(source, axis=0)
 
@@ -319,7 +323,7 @@ def _relative(cmd: np.ndarray, absolute: np.ndarray, shape_of_cmd: np.ndarray) -
     end_at = np.where(close, loop_m * _W, rows * _W + np.where(cmd == Q, 2, np.where(cmd == C, 4, 0)))
     flat = absolute.ravel()
     sets = pair | close
-    end_x, end_y = np.where(sets, flat[end_at], 0), np.where(sets, flat[end_at + 1], 0)
+    end_x, end_y = np.where(sets, flat.take(end_at), 0), np.where(sets, flat.take(end_at + 1), 0)
     # propagate x (for V) and y (for H): the last command that set that coordinate
     x_src = np.maximum.accumulate(np.where(sets | x_only, rows, 0))
     y_src = np.maximum.accumulate(np.where(sets | y_only, rows, 0))
@@ -327,8 +331,8 @@ def _relative(cmd: np.ndarray, absolute: np.ndarray, shape_of_cmd: np.ndarray) -
     y_val = np.where(y_only, absolute[:, 0], end_y)
     # the current point before each command (the origin at a new path)
     new_shape = _prepend(True, shape_of_cmd[1:] != shape_of_cmd[:-1])
-    before_x = np.where(new_shape, 0, _prepend(0, x_val[x_src][:-1]))
-    before_y = np.where(new_shape, 0, _prepend(0, y_val[y_src][:-1]))
+    before_x = np.where(new_shape, 0, _prepend(0, x_val.take(x_src[:-1])))
+    before_y = np.where(new_shape, 0, _prepend(0, y_val.take(y_src[:-1])))
     two = (cmd == Q) | (cmd == C)  # commands with a second and a third point
     three = cmd == C
     zero = np.zeros(n, np.int64)
