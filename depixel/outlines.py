@@ -164,12 +164,12 @@ class OutlineShapes:
         member = self.member_key[_ranges(lo, hi)] % (faces.n_faces + 1)
         owner = np.repeat(face, hi - lo)
         owner_face, entry = _batch_entries(faces, owner, member, self.member_key)
-        u = faces.entry_from[entry]
-        loops = trace_loops(faces.rank[owner_face], u, faces.entry_to[entry], points=faces.nodes)
+        u = faces.entry_from.take(entry)
+        loops = trace_loops(faces.rank.take(owner_face), u, faces.entry_to.take(entry), points=faces.nodes)
         del owner_face
         keep = loops_to_keep(loops, u, faces.nodes, self.probe_key, self.shape[1], self.layout == "stacked")
         kind, ctrl, ctrl2, end, loop_ptr = _segments_in_batches(self.image, self.pieces, loops, keep,
-                                                                faces.entry_edge[entry], u, self.grid)
+                                                                faces.entry_edge.take(entry), u, self.grid)
         shape_rank = loops.owner[keep]
         shape_ptr = np.asarray(np.searchsorted(shape_rank, np.concatenate((faces.rank[face], [np.iinfo(np.int64).max]))), np.int64)
         return Outlines(
@@ -231,12 +231,13 @@ def _batch_entries(faces: FaceBoundaries, owner: np.ndarray, member: np.ndarray,
     entry = _ranges(lo, hi)
     shape_face = np.repeat(owner, hi - lo)
     del lo, hi
-    other = faces.entry_other[entry]
+    other = faces.entry_other.take(entry)
     # a half-edge bounds the union unless the face across is a member of the same shape
     n = faces.n_faces + 1
     other_key = shape_face * n + other
     inside = (other >= 0) & in_sorted(member_key, other_key)
-    return shape_face[~inside], entry[~inside]
+    outside = ~inside
+    return shape_face.compress(outside), entry.compress(outside)
 
 
 #: loops are turned into segments in batches of about this many half-edges, to bound the
