@@ -151,7 +151,9 @@ class OutlineShapes:
         """The outlines of the shapes, consecutive batches of about :data:`LOOP_BATCH`
         boundary half-edges (the result does not depend on the batches)."""
         faces, member_ptr = self.faces, self.member_ptr
-        entries = np.concatenate(([0], np.cumsum(np.diff(faces.entry_ptr)[self.member_key % (faces.n_faces + 1)])))  # running
+        per_member = np.diff(faces.entry_ptr).take(self.member_key % (faces.n_faces + 1))
+        entries = np.concatenate(([0], np.cumsum(per_member)))  # running
+        del per_member
         sizes = (entries[member_ptr[1:]] - entries[member_ptr[:-1]])[self.face]
         del entries
         for a, b in batch_bounds(sizes, LOOP_BATCH):
@@ -171,7 +173,8 @@ class OutlineShapes:
         kind, ctrl, ctrl2, end, loop_ptr = _segments_in_batches(self.image, self.pieces, loops, keep,
                                                                 faces.entry_edge.take(entry), u, self.grid)
         shape_rank = loops.owner[keep]
-        shape_ptr = np.asarray(np.searchsorted(shape_rank, np.concatenate((faces.rank[face], [np.iinfo(np.int64).max]))), np.int64)
+        bounds = np.concatenate((faces.rank.take(face), [np.iinfo(np.int64).max]))
+        shape_ptr = np.asarray(np.searchsorted(shape_rank, bounds), np.int64)
         return Outlines(
             shape=self.shape, layout=self.layout, grid=self.grid, face=face, rgba=self.rgba[first:stop],
             region=self.region[first:stop], role=self.role[first:stop], shape_ptr=shape_ptr,

@@ -213,7 +213,8 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     tok_has_dot[num_pos] = has_dot
     prev_is_number = _prepend(False, is_number[:-1])
     sep = np.zeros(n_tok, bool)
-    sep[num_pos] = prev_is_number.take(num_pos) & ~minus & ~(dot_start & _prepend(False, tok_has_dot[:-1]).take(num_pos))
+    after_dot = _prepend(False, tok_has_dot[:-1]).take(num_pos)
+    sep[num_pos] = prev_is_number.take(num_pos) & ~minus & ~(dot_start & after_dot)
     tok_shape = np.repeat(shape_of_cmd, tok_count)
     sep &= _prepend(False, tok_shape[1:] == tok_shape[:-1])
 
