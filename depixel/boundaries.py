@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .arrays import set_rows
 from .bspline import joint as leg_joint
 from .vector import CurveTable, VectorImage
 
@@ -136,18 +137,19 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
     tail = ~end[last_slot] & ~seed
     n_full = length - 1 + seed  # a seeded piece: every slot's span, seed included
     count = head + n_full + tail
-    ptr = np.r_[0, np.cumsum(count)].astype(np.int64)
+    ptr = np.concatenate(([0], np.cumsum(count)), dtype=np.int64)
     total = int(ptr[-1])
     piece = np.repeat(np.arange(starts.size), count)
-    offset = np.arange(total) - ptr[piece]
+    offset = np.arange(total) - ptr.take(piece)
     # which slot's span each segment is, walking from the first slot
-    is_head = head[piece] & (offset == 0)
-    is_tail = tail[piece] & (offset == count[piece] - 1)
-    steps = offset - head[piece] + 1 - seed[piece]  # full span k is the slot k steps after the first
-    steps[is_tail] = length[piece[is_tail]]
+    head_of = head.take(piece)
+    is_head = head_of & (offset == 0)
+    is_tail = tail.take(piece) & (offset == count.take(piece) - 1)
+    steps = offset - head_of + 1 - seed.take(piece)  # full span k is the slot k steps after the first
+    steps[is_tail] = length.take(piece.compress(is_tail))
     steps[is_head] = 0
-    del offset
-    slot = _advance(nxt, first_slot[piece], steps)
+    del offset, head_of
+    slot = _advance(nxt, first_slot.take(piece), steps)
     del piece, steps
 
     spans = _Spans(curves, point, end, grid)
@@ -155,12 +157,13 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
     seg_ctrl = spans.ctrl(slot)
     seg_end = spans.joint(slot)
     # the halves of a span (de Casteljau at t = ½) have the controls (S0 + C) / 2 and (C + S1) / 2
-    head_slot, tail_slot = slot[is_head], slot[is_tail]
-    seg_ctrl[is_head] = _on_grid((spans.ctrl(head_slot) + spans.joint(head_slot)) / 2.0, grid)
-    seg_ctrl[is_tail] = _on_grid((spans.joint_before(tail_slot) + spans.ctrl(tail_slot)) / 2.0, grid)
-    seg_end[is_tail] = point[node[tail_slot]]
-    start = point[node[first_slot]]
-    start[seed] = spans.joint_before(first_slot[seed])
+    head_slot, tail_slot = slot.compress(is_head), slot.compress(is_tail)
+    heads, tails = np.flatnonzero(is_head), np.flatnonzero(is_tail)
+    set_rows(seg_ctrl, heads, _on_grid((spans.ctrl(head_slot) + spans.joint(head_slot)) / 2.0, grid))
+    set_rows(seg_ctrl, tails, _on_grid((spans.joint_before(tail_slot) + spans.ctrl(tail_slot)) / 2.0, grid))
+    set_rows(seg_end, tails, point.take(node.take(tail_slot), axis=0))
+    start = point.take(node.take(first_slot), axis=0)
+    set_rows(start, np.flatnonzero(seed), spans.joint_before(first_slot.compress(seed)))
     del spans, point, head_slot, tail_slot, is_head, is_tail
     span_slot = slot.astype(np.int32)
     del slot
@@ -183,22 +186,23 @@ class _Spans:
         self.curves, self.point, self.end, self.grid = curves, point, end, grid
 
     def ctrl(self, slot: np.ndarray) -> np.ndarray:
-        return _ctrl_on_grid(self.curves.ctrl[slot], self.grid)
+        return _ctrl_on_grid(self.curves.ctrl.take(slot, axis=0), self.grid)
 
     def joint(self, slot: np.ndarray) -> np.ndarray:
-        nxt = self.curves.next[slot]
+        nxt = self.curves.next.take(slot)
         b = np.maximum(nxt, 0)
         joint = leg_joint(self.ctrl(slot), self.ctrl(b))
-        at_end = self.end[slot]
-        joint[at_end] = self.point[self.curves.node[slot[at_end]]]
-        before_end = ~at_end & self.end[b]
-        joint[before_end] = self.point[self.curves.node[b[before_end]]]
+        node, point = self.curves.node, self.point
+        at_end = self.end.take(slot)
+        set_rows(joint, np.flatnonzero(at_end), point.take(node.take(slot.compress(at_end)), axis=0))
+        before_end = ~at_end & self.end.take(b)
+        set_rows(joint, np.flatnonzero(before_end), point.take(node.take(b.compress(before_end)), axis=0))
         joint[nxt < 0] = np.nan
         return joint
 
     def joint_before(self, slot: np.ndarray) -> np.ndarray:
         """The joint before each slot (between the previous slot and it; NaN at an open start)."""
-        prev = self.curves.prev[slot]
+        prev = self.curves.prev.take(slot)
         joint = self.joint(np.maximum(prev, 0))
         joint[prev < 0] = np.nan
         return joint
@@ -251,12 +255,12 @@ def _straighten(start: np.ndarray, ptr: np.ndarray, kind: np.ndarray, ctrl: np.n
     seg_start = np.empty_like(end)
     seg_start[1:] = end[:-1]
     first = ptr[:-1][np.diff(ptr) > 0]  # the first segment of every piece starts at its start
-    seg_start[first] = start[np.diff(ptr) > 0]
+    set_rows(seg_start, first, start.compress(np.diff(ptr) > 0, axis=0))
     d0 = ctrl - seg_start
     del seg_start
     d1 = end - ctrl
     cross = d0[:, 0] * d1[:, 1] - d0[:, 1] * d1[:, 0]
     tol = 1e-12 if grid is None else 0.25 * grid * grid
-    flat = (kind == QUAD) & (np.abs(cross) <= tol) & ((d0 * d1).sum(axis=1) >= 0)
+    flat = (kind == QUAD) & (np.abs(cross) <= tol) & (d0[:, 0] * d1[:, 0] + d0[:, 1] * d1[:, 1] >= 0)
     kind[flat] = LINE
     ctrl[flat] = np.nan

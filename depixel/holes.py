@@ -30,10 +30,10 @@ def loops_to_keep(loops: Loops, halfedge_from: np.ndarray, nodes: np.ndarray, pr
     everything = np.arange(len(loops))
     if not fill_holes or len(loops) == 0:
         return everything
-    start = halfedge_from[loops.halfedges]
+    start = halfedge_from.take(loops.halfedges)
     nxt_pos = np.arange(start.size) + 1
     nxt_pos[loops.ptr[1:] - 1] = loops.ptr[:-1]
-    p, q = nodes[start].astype(np.int64), nodes[start[nxt_pos]].astype(np.int64)
+    p, q = nodes.take(start, axis=0).astype(np.int64), nodes.take(start.take(nxt_pos), axis=0).astype(np.int64)
     cross = p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]
     loop_of = np.repeat(everything, np.diff(loops.ptr))
     area2 = np.bincount(loop_of, weights=cross, minlength=len(loops))  # clockwise on screen > 0
@@ -42,8 +42,10 @@ def loops_to_keep(loops: Loops, halfedge_from: np.ndarray, nodes: np.ndarray, pr
         return everything
     if probe_key is None:
         return np.flatnonzero(area2 >= 0)
-    hole_edges = np.flatnonzero(np.isin(loop_of, holes))
-    blocked = holds_a_probe(p[hole_edges], q[hole_edges], loop_of[hole_edges], probe_key, len(loops), width)
+    is_hole = area2 < 0
+    hole_edges = np.flatnonzero(is_hole.take(loop_of))
+    blocked = holds_a_probe(p.take(hole_edges, axis=0), q.take(hole_edges, axis=0), loop_of.take(hole_edges), probe_key,
+                            len(loops), width)
     keep = (area2 >= 0) | blocked
     return np.flatnonzero(keep)
 
@@ -67,7 +69,7 @@ def holds_a_probe(a: np.ndarray, b: np.ndarray, loop: np.ndarray, probe_key: np.
     count = np.maximum(r1 - r0, 0)
     edge = np.repeat(np.arange(a.shape[0]), count)
     row = np.repeat(r0, count) + np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
-    ax, ay, bx, by = a[edge, 0], a[edge, 1], b[edge, 0], b[edge, 1]
+    ax, ay, bx, by = a[:, 0].take(edge), a[:, 1].take(edge), b[:, 0].take(edge), b[:, 1].take(edge)
     py, dy = 4 * row + 2, by - ay
     # x_c = ax + (py - ay)(bx - ax) / dy, rounded up exactly in integers (dy made positive)
     num = ax * dy + (py - ay) * (bx - ax)

@@ -51,7 +51,8 @@ def trace_loops(owner: np.ndarray, u: np.ndarray, v: np.ndarray, points: np.ndar
         return Loops(empty, np.zeros(1, np.int64), empty)
     out_order = _argsort_pairs(owner, u)
     in_order = _argsort_pairs(owner, v)
-    if not (np.array_equal(owner[out_order], owner[in_order]) and np.array_equal(u[out_order], v[in_order])):
+    if not (np.array_equal(owner.take(out_order), owner.take(in_order)) and np.array_equal(u.take(out_order),
+                                                                                          v.take(in_order))):
         raise ValueError("half-edges do not form closed loops")
     nxt = np.empty(n, np.int64)
     nxt[in_order] = out_order

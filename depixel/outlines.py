@@ -151,7 +151,9 @@ class OutlineShapes:
         """The outlines of the shapes, consecutive batches of about :data:`LOOP_BATCH`
         boundary half-edges (the result does not depend on the batches)."""
         faces, member_ptr = self.faces, self.member_ptr
-        entries = np.r_[0, np.cumsum(np.diff(faces.entry_ptr)[self.member_key % (faces.n_faces + 1)])]  # running
+        per_member = np.diff(faces.entry_ptr).take(self.member_key % (faces.n_faces + 1))
+        entries = np.concatenate(([0], np.cumsum(per_member)))  # running
+        del per_member
         sizes = (entries[member_ptr[1:]] - entries[member_ptr[:-1]])[self.face]
         del entries
         for a, b in batch_bounds(sizes, LOOP_BATCH):
@@ -164,14 +166,15 @@ class OutlineShapes:
         member = self.member_key[_ranges(lo, hi)] % (faces.n_faces + 1)
         owner = np.repeat(face, hi - lo)
         owner_face, entry = _batch_entries(faces, owner, member, self.member_key)
-        u = faces.entry_from[entry]
-        loops = trace_loops(faces.rank[owner_face], u, faces.entry_to[entry], points=faces.nodes)
+        u = faces.entry_from.take(entry)
+        loops = trace_loops(faces.rank.take(owner_face), u, faces.entry_to.take(entry), points=faces.nodes)
         del owner_face
         keep = loops_to_keep(loops, u, faces.nodes, self.probe_key, self.shape[1], self.layout == "stacked")
         kind, ctrl, ctrl2, end, loop_ptr = _segments_in_batches(self.image, self.pieces, loops, keep,
-                                                                faces.entry_edge[entry], u, self.grid)
+                                                                faces.entry_edge.take(entry), u, self.grid)
         shape_rank = loops.owner[keep]
-        shape_ptr = np.asarray(np.searchsorted(shape_rank, np.r_[faces.rank[face], np.iinfo(np.int64).max]), np.int64)
+        bounds = np.concatenate((faces.rank.take(face), [np.iinfo(np.int64).max]))
+        shape_ptr = np.asarray(np.searchsorted(shape_rank, bounds), np.int64)
         return Outlines(
             shape=self.shape, layout=self.layout, grid=self.grid, face=face, rgba=self.rgba[first:stop],
             region=self.region[first:stop], role=self.role[first:stop], shape_ptr=shape_ptr,
@@ -231,12 +234,13 @@ def _batch_entries(faces: FaceBoundaries, owner: np.ndarray, member: np.ndarray,
     entry = _ranges(lo, hi)
     shape_face = np.repeat(owner, hi - lo)
     del lo, hi
-    other = faces.entry_other[entry]
+    other = faces.entry_other.take(entry)
     # a half-edge bounds the union unless the face across is a member of the same shape
     n = faces.n_faces + 1
     other_key = shape_face * n + other
     inside = (other >= 0) & in_sorted(member_key, other_key)
-    return shape_face[~inside], entry[~inside]
+    outside = ~inside
+    return shape_face.compress(outside), entry.compress(outside)
 
 
 #: loops are turned into segments in batches of about this many half-edges, to bound the
@@ -266,49 +270,53 @@ def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, kee
     cells = image.cells
     counts = np.diff(loops.ptr)[keep]
     take = np.repeat(loops.ptr[:-1][keep] - (np.cumsum(counts) - counts), counts) + np.arange(int(counts.sum()))
-    he = loops.halfedges[take]
-    edge, x = halfedge_edge[he], halfedge_from[he]
-    u, v = cells.edges[edge, 0], cells.edges[edge, 1]
+    he = loops.halfedges.take(take)
+    edge, x = halfedge_edge.take(he), halfedge_from.take(he)
+    u, v = cells.edges[:, 0].take(edge), cells.edges[:, 1].take(edge)
     y = np.where(x == u, v, u)
     loop_of = np.repeat(np.arange(keep.size), counts)
-    piece = pieces.edge_piece[edge]
+    piece = pieces.edge_piece.take(edge)
     curved = piece >= 0
-    forward_edge = image.curves.edge_forward[edge] if image.curves is not None else np.ones(edge.size, bool)
+    forward_edge = image.curves.edge_forward.take(edge) if image.curves is not None else np.ones(edge.size, bool)
     along = (x == u) == forward_edge
-    enters = curved & np.where(along, pieces.edge_first[edge], pieces.edge_last[edge])
-    length = np.r_[np.diff(pieces.ptr), 0]  # (a sentinel for images without curves)
-    n_seg = np.where(curved, np.where(enters, length[np.maximum(piece, 0)], 0), 1)
+    enters = curved & np.where(along, pieces.edge_first.take(edge), pieces.edge_last.take(edge))
+    length = np.concatenate((np.diff(pieces.ptr), [0]))  # (a sentinel for images without curves)
+    n_seg = np.where(curved, np.where(enters, length.take(np.maximum(piece, 0)), 0), 1)
     total = int(n_seg.sum())
     step = np.repeat(np.arange(edge.size), n_seg)
     index = np.arange(total) - np.repeat(np.cumsum(n_seg) - n_seg, n_seg)  # within the piece
+    line = ~curved.take(step)
+    # every coordinate a column at a time, picked by np.where from gathers of all rows
+    # (masked writes into (total, 2) rows cost numpy a row-by-row copy): a line ends at
+    # its cell edge's far node, a run along a curve is its pieces' segments, forwards
+    # (``src``) or backwards (``back``, a cubic's controls swapped, ending where the
+    # segment before it ends, or at the piece's start)
+    point = _on_grid(image.points.take(y.take(step), axis=0), grid)
     kind = np.full(total, LINE, np.uint8)
     ctrl = np.full((total, 2), np.nan)
     ctrl2 = np.full((total, 2), np.nan)
-    end = np.empty((total, 2))
+    end = point
     span = np.full(total, -1, np.int64)
-    line = ~curved[step]
-    end[line] = _on_grid(image.points.take(y[step[line]], axis=0), grid)
-    p = piece[step]
-    on = ~line
-    fwd = on & along[step]
-    rev = on & ~along[step]
-    src = pieces.ptr[np.maximum(p, 0)] + index
-    at = src[fwd]
-    kind[fwd], ctrl[fwd], end[fwd] = pieces.kind[at], pieces.ctrl.take(at, axis=0), pieces.end.take(at, axis=0)
-    ctrl2[fwd] = pieces.ctrl2.take(at, axis=0)
-    span[fwd] = pieces.span_slot[src[fwd]]
-    m = length[np.maximum(p, 0)]
-    back = pieces.ptr[np.maximum(p, 0)] + m - 1 - index  # the segment traversed backwards
-    kind[rev] = pieces.kind[back[rev]]
-    reversed_cubic = pieces.kind[back[rev]] == CUBIC  # a cubic backwards swaps its control points
-    at = back[rev]
-    ctrl[rev] = np.where(reversed_cubic[:, None], pieces.ctrl2.take(at, axis=0), pieces.ctrl.take(at, axis=0))
-    ctrl2[rev] = np.where(reversed_cubic[:, None], pieces.ctrl.take(at, axis=0), pieces.ctrl2.take(at, axis=0))
-    span[rev] = pieces.span_slot[back[rev]]
-    at_start = rev & (back == pieces.ptr[np.maximum(p, 0)])
-    end[rev & ~at_start] = pieces.end.take(back[rev & ~at_start] - 1, axis=0)
-    end[at_start] = pieces.start.take(p[at_start], axis=0)
-    seg_loop = loop_of[step]
+    if pieces.kind.size:  # (no curves: lines only)
+        p = np.maximum(piece.take(step), 0)
+        first_seg = pieces.ptr.take(p)
+        fwd = along.take(step)
+        back = first_seg + length.take(p) - 1 - index  # the segment traversed backwards
+        src = np.where(fwd, first_seg + index, back)
+        src[line] = 0
+        kind = np.where(line, LINE, pieces.kind.take(src)).astype(np.uint8)
+        swap = ~fwd & (kind == CUBIC)  # a cubic backwards swaps its control points
+        at_start = ~line & ~fwd & (back == first_seg)
+        end_at = np.where(fwd, src, back - 1)
+        end_at[line | at_start] = 0
+        for c in range(2):
+            first, second = pieces.ctrl[:, c].take(src), pieces.ctrl2[:, c].take(src)
+            ctrl[:, c] = np.where(line, np.nan, np.where(swap, second, first))
+            ctrl2[:, c] = np.where(line, np.nan, np.where(swap, first, second))
+            end[:, c] = np.where(line, point[:, c], np.where(at_start, pieces.start[:, c].take(p),
+                                                              pieces.end[:, c].take(end_at)))
+        span = np.where(line, -1, pieces.span_slot.take(src).astype(np.int64))
+    seg_loop = loop_of.take(step)
     # where a loop goes on along its curve through a junction, the two halves of the span
     # there (the end of one piece, the start of the next) are that one span
     whole = np.flatnonzero((span[:-1] >= 0) & (span[:-1] == span[1:]) & (seg_loop[:-1] == seg_loop[1:])
@@ -317,8 +325,8 @@ def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, kee
         ctrl[whole + 1] = pieces.span_ctrl(span[whole])
         keep_seg = np.ones(total, bool)
         keep_seg[whole] = False
-        kind, ctrl, end, seg_loop = kind[keep_seg], ctrl[keep_seg], end[keep_seg], seg_loop[keep_seg]
-        ctrl2 = ctrl2[keep_seg]
+        kind, seg_loop = kind.compress(keep_seg), seg_loop.compress(keep_seg)
+        ctrl, ctrl2, end = (a.compress(keep_seg, axis=0) for a in (ctrl, ctrl2, end))
     loop_ptr = np.searchsorted(seg_loop, np.arange(keep.size + 1)).astype(np.int64)
     return _merge_lines(kind, ctrl, ctrl2, end, loop_ptr, grid)
 

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .arrays import batch_bounds, in_sorted, union, unique
+from .arrays import batch_bounds, in_sorted, sums_by_key, unique
 from .vector import VectorImage, faces_and_regions
 
 #: shape roles, for the labels of an editor's layers panel
@@ -55,8 +55,8 @@ class FaceTopology:
         first_pixel = np.full(n, labels.size, np.int64)
         np.minimum.at(first_pixel, labels, np.arange(labels.size))
         self.first_pixel = first_pixel
-        self.face_rgba = image.rgba.reshape(-1, 4)[first_pixel]
-        self.face_region = region[first_pixel]
+        self.face_rgba = image.rgba.reshape(-1, 4).take(first_pixel, axis=0)
+        self.face_region = region.take(first_pixel)
         self.area = np.bincount(labels, minlength=n)
         alpha = self.face_rgba[:, 3]
         self.drawn = alpha > 0
@@ -64,26 +64,26 @@ class FaceTopology:
 
         # the face on the left and on the right of every cell edge (-1: outside the image)
         sides = cells.edge_pixels
-        left = np.where(sides[:, 0] >= 0, labels[np.maximum(sides[:, 0], 0)], -1)
-        right = np.where(sides[:, 1] >= 0, labels[np.maximum(sides[:, 1], 0)], -1)
+        left = np.where(sides[:, 0] >= 0, labels.take(np.maximum(sides[:, 0], 0)), -1)
+        right = np.where(sides[:, 1] >= 0, labels.take(np.maximum(sides[:, 1], 0)), -1)
         boundary = np.flatnonzero(left != right)
-        left, right = left[boundary], right[boundary]
+        left, right = left.take(boundary), right.take(boundary)
         # one entry per face side of a boundary edge, oriented with the face on the right,
         # sorted by face (stable); 32-bit, since an image has far fewer than 2^31 of anything
         has_r, has_l = right >= 0, left >= 0
-        order = np.argsort(np.concatenate([right[has_r], left[has_l]]), kind="stable")
+        order = np.argsort(np.concatenate([right.compress(has_r), left.compress(has_l)]), kind="stable")
 
         def entries(of_right: np.ndarray, of_left: np.ndarray, order: np.ndarray = order) -> np.ndarray:
-            return np.concatenate([of_right[has_r], of_left[has_l]], dtype=np.int32)[order]
+            return np.concatenate([of_right.compress(has_r), of_left.compress(has_l)], dtype=np.int32).take(order)
 
         self.entry_other = entries(left, right)
-        u, v = cells.edges[boundary, 0], cells.edges[boundary, 1]
+        u, v = cells.edges[:, 0].take(boundary), cells.edges[:, 1].take(boundary)
         self.entry_from, self.entry_to = entries(u, v), entries(v, u)
         del u, v
         self.entry_edge = entries(boundary, boundary)
         del order
         per_face = np.bincount(right[has_r], minlength=n) + np.bincount(left[has_l], minlength=n)
-        self.entry_ptr = np.r_[0, np.cumsum(per_face)]
+        self.entry_ptr = np.concatenate(([0], np.cumsum(per_face)))
 
         inner = has_l & has_r
         lo, hi = np.minimum(left[inner], right[inner]).astype(np.int64), np.maximum(left[inner], right[inner])
@@ -121,8 +121,9 @@ class FaceTopology:
         others a seam opens at that point."""
         cells = self.cells
         n = self.n_faces
-        face_at = labels[np.repeat(np.arange(labels.size), np.diff(cells.cell_ptr))]
-        drawn_first = self.rank[face_at] + n * ~self.drawn[face_at]  # the lowest drawn face first
+        face_at = np.repeat(labels, np.diff(cells.cell_ptr))
+        drawn_first = self.rank.take(face_at)
+        drawn_first += n * ~self.drawn.take(face_at)  # the lowest drawn face first
         del face_at
         # one sorted key per (node, face) instead of a lexsort: ranks are distinct, so the
         # face comes back from its rank
@@ -132,15 +133,15 @@ class FaceTopology:
         del drawn_first
         node, drawn_first = np.divmod(_distinct(key), 2 * n)
         del key
-        face_at = self.face_of_rank[drawn_first % n]
+        face_at = self.face_of_rank.take(drawn_first % n)
         del drawn_first
-        start = np.flatnonzero(np.r_[True, node[1:] != node[:-1]])
+        start = np.flatnonzero(np.concatenate(([True], node[1:] != node[:-1])))
         del node
-        count = np.diff(np.r_[start, face_at.size])
-        lowest = np.repeat(face_at[start], count)  # sorted by rank within each node
+        count = np.diff(np.concatenate((start, [face_at.size])))
+        lowest = np.repeat(face_at.take(start), count)  # sorted by rank within each node
         crowded = np.repeat(count >= 3, count) & (face_at != lowest)
         corners = np.empty((int(crowded.sum()), 2), np.int32)
-        corners[:, 0], corners[:, 1] = lowest[crowded], face_at[crowded]
+        corners[:, 0], corners[:, 1] = lowest.compress(crowded), face_at.compress(crowded)
         return corners
 
     def _depths(self, pairs: np.ndarray) -> np.ndarray:
@@ -218,7 +219,7 @@ class FaceTopology:
         n = self.n_faces
         neighbours = self._neighbours(edge_cost)
         owner = keys // n
-        cuts = unique(np.r_[0, np.searchsorted(owner, owner[ABSORB_BATCH::ABSORB_BATCH]), keys.size])
+        cuts = unique(np.concatenate(([0], np.searchsorted(owner, owner[ABSORB_BATCH::ABSORB_BATCH]), [keys.size])))
         del owner
         return np.concatenate([self._grow(keys[a:b], neighbours)
                                for a, b in zip(cuts[:-1].tolist(), cuts[1:].tolist())] or [keys])
@@ -236,15 +237,15 @@ class FaceTopology:
             lo, hi = int(self.entry_ptr[a]), int(self.entry_ptr[b])
             face = np.repeat(np.arange(a, b), np.diff(self.entry_ptr[a : b + 1]))
             other = self.entry_other[lo:hi]
-            key, inverse = np.unique(face * (n + 1) + np.where(other >= 0, other, n), return_inverse=True)
-            cost = np.bincount(inverse, weights=edge_cost[self.entry_edge[lo:hi]])
+            key, cost = sums_by_key(face * (n + 1) + np.where(other >= 0, other, n),
+                                    edge_cost.take(self.entry_edge[lo:hi]))
             face, other = np.divmod(key, n + 1)
             perimeter[a:b] = np.bincount(face - a, weights=cost, minlength=b - a)
             inner = other < n
             count[a:b] = np.bincount(face[inner] - a, minlength=b - a)
             others.append(other[inner].astype(np.int32))
             costs.append(cost[inner])
-        ptr = np.r_[0, np.cumsum(count)]
+        ptr = np.concatenate(([0], np.cumsum(count)))
         return ptr, np.concatenate(others), np.concatenate(costs), perimeter
 
     def _grow(self, keys: np.ndarray, neighbours: tuple[np.ndarray, ...]) -> np.ndarray:
@@ -252,24 +253,24 @@ class FaceTopology:
         n = self.n_faces
         nb_ptr, h, w, perimeter = neighbours
         while True:
-            owner, member = keys // n, keys % n
-            count = nb_ptr[member + 1] - nb_ptr[member]
-            idx = np.repeat(nb_ptr[member] - (np.cumsum(count) - count), count) + np.arange(int(count.sum()))
+            owner, member = np.divmod(keys, n)
+            start = nb_ptr.take(member)
+            count = nb_ptr.take(member + 1) - start
+            idx = np.repeat(start - (np.cumsum(count) - count), count) + np.arange(int(count.sum()))
             f = np.repeat(owner, count)
-            cand = h[idx]
-            ok = self.opaque[cand] & (self.rank[cand] > self.rank[f])
-            cand_key = f[ok] * n + cand[ok]
+            cand = h.take(idx)
+            ok = self.opaque.take(cand) & (self.rank.take(cand) > self.rank.take(f))
+            cand_key = f.compress(ok) * n + cand.compress(ok)
             fresh = ~in_sorted(keys, cand_key)
-            cand_key, weight = cand_key[fresh], w[idx][ok][fresh]
+            cand_key, weight = cand_key.compress(fresh), w.take(idx).compress(ok).compress(fresh)
             if cand_key.size == 0:
                 return keys
-            uniq, inv = np.unique(cand_key, return_inverse=True)
-            shared = np.bincount(inv, weights=weight)
-            gain = 2 * shared - perimeter[uniq % n]
-            add = uniq[gain > 1e-9]
+            uniq, shared = sums_by_key(cand_key, weight)
+            gain = 2 * shared - perimeter.take(uniq % n)
+            add = uniq.compress(gain > 1e-9)
             if add.size == 0:
                 return keys
-            keys = union(keys, add)
+            keys = np.sort(np.concatenate((keys, add)))  # none of them among the keys (fresh)
 
     def _roles(self, pairs: np.ndarray) -> np.ndarray:
         """(F,) int8 role of each face's shape: the lowest shape, when it covers most of the
@@ -300,5 +301,5 @@ def _distinct(values: np.ndarray) -> np.ndarray:
     argsort and no copy, where ``unique`` makes three)."""
     values.sort()
     first = np.ones(values.size, bool)
-    first[1:] = values[1:] != values[:-1]
-    return values[first]
+    np.not_equal(values[1:], values[:-1], out=first[1:])
+    return values.compress(first)

@@ -21,7 +21,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from .arrays import batch_bounds
+from .arrays import batch_bounds, set_rows
 from .boundaries import CUBIC, LINE, QUAD
 from .outlines import Outlines, OutlineShapes, outline_shapes
 from .stacking import ROLES
@@ -106,7 +106,7 @@ class _Labels:
 
     def __init__(self, shapes: Outlines | OutlineShapes) -> None:
         region = shapes.region
-        self.run_start = np.r_[True, region[1:] != region[:-1]]
+        self.run_start = _prepend(True, region[1:] != region[:-1])
         self.run_id = np.cumsum(self.run_start) - 1
         self.run_size = np.bincount(self.run_id)
         rgba = shapes.rgba.astype(np.int64)
@@ -116,9 +116,6 @@ class _Labels:
         self.count = np.empty(key.size, np.int64)  # the how-manieth shape of its id
         self.count[order] = np.arange(key.size) - np.searchsorted(ranked, ranked) + 1
 
-    def grouped(self, s: int) -> bool:
-        return bool(self.run_size[self.run_id[s]] > 1)
-
 
 def _elements(outlines: Outlines, first: int, labels: _Labels, precision: int) -> str:
     """The ``<g>``/``<path>`` elements of a batch of shapes, the first being shape ``first``."""
@@ -126,23 +123,26 @@ def _elements(outlines: Outlines, first: int, labels: _Labels, precision: int) -
     if n == 0:
         return ""
     data = path_data(outlines, precision)
-    region = outlines.region
-    total = labels.run_id.size
+    stop = first + n
+    # Python lists: the loop reads a few numbers per shape (numpy scalars cost ~100 ns apiece)
+    run_id = labels.run_id[first:stop].tolist()
+    run_start = labels.run_start[first : stop + 1].tolist() + [True]  # the shape after the last too
+    run_size = labels.run_size.tolist()
     lines = []
-    for i, (role, (r, g, b, a), count) in enumerate(zip(outlines.role.tolist(), outlines.rgba.tolist(),
-                                                        labels.count[first : first + n].tolist())):
-        s = first + i
-        grouped = labels.grouped(s)
-        if grouped and labels.run_start[s]:
-            label = f"shading #{r:02x}{g:02x}{b:02x} ({labels.run_size[labels.run_id[s]]} tones)"
-            lines.append(f'<g id="region-{int(region[i])}-{int(labels.run_id[s])}" inkscape:label="{label}">\n')
+    for i, (role, (r, g, b, a), count, region) in enumerate(zip(outlines.role.tolist(), outlines.rgba.tolist(),
+                                                                labels.count[first:stop].tolist(),
+                                                                outlines.region.tolist())):
+        grouped = run_size[run_id[i]] > 1
+        if grouped and run_start[i]:
+            label = f"shading #{r:02x}{g:02x}{b:02x} ({run_size[run_id[i]]} tones)"
+            lines.append(f'<g id="region-{region}-{run_id[i]}" inkscape:label="{label}">\n')
         colour = f"#{r:02x}{g:02x}{b:02x}"
         opacity = "" if a == 255 else f' fill-opacity="{numbers(np.array([a / 255.0]), 3).tolist()[0]}"'
         base = f"{ROLES[role]}-{colour[1:]}"
         ident = base if count == 1 else f"{base}-{count}"
         lines.append(f'<path id="{ident}" inkscape:label="{ROLES[role]} {colour}" fill="{colour}"{opacity} '
                      f'd="{data[i]}"/>\n')
-        if grouped and (s + 1 == total or labels.run_start[s + 1]):
+        if grouped and run_start[i + 1]:
             lines.append("</g>\n")
     return "".join(lines)
 
@@ -166,7 +166,7 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     unit = 10.0**precision
     cmd, args = _commands(outlines, unit)
     n_cmd = cmd.size
-    arity = _ARITY[cmd]
+    arity = _ARITY.take(cmd)
     shape_of_loop = np.repeat(np.arange(len(outlines)), np.diff(outlines.shape_ptr))
     # every loop is M + segments + Z: the command's shape from its loop
     loop_len = np.diff(outlines.loop_ptr)
@@ -199,12 +199,12 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     number_rows = np.where(use_rel[:, None], 1, 0)  # which table: abs 0 / rel 1
     num_cmd = np.repeat(np.arange(n_cmd), n_num)
     num_k = np.arange(num_cmd.size) - np.repeat(np.cumsum(n_num) - n_num, n_num)
-    num_pos = tok_start[num_cmd] + (~implicit[num_cmd]) + num_k
-    rel_num = use_rel[num_cmd]
+    num_pos = tok_start.take(num_cmd) + (~implicit).take(num_cmd) + num_k
+    rel_num = use_rel.take(num_cmd)
     flat = num_cmd * _W + num_k  # the number's place in (C, 6) argument tables
-    minus = np.where(rel_num, flags_rel.minus[flat], flags_abs.minus[flat])
-    dot_start = np.where(rel_num, flags_rel.dot_start[flat], flags_abs.dot_start[flat])
-    has_dot = np.where(rel_num, flags_rel.has_dot[flat], flags_abs.has_dot[flat])
+    minus = np.where(rel_num, flags_rel.minus.take(flat), flags_abs.minus.take(flat))
+    dot_start = np.where(rel_num, flags_rel.dot_start.take(flat), flags_abs.dot_start.take(flat))
+    has_dot = np.where(rel_num, flags_rel.has_dot.take(flat), flags_abs.has_dot.take(flat))
     del number_rows
 
     # separators: a space before a number that follows a number, unless the number starts
@@ -213,7 +213,8 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     tok_has_dot[num_pos] = has_dot
     prev_is_number = _prepend(False, is_number[:-1])
     sep = np.zeros(n_tok, bool)
-    sep[num_pos] = prev_is_number[num_pos] & ~minus & ~(dot_start & _prepend(False, tok_has_dot[:-1])[num_pos])
+    after_dot = _prepend(False, tok_has_dot[:-1]).take(num_pos)
+    sep[num_pos] = prev_is_number.take(num_pos) & ~minus & ~(dot_start & after_dot)
     tok_shape = np.repeat(shape_of_cmd, tok_count)
     sep &= _prepend(False, tok_shape[1:] == tok_shape[:-1])
 
@@ -221,7 +222,7 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     rel_row = abs_row + len(texts) // 2  # the relative arguments' texts follow the absolute ones
     row = np.empty(n_tok, np.int64)
     row[tok_start[~implicit]] = letter_row + letter[~implicit]
-    row[num_pos] = np.where(rel_num, rel_row, abs_row) + np.cumsum(_used(arity).ravel())[flat] - 1  # used only
+    row[num_pos] = np.where(rel_num, rel_row, abs_row) + np.cumsum(_used(arity).ravel()).take(flat) - 1  # used only
     # interleave the separators: token i becomes [space] + token
     out_count = 1 + sep.astype(np.int64)
     out_start = np.cumsum(out_count) - out_count
@@ -231,10 +232,10 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     pieces = table.take(stream)
     # split per shape
     shape_tok_end = np.searchsorted(tok_shape, np.arange(len(outlines)) + 1)
-    out_end = np.r_[out_start, stream.size][shape_tok_end]
+    out_end = np.concatenate((out_start, [stream.size])).take(shape_tok_end)
     text = pieces.tobytes().decode("ascii")
     byte_end = np.cumsum(pieces.length)
-    bounds = np.r_[0, byte_end[out_end - 1]]
+    bounds = _prepend(0, byte_end.take(out_end - 1))
     return [text[bounds[i] : bounds[i + 1]] for i in range(len(outlines))]
 
 
@@ -260,16 +261,20 @@ def _commands(outlines: Outlines, unit: float) -> tuple[np.ndarray, np.ndarray]:
     seg_loop = np.repeat(np.arange(n_loop), loop_len)
     last = outlines.loop_ptr[1:] - 1
     start = end.take(last, axis=0)  # each loop starts where its last segment ends
-    seg_start = np.roll(end, 1, axis=0)
-    seg_start[outlines.loop_ptr[:-1]] = start
+    seg_start = np.empty_like(end)  # the previous segment's end; a loop's first: the loop's start
+    seg_start[1:] = end[:-1]
+    set_rows(seg_start, outlines.loop_ptr[:-1], start)
     drop = np.zeros(kind.size, bool)
     drop[last[kind[last] == LINE]] = True
     # a quadratic whose control mirrors the previous quadratic's through its start is "T"
     first = np.zeros(kind.size, bool)
     first[outlines.loop_ptr[:-1]] = True
-    prev_ctrl = np.roll(ctrl, 1, axis=0)
-    prev_quad = np.roll(kind, 1) == QUAD
-    smooth = (kind == QUAD) & prev_quad & ~first & (ctrl == 2 * seg_start - prev_ctrl).all(axis=1)
+    smooth = kind == QUAD
+    smooth[1:] &= smooth[:-1].copy()  # after a quadratic (the first of a loop is left out)
+    smooth[:1] = False
+    smooth &= ~first
+    for c in range(2):  # (a test over a short axis is slow)
+        smooth[1:] &= ctrl[1:, c] == 2 * seg_start[1:, c] - ctrl[:-1, c]
 
     code = np.where(kind == LINE, L, np.where(kind == CUBIC, C, np.where(smooth, T, Q)))
     horizontal = (kind == LINE) & (end[:, 1] == seg_start[:, 1])
@@ -302,8 +307,8 @@ def _commands(outlines: Outlines, unit: float) -> tuple[np.ndarray, np.ndarray]:
     cmd[loop_first + per_loop - 1] = Z
     seg_index = np.flatnonzero(keep)
     rank_in_loop = np.arange(seg_index.size) - np.repeat(np.cumsum(per_loop - 2) - (per_loop - 2), per_loop - 2)
-    pos = loop_first[seg_loop[seg_index]] + 1 + rank_in_loop
-    cmd[pos] = code[seg_index]
+    pos = loop_first.take(seg_loop.take(seg_index)) + 1 + rank_in_loop
+    cmd[pos] = code.take(seg_index)
     source[pos] = seg_index
     return cmd, table.take(source, axis=0)
 
@@ -319,7 +324,7 @@ def _relative(cmd: np.ndarray, absolute: np.ndarray, shape_of_cmd: np.ndarray) -
     end_at = np.where(close, loop_m * _W, rows * _W + np.where(cmd == Q, 2, np.where(cmd == C, 4, 0)))
     flat = absolute.ravel()
     sets = pair | close
-    end_x, end_y = np.where(sets, flat[end_at], 0), np.where(sets, flat[end_at + 1], 0)
+    end_x, end_y = np.where(sets, flat.take(end_at), 0), np.where(sets, flat.take(end_at + 1), 0)
     # propagate x (for V) and y (for H): the last command that set that coordinate
     x_src = np.maximum.accumulate(np.where(sets | x_only, rows, 0))
     y_src = np.maximum.accumulate(np.where(sets | y_only, rows, 0))
@@ -327,8 +332,8 @@ def _relative(cmd: np.ndarray, absolute: np.ndarray, shape_of_cmd: np.ndarray) -
     y_val = np.where(y_only, absolute[:, 0], end_y)
     # the current point before each command (the origin at a new path)
     new_shape = _prepend(True, shape_of_cmd[1:] != shape_of_cmd[:-1])
-    before_x = np.where(new_shape, 0, _prepend(0, x_val[x_src][:-1]))
-    before_y = np.where(new_shape, 0, _prepend(0, y_val[y_src][:-1]))
+    before_x = np.where(new_shape, 0, _prepend(0, x_val.take(x_src[:-1])))
+    before_y = np.where(new_shape, 0, _prepend(0, y_val.take(y_src[:-1])))
     two = (cmd == Q) | (cmd == C)  # commands with a second and a third point
     three = cmd == C
     zero = np.zeros(n, np.int64)
@@ -360,18 +365,20 @@ def _format(tables: tuple[np.ndarray, np.ndarray], arity: np.ndarray, precision:
     the arithmetic on a sprite's few hundred commands."""
     values = np.stack(tables)  # (2, C, 6)
     used = _used(arity)
-    texts = numbers(values[:, used].ravel() / 10.0**precision, precision, compact=True)
+    at = np.flatnonzero(np.tile(used.ravel(), 2))  # the used numbers of both tables, flat
+    texts = numbers(values.ravel().take(at) / 10.0**precision, precision, compact=True)
     scale = 10**precision
-    whole, frac = np.divmod(np.abs(values), scale)
     minus = values < 0
-    has_dot = frac != 0
-    dot_start = (whole == 0) & has_dot & ~minus
+    has_dot = (values % scale) != 0
+    dot_start = (values > 0) & (values < scale)  # "0.…": a whole part of 0 and a fraction
     length = np.zeros(values.shape, np.int64)
-    length[:, used] = texts.length.reshape(2, -1)
+    length.ravel().put(at, texts.length)
     # a space between two numbers of one command unless the second starts with "-" or "."
-    sep = np.zeros(values.shape, bool)
-    sep[:, :, 1:] = ~minus[:, :, 1:] & ~(dot_start[:, :, 1:] & has_dot[:, :, :-1])
-    total = np.where(used, length + sep, 0).sum(axis=2)
+    # (the used columns are the first ones: the column before a used one is used)
+    sep = ~minus[:, :, 1:] & ~(dot_start[:, :, 1:] & has_dot[:, :, :-1])
+    sep &= used[:, 1:]
+    length[:, :, 1:] += sep
+    total = sum((length[:, :, j] for j in range(1, _W)), length[:, :, 0])  # (a sum over a short axis is slow)
     abs_flags, rel_flags = (_Flags(minus[i].ravel(), dot_start[i].ravel(), has_dot[i].ravel(), total[i])
                             for i in range(2))
     return texts, (abs_flags, rel_flags)

@@ -77,7 +77,12 @@ def numbers(values: np.ndarray, precision: int, prefix: str = "", compact: bool 
     values = np.asarray(values, dtype=np.float64)
     n = len(values)
     k = int(np.prod(values.shape[1:], dtype=np.int64)) if values.ndim > 1 else 1
-    digits, digits_keep = _decimal_columns(values.ravel(), precision, compact)  # (n*k, W)
+    digit_planes, keep_planes = _decimal_planes(values.ravel(), precision, compact)  # (W, n*k)
+    if k == 1 and not prefix:  # one number a string (the path data's): its characters alone
+        length = keep_planes.sum(axis=0)
+        chars = digit_planes.T.ravel()  # (n, W) in order, a copy
+        return Texts(chars.compress(keep_planes.T.ravel()), np.cumsum(length) - length, length)
+    digits, digits_keep = digit_planes.T, keep_planes.T  # (n*k, W)
     lead, width = len(prefix), digits.shape[1] + 1  # each number: a space, then its digits
     chars = np.empty((n, lead + k * width), dtype=np.uint8)
     keep = np.empty(chars.shape, dtype=bool)
@@ -87,32 +92,35 @@ def numbers(values: np.ndarray, precision: int, prefix: str = "", compact: bool 
     body_keep[:, 0, 0] = False  # no space before the first number of a row
     body[..., 1:], body_keep[..., 1:] = digits.reshape(n, k, width - 1), digits_keep.reshape(n, k, width - 1)
     length = keep.sum(axis=1)
-    return Texts(chars[keep], np.cumsum(length) - length, length)
+    return Texts(chars.ravel().compress(keep.ravel()), np.cumsum(length) - length, length)
 
 
-def _decimal_columns(values: np.ndarray, precision: int, compact: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """Characters ``(n, W) uint8`` of each formatted value, and which of them to keep
-    (``compact``: no units digit "0" before a fraction)."""
+def _decimal_planes(values: np.ndarray, precision: int, compact: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Characters ``(W, n) uint8`` of the formatted values, a plane per character position
+    (contiguous rows: numpy writes and sums those several times faster than the columns of
+    an (n, W) table), and which of them to keep (``compact``: no units digit "0" before a
+    fraction)."""
     scaled = np.round(values * 10**precision).astype(np.int64)
     whole, frac = np.divmod(np.abs(scaled), 10**precision)
     n_digits = max(len(str(int(whole.max(initial=0)))), 1)
-    # columns: sign, n_digits whole digits, ".", precision fraction digits
-    chars = np.empty((scaled.size, 2 + n_digits + precision), dtype=np.uint8)
+    # planes: sign, n_digits whole digits, ".", precision fraction digits
+    chars = np.empty((2 + n_digits + precision, scaled.size), dtype=np.uint8)
     keep = np.empty(chars.shape, dtype=bool)
-    chars[:, 0], keep[:, 0] = ord("-"), scaled < 0
+    chars[0], keep[0] = ord("-"), scaled < 0
     rest = whole
     for col in range(n_digits, 0, -1):  # least significant first; scalar divisors are fast
         rest, digit = np.divmod(rest, 10)
-        chars[:, col] = digit + ord("0")
-        keep[:, col] = whole >= 10 ** (n_digits - col)
-    keep[:, n_digits] = ~((whole == 0) & (frac != 0)) if compact else True  # the units digit, even of 0
-    chars[:, n_digits + 1], keep[:, n_digits + 1] = ord("."), frac != 0
+        np.add(digit, ord("0"), out=chars[col], casting="unsafe")
+        np.greater_equal(whole, 10 ** (n_digits - col), out=keep[col])
+    keep[n_digits] = ~((whole == 0) & (frac != 0)) if compact else True  # the units digit, even of 0
+    chars[n_digits + 1] = ord(".")
+    np.not_equal(frac, 0, out=keep[n_digits + 1])
     rest, nonzero_after = frac, np.zeros(scaled.size, dtype=bool)
-    for col in range(chars.shape[1] - 1, n_digits + 1, -1):  # keep digits up to the last nonzero one
+    for col in range(chars.shape[0] - 1, n_digits + 1, -1):  # keep digits up to the last nonzero one
         rest, digit = np.divmod(rest, 10)
-        chars[:, col] = digit + ord("0")
+        np.add(digit, ord("0"), out=chars[col], casting="unsafe")
         nonzero_after |= digit != 0
-        keep[:, col] = nonzero_after
+        keep[col] = nonzero_after
     return chars, keep
 
 
@@ -125,7 +133,8 @@ def _copy_segments(data: np.ndarray, start: np.ndarray, length: np.ndarray) -> n
         return np.zeros(0, dtype=np.uint8)
     bounds = np.searchsorted(ends, np.arange(_CHUNK, int(ends[-1]), _CHUNK), side="right")
     parts = []
-    for a, b in zip(np.r_[0, bounds].tolist(), np.r_[bounds, start.size].tolist()):
+    bounds = bounds.tolist()
+    for a, b in zip([0] + bounds, bounds + [start.size]):
         if a == b:
             continue
         s, ln = start[a:b], length[a:b]

@@ -116,7 +116,9 @@ def label_components(n: int, pairs: np.ndarray) -> np.ndarray:
         return np.zeros(0, np.int64)
     root = component_roots(n, pairs[:, 0], pairs[:, 1])  # smallest item of each component
     is_root = root == np.arange(n)
-    return (np.cumsum(is_root) - 1)[root]
+    label = np.cumsum(is_root)
+    label -= 1
+    return label.take(root)
 
 
 def regions(cells: CellGraph) -> np.ndarray:
@@ -141,9 +143,9 @@ def faces_and_regions(cells: CellGraph, per_cell: bool = False,
     else:
         key = _colour_key(cells.graph.rgba).ravel()
         left, right = cells.edge_pixels[:, 0], cells.edge_pixels[:, 1]
-        same = linked & (key[np.maximum(left, 0)] == key[np.maximum(right, 0)])
-        face = label_components(n, cells.edge_pixels[same])
-    region = label_components(n, cells.edge_pixels[linked]) if with_regions else None
+        same = linked & (key.take(np.maximum(left, 0)) == key.take(np.maximum(right, 0)))
+        face = label_components(n, cells.edge_pixels.compress(same, axis=0))  # (compress: no row fancy indexing)
+    region = label_components(n, cells.edge_pixels.compress(linked, axis=0)) if with_regions else None
     return face, region
 
 

@@ -5,7 +5,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from depixel.arrays import batch_bounds, batch_slices, in_sorted, set_rows, union, unique
+from depixel.arrays import batch_bounds, batch_slices, in_sorted, set_rows, sums_by_key, union, unique
 
 
 @given(st.lists(st.integers(0, 50), max_size=60), st.integers(1, 120))
@@ -48,3 +48,13 @@ def test_set_rows_writes_the_rows_given_as_fancy_assignment_would():
     expected[rows] = values
     set_rows(target, rows, values)
     assert np.array_equal(target, expected)
+
+
+@given(st.lists(st.integers(-5, 5), max_size=60), st.integers(0, 2**31))
+def test_sums_by_key_are_uniques_keys_and_bincounts_sums_to_the_bit(keys, seed):
+    keys = np.array(keys, np.int64)
+    weights = np.random.default_rng(seed).normal(size=keys.size) * 10.0 ** np.arange(keys.size) % 7
+    distinct, sums = sums_by_key(keys, weights)
+    expected, inverse = np.unique(keys, return_inverse=True)
+    assert np.array_equal(distinct, expected)
+    assert sums.tobytes() == np.bincount(inverse, weights=weights, minlength=expected.size).tobytes()
