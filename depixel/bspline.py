@@ -68,6 +68,16 @@ def slot_spans(ctrl: np.ndarray, prev: np.ndarray, nxt: np.ndarray, end: np.ndar
                 end[p_next][:, None])
 
 
+def curve_points(before: np.ndarray, control: np.ndarray, after: np.ndarray, before_is_end: np.ndarray,
+                 after_is_end: np.ndarray, is_end: np.ndarray) -> np.ndarray:
+    """S: the :func:`midpoint` of the :func:`span` of each ``control`` between its neighbours
+    (the flags broadcastable to the points, e.g. ``(..., 1)``), or the control point itself
+    where ``is_end`` (an open curve's end point lies on the curve)."""
+    start = np.where(before_is_end, before, joint(before, control))
+    stop = np.where(after_is_end, after, joint(control, after))
+    return np.where(is_end, control, midpoint(start, control, stop))
+
+
 def midpoint(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> np.ndarray:
     """The point at t = ½ of quadratic Béziers (of a span: its curve point S)."""
     return (p0 + 2.0 * p1 + p2) / 4.0
@@ -123,7 +133,8 @@ def _angle(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def between_curve_points(c_a: np.ndarray, c_b: np.ndarray, s_a: np.ndarray, s_b: np.ndarray,
-                         a_is_end: np.ndarray, b_is_end: np.ndarray) -> np.ndarray:
+                         a_is_end: np.ndarray, b_is_end: np.ndarray, forward: np.ndarray | None = None,
+                         out: np.ndarray | None = None) -> np.ndarray:
     """``(E, 3, 2)`` controls (c0, c1, c2) of the curve between consecutive control points
     C_a → C_b, from the curve point S_a to S_b, as two Béziers ``S_a Q c0 c1 Q c2 S_b``.
 
@@ -131,15 +142,24 @@ def between_curve_points(c_a: np.ndarray, c_b: np.ndarray, s_a: np.ndarray, s_b:
     at m = mid(C_a, C_b). With an end point (``a_is_end`` / ``b_is_end``, (E,) bool; the curve
     starts or stops there instead of at S): the one Bézier (C_a or S_a, m, S_b or C_b) split
     at t = ½. Either way the result is exactly the B-spline; at most one of the two may be
-    an end (an open curve of one edge is a straight segment)."""
+    an end (an open curve of one edge is a straight segment). Where ``forward`` (E,) bool is
+    false the controls are given from S_b to S_a (c2, c1, c0). Written into ``out`` when given.
+
+    c0 is (C_a + m) / 2 in both cases unless C_b is the end (then (S_a + m) / 2), c2 likewise,
+    so each is one expression; c1 is m, or the split point with an end."""
+    a_end, b_end = a_is_end[:, None], b_is_end[:, None]
     mid = joint(c_a, c_b)
-    inner = np.stack([(c_a + mid) / 2.0, mid, (mid + c_b) / 2.0], axis=1)
-    start = np.where(a_is_end[:, None], c_a, s_a)
-    stop = np.where(b_is_end[:, None], c_b, s_b)
-    first, second = split_half(start, mid, stop)
-    single = np.stack([first.p1, first.p2, second.p1], axis=1)
-    both = ~a_is_end & ~b_is_end
-    return np.where(both[:, None, None], inner, single)
+    first = (np.where(b_end, s_a, c_a) + mid) / 2.0
+    last = (mid + np.where(a_end, s_b, c_b)) / 2.0
+    split = midpoint(np.where(a_end, c_a, s_a), mid, np.where(b_end, c_b, s_b))
+    out = np.empty((mid.shape[0], 3, 2)) if out is None else out
+    if forward is None:
+        out[:, 0], out[:, 2] = first, last
+    else:
+        out[:, 0] = np.where(forward[:, None], first, last)
+        out[:, 2] = np.where(forward[:, None], last, first)
+    out[:, 1] = np.where(a_end | b_end, split, mid)
+    return out
 
 
 def edge_halves(start: np.ndarray, controls: np.ndarray, stop: np.ndarray) -> tuple[Bezier, Bezier]:

@@ -38,7 +38,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .arrays import batch_slices, set_rows
-from .bspline import Bezier, between_curve_points, midpoint, slot_spans, span
+from .bspline import Bezier, between_curve_points, curve_points, midpoint, slot_spans, span
 from .cells import INDEX, CellGraph
 from .frozen import freeze
 from .pairing import HalfEnds, band_edges, chain_curves, pair_ends, shading_edges, visible_edges
@@ -64,6 +64,28 @@ class Drawing(NamedTuple):
     points: np.ndarray  # (N, 2) as Geometry.points
     edges: np.ndarray  # (C,) the curved edges, in slot order
     controls: np.ndarray  # (C, 3, 2) their Geometry.controls
+
+
+class _DrawPlan(NamedTuple):
+    """What a drawing of a SplineSet needs besides the control points, fixed per SplineSet:
+    each slot's neighbours (clamped to slot 0 past an open end) and which slots are ends
+    ((P, 1) bool, broadcastable over x, y); the inner slots and their nodes; the curved
+    edges' slots ``a`` → ``b`` (in slot order), whether those are ends, whether the edge is
+    stored in the curve's direction, and the edges."""
+
+    before: np.ndarray
+    after: np.ndarray
+    before_is_end: np.ndarray
+    after_is_end: np.ndarray
+    is_end: np.ndarray
+    inner: np.ndarray
+    inner_nodes: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    a_is_end: np.ndarray
+    b_is_end: np.ndarray
+    forward: np.ndarray
+    edges: np.ndarray
 
 
 class _SnapPlan(NamedTuple):
@@ -216,18 +238,33 @@ class SplineSet:
     def _curve_points(self, ctrl: np.ndarray) -> np.ndarray:
         """(P, 2) S_j: the point of the curve belonging to each slot (an end: the end);
         :data:`GEOMETRY_BATCH` slots at a time (the spans are six times the result)."""
-        prev, nxt = self.neighbours()
-        end = self.is_end()
+        plan = self._draw_plan
         s = np.empty_like(ctrl)
         for part in batch_slices(s.shape[0], GEOMETRY_BATCH):
-            s[part] = np.where(end[part, None], ctrl[part], midpoint(*slot_spans(ctrl, prev, nxt, end, part)))
+            s[part] = curve_points(ctrl.take(plan.before[part], axis=0), ctrl[part],
+                                   ctrl.take(plan.after[part], axis=0), plan.before_is_end[part],
+                                   plan.after_is_end[part], plan.is_end[part])
         return s
+
+    @cached_property
+    def _draw_plan(self) -> _DrawPlan:
+        """The indices of a drawing, computed once per SplineSet."""
+        prev, nxt = self.neighbours()
+        end = self.is_end()
+        before, after = np.maximum(prev, 0), np.maximum(nxt, 0)
+        inner = np.flatnonzero(~end)
+        a = np.flatnonzero(nxt >= 0)
+        a = a.compress(~(end.take(a) & end.take(nxt.take(a))))  # an edge between two end points is straight
+        b = nxt.take(a)
+        return _DrawPlan(before, after, end.take(before)[:, None], end.take(after)[:, None], end[:, None],
+                         inner, self.curve_nodes.take(inner), a, b, end.take(a), end.take(b),
+                         self.slot_forward.take(a), self.slot_edges.take(a))
 
     def _display(self, s: np.ndarray, positions: np.ndarray) -> np.ndarray:
         """(N, 2) ``positions`` with every curve's inner nodes moved to their curve points ``s``."""
+        plan = self._draw_plan
         display = positions.copy()
-        inner = ~self.is_end()
-        set_rows(display, self.curve_nodes.compress(inner), s.compress(inner, axis=0))
+        set_rows(display, plan.inner_nodes, s.take(plan.inner, axis=0))
         return display
 
     def display_points(self, positions: np.ndarray) -> np.ndarray:
@@ -253,20 +290,16 @@ class SplineSet:
         return Geometry(points, curved, controls)
 
     def _drawing(self, ctrl: np.ndarray, positions: np.ndarray) -> Drawing:
+        plan = self._draw_plan
         s = self._curve_points(ctrl)
         display = self._display(s, positions)
-        _, nxt = self.neighbours()
-        end = self.is_end()
-        a = np.flatnonzero(nxt >= 0)
-        a = a[~(end[a] & end[nxt[a]])]  # an edge between two end points is a straight segment
-        controls = np.empty((a.size, 3, 2), dtype=np.float64)
-        for part in batch_slices(a.size, GEOMETRY_BATCH):  # the Béziers' temporaries are several times the result
-            a_part = a[part]
-            b_part = nxt[a_part]
-            trio = between_curve_points(ctrl.take(a_part, axis=0), ctrl.take(b_part, axis=0), s.take(a_part, axis=0),
-                                        s.take(b_part, axis=0), end[a_part], end[b_part])
-            controls[part] = np.where(self.slot_forward[a_part, None, None], trio, trio[:, ::-1])
-        return Drawing(display, self.slot_edges[a], controls)
+        controls = np.empty((plan.a.size, 3, 2), dtype=np.float64)
+        for part in batch_slices(plan.a.size, GEOMETRY_BATCH):  # the Béziers' temporaries are several times the result
+            a_part, b_part = plan.a[part], plan.b[part]
+            between_curve_points(ctrl.take(a_part, axis=0), ctrl.take(b_part, axis=0), s.take(a_part, axis=0),
+                                 s.take(b_part, axis=0), plan.a_is_end[part], plan.b_is_end[part],
+                                 plan.forward[part], controls[part])
+        return Drawing(display, plan.edges, controls)
 
     def vector_image(self, positions: np.ndarray | None = None, stage: str = "splines") -> VectorImage:
         positions = self.positions if positions is None else positions
