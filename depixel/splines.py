@@ -90,7 +90,8 @@ class _DrawPlan(NamedTuple):
 
 class _SnapPlan(NamedTuple):
     """What :meth:`SplineSet.snap` needs: each T-junction end, the slot it snaps to, that
-    slot's neighbours and whether they are ends ((T, 1) bool, broadcastable over x, y)."""
+    slot's neighbours and whether they are ends ((T, 1) bool, broadcastable over x, y);
+    ``rows``: the neighbours, the slots and the ends one after another (one gather a pass)."""
 
     ends: np.ndarray
     through: np.ndarray
@@ -98,12 +99,21 @@ class _SnapPlan(NamedTuple):
     after: np.ndarray
     before_is_end: np.ndarray
     after_is_end: np.ndarray
+    rows: np.ndarray
 
-    def move(self, ctrl: np.ndarray) -> bool:
-        """One snapping pass over these ends, in place; whether any of them moved."""
-        snapped = midpoint(*span(ctrl.take(self.before, axis=0), ctrl.take(self.through, axis=0),
-                                 ctrl.take(self.after, axis=0), self.before_is_end, self.after_is_end))
-        moved = not np.array_equal(snapped, ctrl.take(self.ends, axis=0))
+    @classmethod
+    def of(cls, ends: np.ndarray, through: np.ndarray, before: np.ndarray, after: np.ndarray,
+           before_is_end: np.ndarray, after_is_end: np.ndarray) -> _SnapPlan:
+        return cls(ends, through, before, after, before_is_end, after_is_end,
+                   np.concatenate([before, through, after, ends]))
+
+    def move(self, ctrl: np.ndarray, check: bool = True) -> bool:
+        """One snapping pass over these ends, in place; whether any of them moved (False
+        without ``check``)."""
+        t = self.ends.size
+        rows = ctrl.take(self.rows, axis=0)
+        snapped = midpoint(*span(rows[:t], rows[t:2 * t], rows[2 * t:3 * t], self.before_is_end, self.after_is_end))
+        moved = check and not (snapped == rows[3 * t:]).all()
         set_rows(ctrl, self.ends, snapped)
         return moved
 
@@ -113,7 +123,7 @@ class _SnapPlan(NamedTuple):
         snapped = np.zeros(n_slots, bool)
         snapped[self.ends] = True
         rows = np.flatnonzero(snapped[self.before] | snapped[self.after])
-        return _SnapPlan(*(field[rows] for field in self))
+        return _SnapPlan.of(*(field[rows] for field in self[:6]))
 
 
 @dataclass(frozen=True, eq=False)
@@ -200,10 +210,13 @@ class SplineSet:
         """Move the T-junction end control points of ``ctrl`` (P, 2) onto the curve point of
         the curve continuing through their node (iterated: those points may depend on
         other snapped ends). Returns a new array."""
-        ctrl = ctrl.copy()
+        return self._snap_in_place(ctrl.copy())
+
+    def _snap_in_place(self, ctrl: np.ndarray) -> np.ndarray:
+        """:meth:`snap` on ``ctrl`` itself (returned)."""
         plan, chained = self._snap_plans
         if plan.ends.size:
-            plan.move(ctrl)
+            plan.move(ctrl, check=False)
             # the other ends would get the same points again, and so would these once a
             # pass leaves them where they are
             for _ in range(self.snap_passes - 1 if chained.ends.size else 0):
@@ -219,13 +232,13 @@ class SplineSet:
         prev, nxt = self.neighbours()
         end = (prev < 0) | (nxt < 0)
         a, b = prev[through], nxt[through]
-        plan = _SnapPlan(ends, through, a, b, end[a][:, None], end[b][:, None])
+        plan = _SnapPlan.of(ends, through, a, b, end[a][:, None], end[b][:, None])
         return plan, plan.chained(self.n_slots)
 
     def controls_for(self, positions: np.ndarray) -> np.ndarray:
         """(P, 2) control point of every slot for node ``positions`` (N, 2), with T-junction
         ends snapped."""
-        return self.snap(positions.take(self.curve_nodes, axis=0))
+        return self._snap_in_place(positions.take(self.curve_nodes, axis=0))
 
     def spans(self, ctrl: np.ndarray) -> Bezier:
         """The quadratic Bézier span ``(start, C_j, stop)`` of every slot, each (P, 2), for
