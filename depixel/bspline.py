@@ -68,16 +68,6 @@ def slot_spans(ctrl: np.ndarray, prev: np.ndarray, nxt: np.ndarray, end: np.ndar
                 end[p_next][:, None])
 
 
-def curve_points(before: np.ndarray, control: np.ndarray, after: np.ndarray, before_is_end: np.ndarray,
-                 after_is_end: np.ndarray, is_end: np.ndarray) -> np.ndarray:
-    """S: the :func:`midpoint` of the :func:`span` of each ``control`` between its neighbours
-    (the flags broadcastable to the points, e.g. ``(..., 1)``), or the control point itself
-    where ``is_end`` (an open curve's end point lies on the curve)."""
-    start = np.where(before_is_end, before, joint(before, control))
-    stop = np.where(after_is_end, after, joint(control, after))
-    return np.where(is_end, control, midpoint(start, control, stop))
-
-
 def midpoint(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> np.ndarray:
     """The point at t = ½ of quadratic Béziers (of a span: its curve point S)."""
     return (p0 + 2.0 * p1 + p2) / 4.0
@@ -132,33 +122,26 @@ def _angle(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return np.abs(np.arctan2(cross, dot))
 
 
-def between_curve_points(c_a: np.ndarray, c_b: np.ndarray, s_a: np.ndarray, s_b: np.ndarray,
-                         a_is_end: np.ndarray, b_is_end: np.ndarray, forward: np.ndarray | None = None,
-                         out: np.ndarray | None = None) -> np.ndarray:
+def between_curve_points(mid: np.ndarray, near_a: np.ndarray, near_b: np.ndarray, start: np.ndarray,
+                         stop: np.ndarray, split: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     """``(E, 3, 2)`` controls (c0, c1, c2) of the curve between consecutive control points
     C_a → C_b, from the curve point S_a to S_b, as two Béziers ``S_a Q c0 c1 Q c2 S_b``.
 
     Both interior: the second half of C_a's span and the first half of C_b's, which meet
-    at m = mid(C_a, C_b). With an end point (``a_is_end`` / ``b_is_end``, (E,) bool; the curve
-    starts or stops there instead of at S): the one Bézier (C_a or S_a, m, S_b or C_b) split
-    at t = ½. Either way the result is exactly the B-spline; at most one of the two may be
-    an end (an open curve of one edge is a straight segment). Where ``forward`` (E,) bool is
-    false the controls are given from S_b to S_a (c2, c1, c0). Written into ``out`` when given.
-
-    c0 is (C_a + m) / 2 in both cases unless C_b is the end (then (S_a + m) / 2), c2 likewise,
-    so each is one expression; c1 is m, or the split point with an end."""
-    a_end, b_end = a_is_end[:, None], b_is_end[:, None]
-    mid = joint(c_a, c_b)
-    first = (np.where(b_end, s_a, c_a) + mid) / 2.0
-    last = (mid + np.where(a_end, s_b, c_b)) / 2.0
-    split = midpoint(np.where(a_end, c_a, s_a), mid, np.where(b_end, c_b, s_b))
+    at ``mid`` = :func:`joint` (C_a, C_b): c0 = (C_a + m) / 2, c1 = m, c2 = (m + C_b) / 2. With an
+    end point (``split``, (E, 1) bool; the curve starts or stops there instead of at S): the
+    one Bézier (``start``, m, ``stop``) — C_a or S_a, C_b or S_b — split at t = ½ (:func:`split_half`):
+    c0 = (start + m) / 2, c1 its :func:`midpoint`, c2 = (m + stop) / 2. Either way the result is
+    exactly the B-spline; at most one of the two may be an end (an open curve of one edge is
+    a straight segment). So c0 = (``near_a`` + m) / 2 with ``near_a`` = C_a, or S_a where C_b is
+    the end, and c2 = (m + ``near_b``) / 2 likewise: the caller gathers those rows. Swapping
+    ``near_a`` and ``near_b`` gives the controls from S_b to S_a (c2, c1, c0) to the bit (a sum
+    does not depend on the order of its terms). Written into ``out`` when given."""
     out = np.empty((mid.shape[0], 3, 2)) if out is None else out
-    if forward is None:
-        out[:, 0], out[:, 2] = first, last
-    else:
-        out[:, 0] = np.where(forward[:, None], first, last)
-        out[:, 2] = np.where(forward[:, None], last, first)
-    out[:, 1] = np.where(a_end | b_end, split, mid)
+    out[:, 0] = (near_a + mid) / 2.0
+    out[:, 2] = (mid + near_b) / 2.0
+    out[:, 1] = mid
+    np.copyto(out[:, 1], midpoint(start, mid, stop), where=split)
     return out
 
 

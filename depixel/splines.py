@@ -37,8 +37,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .arrays import batch_slices, set_rows
-from .bspline import Bezier, between_curve_points, curve_points, midpoint, slot_spans, span
+from .arrays import batch_slices, flat_rows, set_rows
+from .bspline import Bezier, between_curve_points, joint, midpoint, slot_spans
 from .cells import INDEX, CellGraph
 from .frozen import freeze
 from .pairing import HalfEnds, band_edges, chain_curves, pair_ends, shading_edges, visible_edges
@@ -67,31 +67,32 @@ class Drawing(NamedTuple):
 
 
 class _DrawPlan(NamedTuple):
-    """What a drawing of a SplineSet needs besides the control points, fixed per SplineSet:
-    each slot's neighbours (clamped to slot 0 past an open end) and which slots are ends
-    ((P, 1) bool, broadcastable over x, y); the inner slots and their nodes; the curved
-    edges' slots ``a`` → ``b`` (in slot order), whether those are ends, whether the edge is
-    stored in the curve's direction, and the edges."""
+    """What a drawing of a SplineSet needs besides the control points C, fixed per SplineSet.
 
-    before: np.ndarray
+    The joint of a slot and the next one, J_j = joint(C_j, C_next), is also the start of the
+    next slot's span (the same sum), so the spans' ends are rows of [J; C] (P rows each):
+    ``ends`` (2, P) the start and stop of every slot's span (a neighbour that is an open
+    end: its control point; past an end: a meaningless row); ``is_end`` (P, 1). The curved
+    edges' operands of :func:`depixel.bspline.between_curve_points` are rows of [C; S; J]:
+    ``operands`` (5, C) mid, near_a, near_b (swapped where the edge is stored against the
+    curve), start, stop; ``split`` (C, 1). ``inner`` the inner slots and ``inner_flat`` the
+    flat indices (x, y) of their nodes in an (N, 2) array; ``edges`` the curved edges."""
+
     after: np.ndarray
-    before_is_end: np.ndarray
-    after_is_end: np.ndarray
+    ends: np.ndarray
     is_end: np.ndarray
     inner: np.ndarray
-    inner_nodes: np.ndarray
-    a: np.ndarray
-    b: np.ndarray
-    a_is_end: np.ndarray
-    b_is_end: np.ndarray
-    forward: np.ndarray
+    inner_flat: np.ndarray
+    operands: np.ndarray
+    split: np.ndarray
     edges: np.ndarray
 
 
 class _SnapPlan(NamedTuple):
     """What :meth:`SplineSet.snap` needs: each T-junction end, the slot it snaps to, that
     slot's neighbours and whether they are ends ((T, 1) bool, broadcastable over x, y);
-    ``rows``: the neighbours, the slots and the ends one after another (one gather a pass)."""
+    ``rows``: the neighbours, the slots and the ends one after another (one gather a pass);
+    ``flat``: the ends' flat indices (x, y) in a (P, 2) array (one ``put`` a pass)."""
 
     ends: np.ndarray
     through: np.ndarray
@@ -100,21 +101,26 @@ class _SnapPlan(NamedTuple):
     before_is_end: np.ndarray
     after_is_end: np.ndarray
     rows: np.ndarray
+    flat: np.ndarray
 
     @classmethod
     def of(cls, ends: np.ndarray, through: np.ndarray, before: np.ndarray, after: np.ndarray,
            before_is_end: np.ndarray, after_is_end: np.ndarray) -> _SnapPlan:
         return cls(ends, through, before, after, before_is_end, after_is_end,
-                   np.concatenate([before, through, after, ends]))
+                   np.concatenate([before, through, after, ends]), flat_rows(ends, 2))
 
     def move(self, ctrl: np.ndarray, check: bool = True) -> bool:
         """One snapping pass over these ends, in place; whether any of them moved (False
         without ``check``)."""
         t = self.ends.size
         rows = ctrl.take(self.rows, axis=0)
-        snapped = midpoint(*span(rows[:t], rows[t:2 * t], rows[2 * t:3 * t], self.before_is_end, self.after_is_end))
+        before, through, after = rows[:t], rows[t:2 * t], rows[2 * t:3 * t]
+        start, stop = joint(before, through), joint(through, after)  # the span of span(), its ends by copyto
+        np.copyto(start, before, where=self.before_is_end)
+        np.copyto(stop, after, where=self.after_is_end)
+        snapped = midpoint(start, through, stop)
         moved = check and not (snapped == rows[3 * t:]).all()
-        set_rows(ctrl, self.ends, snapped)
+        ctrl.put(self.flat, snapped)
         return moved
 
     def chained(self, n_slots: int) -> _SnapPlan:
@@ -248,15 +254,21 @@ class SplineSet:
         prev, nxt = self.neighbours()
         return slot_spans(ctrl, prev, nxt, self.is_end())
 
-    def _curve_points(self, ctrl: np.ndarray) -> np.ndarray:
-        """(P, 2) S_j: the point of the curve belonging to each slot (an end: the end);
-        :data:`GEOMETRY_BATCH` slots at a time (the spans are six times the result)."""
+    def _joints(self, ctrl: np.ndarray) -> np.ndarray:
+        """(P, 2) J_j = joint(C_j, C_next) of every slot (past an open end: meaningless)."""
+        return joint(ctrl, ctrl.take(self._draw_plan.after, axis=0))
+
+    def _curve_points(self, ctrl: np.ndarray, joints: np.ndarray | None = None) -> np.ndarray:
+        """(P, 2) S_j: the point of the curve belonging to each slot (an end: the end), from
+        the control points and their :meth:`_joints` (computed when not given);
+        :data:`GEOMETRY_BATCH` slots at a time (the spans' ends are twice the result)."""
         plan = self._draw_plan
+        table = np.concatenate([self._joints(ctrl) if joints is None else joints, ctrl])  # [J; C]
         s = np.empty_like(ctrl)
         for part in batch_slices(s.shape[0], GEOMETRY_BATCH):
-            s[part] = curve_points(ctrl.take(plan.before[part], axis=0), ctrl[part],
-                                   ctrl.take(plan.after[part], axis=0), plan.before_is_end[part],
-                                   plan.after_is_end[part], plan.is_end[part])
+            start, stop = table.take(plan.ends[:, part], axis=0)
+            s[part] = midpoint(start, ctrl[part], stop)
+            np.copyto(s[part], ctrl[part], where=plan.is_end[part])
         return s
 
     @cached_property
@@ -264,20 +276,27 @@ class SplineSet:
         """The indices of a drawing, computed once per SplineSet."""
         prev, nxt = self.neighbours()
         end = self.is_end()
+        p = end.size
         before, after = np.maximum(prev, 0), np.maximum(nxt, 0)
+        ends = np.stack([np.where(end.take(before), p + before, before),
+                         np.where(end.take(after), p + after, np.arange(p))])
         inner = np.flatnonzero(~end)
         a = np.flatnonzero(nxt >= 0)
         a = a.compress(~(end.take(a) & end.take(nxt.take(a))))  # an edge between two end points is straight
         b = nxt.take(a)
-        return _DrawPlan(before, after, end.take(before)[:, None], end.take(after)[:, None], end[:, None],
-                         inner, self.curve_nodes.take(inner), a, b, end.take(a), end.take(b),
-                         self.slot_forward.take(a), self.slot_edges.take(a))
+        a_end, b_end = end.take(a), end.take(b)
+        near_a, near_b = np.where(b_end, p + a, a), np.where(a_end, p + b, b)  # C, or S where the other is the end
+        forward = self.slot_forward.take(a)
+        operands = np.stack([2 * p + a, np.where(forward, near_a, near_b), np.where(forward, near_b, near_a),
+                             np.where(a_end, a, p + a), np.where(b_end, b, p + b)])
+        return _DrawPlan(after, ends, end[:, None], inner, flat_rows(self.curve_nodes.take(inner), 2), operands,
+                         (a_end | b_end)[:, None], self.slot_edges.take(a))
 
     def _display(self, s: np.ndarray, positions: np.ndarray) -> np.ndarray:
         """(N, 2) ``positions`` with every curve's inner nodes moved to their curve points ``s``."""
         plan = self._draw_plan
         display = positions.copy()
-        set_rows(display, plan.inner_nodes, s.take(plan.inner, axis=0))
+        display.put(plan.inner_flat, s.take(plan.inner, axis=0))
         return display
 
     def display_points(self, positions: np.ndarray) -> np.ndarray:
@@ -304,14 +323,13 @@ class SplineSet:
 
     def _drawing(self, ctrl: np.ndarray, positions: np.ndarray) -> Drawing:
         plan = self._draw_plan
-        s = self._curve_points(ctrl)
+        joints = self._joints(ctrl)
+        s = self._curve_points(ctrl, joints)
         display = self._display(s, positions)
-        controls = np.empty((plan.a.size, 3, 2), dtype=np.float64)
-        for part in batch_slices(plan.a.size, GEOMETRY_BATCH):  # the Béziers' temporaries are several times the result
-            a_part, b_part = plan.a[part], plan.b[part]
-            between_curve_points(ctrl.take(a_part, axis=0), ctrl.take(b_part, axis=0), s.take(a_part, axis=0),
-                                 s.take(b_part, axis=0), plan.a_is_end[part], plan.b_is_end[part],
-                                 plan.forward[part], controls[part])
+        table = np.concatenate([ctrl, s, joints])  # [C; S; J]
+        controls = np.empty((plan.edges.size, 3, 2), dtype=np.float64)
+        for part in batch_slices(plan.edges.size, GEOMETRY_BATCH):  # the operands are five times the result
+            between_curve_points(*table.take(plan.operands[:, part], axis=0), plan.split[part], controls[part])
         return Drawing(display, plan.edges, controls)
 
     def vector_image(self, positions: np.ndarray | None = None, stage: str = "splines") -> VectorImage:
