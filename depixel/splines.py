@@ -329,7 +329,8 @@ class SplineSet:
         table = np.concatenate([ctrl, s, joints])  # [C; S; J]
         controls = np.empty((plan.edges.size, 3, 2), dtype=np.float64)
         for part in batch_slices(plan.edges.size, GEOMETRY_BATCH):  # the operands are five times the result
-            between_curve_points(*table.take(plan.operands[:, part], axis=0), plan.split[part], controls[part])
+            mid, near_a, near_b, start, stop = table.take(plan.operands[:, part], axis=0)
+            between_curve_points(mid, near_a, near_b, start, stop, plan.split[part], controls[part])
         return Drawing(display, plan.edges, controls)
 
     def vector_image(self, positions: np.ndarray | None = None, stage: str = "splines") -> VectorImage:
