@@ -64,6 +64,7 @@ class Drawing(NamedTuple):
     points: np.ndarray  # (N, 2) as Geometry.points
     edges: np.ndarray  # (C,) the curved edges, in slot order
     controls: np.ndarray  # (C, 3, 2) their Geometry.controls
+    ctrl: np.ndarray | None = None  # (P, 2) the control points drawn (SplineSet.controls_for), if known
 
 
 class _DrawPlan(NamedTuple):
@@ -313,7 +314,7 @@ class SplineSet:
         return self._drawing(self.controls_for(positions), positions)
 
     def _geometry(self, ctrl: np.ndarray, positions: np.ndarray) -> Geometry:
-        points, edge, trio = self._drawing(ctrl, positions)
+        points, edge, trio, _ = self._drawing(ctrl, positions)
         n_edges = len(self.cells.edges)
         curved = np.zeros(n_edges, dtype=bool)
         curved[edge] = True
@@ -331,7 +332,7 @@ class SplineSet:
         for part in batch_slices(plan.edges.size, GEOMETRY_BATCH):  # the operands are five times the result
             mid, near_a, near_b, start, stop = table.take(plan.operands[:, part], axis=0)
             between_curve_points(mid, near_a, near_b, start, stop, plan.split[part], controls[part])
-        return Drawing(display, plan.edges, controls)
+        return Drawing(display, plan.edges, controls, ctrl)
 
     def vector_image(self, positions: np.ndarray | None = None, stage: str = "splines") -> VectorImage:
         positions = self.positions if positions is None else positions
