@@ -37,7 +37,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .arrays import batch_slices, flat_rows, set_rows
+from .arrays import batch_slices, flat_rows
 from .bspline import Bezier, between_curve_points, joint, midpoint, slot_spans
 from .cells import INDEX, CellGraph
 from .frozen import freeze
@@ -318,9 +318,9 @@ class SplineSet:
         n_edges = len(self.cells.edges)
         curved = np.zeros(n_edges, dtype=bool)
         curved[edge] = True
-        controls = np.zeros((n_edges, 3, 2), dtype=np.float64)
-        set_rows(controls.reshape(n_edges, 6), edge, trio.reshape(-1, 6))
-        return Geometry(points, curved, controls)
+        controls = np.zeros(n_edges * 6, dtype=np.float64)  # (E, 3, 2) written flat, six numbers an edge
+        controls[flat_rows(edge, 6)] = trio.reshape(-1)
+        return Geometry(points, curved, controls.reshape(n_edges, 3, 2))
 
     def _drawing(self, ctrl: np.ndarray, positions: np.ndarray) -> Drawing:
         plan = self._draw_plan

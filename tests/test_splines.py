@@ -407,7 +407,8 @@ def test_drawing_is_the_spans_of_the_control_points_to_the_bit(case):
     spans = splines.spans(ctrl)
     end = splines.is_end()
     s = np.where(end[:, None], ctrl, midpoint(*spans))
-    points, edges, controls = splines.drawing(splines.positions)
+    points, edges, controls, drawn = splines.drawing(splines.positions)
+    assert np.array_equal(drawn, ctrl)
     inner = ~end
     expected_points = splines.positions.copy()
     expected_points[splines.curve_nodes[inner]] = s[inner]
