@@ -71,12 +71,13 @@ class _DrawPlan(NamedTuple):
     """What a drawing of a SplineSet needs besides the control points C, fixed per SplineSet.
 
     The joint of a slot and the next one, J_j = joint(C_j, C_next), is also the start of the
-    next slot's span (the same sum), so the spans' ends are rows of [J; C] (P rows each):
-    ``ends`` (2, P) the start and stop of every slot's span (a neighbour that is an open
-    end: its control point; past an end: a meaningless row); ``is_end`` (P, 1). The curved
-    edges' operands of :func:`depixel.bspline.between_curve_points` are rows of [C; S; J]:
-    ``operands`` (5, C) mid, near_a, near_b (swapped where the edge is stored against the
-    curve), start, stop; ``split`` (C, 1). ``inner`` the inner slots and ``inner_flat`` the
+    next slot's span (the same sum), so the spans' ends are rows of the table [C; S; J] (P
+    rows each, :meth:`SplineSet._table`): ``ends`` (2, P) the start and stop of every slot's
+    span (a neighbour that is an open end: its control point; past an end: a meaningless
+    row); ``is_end`` (P, 1). The curved edges' operands of
+    :func:`depixel.bspline.between_curve_points` are rows of the same table: ``operands``
+    (5, C) mid, near_a, near_b (swapped where the edge is stored against the curve), start,
+    stop; ``split`` (C, 1). ``inner`` the inner slots and ``inner_flat`` the
     flat indices (x, y) of their nodes in an (N, 2) array; ``edges`` the curved edges."""
 
     after: np.ndarray
@@ -255,22 +256,30 @@ class SplineSet:
         prev, nxt = self.neighbours()
         return slot_spans(ctrl, prev, nxt, self.is_end())
 
-    def _joints(self, ctrl: np.ndarray) -> np.ndarray:
-        """(P, 2) J_j = joint(C_j, C_next) of every slot (past an open end: meaningless)."""
-        return joint(ctrl, ctrl.take(self._draw_plan.after, axis=0))
-
-    def _curve_points(self, ctrl: np.ndarray, joints: np.ndarray | None = None) -> np.ndarray:
-        """(P, 2) S_j: the point of the curve belonging to each slot (an end: the end), from
-        the control points and their :meth:`_joints` (computed when not given);
+    def _table(self, ctrl: np.ndarray) -> np.ndarray:
+        """(3P, 2) [C; S; J] in one array, the rows the drawing's gathers read: the control
+        points ``ctrl``, the point of the curve belonging to each slot (S_j; an end: the
+        end) and the joints J_j = joint(C_j, C_next) (past an open end: meaningless);
         :data:`GEOMETRY_BATCH` slots at a time (the spans' ends are twice the result)."""
         plan = self._draw_plan
-        table = np.concatenate([self._joints(ctrl) if joints is None else joints, ctrl])  # [J; C]
-        s = np.empty_like(ctrl)
-        for part in batch_slices(s.shape[0], GEOMETRY_BATCH):
+        p = ctrl.shape[0]
+        table = np.empty((3 * p, 2))
+        c, s, j = table[:p], table[p:2 * p], table[2 * p:]
+        c[...] = ctrl
+        parts = batch_slices(p, GEOMETRY_BATCH)
+        for part in parts:
+            np.add(c[part], ctrl.take(plan.after[part], axis=0), out=j[part])
+        j /= 2.0  # joint(): (a + b) / 2.0
+        for part in parts:
             start, stop = table.take(plan.ends[:, part], axis=0)
-            s[part] = midpoint(start, ctrl[part], stop)
-            np.copyto(s[part], ctrl[part], where=plan.is_end[part])
-        return s
+            s[part] = midpoint(start, c[part], stop)
+            np.copyto(s[part], c[part], where=plan.is_end[part])
+        return table
+
+    def _curve_points(self, ctrl: np.ndarray) -> np.ndarray:
+        """(P, 2) S_j: the point of the curve belonging to each slot (an end: the end)."""
+        p = ctrl.shape[0]
+        return self._table(ctrl)[p:2 * p]
 
     @cached_property
     def _draw_plan(self) -> _DrawPlan:
@@ -279,8 +288,8 @@ class SplineSet:
         end = self.is_end()
         p = end.size
         before, after = np.maximum(prev, 0), np.maximum(nxt, 0)
-        ends = np.stack([np.where(end.take(before), p + before, before),
-                         np.where(end.take(after), p + after, np.arange(p))])
+        ends = np.stack([np.where(end.take(before), before, 2 * p + before),
+                         np.where(end.take(after), after, 2 * p + np.arange(p))]).astype(INDEX)
         inner = np.flatnonzero(~end)
         a = np.flatnonzero(nxt >= 0)
         a = a.compress(~(end.take(a) & end.take(nxt.take(a))))  # an edge between two end points is straight
@@ -289,8 +298,10 @@ class SplineSet:
         near_a, near_b = np.where(b_end, p + a, a), np.where(a_end, p + b, b)  # C, or S where the other is the end
         forward = self.slot_forward.take(a)
         operands = np.stack([2 * p + a, np.where(forward, near_a, near_b), np.where(forward, near_b, near_a),
-                             np.where(a_end, a, p + a), np.where(b_end, b, p + b)])
-        return _DrawPlan(after, ends, end[:, None], inner, flat_rows(self.curve_nodes.take(inner), 2), operands,
+                             np.where(a_end, a, p + a), np.where(b_end, b, p + b)]).astype(INDEX)
+        # int32 indices: the plan lives as long as the SplineSet (a frame's peak memory)
+        return _DrawPlan(after, ends, end[:, None], inner.astype(INDEX),
+                         flat_rows(self.curve_nodes.take(inner), 2).astype(INDEX), operands,
                          (a_end | b_end)[:, None], self.slot_edges.take(a))
 
     def _display(self, s: np.ndarray, positions: np.ndarray) -> np.ndarray:
@@ -324,10 +335,9 @@ class SplineSet:
 
     def _drawing(self, ctrl: np.ndarray, positions: np.ndarray) -> Drawing:
         plan = self._draw_plan
-        joints = self._joints(ctrl)
-        s = self._curve_points(ctrl, joints)
-        display = self._display(s, positions)
-        table = np.concatenate([ctrl, s, joints])  # [C; S; J]
+        p = ctrl.shape[0]
+        table = self._table(ctrl)  # [C; S; J]
+        display = self._display(table[p:2 * p], positions)
         controls = np.empty((plan.edges.size, 3, 2), dtype=np.float64)
         for part in batch_slices(plan.edges.size, GEOMETRY_BATCH):  # the operands are five times the result
             mid, near_a, near_b, start, stop = table.take(plan.operands[:, part], axis=0)
