@@ -53,6 +53,13 @@ def set_rows(target: np.ndarray, rows: np.ndarray, values: np.ndarray) -> None:
         target[rows, column] = values[:, column]
 
 
+def flat_rows(rows: np.ndarray, k: int) -> np.ndarray:
+    """(len(rows) * k,) the flat indices of the elements of ``rows`` in a C-contiguous (N, k)
+    array: ``a.put(flat_rows(rows, k), values)`` is ``set_rows(a, rows, values)`` in one
+    call, for indices used again and again."""
+    return (rows[:, None] * k + np.arange(k)).ravel()
+
+
 def batch_slices(n: int, batch: int) -> list[slice]:
     """Consecutive slices of ``n`` like items, ``batch`` at a time (the last one shorter): to
     bound the temporary memory of work done a batch at a time. No items, no slices."""

@@ -122,24 +122,27 @@ def _angle(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return np.abs(np.arctan2(cross, dot))
 
 
-def between_curve_points(c_a: np.ndarray, c_b: np.ndarray, s_a: np.ndarray, s_b: np.ndarray,
-                         a_is_end: np.ndarray, b_is_end: np.ndarray) -> np.ndarray:
+def between_curve_points(mid: np.ndarray, near_a: np.ndarray, near_b: np.ndarray, start: np.ndarray,
+                         stop: np.ndarray, split: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     """``(E, 3, 2)`` controls (c0, c1, c2) of the curve between consecutive control points
     C_a → C_b, from the curve point S_a to S_b, as two Béziers ``S_a Q c0 c1 Q c2 S_b``.
 
     Both interior: the second half of C_a's span and the first half of C_b's, which meet
-    at m = mid(C_a, C_b). With an end point (``a_is_end`` / ``b_is_end``, (E,) bool; the curve
-    starts or stops there instead of at S): the one Bézier (C_a or S_a, m, S_b or C_b) split
-    at t = ½. Either way the result is exactly the B-spline; at most one of the two may be
-    an end (an open curve of one edge is a straight segment)."""
-    mid = joint(c_a, c_b)
-    inner = np.stack([(c_a + mid) / 2.0, mid, (mid + c_b) / 2.0], axis=1)
-    start = np.where(a_is_end[:, None], c_a, s_a)
-    stop = np.where(b_is_end[:, None], c_b, s_b)
-    first, second = split_half(start, mid, stop)
-    single = np.stack([first.p1, first.p2, second.p1], axis=1)
-    both = ~a_is_end & ~b_is_end
-    return np.where(both[:, None, None], inner, single)
+    at ``mid`` = :func:`joint` (C_a, C_b): c0 = (C_a + m) / 2, c1 = m, c2 = (m + C_b) / 2. With an
+    end point (``split``, (E, 1) bool; the curve starts or stops there instead of at S): the
+    one Bézier (``start``, m, ``stop``) — C_a or S_a, C_b or S_b — split at t = ½ (:func:`split_half`):
+    c0 = (start + m) / 2, c1 its :func:`midpoint`, c2 = (m + stop) / 2. Either way the result is
+    exactly the B-spline; at most one of the two may be an end (an open curve of one edge is
+    a straight segment). So c0 = (``near_a`` + m) / 2 with ``near_a`` = C_a, or S_a where C_b is
+    the end, and c2 = (m + ``near_b``) / 2 likewise: the caller gathers those rows. Swapping
+    ``near_a`` and ``near_b`` gives the controls from S_b to S_a (c2, c1, c0) to the bit (a sum
+    does not depend on the order of its terms). Written into ``out`` when given."""
+    out = np.empty((mid.shape[0], 3, 2)) if out is None else out
+    out[:, 0] = (near_a + mid) / 2.0
+    out[:, 2] = (mid + near_b) / 2.0
+    out[:, 1] = mid
+    np.copyto(out[:, 1], midpoint(start, mid, stop), where=split)
+    return out
 
 
 def edge_halves(start: np.ndarray, controls: np.ndarray, stop: np.ndarray) -> tuple[Bezier, Bezier]:

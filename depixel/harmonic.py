@@ -48,6 +48,8 @@ def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
     # so only the edges with neither end near are looked at again
     open_u, open_v = u, v
     for _ in range(reach):
+        if open_u.size == 0:  # every edge has a near end: nothing more to reach
+            break
         near_u, near_v = near.take(open_u), near.take(open_v)
         near[open_u.compress(near_v)] = True
         near[open_v.compress(near_u)] = True
@@ -117,7 +119,6 @@ def conjugate_gradients(apply: Callable[[np.ndarray, np.ndarray], None], rhs: np
     cost of a sprite's small system is the number of numpy calls, of a frame's the fresh
     memory): x and r are updated together as one (2, K, M) array, the per-row numbers are
     Python floats (r − s·Ap is computed as r + (−s)·Ap, which rounds the same)."""
-    k = rhs.shape[0]
     state = np.zeros((2,) + rhs.shape)  # x, r
     x, r = state
     r[...] = rhs
@@ -133,10 +134,10 @@ def conjugate_gradients(apply: Callable[[np.ndarray, np.ndarray], None], rhs: np
             break
         apply(p, ap)
         step = [a / max(b, 1e-300) for a, b in zip(rr, row_dots(p, ap, product))]
-        np.multiply(directions, np.array(step + [-s for s in step]).reshape(2, k, 1), out=change)
+        np.multiply(directions, np.array([[[s] for s in step], [[-s] for s in step]]), out=change)  # (2, K, 1)
         state += change
         rr_new = row_dots(r, r, product)
-        p *= np.array([a / max(b, 1e-300) for a, b in zip(rr_new, rr)]).reshape(k, 1)
+        p *= np.array([[a / max(b, 1e-300)] for a, b in zip(rr_new, rr)])  # (K, 1)
         p += r
         rr = rr_new
     return x

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .arrays import set_rows
+from .arrays import flat_rows, set_rows
 from .corners import Corners, excluded_halves
 from .fidelity import keep_centres_inside
 from .frozen import freeze
@@ -50,9 +50,10 @@ class OptimizedSplines:
         n_edges = len(cells.edges)
         curved = np.zeros(n_edges, dtype=bool)
         curved[self.drawing.edges] = True
-        controls = np.zeros((n_edges, 6), dtype=np.float64)  # (E, 3, 2) written as rows of 6
-        set_rows(controls, self.drawing.edges, self.drawing.controls.reshape(-1, 6))
-        ctrl = self.splines.controls_for(self.positions)
+        controls = np.zeros(n_edges * 6, dtype=np.float64)  # (E, 3, 2) written flat, six numbers an edge
+        controls[flat_rows(self.drawing.edges, 6)] = self.drawing.controls.reshape(-1)
+        # the drawing's control points are those of the positions (the harmonic map moves no curve node)
+        ctrl = self.splines.controls_for(self.positions) if self.drawing.ctrl is None else self.drawing.ctrl
         return VectorImage(cells, self.drawing.points, curved, controls.reshape(n_edges, 3, 2), "optimized",
                            self.splines.curve_table(ctrl, curved))
 

@@ -37,8 +37,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .arrays import batch_slices, set_rows
-from .bspline import Bezier, between_curve_points, midpoint, slot_spans, span
+from .arrays import batch_slices, flat_rows
+from .bspline import Bezier, between_curve_points, joint, midpoint, slot_spans
 from .cells import INDEX, CellGraph
 from .frozen import freeze
 from .pairing import HalfEnds, band_edges, chain_curves, pair_ends, shading_edges, visible_edges
@@ -64,11 +64,37 @@ class Drawing(NamedTuple):
     points: np.ndarray  # (N, 2) as Geometry.points
     edges: np.ndarray  # (C,) the curved edges, in slot order
     controls: np.ndarray  # (C, 3, 2) their Geometry.controls
+    ctrl: np.ndarray | None = None  # (P, 2) the control points drawn (SplineSet.controls_for), if known
+
+
+class _DrawPlan(NamedTuple):
+    """What a drawing of a SplineSet needs besides the control points C, fixed per SplineSet.
+
+    The joint of a slot and the next one, J_j = joint(C_j, C_next), is also the start of the
+    next slot's span (the same sum), so the spans' ends are rows of the table [C; S; J] (P
+    rows each, :meth:`SplineSet._table`): ``ends`` (2, P) the start and stop of every slot's
+    span (a neighbour that is an open end: its control point; past an end: a meaningless
+    row); ``is_end`` (P, 1). The curved edges' operands of
+    :func:`depixel.bspline.between_curve_points` are rows of the same table: ``operands``
+    (5, C) mid, near_a, near_b (swapped where the edge is stored against the curve), start,
+    stop; ``split`` (C, 1). ``inner`` the inner slots and ``inner_flat`` the
+    flat indices (x, y) of their nodes in an (N, 2) array; ``edges`` the curved edges."""
+
+    after: np.ndarray
+    ends: np.ndarray
+    is_end: np.ndarray
+    inner: np.ndarray
+    inner_flat: np.ndarray
+    operands: np.ndarray
+    split: np.ndarray
+    edges: np.ndarray
 
 
 class _SnapPlan(NamedTuple):
     """What :meth:`SplineSet.snap` needs: each T-junction end, the slot it snaps to, that
-    slot's neighbours and whether they are ends ((T, 1) bool, broadcastable over x, y)."""
+    slot's neighbours and whether they are ends ((T, 1) bool, broadcastable over x, y);
+    ``rows``: the neighbours, the slots and the ends one after another (one gather a pass);
+    ``flat``: the ends' flat indices (x, y) in a (P, 2) array (one ``put`` a pass)."""
 
     ends: np.ndarray
     through: np.ndarray
@@ -76,13 +102,27 @@ class _SnapPlan(NamedTuple):
     after: np.ndarray
     before_is_end: np.ndarray
     after_is_end: np.ndarray
+    rows: np.ndarray
+    flat: np.ndarray
 
-    def move(self, ctrl: np.ndarray) -> bool:
-        """One snapping pass over these ends, in place; whether any of them moved."""
-        snapped = midpoint(*span(ctrl.take(self.before, axis=0), ctrl.take(self.through, axis=0),
-                                 ctrl.take(self.after, axis=0), self.before_is_end, self.after_is_end))
-        moved = not np.array_equal(snapped, ctrl.take(self.ends, axis=0))
-        set_rows(ctrl, self.ends, snapped)
+    @classmethod
+    def of(cls, ends: np.ndarray, through: np.ndarray, before: np.ndarray, after: np.ndarray,
+           before_is_end: np.ndarray, after_is_end: np.ndarray) -> _SnapPlan:
+        return cls(ends, through, before, after, before_is_end, after_is_end,
+                   np.concatenate([before, through, after, ends]), flat_rows(ends, 2))
+
+    def move(self, ctrl: np.ndarray, check: bool = True) -> bool:
+        """One snapping pass over these ends, in place; whether any of them moved (False
+        without ``check``)."""
+        t = self.ends.size
+        rows = ctrl.take(self.rows, axis=0)
+        before, through, after = rows[:t], rows[t:2 * t], rows[2 * t:3 * t]
+        start, stop = joint(before, through), joint(through, after)  # the span of span(), its ends by copyto
+        np.copyto(start, before, where=self.before_is_end)
+        np.copyto(stop, after, where=self.after_is_end)
+        snapped = midpoint(start, through, stop)
+        moved = check and not (snapped == rows[3 * t:]).all()
+        ctrl.put(self.flat, snapped)
         return moved
 
     def chained(self, n_slots: int) -> _SnapPlan:
@@ -91,7 +131,7 @@ class _SnapPlan(NamedTuple):
         snapped = np.zeros(n_slots, bool)
         snapped[self.ends] = True
         rows = np.flatnonzero(snapped[self.before] | snapped[self.after])
-        return _SnapPlan(*(field[rows] for field in self))
+        return _SnapPlan.of(*(field[rows] for field in self[:6]))
 
 
 @dataclass(frozen=True, eq=False)
@@ -178,10 +218,13 @@ class SplineSet:
         """Move the T-junction end control points of ``ctrl`` (P, 2) onto the curve point of
         the curve continuing through their node (iterated: those points may depend on
         other snapped ends). Returns a new array."""
-        ctrl = ctrl.copy()
+        return self._snap_in_place(ctrl.copy())
+
+    def _snap_in_place(self, ctrl: np.ndarray) -> np.ndarray:
+        """:meth:`snap` on ``ctrl`` itself (returned)."""
         plan, chained = self._snap_plans
         if plan.ends.size:
-            plan.move(ctrl)
+            plan.move(ctrl, check=False)
             # the other ends would get the same points again, and so would these once a
             # pass leaves them where they are
             for _ in range(self.snap_passes - 1 if chained.ends.size else 0):
@@ -197,13 +240,13 @@ class SplineSet:
         prev, nxt = self.neighbours()
         end = (prev < 0) | (nxt < 0)
         a, b = prev[through], nxt[through]
-        plan = _SnapPlan(ends, through, a, b, end[a][:, None], end[b][:, None])
+        plan = _SnapPlan.of(ends, through, a, b, end[a][:, None], end[b][:, None])
         return plan, plan.chained(self.n_slots)
 
     def controls_for(self, positions: np.ndarray) -> np.ndarray:
         """(P, 2) control point of every slot for node ``positions`` (N, 2), with T-junction
         ends snapped."""
-        return self.snap(positions.take(self.curve_nodes, axis=0))
+        return self._snap_in_place(positions.take(self.curve_nodes, axis=0))
 
     def spans(self, ctrl: np.ndarray) -> Bezier:
         """The quadratic Bézier span ``(start, C_j, stop)`` of every slot, each (P, 2), for
@@ -213,21 +256,59 @@ class SplineSet:
         prev, nxt = self.neighbours()
         return slot_spans(ctrl, prev, nxt, self.is_end())
 
+    def _table(self, ctrl: np.ndarray) -> np.ndarray:
+        """(3P, 2) [C; S; J] in one array, the rows the drawing's gathers read: the control
+        points ``ctrl``, the point of the curve belonging to each slot (S_j; an end: the
+        end) and the joints J_j = joint(C_j, C_next) (past an open end: meaningless);
+        :data:`GEOMETRY_BATCH` slots at a time (the spans' ends are twice the result)."""
+        plan = self._draw_plan
+        p = ctrl.shape[0]
+        table = np.empty((3 * p, 2))
+        c, s, j = table[:p], table[p:2 * p], table[2 * p:]
+        c[...] = ctrl
+        parts = batch_slices(p, GEOMETRY_BATCH)
+        for part in parts:
+            np.add(c[part], ctrl.take(plan.after[part], axis=0), out=j[part])
+        j /= 2.0  # joint(): (a + b) / 2.0
+        for part in parts:
+            start, stop = table.take(plan.ends[:, part], axis=0)
+            s[part] = midpoint(start, c[part], stop)
+            np.copyto(s[part], c[part], where=plan.is_end[part])
+        return table
+
     def _curve_points(self, ctrl: np.ndarray) -> np.ndarray:
-        """(P, 2) S_j: the point of the curve belonging to each slot (an end: the end);
-        :data:`GEOMETRY_BATCH` slots at a time (the spans are six times the result)."""
+        """(P, 2) S_j: the point of the curve belonging to each slot (an end: the end)."""
+        p = ctrl.shape[0]
+        return self._table(ctrl)[p:2 * p]
+
+    @cached_property
+    def _draw_plan(self) -> _DrawPlan:
+        """The indices of a drawing, computed once per SplineSet."""
         prev, nxt = self.neighbours()
         end = self.is_end()
-        s = np.empty_like(ctrl)
-        for part in batch_slices(s.shape[0], GEOMETRY_BATCH):
-            s[part] = np.where(end[part, None], ctrl[part], midpoint(*slot_spans(ctrl, prev, nxt, end, part)))
-        return s
+        p = end.size
+        before, after = np.maximum(prev, 0), np.maximum(nxt, 0)
+        ends = np.stack([np.where(end.take(before), before, 2 * p + before),
+                         np.where(end.take(after), after, 2 * p + np.arange(p))]).astype(INDEX)
+        inner = np.flatnonzero(~end)
+        a = np.flatnonzero(nxt >= 0)
+        a = a.compress(~(end.take(a) & end.take(nxt.take(a))))  # an edge between two end points is straight
+        b = nxt.take(a)
+        a_end, b_end = end.take(a), end.take(b)
+        near_a, near_b = np.where(b_end, p + a, a), np.where(a_end, p + b, b)  # C, or S where the other is the end
+        forward = self.slot_forward.take(a)
+        operands = np.stack([2 * p + a, np.where(forward, near_a, near_b), np.where(forward, near_b, near_a),
+                             np.where(a_end, a, p + a), np.where(b_end, b, p + b)]).astype(INDEX)
+        # int32 indices: the plan lives as long as the SplineSet (a frame's peak memory)
+        return _DrawPlan(after, ends, end[:, None], inner.astype(INDEX),
+                         flat_rows(self.curve_nodes.take(inner), 2).astype(INDEX), operands,
+                         (a_end | b_end)[:, None], self.slot_edges.take(a))
 
     def _display(self, s: np.ndarray, positions: np.ndarray) -> np.ndarray:
         """(N, 2) ``positions`` with every curve's inner nodes moved to their curve points ``s``."""
+        plan = self._draw_plan
         display = positions.copy()
-        inner = ~self.is_end()
-        set_rows(display, self.curve_nodes.compress(inner), s.compress(inner, axis=0))
+        display.put(plan.inner_flat, s.take(plan.inner, axis=0))
         return display
 
     def display_points(self, positions: np.ndarray) -> np.ndarray:
@@ -244,29 +325,24 @@ class SplineSet:
         return self._drawing(self.controls_for(positions), positions)
 
     def _geometry(self, ctrl: np.ndarray, positions: np.ndarray) -> Geometry:
-        points, edge, trio = self._drawing(ctrl, positions)
+        points, edge, trio, _ = self._drawing(ctrl, positions)
         n_edges = len(self.cells.edges)
         curved = np.zeros(n_edges, dtype=bool)
         curved[edge] = True
-        controls = np.zeros((n_edges, 3, 2), dtype=np.float64)
-        set_rows(controls.reshape(n_edges, 6), edge, trio.reshape(-1, 6))
-        return Geometry(points, curved, controls)
+        controls = np.zeros(n_edges * 6, dtype=np.float64)  # (E, 3, 2) written flat, six numbers an edge
+        controls[flat_rows(edge, 6)] = trio.reshape(-1)
+        return Geometry(points, curved, controls.reshape(n_edges, 3, 2))
 
     def _drawing(self, ctrl: np.ndarray, positions: np.ndarray) -> Drawing:
-        s = self._curve_points(ctrl)
-        display = self._display(s, positions)
-        _, nxt = self.neighbours()
-        end = self.is_end()
-        a = np.flatnonzero(nxt >= 0)
-        a = a[~(end[a] & end[nxt[a]])]  # an edge between two end points is a straight segment
-        controls = np.empty((a.size, 3, 2), dtype=np.float64)
-        for part in batch_slices(a.size, GEOMETRY_BATCH):  # the Béziers' temporaries are several times the result
-            a_part = a[part]
-            b_part = nxt[a_part]
-            trio = between_curve_points(ctrl.take(a_part, axis=0), ctrl.take(b_part, axis=0), s.take(a_part, axis=0),
-                                        s.take(b_part, axis=0), end[a_part], end[b_part])
-            controls[part] = np.where(self.slot_forward[a_part, None, None], trio, trio[:, ::-1])
-        return Drawing(display, self.slot_edges[a], controls)
+        plan = self._draw_plan
+        p = ctrl.shape[0]
+        table = self._table(ctrl)  # [C; S; J]
+        display = self._display(table[p:2 * p], positions)
+        controls = np.empty((plan.edges.size, 3, 2), dtype=np.float64)
+        for part in batch_slices(plan.edges.size, GEOMETRY_BATCH):  # the operands are five times the result
+            mid, near_a, near_b, start, stop = table.take(plan.operands[:, part], axis=0)
+            between_curve_points(mid, near_a, near_b, start, stop, plan.split[part], controls[part])
+        return Drawing(display, plan.edges, controls, ctrl)
 
     def vector_image(self, positions: np.ndarray | None = None, stage: str = "splines") -> VectorImage:
         positions = self.positions if positions is None else positions

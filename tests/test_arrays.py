@@ -5,7 +5,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from depixel.arrays import batch_bounds, batch_slices, in_sorted, set_rows, sums_by_key, union, unique
+from depixel.arrays import batch_bounds, batch_slices, flat_rows, in_sorted, set_rows, sums_by_key, union, unique
 
 
 @given(st.lists(st.integers(0, 50), max_size=60), st.integers(1, 120))
@@ -58,3 +58,15 @@ def test_sums_by_key_are_uniques_keys_and_bincounts_sums_to_the_bit(keys, seed):
     expected, inverse = np.unique(keys, return_inverse=True)
     assert np.array_equal(distinct, expected)
     assert sums.tobytes() == np.bincount(inverse, weights=weights, minlength=expected.size).tobytes()
+
+
+def test_flat_rows_put_writes_the_rows_as_set_rows_does():
+    rng = np.random.default_rng(5)
+    target = rng.random((30, 3))
+    rows = np.array([7, 2, 29, 0])
+    values = rng.random((4, 3))
+    expected = target.copy()
+    set_rows(expected, rows, values)
+    target.put(flat_rows(rows, 3), values)
+    assert np.array_equal(target, expected)
+    assert flat_rows(np.array([], dtype=np.int64), 2).size == 0

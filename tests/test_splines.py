@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from scipy.interpolate import BSpline
 
+from depixel.bspline import between_curve_points, joint, midpoint, split_half
 from depixel.image import load_image, rgb_to_yuv
 from depixel.fidelity import centre_clearance
 from depixel.params import Params
@@ -376,3 +377,53 @@ def test_splines_stage_svg_is_deterministic(case):
     second = to_svg(depixelize(rgba.copy(), stage="splines").vector)
     assert re.search(r' d="[^"]*[QqTtCc]', first)  # curves
     assert first.encode() == second.encode()
+
+
+# --- the drawing against its definition, to the bit -------------------------------------------
+def test_between_curve_points_is_the_spans_halves_or_the_split_bezier_to_the_bit():
+    rng = np.random.default_rng(11)
+    c_a, c_b, s_a, s_b = (rng.random((3, 2)) * 10 for _ in range(4))
+    a_end, b_end = np.array([False, True, False]), np.array([False, False, True])  # interior, C_a end, C_b end
+    mid = joint(c_a, c_b)
+    start, stop = np.where(a_end[:, None], c_a, s_a), np.where(b_end[:, None], c_b, s_b)
+    near_a, near_b = np.where(b_end[:, None], s_a, c_a), np.where(a_end[:, None], s_b, c_b)
+    split = (a_end | b_end)[:, None]
+    got = between_curve_points(mid, near_a, near_b, start, stop, split)
+    # interior: the second half of C_a's span and the first half of C_b's (they meet at mid)
+    second_of_a = split_half(s_a[0], c_a[0], mid[0])[1]
+    first_of_b = split_half(mid[0], c_b[0], s_b[0])[0]
+    assert np.array_equal(got[0], [second_of_a.p1, mid[0], first_of_b.p1])
+    for e in (1, 2):  # with an end: the one Bézier (start, mid, stop) split at t = 1/2
+        first, second = split_half(start[e], mid[e], stop[e])
+        assert np.array_equal(got[e], [first.p1, first.p2, second.p1])
+    backwards = between_curve_points(mid, near_b, near_a, start, stop, split)  # the edge stored b → a
+    assert np.array_equal(backwards, got[:, ::-1])
+
+
+@pytest.mark.parametrize("case", ["heart.png", "mushroom.png"])
+def test_drawing_is_the_spans_of_the_control_points_to_the_bit(case):
+    splines = fixture_result(case, "splines").splines
+    ctrl = splines.controls_for(splines.positions)
+    spans = splines.spans(ctrl)
+    end = splines.is_end()
+    s = np.where(end[:, None], ctrl, midpoint(*spans))
+    points, edges, controls, drawn = splines.drawing(splines.positions)
+    assert np.array_equal(drawn, ctrl)
+    inner = ~end
+    expected_points = splines.positions.copy()
+    expected_points[splines.curve_nodes[inner]] = s[inner]
+    assert np.array_equal(points, expected_points)
+    _, nxt = splines.neighbours()
+    a = np.flatnonzero((nxt >= 0) & ~(end & end[np.maximum(nxt, 0)]))
+    b = nxt[a]
+    assert np.array_equal(edges, splines.slot_edges[a])
+    for k, (i, j) in enumerate(zip(a, b)):
+        if end[i] or end[j]:
+            first, second = split_half(ctrl[i] if end[i] else s[i], joint(ctrl[i], ctrl[j]),
+                                       ctrl[j] if end[j] else s[j])
+            trio = [first.p1, first.p2, second.p1]
+        else:
+            trio = [split_half(*(part[i] for part in spans))[1].p1, joint(ctrl[i], ctrl[j]),
+                    split_half(*(part[j] for part in spans))[0].p1]
+        trio = np.array(trio) if splines.slot_forward[i] else np.array(trio)[::-1]
+        assert np.array_equal(controls[k], trio), f"edge {splines.slot_edges[i]}"
