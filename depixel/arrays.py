@@ -17,11 +17,6 @@ def unique(values: np.ndarray, axis: int | None = None) -> np.ndarray:
     return np.unique(values, return_index=True, axis=axis)[0]
 
 
-def union(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``np.union1d(a, b)``: the distinct values of both, sorted."""
-    return unique(np.concatenate([np.ravel(a), np.ravel(b)]))
-
-
 def sums_by_key(keys: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The distinct ``keys`` (sorted) and the sum of the ``weights`` of each, added in the
     order given: ``np.unique(keys, return_inverse=True)`` then ``np.bincount`` of the
