@@ -224,3 +224,23 @@ def test_pool_reports_a_file_that_kills_every_worker(tmp_path):
     assert by_name["once"].retried == "killed by SIGKILL" and by_name["once"].result.startswith("once done")
     for name in "abc":
         assert by_name[name].result.startswith(f"{name} done") and by_name[name].died is None
+
+
+def test_worker_killed_holding_its_next_job_loses_neither(tmp_path):
+    """A worker holds the job it runs and the next (in its pipe): when it dies, the one it
+    ran is retried once and the one behind it runs as if nothing happened (not retried,
+    not reported twice, not lost)."""
+    jobs = [(name, str(tmp_path)) for name in ("a", "once", "b", "c")]
+    done: list[Finished] = []
+    started: list[int] = []
+    with Signals(raising=False) as signals:
+        from pool_jobs import crash_holding_next
+
+        run_jobs(jobs, 1, crash_holding_next, done.append, signals, started=started.append)
+    assert (tmp_path / "held next").read_text() == "True"  # it did die holding "b"
+    assert sorted(jobs[f.index][0] for f in done) == ["a", "b", "c", "once"]
+    by_name = {jobs[f.index][0]: f for f in done}
+    assert by_name["once"].retried == "killed by SIGKILL" and by_name["once"].result.startswith("once done")
+    for name in "abc":
+        assert by_name[name].result.startswith(f"{name} done") and by_name[name].retried is None
+    assert [jobs[i][0] for i in started] == ["a", "once", "once", "b", "c"]  # as each began running
