@@ -140,7 +140,7 @@ class _Worker:
 
     def results(self) -> list[Any]:
         """The results waiting in the pipe (of the first jobs held, in order)."""
-        found = []
+        found: list[Any] = []
         try:
             while len(found) < len(self.jobs) and self.conn.poll():
                 found.append(self.conn.recv())
