@@ -53,25 +53,26 @@ def run(jobs: list[Job], workers: int, report, signals, progress: Progress | Non
         if (done := already_done(job)) is not None:
             finished(Finished(index, done))
     todo = [i for i in range(len(jobs)) if i not in outcomes]
+
+    def here(job: Job) -> Outcome | None:
+        """Convert in this process; None when a signal abandoned the file (cleaned up)."""
+        signals.raising = True  # a signal now abandons the file at once (the writer removes its temporary file)
+        try:
+            return run_job(job)
+        except Interrupted:
+            remove_temporary_files(job)
+            return None
+        finally:
+            signals.raising = False
+
     if workers <= 1 or len(todo) <= 1:
         for index in todo:
-            job = jobs[index]
             if signals.signum is not None:
                 finished(Finished(index, cancelled=True))
                 continue
             started(index)
-            signals.raising = True  # a signal now abandons the file at once (the writer removes its temporary file)
-            try:
-                result = run_job(job)
-            except Interrupted:
-                result = None
-            finally:
-                signals.raising = False
-            if result is None:
-                remove_temporary_files(job)
-                finished(Finished(index, interrupted=True))
-            else:
-                finished(Finished(index, result))
+            result = here(jobs[index])
+            finished(Finished(index, interrupted=True) if result is None else Finished(index, result))
     else:
         signals.raising = False
 
@@ -79,8 +80,9 @@ def run(jobs: list[Job], workers: int, report, signals, progress: Progress | Non
             finished(Finished(todo[done.index], done.result, done.died, done.retried, done.interrupted,
                               done.cancelled))
 
+        # while the fork server imports depixel, this process converts files itself
         run_jobs([jobs[i] for i in todo], workers, run_job, renumbered, signals, cleanup=remove_temporary_files,
-                 started=lambda i: started(todo[i]))
+                 started=lambda i: started(todo[i]), here=here)
     return [outcomes[i] for i in range(len(jobs))]
 
 

@@ -105,14 +105,19 @@ class Finished:
 
 def run_jobs(jobs: Sequence[Any], workers: int, function: Callable[[Any], Any], report: Callable[[Finished], None],
              signals: Signals, cleanup: Callable[[Any], None] = lambda job: None,
-             started: Callable[[int], None] = lambda index: None) -> None:
+             started: Callable[[int], None] = lambda index: None, here: Callable[[Any], Any] | None = None) -> None:
     """Run ``function(job)`` for every job in ``workers`` processes; ``report`` gets each
-    :class:`Finished` as it happens (cancelled jobs last), ``started`` each index handed out.
-    ``function`` must be picklable by reference and must not raise. Returns when all are
-    reported."""
+    :class:`Finished` as it happens (cancelled jobs last), ``started`` each index as it
+    begins. ``function`` must be picklable by reference and must not raise. With ``here``,
+    this process converts jobs itself, ``here(job)`` (None: interrupted, cleaned up), while
+    the workers start. Returns when all are reported."""
     pool = _Pool(function, signals, cleanup, started)
     try:
-        pool.run(list(enumerate(jobs)), workers, report)
+        if here is not None and workers >= 2:
+            pool.start_meanwhile(pending := list(enumerate(jobs)), workers, here, report)
+            pool.run(pending, workers, report)
+        else:
+            pool.run(list(enumerate(jobs)), workers, report)
     finally:
         pool.close()
 
@@ -188,11 +193,47 @@ class _Pool:
         if self.signals.signum is not None:
             self._stop(pending, report)
 
+    def start_meanwhile(self, pending: list[tuple[int, Any]], size: int, here: Callable[[Any], Any],
+                        report: Callable[[Finished], None]) -> None:
+        """Start the workers in a thread, each given its first jobs as soon as it is up,
+        while this thread runs ``here`` on jobs from the end of the queue: the fork server's
+        imports (~0.4 s, serial) no longer leave a core idle."""
+        import threading  # noqa: PLC0415
+
+        lock = threading.Lock()
+
+        def start() -> None:
+            for _ in range(size):
+                worker = _Worker(self.context, self.function)
+                with lock:
+                    self.workers.append(worker)
+                    while pending and len(worker.jobs) < DEPTH and self.signals.signum is None and \
+                            (not worker.jobs or len(pending) >= size):
+                        worker.give(pending.pop(0))
+                if worker.jobs:
+                    self.started(worker.jobs[0][0])
+
+        starter = threading.Thread(target=start, name="depixel-start-workers", daemon=True)
+        starter.start()
+        try:
+            while starter.is_alive() and self.signals.signum is None:
+                with lock:
+                    if len(pending) <= size * DEPTH:
+                        break
+                    index, job = pending.pop()
+                self.started(index)
+                result = here(job)
+                report(Finished(index, interrupted=True) if result is None else Finished(index, result))
+        finally:
+            starter.join()
+
     def _hand_out(self, pending: list[tuple[int, Any]], size: int) -> None:
         """Fill the workers, starting new ones up to ``size``: first one job each (so that a
-        short batch is spread over every worker), then up to :data:`DEPTH`."""
+        short batch is spread over every worker), then up to :data:`DEPTH` while there are
+        more jobs left than workers (at the end a file waiting behind another in one worker
+        would leave another worker idle)."""
         for depth in range(1, DEPTH + 1):
-            while pending and self.signals.signum is None:
+            while pending and self.signals.signum is None and (depth == 1 or len(pending) >= size):
                 worker = next((w for w in self.workers if len(w.jobs) < depth), None)
                 if worker is None and len(self.workers) < size:
                     worker = _Worker(self.context, self.function)

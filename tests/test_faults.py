@@ -49,6 +49,16 @@ def wait_for_outputs(out: Path, proc: subprocess.Popen, count: int = 1, timeout:
     raise AssertionError("the batch did not start")
 
 
+def wait_for_workers(proc: subprocess.Popen, count: int = 2, timeout: float = 60) -> list[int]:
+    """The workers of ``proc`` once there are ``count`` (this process converts the first
+    files itself while they start, so the first outputs may come before them)."""
+    deadline = time.monotonic() + timeout
+    while len(found := children(proc.pid)) < count and time.monotonic() < deadline:
+        assert proc.poll() is None, proc.communicate()
+        time.sleep(0.02)
+    return found
+
+
 def children_of(pid: int) -> list[int]:
     return [int(child) for task in Path(f"/proc/{pid}/task").iterdir()
             for child in (task / "children").read_text().split()]
@@ -90,13 +100,16 @@ pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="re
 
 
 @pytest.mark.parametrize("jobs,signum,code", [("2", signal.SIGINT, 130), ("2", signal.SIGTERM, 143),
-                                              ("1", signal.SIGINT, 130), ("1", signal.SIGTERM, 143)])
+                                              ("1", signal.SIGINT, 130), ("1", signal.SIGTERM, 143),
+                                              ("2 starting", signal.SIGINT, 130)])
 def test_first_signal_stops_the_batch_with_a_summary(tmp_path, jobs, signum, code):
+    """-j 2 after its workers started; "2 starting": at the first output, usually while the
+    command converts files itself and its workers are still starting."""
     out = tmp_path / "out"
-    proc = start(batch_folder(tmp_path), out, "-j", jobs)
+    proc = start(batch_folder(tmp_path), out, "-j", jobs.split()[0])
     wait_for_outputs(out, proc)
-    workers = children(proc.pid)
-    assert len(workers) == (2 if jobs == "2" else 0)
+    workers = children(proc.pid) if jobs != "2" else wait_for_workers(proc)
+    assert len(workers) == {"2": 2, "1": 0}.get(jobs, len(workers))
     workers += helpers(proc.pid)
     sent = time.monotonic()
     proc.send_signal(signum)
@@ -121,7 +134,7 @@ def test_sigterm_to_the_whole_group_leaves_nothing_behind(tmp_path):
                              str(out), "--json", "-j", "2"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, start_new_session=True)
     wait_for_outputs(out, proc)
-    workers = children(proc.pid) + helpers(proc.pid)
+    workers = wait_for_workers(proc) + helpers(proc.pid)
     assert len(workers) >= 2
     os.killpg(proc.pid, signal.SIGTERM)
     stdout, stderr = proc.communicate(timeout=60)
@@ -136,7 +149,7 @@ def test_workers_die_with_a_killed_command(tmp_path):
     out = tmp_path / "out"
     proc = start(batch_folder(tmp_path), out, "-j", "2")
     wait_for_outputs(out, proc)
-    workers = children(proc.pid) + helpers(proc.pid)
+    workers = wait_for_workers(proc) + helpers(proc.pid)
     assert len(workers) >= 2
     proc.kill()
     proc.communicate(timeout=60)
@@ -148,7 +161,7 @@ def test_second_ctrl_c_exits_at_once_quietly(tmp_path):
     out = tmp_path / "out"
     proc = start(batch_folder(tmp_path), out, "-j", "2")
     wait_for_outputs(out, proc)
-    workers = children(proc.pid) + helpers(proc.pid)
+    workers = wait_for_workers(proc) + helpers(proc.pid)
     proc.send_signal(signal.SIGINT)
     proc.send_signal(signal.SIGINT)
     stdout, stderr = proc.communicate(timeout=60)
@@ -200,7 +213,7 @@ def test_killed_worker_fails_only_its_file_after_a_retry(tmp_path):
     out = tmp_path / "out"
     proc = start(batch_folder(tmp_path, 30), out, "-j", "2")
     wait_for_outputs(out, proc)
-    victim = children(proc.pid)[0]
+    victim = wait_for_workers(proc)[0]
     os.kill(victim, signal.SIGKILL)
     stdout, stderr = proc.communicate(timeout=300)
     assert proc.returncode == 0, stderr
@@ -244,3 +257,19 @@ def test_worker_killed_holding_its_next_job_loses_neither(tmp_path):
     for name in "abc":
         assert by_name[name].result.startswith(f"{name} done") and by_name[name].retried is None
     assert [jobs[i][0] for i in started] == ["a", "once", "once", "b", "c"]  # as each began running
+
+
+def test_main_process_converts_while_the_workers_start(tmp_path):
+    """With ``here``, the main process converts jobs from the end of the queue while the
+    workers start (the fork server's imports), and every job still runs exactly once."""
+    jobs = [(f"j{i}", str(tmp_path)) for i in range(40)]
+    done: list[Finished] = []
+    with Signals(raising=False) as signals:
+        from pool_jobs import crash
+
+        run_jobs(jobs, 2, crash, done.append, signals, here=crash)
+    assert sorted(f.index for f in done) == list(range(40))
+    pids = [int(f.result.split()[-1]) for f in done]
+    here = [f.index for f, pid in zip(done, pids) if pid == os.getpid()]
+    assert here and min(here) >= 40 - len(here)  # the last jobs of the queue
+    assert len(set(pids) - {os.getpid()}) == 2  # and the two workers the rest
