@@ -19,10 +19,10 @@ from .batch import CANCELLED, Job, Outcome, abandoned, already_done, remove_temp
 
 
 def run(jobs: list[Job], workers: int, report, signals, progress: Progress | None = None) -> list[Outcome]:
-    """Run the jobs, ``workers`` processes at a time (this process for one), until done or
-    stopped by ``signals``; ``report(outcome)`` is called as each one ends. Returns the
-    outcomes in the order of ``jobs``; after a stop, the unfinished ones are INTERRUPTED or
-    CANCELLED."""
+    """Run the jobs, ``workers`` processes at a time (this process for one; with more, this
+    process converts files too while the workers start), until done or stopped by
+    ``signals``; ``report(outcome)`` is called as each one ends. Returns the outcomes in the
+    order of ``jobs``; after a stop, the unfinished ones are INTERRUPTED or CANCELLED."""
     from .pool import Finished, Interrupted, run_jobs  # noqa: PLC0415
 
     outcomes: dict[int, Outcome] = {}

@@ -38,9 +38,12 @@ GRACE_SECONDS = 1.0
 RETRIES = 1
 #: Jobs a worker holds at once: the one it runs and the next, already in its pipe.
 DEPTH = 2
-#: What the fork server imports once, so that no worker imports it: the job code and the
-#: worker loop (this module, and ctypes for ``_die_with_parent``).
-PRELOAD = ["depixel_cli.batch", "depixel_cli.pool", "ctypes"]
+#: What the fork server imports once, so that no worker imports it: the job code, the
+#: modules a conversion imports on first use (~0.1 s of each worker's first file otherwise;
+#: the main process converts files meanwhile) and the worker loop (this module, and ctypes
+#: for ``_die_with_parent``).
+PRELOAD = ["depixel_cli.batch", "PIL.PngImagePlugin", "depixel.splines", "depixel.optimize", "tempfile",
+           "depixel_cli.pool", "ctypes"]
 
 
 class Interrupted(BaseException):
