@@ -204,10 +204,15 @@ class _Pool:
         import threading  # noqa: PLC0415
 
         lock = threading.Lock()
+        failed: list[BaseException] = []
 
         def start() -> None:
             for _ in range(size):
-                worker = _Worker(self.context, self.function)
+                try:
+                    worker = _Worker(self.context, self.function)
+                except Exception as exc:  # raised here, in the main thread, as without the thread
+                    failed.append(exc)
+                    return
                 with lock:
                     self.workers.append(worker)
                     while pending and len(worker.jobs) < DEPTH and self.signals.signum is None and \
@@ -229,6 +234,8 @@ class _Pool:
                 report(Finished(index, interrupted=True) if result is None else Finished(index, result))
         finally:
             starter.join()
+        if failed:
+            raise failed[0]
 
     def _hand_out(self, pending: list[tuple[int, Any]], size: int) -> None:
         """Fill the workers, starting new ones up to ``size``: first one job each (so that a
