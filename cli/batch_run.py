@@ -17,6 +17,11 @@ from depixel.limits import PEAK_BYTES_PER_PIXEL, WORKER_BASELINE_BYTES
 
 from .batch import CANCELLED, Job, Outcome, abandoned, already_done, remove_temporary_files, run_job
 
+#: The largest image (pixels, from its header) the main process converts itself while its
+#: workers start: ~65 MB at PEAK_BYTES_PER_PIXEL, so a batch holds little more memory than
+#: its workers, which ``-j auto`` counted.
+LOCAL_MAX_PIXELS = 256 * 256
+
 
 def run(jobs: list[Job], workers: int, report, signals, progress: Progress | None = None) -> list[Outcome]:
     """Run the jobs, ``workers`` processes at a time (this process for one; with more, this
@@ -80,9 +85,9 @@ def run(jobs: list[Job], workers: int, report, signals, progress: Progress | Non
             finished(Finished(todo[done.index], done.result, done.died, done.retried, done.interrupted,
                               done.cancelled))
 
-        # while the fork server imports depixel, this process converts files itself
+        # while the fork server imports depixel, this process converts small files itself
         run_jobs([jobs[i] for i in todo], workers, run_job, renumbered, signals, cleanup=remove_temporary_files,
-                 started=lambda i: started(todo[i]), here=here)
+                 started=lambda i: started(todo[i]), here=here, local=small)
     return [outcomes[i] for i in range(len(jobs))]
 
 
@@ -121,6 +126,17 @@ class Progress:
     def close(self) -> None:
         if self.bar is not None:
             self.bar.close()
+
+
+def small(job: Job) -> bool:
+    """Whether the main process may convert ``job`` itself: at most LOCAL_MAX_PIXELS."""
+    from PIL import Image  # noqa: PLC0415
+
+    try:
+        with Image.open(job.source) as img:
+            return img.size[0] * img.size[1] <= LOCAL_MAX_PIXELS
+    except Exception:  # unreadable: a worker reports it
+        return False
 
 
 def cores() -> int:

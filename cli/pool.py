@@ -108,16 +108,17 @@ class Finished:
 
 def run_jobs(jobs: Sequence[Any], workers: int, function: Callable[[Any], Any], report: Callable[[Finished], None],
              signals: Signals, cleanup: Callable[[Any], None] = lambda job: None,
-             started: Callable[[int], None] = lambda index: None, here: Callable[[Any], Any] | None = None) -> None:
+             started: Callable[[int], None] = lambda index: None, here: Callable[[Any], Any] | None = None,
+             local: Callable[[Any], bool] = lambda job: True) -> None:
     """Run ``function(job)`` for every job in ``workers`` processes; ``report`` gets each
     :class:`Finished` as it happens (cancelled jobs last), ``started`` each index as it
     begins. ``function`` must be picklable by reference and must not raise. With ``here``,
     this process converts jobs itself, ``here(job)`` (None: interrupted, cleaned up), while
-    the workers start. Returns when all are reported."""
+    the workers start, as long as the next is ``local(job)``. Returns when all are reported."""
     pool = _Pool(function, signals, cleanup, started)
     try:
         if here is not None and workers >= 2:
-            pool.start_meanwhile(pending := list(enumerate(jobs)), workers, here, report)
+            pool.start_meanwhile(pending := list(enumerate(jobs)), workers, here, local, report)
             pool.run(pending, workers, report)
         else:
             pool.run(list(enumerate(jobs)), workers, report)
@@ -197,10 +198,10 @@ class _Pool:
             self._stop(pending, report)
 
     def start_meanwhile(self, pending: list[tuple[int, Any]], size: int, here: Callable[[Any], Any],
-                        report: Callable[[Finished], None]) -> None:
+                        local: Callable[[Any], bool], report: Callable[[Finished], None]) -> None:
         """Start the workers in a thread, each given its first jobs as soon as it is up,
-        while this thread runs ``here`` on jobs from the end of the queue: the fork server's
-        imports (~0.4 s, serial) no longer leave a core idle."""
+        while this thread runs ``here`` on jobs from the end of the queue (until one is not
+        ``local``): the fork server's imports (~0.4 s, serial) no longer leave a core idle."""
         import threading  # noqa: PLC0415
 
         lock = threading.Lock()
@@ -226,7 +227,7 @@ class _Pool:
         try:
             while starter.is_alive() and self.signals.signum is None:
                 with lock:
-                    if len(pending) <= size * DEPTH:
+                    if len(pending) <= size * DEPTH or not local(pending[-1][1]):
                         break
                     index, job = pending.pop()
                 self.started(index)

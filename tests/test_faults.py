@@ -273,3 +273,22 @@ def test_main_process_converts_while_the_workers_start(tmp_path):
     here = [f.index for f, pid in zip(done, pids) if pid == os.getpid()]
     assert here and min(here) >= 40 - len(here)  # the last jobs of the queue
     assert len(set(pids) - {os.getpid()}) == 2  # and the two workers the rest
+    done.clear()
+    with Signals(raising=False) as signals:  # the last job is not one it may run: it runs none
+        run_jobs(jobs, 2, crash, done.append, signals, here=crash, local=lambda job: job[0] != "j39")
+    assert sorted(f.index for f in done) == list(range(40))
+    assert all(int(f.result.split()[-1]) != os.getpid() for f in done)
+
+
+def test_main_process_converts_only_small_files_itself(tmp_path):
+    """Memory: the main process takes a file while its workers start only up to 256×256."""
+    from PIL import Image
+
+    from depixel_cli.batch import Job
+    from depixel_cli.batch_run import small
+
+    for size, expected in (((256, 256), True), ((257, 256), False)):
+        Image.new("RGB", size).save(tmp_path / "x.png")
+        assert small(Job(tmp_path / "x.png", tmp_path / "x.svg", None)) is expected  # type: ignore[arg-type]
+    (tmp_path / "x.png").write_bytes(b"not an image")
+    assert not small(Job(tmp_path / "x.png", tmp_path / "x.svg", None))  # type: ignore[arg-type]
