@@ -235,8 +235,8 @@ class _Pool:
                 report(Finished(index, interrupted=True) if result is None else Finished(index, result))
         finally:
             starter.join()
-        if failed:
-            raise failed[0]
+        if failed and self.signals.signum is None:  # after a stop (its signal may have ended
+            raise failed[0]                            # the fork server), the stop is the story
 
     def _hand_out(self, pending: list[tuple[int, Any]], size: int) -> None:
         """Fill the workers, starting new ones up to ``size``: first one job each (so that a

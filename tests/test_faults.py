@@ -26,11 +26,24 @@ from conftest import FIXTURES
 STOP_SECONDS = 6.0
 
 
-def batch_folder(tmp_path: Path, copies: int = 40) -> Path:
+def batch_folder(tmp_path: Path, copies: int = 40, large: bool = False) -> Path:
+    """``copies`` of the mushroom; ``large``: a 17 × 19 tiling of it (272×266 pixels, more
+    than the command converts itself while its workers start: every file is a worker's)."""
     folder = tmp_path / "in"
     folder.mkdir()
+    source = FIXTURES / "mushroom.png"
+    if large:
+        from PIL import Image
+
+        with Image.open(source) as tile:
+            tiled = Image.new(tile.mode, (tile.width * 17, tile.height * 19))
+            for x in range(17):
+                for y in range(19):
+                    tiled.paste(tile, (x * tile.width, y * tile.height))
+        source = tmp_path / "tiled.png"
+        tiled.save(source)
     for i in range(copies):
-        shutil.copy(FIXTURES / "mushroom.png", folder / f"m{i:03d}.png")
+        shutil.copy(source, folder / f"m{i:03d}.png")
     return folder
 
 
@@ -145,9 +158,11 @@ def test_sigterm_to_the_whole_group_leaves_nothing_behind(tmp_path):
 
 
 def test_workers_die_with_a_killed_command(tmp_path):
-    """17.3: even SIGKILL of the command (no chance to clean up) leaves no worker running."""
+    """17.3: even SIGKILL of the command (no chance to clean up) leaves no worker running,
+    and no worker's temporary file (files too large for the command to convert itself:
+    a file it converts itself, as with -j 1, may leave one when it is killed)."""
     out = tmp_path / "out"
-    proc = start(batch_folder(tmp_path), out, "-j", "2")
+    proc = start(batch_folder(tmp_path, large=True), out, "-j", "2")
     wait_for_outputs(out, proc)
     workers = wait_for_workers(proc) + helpers(proc.pid)
     assert len(workers) >= 2
