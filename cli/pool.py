@@ -366,11 +366,23 @@ def _stop(signum: int, frame: object) -> None:
     raise _Stop()
 
 
+def _unraisable(hook: Any) -> None:
+    """A :class:`_Stop` raised in a finalizer (a generator closed by the collector) is
+    swallowed there, with "Exception ignored" on stderr: stop again 10 ms later (SIGALRM),
+    out of it, quietly (swallowed again, it tries again)."""
+    if isinstance(hook.exc_value, _Stop):
+        signal.signal(signal.SIGALRM, _stop)
+        signal.setitimer(signal.ITIMER_REAL, 0.01)
+        return
+    sys.__unraisablehook__(hook)
+
+
 def _serve(conn, function: Callable) -> None:
     """A worker's life: ignore SIGINT, stop on SIGTERM or when the main process is gone."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     signal.signal(signal.SIGTERM, _stop)
+    sys.unraisablehook = _unraisable
     _die_with_parent()
     try:
         while True:

@@ -307,3 +307,34 @@ def test_main_process_converts_only_small_files_itself(tmp_path):
         assert small(Job(tmp_path / "x.png", tmp_path / "x.svg", None)) is expected  # type: ignore[arg-type]
     (tmp_path / "x.png").write_bytes(b"not an image")
     assert not small(Job(tmp_path / "x.png", tmp_path / "x.svg", None))  # type: ignore[arg-type]
+
+
+def test_worker_stop_swallowed_by_a_finalizer_stops_again(tmp_path):
+    """SIGTERM that lands in a generator's cleanup (where Python swallows the exception and
+    prints "Exception ignored") is raised again outside it, with nothing printed."""
+    code = """if True:
+        import os, signal, sys, time
+        from depixel_cli import pool
+        signal.signal(signal.SIGTERM, pool._stop)
+        if sys.argv[1] == "hook":
+            sys.unraisablehook = pool._unraisable
+        def frames():
+            try:
+                yield 1
+            finally:
+                os.kill(os.getpid(), signal.SIGTERM)  # as if it arrived during this cleanup
+                time.sleep(0.1)
+        gen = frames()
+        next(gen)
+        try:
+            del gen
+            time.sleep(5)
+            print("went on")
+        except pool._Stop:
+            print("stopped")
+    """
+    done = subprocess.run([sys.executable, "-c", code, "hook"], capture_output=True, text=True, timeout=60)
+    stdout, stderr = done.stdout, done.stderr
+    without = subprocess.run([sys.executable, "-c", code, "none"], capture_output=True, text=True, timeout=60)
+    assert without.stdout.strip() == "went on" and "Exception ignored" in without.stderr  # what it prevents
+    assert stdout.strip() == "stopped" and "Exception ignored" not in stderr
