@@ -17,12 +17,17 @@ from depixel.limits import PEAK_BYTES_PER_PIXEL, WORKER_BASELINE_BYTES
 
 from .batch import CANCELLED, Job, Outcome, abandoned, already_done, remove_temporary_files, run_job
 
+#: The largest image (pixels, from its header) the main process converts itself while its
+#: workers start: ~65 MB at PEAK_BYTES_PER_PIXEL, so a batch holds little more memory than
+#: its workers, which ``-j auto`` counted.
+LOCAL_MAX_PIXELS = 256 * 256
+
 
 def run(jobs: list[Job], workers: int, report, signals, progress: Progress | None = None) -> list[Outcome]:
-    """Run the jobs, ``workers`` processes at a time (this process for one), until done or
-    stopped by ``signals``; ``report(outcome)`` is called as each one ends. Returns the
-    outcomes in the order of ``jobs``; after a stop, the unfinished ones are INTERRUPTED or
-    CANCELLED."""
+    """Run the jobs, ``workers`` processes at a time (this process for one; with more, this
+    process converts files too while the workers start), until done or stopped by
+    ``signals``; ``report(outcome)`` is called as each one ends. Returns the outcomes in the
+    order of ``jobs``; after a stop, the unfinished ones are INTERRUPTED or CANCELLED."""
     from .pool import Finished, Interrupted, run_jobs  # noqa: PLC0415
 
     outcomes: dict[int, Outcome] = {}
@@ -53,25 +58,26 @@ def run(jobs: list[Job], workers: int, report, signals, progress: Progress | Non
         if (done := already_done(job)) is not None:
             finished(Finished(index, done))
     todo = [i for i in range(len(jobs)) if i not in outcomes]
+
+    def here(job: Job) -> Outcome | None:
+        """Convert in this process; None when a signal abandoned the file (cleaned up)."""
+        signals.raising = True  # a signal now abandons the file at once (the writer removes its temporary file)
+        try:
+            return run_job(job)
+        except Interrupted:
+            remove_temporary_files(job)
+            return None
+        finally:
+            signals.raising = False
+
     if workers <= 1 or len(todo) <= 1:
         for index in todo:
-            job = jobs[index]
             if signals.signum is not None:
                 finished(Finished(index, cancelled=True))
                 continue
             started(index)
-            signals.raising = True  # a signal now abandons the file at once (the writer removes its temporary file)
-            try:
-                result = run_job(job)
-            except Interrupted:
-                result = None
-            finally:
-                signals.raising = False
-            if result is None:
-                remove_temporary_files(job)
-                finished(Finished(index, interrupted=True))
-            else:
-                finished(Finished(index, result))
+            result = here(jobs[index])
+            finished(Finished(index, interrupted=True) if result is None else Finished(index, result))
     else:
         signals.raising = False
 
@@ -79,8 +85,9 @@ def run(jobs: list[Job], workers: int, report, signals, progress: Progress | Non
             finished(Finished(todo[done.index], done.result, done.died, done.retried, done.interrupted,
                               done.cancelled))
 
+        # while the fork server imports depixel, this process converts small files itself
         run_jobs([jobs[i] for i in todo], workers, run_job, renumbered, signals, cleanup=remove_temporary_files,
-                 started=lambda i: started(todo[i]))
+                 started=lambda i: started(todo[i]), here=here, local=small)
     return [outcomes[i] for i in range(len(jobs))]
 
 
@@ -119,6 +126,17 @@ class Progress:
     def close(self) -> None:
         if self.bar is not None:
             self.bar.close()
+
+
+def small(job: Job) -> bool:
+    """Whether the main process may convert ``job`` itself: at most LOCAL_MAX_PIXELS."""
+    from PIL import Image  # noqa: PLC0415
+
+    try:
+        with Image.open(job.source) as img:
+            return img.size[0] * img.size[1] <= LOCAL_MAX_PIXELS
+    except Exception:  # unreadable: a worker reports it
+        return False
 
 
 def cores() -> int:

@@ -5,10 +5,13 @@ One design serves every command (docs/cli.md, "Interrupts and faults"):
 * :class:`Signals` turns the first SIGINT/SIGTERM into a request to stop (a flag, and an
   :class:`Interrupted` exception where work may be abandoned at once) and makes a second one
   exit at once, quietly, with 128 + the signal number.
-* :func:`run_jobs` hands one job at a time to each worker over its own pipe, so the main
-  process always knows which job a worker holds. A worker that dies (killed, out of memory)
-  fails only that job, which is retried once in a fresh worker. On a stop request no new
-  job is handed out, queued jobs are cancelled, running ones get SIGTERM (a worker then
+* :func:`run_jobs` hands jobs to each worker over its own pipe, at most :data:`DEPTH` at a
+  time (the one it runs and the next, waiting in the pipe so the worker never idles while
+  the main process reports a result), so the main process always knows which jobs a worker
+  holds: the first is running, the others have not started. A worker that dies (killed,
+  out of memory) fails only the job it was running, which is retried once in a fresh
+  worker; the jobs waiting behind it go back to the queue untouched. On a stop request no
+  new job is handed out, queued jobs are cancelled, running ones get SIGTERM (a worker then
   abandons its file; the atomic writer removes its temporary file) and, after a short
   grace, SIGKILL; their temporary files are removed by the caller's ``cleanup``. No worker
   outlives the command: they also get SIGTERM from the kernel when the main process dies.
@@ -33,6 +36,14 @@ from typing import Any
 GRACE_SECONDS = 1.0
 #: Times a job whose worker died is tried again, each time in a fresh worker.
 RETRIES = 1
+#: Jobs a worker holds at once: the one it runs and the next, already in its pipe.
+DEPTH = 2
+#: What the fork server imports once, so that no worker imports it: the job code, the
+#: modules a conversion imports on first use (~0.1 s of each worker's first file otherwise;
+#: the main process converts files meanwhile) and the worker loop (this module, and ctypes
+#: for ``_die_with_parent``).
+PRELOAD = ["depixel_cli.batch", "PIL.PngImagePlugin", "depixel.splines", "depixel.optimize", "tempfile",
+           "depixel_cli.pool", "ctypes"]
 
 
 class Interrupted(BaseException):
@@ -97,14 +108,20 @@ class Finished:
 
 def run_jobs(jobs: Sequence[Any], workers: int, function: Callable[[Any], Any], report: Callable[[Finished], None],
              signals: Signals, cleanup: Callable[[Any], None] = lambda job: None,
-             started: Callable[[int], None] = lambda index: None) -> None:
+             started: Callable[[int], None] = lambda index: None, here: Callable[[Any], Any] | None = None,
+             local: Callable[[Any], bool] = lambda job: True) -> None:
     """Run ``function(job)`` for every job in ``workers`` processes; ``report`` gets each
-    :class:`Finished` as it happens (cancelled jobs last), ``started`` each index handed out.
-    ``function`` must be picklable by reference and must not raise. Returns when all are
-    reported."""
+    :class:`Finished` as it happens (cancelled jobs last), ``started`` each index as it
+    begins. ``function`` must be picklable by reference and must not raise. With ``here``,
+    this process converts jobs itself, ``here(job)`` (None: interrupted, cleaned up), while
+    the workers start, as long as the next is ``local(job)``. Returns when all are reported."""
     pool = _Pool(function, signals, cleanup, started)
     try:
-        pool.run(list(enumerate(jobs)), workers, report)
+        if here is not None and workers >= 2:
+            pool.start_meanwhile(pending := list(enumerate(jobs)), workers, here, local, report)
+            pool.run(pending, workers, report)
+        else:
+            pool.run(list(enumerate(jobs)), workers, report)
     finally:
         pool.close()
 
@@ -121,8 +138,24 @@ class _Worker:
             signal.pthread_sigmask(signal.SIG_SETMASK, old)
         child.close()
         self.conn = parent
-        self.job: tuple[int, Any] | None = None
-        self.tries = 0
+        self.jobs: list[tuple[int, Any]] = []  # in the order sent: the first is running
+
+    def give(self, job: tuple[int, Any]) -> None:
+        self.jobs.append(job)
+        try:
+            self.conn.send(job[1])
+        except OSError:
+            pass  # it died already: seen through its sentinel
+
+    def results(self) -> list[Any]:
+        """The results waiting in the pipe (of the first jobs held, in order)."""
+        found: list[Any] = []
+        try:
+            while len(found) < len(self.jobs) and self.conn.poll():
+                found.append(self.conn.recv())
+        except (EOFError, OSError):
+            pass
+        return found
 
     def how_it_died(self) -> str:
         self.process.join(5)
@@ -138,16 +171,8 @@ class _Worker:
 class _Pool:
     def __init__(self, function: Callable, signals: Signals, cleanup: Callable[[Any], None],
                  started: Callable[[int], None]) -> None:
-        import multiprocessing  # noqa: PLC0415
-
         self.started = started
-        if "forkserver" in multiprocessing.get_all_start_methods():
-            # a server process imports depixel once, then forks each worker from it: a worker
-            # starts in milliseconds, holding only its own pipe
-            self.context: Any = multiprocessing.get_context("forkserver")
-            self.context.set_forkserver_preload(["depixel_cli.batch"])
-        else:
-            self.context = multiprocessing.get_context("spawn")
+        self.context = context()
         self.function = function
         self.signals = signals
         self.cleanup = cleanup
@@ -162,21 +187,9 @@ class _Pool:
 
         tries: dict[int, int] = {}
         retried: dict[int, str] = {}
-        while (pending or any(w.job for w in self.workers)) and self.signals.signum is None:
-            while pending and self.signals.signum is None:  # hand out work to idle (or new) workers
-                worker = next((w for w in self.workers if w.job is None), None)
-                if worker is None and len(self.workers) < size:
-                    worker = _Worker(self.context, self.function)
-                    self.workers.append(worker)
-                if worker is None:
-                    break
-                worker.job = pending.pop(0)
-                self.started(worker.job[0])
-                try:
-                    worker.conn.send(worker.job[1])
-                except OSError:
-                    pass  # it died already: seen below through its sentinel
-            busy = [w for w in self.workers if w.job is not None]
+        while (pending or any(w.jobs for w in self.workers)) and self.signals.signum is None:
+            self._hand_out(pending, size)
+            busy = [w for w in self.workers if w.jobs]
             ready = wait([w.conn for w in busy] + [w.process.sentinel for w in busy] + [self.wake_r])
             for worker in busy:
                 if worker.conn in ready or worker.process.sentinel in ready:
@@ -184,24 +197,81 @@ class _Pool:
         if self.signals.signum is not None:
             self._stop(pending, report)
 
+    def start_meanwhile(self, pending: list[tuple[int, Any]], size: int, here: Callable[[Any], Any],
+                        local: Callable[[Any], bool], report: Callable[[Finished], None]) -> None:
+        """Start the workers in a thread, each given its first jobs as soon as it is up,
+        while this thread runs ``here`` on jobs from the end of the queue (until one is not
+        ``local``): the fork server's imports (~0.4 s, serial) no longer leave a core idle."""
+        import threading  # noqa: PLC0415
+
+        lock = threading.Lock()
+        failed: list[BaseException] = []
+
+        def start() -> None:
+            for _ in range(size):
+                try:
+                    worker = _Worker(self.context, self.function)
+                except Exception as exc:  # raised here, in the main thread, as without the thread
+                    failed.append(exc)
+                    return
+                with lock:
+                    self.workers.append(worker)
+                    while pending and len(worker.jobs) < DEPTH and self.signals.signum is None and \
+                            (not worker.jobs or len(pending) >= size):
+                        worker.give(pending.pop(0))
+                if worker.jobs:
+                    self.started(worker.jobs[0][0])
+
+        starter = threading.Thread(target=start, name="depixel-start-workers", daemon=True)
+        starter.start()
+        try:
+            while starter.is_alive() and self.signals.signum is None:
+                with lock:
+                    if len(pending) <= size * DEPTH or not local(pending[-1][1]):
+                        break
+                    index, job = pending.pop()
+                self.started(index)
+                result = here(job)
+                report(Finished(index, interrupted=True) if result is None else Finished(index, result))
+        finally:
+            starter.join()
+        if failed and self.signals.signum is None:  # after a stop (its signal may have ended
+            raise failed[0]                            # the fork server), the stop is the story
+
+    def _hand_out(self, pending: list[tuple[int, Any]], size: int) -> None:
+        """Fill the workers, starting new ones up to ``size``: first one job each (so that a
+        short batch is spread over every worker), then up to :data:`DEPTH` while there are
+        more jobs left than workers (at the end a file waiting behind another in one worker
+        would leave another worker idle)."""
+        for depth in range(1, DEPTH + 1):
+            while pending and self.signals.signum is None and (depth == 1 or len(pending) >= size):
+                worker = next((w for w in self.workers if len(w.jobs) < depth), None)
+                if worker is None and len(self.workers) < size:
+                    worker = _Worker(self.context, self.function)
+                    self.workers.append(worker)
+                if worker is None:
+                    break
+                worker.give(pending.pop(0))
+                if len(worker.jobs) == 1:
+                    self.started(worker.jobs[0][0])
+
     def _collect(self, worker: _Worker, pending: list, tries: dict[int, int], retried: dict[int, str],
                  report: Callable[[Finished], None]) -> None:
-        assert worker.job is not None  # only busy workers are collected
-        index, job = worker.job
-        try:
-            if worker.conn.poll():
-                result = worker.conn.recv()
-                worker.job = None
-                report(Finished(index, result, retried=retried.get(index)))
-                return
-        except (EOFError, OSError):
-            pass
-        if worker.process.is_alive():
+        for result in worker.results():
+            index, _ = worker.jobs.pop(0)
+            if worker.jobs:
+                self.started(worker.jobs[0][0])
+            report(Finished(index, result, retried=retried.get(index)))
+        if not worker.jobs or worker.process.is_alive():
             return
-        # the worker died holding this job: a fresh worker tries it once more
+        # the worker died running its first job: a fresh worker tries it once more; the jobs
+        # waiting behind it never started and go back to the queue as they were
         how = worker.how_it_died()
         self.workers.remove(worker)
         worker.conn.close()
+        (index, job), *waiting = worker.jobs
+        worker.jobs = []
+        pending[:0] = waiting
         self.cleanup(job)
         tries[index] = tries.get(index, 0) + 1
         if self.signals.signum is not None:  # stopped by the same signal as the main process
@@ -214,7 +284,7 @@ class _Pool:
 
     def _stop(self, pending: list[tuple[int, Any]], report: Callable[[Finished], None]) -> None:
         """Stop request: cancel the queue, abandon running jobs (SIGTERM, then SIGKILL)."""
-        busy = [w for w in self.workers if w.job is not None]
+        busy = [w for w in self.workers if w.jobs]
         for worker in busy:
             _signal(worker, signal.SIGTERM)
         deadline = time.monotonic() + GRACE_SECONDS
@@ -224,20 +294,15 @@ class _Pool:
             if worker.process.is_alive():
                 _signal(worker, signal.SIGKILL)
                 worker.process.join(1)
-            result = None
-            try:
-                if worker.conn.poll():  # it finished before the stop reached it
-                    result = worker.conn.recv()
-            except (EOFError, OSError):
-                pass
-            assert worker.job is not None
-            index, job = worker.job
-            if result is None:
+            for result in worker.results():  # finished before the stop reached it
+                index, _ = worker.jobs.pop(0)
+                report(Finished(index, result))
+            if worker.jobs:  # the first was running; those behind it never started
+                (index, job), *waiting = worker.jobs
                 self.cleanup(job)
                 report(Finished(index, interrupted=True))
-            else:
-                report(Finished(index, result))
-            worker.job = None
+                pending[:0] = waiting
+            worker.jobs = []
         for index, _ in pending:
             report(Finished(index, cancelled=True))
         pending.clear()
@@ -247,13 +312,13 @@ class _Pool:
         for worker in self.workers:
             _signal(worker, signal.SIGKILL)
         for worker in self.workers:
-            if worker.job is not None:
+            if worker.jobs:
                 worker.process.join(0.5)
-                self.cleanup(worker.job[1])
+                self.cleanup(worker.jobs[0][1])
 
     def close(self) -> None:
         for worker in self.workers:
-            if worker.job is None:
+            if not worker.jobs:
                 try:
                     worker.conn.send(None)  # done: exit
                 except OSError:
@@ -269,6 +334,19 @@ class _Pool:
         self.signals.on_second = None
         os.close(self.wake_r)
         os.close(self.wake_w)
+
+
+def context() -> Any:
+    """The multiprocessing context of the workers: a ``forkserver`` that imports
+    :data:`PRELOAD` once and forks each worker from it (a worker starts in milliseconds,
+    holding only its own pipe), else ``spawn``."""
+    import multiprocessing  # noqa: PLC0415
+
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return multiprocessing.get_context("spawn")
+    server = multiprocessing.get_context("forkserver")
+    server.set_forkserver_preload(PRELOAD)
+    return server
 
 
 def _signal(worker: _Worker, signum: int) -> None:
@@ -288,11 +366,23 @@ def _stop(signum: int, frame: object) -> None:
     raise _Stop()
 
 
+def _unraisable(hook: Any) -> None:
+    """A :class:`_Stop` raised in a finalizer (a generator closed by the collector) is
+    swallowed there, with "Exception ignored" on stderr: stop again 10 ms later (SIGALRM),
+    out of it, quietly (swallowed again, it tries again)."""
+    if isinstance(hook.exc_value, _Stop):
+        signal.signal(signal.SIGALRM, _stop)
+        signal.setitimer(signal.ITIMER_REAL, 0.01)
+        return
+    sys.__unraisablehook__(hook)
+
+
 def _serve(conn, function: Callable) -> None:
     """A worker's life: ignore SIGINT, stop on SIGTERM or when the main process is gone."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     signal.signal(signal.SIGTERM, _stop)
+    sys.unraisablehook = _unraisable
     _die_with_parent()
     try:
         while True:

@@ -2,12 +2,15 @@
 
 ``crash`` kills its own worker with SIGKILL (a real dead worker, as the OOM killer leaves
 one): always for a job named "always", only the first time for "once" (a marker file
-remembers it).
+remembers it). ``crash_holding_next`` first waits until the worker's next job is in its
+pipe, and writes down whether it came, so the worker dies holding two jobs.
 """
 from __future__ import annotations
 
 import os
 import signal
+import sys
+import time
 from pathlib import Path
 
 
@@ -18,3 +21,14 @@ def crash(job: tuple[str, str]) -> str:
         marker.touch()
         os.kill(os.getpid(), signal.SIGKILL)
     return f"{name} done in {os.getpid()}"
+
+
+def crash_holding_next(job: tuple[str, str]) -> str:
+    name, folder = job
+    if name == "once" and not (Path(folder) / f"{name}.tried").exists():
+        conn = sys._getframe(1).f_locals["conn"]  # the pipe of the worker loop (pool._serve)
+        deadline = time.monotonic() + 10
+        while not conn.poll() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        (Path(folder) / "held next").write_text(str(conn.poll()))
+    return crash(job)

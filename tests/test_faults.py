@@ -26,11 +26,24 @@ from conftest import FIXTURES
 STOP_SECONDS = 6.0
 
 
-def batch_folder(tmp_path: Path, copies: int = 40) -> Path:
+def batch_folder(tmp_path: Path, copies: int = 40, large: bool = False) -> Path:
+    """``copies`` of the mushroom; ``large``: a 17 × 19 tiling of it (272×266 pixels, more
+    than the command converts itself while its workers start: every file is a worker's)."""
     folder = tmp_path / "in"
     folder.mkdir()
+    source = FIXTURES / "mushroom.png"
+    if large:
+        from PIL import Image
+
+        with Image.open(source) as tile:
+            tiled = Image.new(tile.mode, (tile.width * 17, tile.height * 19))
+            for x in range(17):
+                for y in range(19):
+                    tiled.paste(tile, (x * tile.width, y * tile.height))
+        source = tmp_path / "tiled.png"
+        tiled.save(source)
     for i in range(copies):
-        shutil.copy(FIXTURES / "mushroom.png", folder / f"m{i:03d}.png")
+        shutil.copy(source, folder / f"m{i:03d}.png")
     return folder
 
 
@@ -47,6 +60,16 @@ def wait_for_outputs(out: Path, proc: subprocess.Popen, count: int = 1, timeout:
         assert proc.poll() is None, proc.communicate()
         time.sleep(0.05)
     raise AssertionError("the batch did not start")
+
+
+def wait_for_workers(proc: subprocess.Popen, count: int = 2, timeout: float = 60) -> list[int]:
+    """The workers of ``proc`` once there are ``count`` (this process converts the first
+    files itself while they start, so the first outputs may come before them)."""
+    deadline = time.monotonic() + timeout
+    while len(found := children(proc.pid)) < count and time.monotonic() < deadline:
+        assert proc.poll() is None, proc.communicate()
+        time.sleep(0.02)
+    return found
 
 
 def children_of(pid: int) -> list[int]:
@@ -90,13 +113,16 @@ pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="re
 
 
 @pytest.mark.parametrize("jobs,signum,code", [("2", signal.SIGINT, 130), ("2", signal.SIGTERM, 143),
-                                              ("1", signal.SIGINT, 130), ("1", signal.SIGTERM, 143)])
+                                              ("1", signal.SIGINT, 130), ("1", signal.SIGTERM, 143),
+                                              ("2 starting", signal.SIGINT, 130)])
 def test_first_signal_stops_the_batch_with_a_summary(tmp_path, jobs, signum, code):
+    """-j 2 after its workers started; "2 starting": at the first output, usually while the
+    command converts files itself and its workers are still starting."""
     out = tmp_path / "out"
-    proc = start(batch_folder(tmp_path), out, "-j", jobs)
+    proc = start(batch_folder(tmp_path), out, "-j", jobs.split()[0])
     wait_for_outputs(out, proc)
-    workers = children(proc.pid)
-    assert len(workers) == (2 if jobs == "2" else 0)
+    workers = children(proc.pid) if jobs != "2" else wait_for_workers(proc)
+    assert len(workers) == {"2": 2, "1": 0}.get(jobs, len(workers))
     workers += helpers(proc.pid)
     sent = time.monotonic()
     proc.send_signal(signum)
@@ -121,7 +147,7 @@ def test_sigterm_to_the_whole_group_leaves_nothing_behind(tmp_path):
                              str(out), "--json", "-j", "2"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, start_new_session=True)
     wait_for_outputs(out, proc)
-    workers = children(proc.pid) + helpers(proc.pid)
+    workers = wait_for_workers(proc) + helpers(proc.pid)
     assert len(workers) >= 2
     os.killpg(proc.pid, signal.SIGTERM)
     stdout, stderr = proc.communicate(timeout=60)
@@ -132,11 +158,13 @@ def test_sigterm_to_the_whole_group_leaves_nothing_behind(tmp_path):
 
 
 def test_workers_die_with_a_killed_command(tmp_path):
-    """17.3: even SIGKILL of the command (no chance to clean up) leaves no worker running."""
+    """17.3: even SIGKILL of the command (no chance to clean up) leaves no worker running,
+    and no worker's temporary file (files too large for the command to convert itself:
+    a file it converts itself, as with -j 1, may leave one when it is killed)."""
     out = tmp_path / "out"
-    proc = start(batch_folder(tmp_path), out, "-j", "2")
+    proc = start(batch_folder(tmp_path, large=True), out, "-j", "2")
     wait_for_outputs(out, proc)
-    workers = children(proc.pid) + helpers(proc.pid)
+    workers = wait_for_workers(proc) + helpers(proc.pid)
     assert len(workers) >= 2
     proc.kill()
     proc.communicate(timeout=60)
@@ -148,7 +176,7 @@ def test_second_ctrl_c_exits_at_once_quietly(tmp_path):
     out = tmp_path / "out"
     proc = start(batch_folder(tmp_path), out, "-j", "2")
     wait_for_outputs(out, proc)
-    workers = children(proc.pid) + helpers(proc.pid)
+    workers = wait_for_workers(proc) + helpers(proc.pid)
     proc.send_signal(signal.SIGINT)
     proc.send_signal(signal.SIGINT)
     stdout, stderr = proc.communicate(timeout=60)
@@ -200,7 +228,7 @@ def test_killed_worker_fails_only_its_file_after_a_retry(tmp_path):
     out = tmp_path / "out"
     proc = start(batch_folder(tmp_path, 30), out, "-j", "2")
     wait_for_outputs(out, proc)
-    victim = children(proc.pid)[0]
+    victim = wait_for_workers(proc)[0]
     os.kill(victim, signal.SIGKILL)
     stdout, stderr = proc.communicate(timeout=300)
     assert proc.returncode == 0, stderr
@@ -224,3 +252,89 @@ def test_pool_reports_a_file_that_kills_every_worker(tmp_path):
     assert by_name["once"].retried == "killed by SIGKILL" and by_name["once"].result.startswith("once done")
     for name in "abc":
         assert by_name[name].result.startswith(f"{name} done") and by_name[name].died is None
+
+
+def test_worker_killed_holding_its_next_job_loses_neither(tmp_path):
+    """A worker holds the job it runs and the next (in its pipe): when it dies, the one it
+    ran is retried once and the one behind it runs as if nothing happened (not retried,
+    not reported twice, not lost)."""
+    jobs = [(name, str(tmp_path)) for name in ("a", "once", "b", "c")]
+    done: list[Finished] = []
+    started: list[int] = []
+    with Signals(raising=False) as signals:
+        from pool_jobs import crash_holding_next
+
+        run_jobs(jobs, 1, crash_holding_next, done.append, signals, started=started.append)
+    assert (tmp_path / "held next").read_text() == "True"  # it did die holding "b"
+    assert sorted(jobs[f.index][0] for f in done) == ["a", "b", "c", "once"]
+    by_name = {jobs[f.index][0]: f for f in done}
+    assert by_name["once"].retried == "killed by SIGKILL" and by_name["once"].result.startswith("once done")
+    for name in "abc":
+        assert by_name[name].result.startswith(f"{name} done") and by_name[name].retried is None
+    assert [jobs[i][0] for i in started] == ["a", "once", "once", "b", "c"]  # as each began running
+
+
+def test_main_process_converts_while_the_workers_start(tmp_path):
+    """With ``here``, the main process converts jobs from the end of the queue while the
+    workers start (the fork server's imports), and every job still runs exactly once."""
+    jobs = [(f"j{i}", str(tmp_path)) for i in range(40)]
+    done: list[Finished] = []
+    with Signals(raising=False) as signals:
+        from pool_jobs import crash
+
+        run_jobs(jobs, 2, crash, done.append, signals, here=crash)
+    assert sorted(f.index for f in done) == list(range(40))
+    pids = [int(f.result.split()[-1]) for f in done]
+    here = [f.index for f, pid in zip(done, pids) if pid == os.getpid()]
+    assert here and min(here) >= 40 - len(here)  # the last jobs of the queue
+    assert len(set(pids) - {os.getpid()}) == 2  # and the two workers the rest
+    done.clear()
+    with Signals(raising=False) as signals:  # the last job is not one it may run: it runs none
+        run_jobs(jobs, 2, crash, done.append, signals, here=crash, local=lambda job: job[0] != "j39")
+    assert sorted(f.index for f in done) == list(range(40))
+    assert all(int(f.result.split()[-1]) != os.getpid() for f in done)
+
+
+def test_main_process_converts_only_small_files_itself(tmp_path):
+    """Memory: the main process takes a file while its workers start only up to 256×256."""
+    from PIL import Image
+
+    from depixel_cli.batch import Job
+    from depixel_cli.batch_run import small
+
+    for size, expected in (((256, 256), True), ((257, 256), False)):
+        Image.new("RGB", size).save(tmp_path / "x.png")
+        assert small(Job(tmp_path / "x.png", tmp_path / "x.svg", None)) is expected  # type: ignore[arg-type]
+    (tmp_path / "x.png").write_bytes(b"not an image")
+    assert not small(Job(tmp_path / "x.png", tmp_path / "x.svg", None))  # type: ignore[arg-type]
+
+
+def test_worker_stop_swallowed_by_a_finalizer_stops_again(tmp_path):
+    """SIGTERM that lands in a generator's cleanup (where Python swallows the exception and
+    prints "Exception ignored") is raised again outside it, with nothing printed."""
+    code = """if True:
+        import os, signal, sys, time
+        from depixel_cli import pool
+        signal.signal(signal.SIGTERM, pool._stop)
+        if sys.argv[1] == "hook":
+            sys.unraisablehook = pool._unraisable
+        def frames():
+            try:
+                yield 1
+            finally:
+                os.kill(os.getpid(), signal.SIGTERM)  # as if it arrived during this cleanup
+                time.sleep(0.1)
+        gen = frames()
+        next(gen)
+        try:
+            del gen
+            time.sleep(5)
+            print("went on")
+        except pool._Stop:
+            print("stopped")
+    """
+    done = subprocess.run([sys.executable, "-c", code, "hook"], capture_output=True, text=True, timeout=60)
+    stdout, stderr = done.stdout, done.stderr
+    without = subprocess.run([sys.executable, "-c", code, "none"], capture_output=True, text=True, timeout=60)
+    assert without.stdout.strip() == "went on" and "Exception ignored" in without.stderr  # what it prevents
+    assert stdout.strip() == "stopped" and "Exception ignored" not in stderr
