@@ -14,7 +14,7 @@ from depixel.params import Params
 from depixel.pipeline import depixelize
 from depixel.raster import render_rgba
 from depixel import relax as relax_module
-from depixel.relax import GRADIENT_STEPS, Energy, disc_offsets, independent_classes, relax, smoothness, step
+from depixel.relax import GRADIENT_STEPS, Energy, Group, disc_offsets, independent_classes, relax, smoothness, step
 from depixel.splines import SplineSet, split_at
 from depixel.splitmix import SplitMix64
 from depixel.svg import to_svg
@@ -407,19 +407,27 @@ def offsets_at(angle: np.ndarray, radius: np.ndarray) -> np.ndarray:
     return np.stack([np.cos(angle) * radius, np.sin(angle) * radius])
 
 
-def test_a_move_closer_to_a_pixel_centre_than_the_clearance_is_refused():
-    img = art("""
-    ........
-    ........
-    .....###
-    ..######
-    ########
-    """)
-    splines = splines_of(img)
-    slot = slot_at(splines, (5.25, 2.25))  # the inner node of a one-pixel step
+STEP = """
+........
+........
+.....###
+..######
+########
+"""
+
+
+def step_case() -> tuple[SplineSet, int, Energy, np.ndarray, Group]:
+    """A one-pixel step: its drawing, the slot of its inner node (5.25, 2.25), the energy
+    model with no half left out, the control points and the one-member group of the slot."""
+    splines = splines_of(art(STEP))
+    slot = slot_at(splines, (5.25, 2.25))
     model = Energy(splines, np.zeros((splines.n_slots, 2), bool))
     ctrl = splines.controls_for(splines.positions)
-    group = model.prepare(np.array([slot]))
+    return splines, slot, model, ctrl, model.prepare(np.array([slot]))
+
+
+def test_a_move_closer_to_a_pixel_centre_than_the_clearance_is_refused():
+    splines, slot, model, ctrl, group = step_case()
     angle = np.repeat(np.linspace(0, 2 * np.pi, 16, endpoint=False), 4)[None]
     radius = np.tile([0.1, 0.2, 0.3, 0.45], 16)[None]
     params = Params(radius=0.45, candidates=64)
@@ -443,14 +451,6 @@ def test_a_move_closer_to_a_pixel_centre_than_the_clearance_is_refused():
 
 
 # --- the trials down the gradient -----------------------------------------------------------------
-
-STEP = """
-........
-........
-.....###
-..######
-########
-"""
 
 
 def test_the_descent_is_the_gradient_of_the_energy():
@@ -478,11 +478,7 @@ def test_the_descent_is_the_gradient_of_the_energy():
 
 
 def test_a_step_down_the_gradient_lowers_the_energy_within_the_guards():
-    splines = splines_of(art(STEP))
-    slot = slot_at(splines, (5.25, 2.25))  # the inner node of a one-pixel step
-    model = Energy(splines, np.zeros((splines.n_slots, 2), bool))
-    ctrl = splines.controls_for(splines.positions)
-    group = model.prepare(np.array([slot]))
+    splines, slot, model, ctrl, group = step_case()
     # one random trial, at distance 0: only the trials down the gradient can move
     draws = (np.zeros((1, 1)), np.zeros((1, 1)))
     params = Params(candidates=1, radius=0.2, centre_clearance=0.0)
@@ -558,11 +554,7 @@ def test_only_slots_near_a_moved_one_are_tried_again_and_the_sweeps_stop_when_no
 
 
 def test_a_slot_tries_its_last_move_again():
-    splines = splines_of(art(STEP))
-    slot = slot_at(splines, (5.25, 2.25))  # the inner node of a one-pixel step
-    model = Energy(splines, np.zeros((splines.n_slots, 2), bool))
-    ctrl = splines.controls_for(splines.positions)
-    group = model.prepare(np.array([slot]))
+    splines, slot, model, ctrl, group = step_case()
     still = np.zeros((2, 1, 1))  # one random trial, at distance 0
     params = Params(candidates=1, radius=0.0, centre_clearance=0.0)  # the gradient trials stay too
     last = np.zeros_like(ctrl)
