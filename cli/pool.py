@@ -382,9 +382,9 @@ def _serve(conn, function: Callable) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     signal.signal(signal.SIGTERM, _stop)
-    sys.unraisablehook = _unraisable
-    _die_with_parent()
-    try:
+    try:  # from here on SIGTERM raises _Stop: the set-up too (a stop request may come at once)
+        sys.unraisablehook = _unraisable
+        _die_with_parent()
         while True:
             try:
                 job = conn.recv()

@@ -338,3 +338,22 @@ def test_worker_stop_swallowed_by_a_finalizer_stops_again(tmp_path):
     without = subprocess.run([sys.executable, "-c", code, "none"], capture_output=True, text=True, timeout=60)
     assert without.stdout.strip() == "went on" and "Exception ignored" in without.stderr  # what it prevents
     assert stdout.strip() == "stopped" and "Exception ignored" not in stderr
+
+
+def test_worker_stopped_while_it_sets_itself_up_exits_quietly():
+    """SIGTERM while a fresh worker asks the kernel to stop it with its parent (a worker
+    started just before a stop request): the worker ends without a traceback."""
+    code = """if True:
+        import os, signal
+        from multiprocessing import Pipe
+        from depixel_cli import pool
+        def slow_setup():
+            os.kill(os.getpid(), signal.SIGTERM)  # as if it arrived during the set-up
+            signal.pause()  # SIGTERM raised _Stop before this returns
+        pool._die_with_parent = slow_setup
+        here, there = Pipe()
+        pool._serve(there, print)
+        print("quiet")
+    """
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.stdout.strip() == "quiet" and "Traceback" not in done.stderr, done.stderr
