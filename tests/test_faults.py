@@ -73,15 +73,29 @@ def wait_for_workers(proc: subprocess.Popen, count: int = 2, timeout: float = 60
 
 
 def children_of(pid: int) -> list[int]:
-    return [int(child) for task in Path(f"/proc/{pid}/task").iterdir()
-            for child in (task / "children").read_text().split()]
+    """The child processes of ``pid``, listed by each of its threads (a thread that ends
+    while it is read, such as the one starting the workers, has none left)."""
+    found = []
+    try:
+        tasks = list(Path(f"/proc/{pid}/task").iterdir())
+    except FileNotFoundError:
+        return found
+    for task in tasks:
+        try:
+            found += [int(child) for child in (task / "children").read_text().split()]
+        except (FileNotFoundError, ProcessLookupError):
+            continue
+    return found
 
 
 def children(pid: int) -> list[int]:
     """Worker processes of ``pid``: its spawned children, or those of its fork server."""
     found = []
     for child in children_of(pid):
-        cmdline = Path(f"/proc/{child}/cmdline").read_bytes()
+        try:
+            cmdline = Path(f"/proc/{child}/cmdline").read_bytes()
+        except (FileNotFoundError, ProcessLookupError):
+            continue
         if b"spawn_main" in cmdline:
             found.append(child)
         elif b"forkserver" in cmdline:
