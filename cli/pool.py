@@ -216,11 +216,7 @@ class _Pool:
                     return
                 with lock:
                     self.workers.append(worker)
-                    while pending and len(worker.jobs) < DEPTH and self.signals.signum is None and \
-                            (not worker.jobs or len(pending) >= size):
-                        worker.give(pending.pop(0))
-                if worker.jobs:
-                    self.started(worker.jobs[0][0])
+                    self._top_up(worker, pending, size, DEPTH)
 
         starter = threading.Thread(target=start, name="depixel-start-workers", daemon=True)
         starter.start()
@@ -251,9 +247,17 @@ class _Pool:
                     self.workers.append(worker)
                 if worker is None:
                     break
-                worker.give(pending.pop(0))
-                if len(worker.jobs) == 1:
-                    self.started(worker.jobs[0][0])
+                self._top_up(worker, pending, size, depth)
+
+    def _top_up(self, worker: _Worker, pending: list[tuple[int, Any]], size: int, depth: int) -> None:
+        """Give ``worker`` jobs from the front of ``pending`` until it holds ``depth``; beyond
+        its first only while at least as many jobs are left as workers. The one place that
+        decides how a worker is filled, for :meth:`_hand_out` and the workers' start."""
+        while pending and self.signals.signum is None and len(worker.jobs) < depth and \
+                (not worker.jobs or len(pending) >= size):
+            worker.give(pending.pop(0))
+            if len(worker.jobs) == 1:
+                self.started(worker.jobs[0][0])
 
     def _collect(self, worker: _Worker, pending: list, tries: dict[int, int], retried: dict[int, str],
                  report: Callable[[Finished], None]) -> None:
