@@ -159,12 +159,11 @@ def detect_run_corners(splines: SplineSet, params: Params = Params()) -> np.ndar
         straight run along ``step``, and the index of that far end (-1 for none). Only the
         runs still growing are carried from one step to the next, :data:`RUN_BATCH` at a
         time."""
-        chord_x, chord_y = np.zeros(at.size), np.zeros(at.size)
         far_slot = np.full(at.size, -1, dtype=np.int64)
         for part in batch_slices(starts.size, RUN_BATCH):
             # per run still growing: its row and the slot it reached (ids), and in one float
             # array (filtered by one compress a step) its start x, y, then the x and then the
-            # y of the far node of every earlier step
+            # y of the vector from the start to the far node of every earlier step
             ids = np.stack([starts[part], step.take(starts[part])], axis=1)
             ids = ids.compress(ids[:, 1] >= 0, axis=0)
             first = at.take(ids[:, 0])
@@ -174,23 +173,23 @@ def detect_run_corners(splines: SplineSet, params: Params = Params()) -> np.ndar
                 if ids.shape[0] == 0:
                     break
                 rows, walk = ids[:, 0], ids[:, 1]
-                start_x, start_y = geo[:, 0], geo[:, 1]
                 far = at.take(walk)
-                far_x, far_y = qx.take(far), qy.take(far)
-                candidate_x, candidate_y = far_x - start_x, far_y - start_y
+                candidate_x = np.subtract(qx.take(far), geo[:, 0], out=geo[:, 2 + i])
+                candidate_y = np.subtract(qy.take(far), geo[:, 1], out=geo[:, 2 + steps + i])
                 length = np.sqrt(candidate_x * candidate_x + candidate_y * candidate_y)
                 # every node passed must stay near the new chord
-                rel_x = geo[:, 2:2 + i] - start_x[:, None]
-                rel_y = geo[:, 2 + steps:2 + steps + i] - start_y[:, None]
-                cross = np.abs(candidate_x[:, None] * rel_y - candidate_y[:, None] * rel_x)
+                cross = np.abs(candidate_x[:, None] * geo[:, 2 + steps:2 + steps + i]
+                               - candidate_y[:, None] * geo[:, 2:2 + i])
                 ok = (cross <= (tolerance * np.maximum(length, 1e-9))[:, None]).all(axis=1)
-                done = rows.compress(ok)
-                chord_x[done], chord_y[done], far_slot[done] = (
-                    candidate_x.compress(ok), candidate_y.compress(ok), walk.compress(ok))
-                geo[:, 2 + i], geo[:, 2 + steps + i] = far_x, far_y
+                far_slot[rows.compress(ok)] = walk.compress(ok)  # the run reaches this far (so far)
                 ids[:, 1] = step.take(walk)  # the next step, if the run goes on
                 go = ok & (length < params.run_reach) & (ids[:, 1] >= 0)
                 ids, geo = ids.compress(go, axis=0), geo.compress(go, axis=0)
+        # the chord to the far end, the same subtraction as the accepted candidate's
+        reached = far_slot >= 0
+        far = at.take(np.maximum(far_slot, 0))
+        chord_x = np.where(reached, qx.take(far) - qx.take(at), 0.0)
+        chord_y = np.where(reached, qy.take(far) - qy.take(at), 0.0)
         return chord_x, chord_y, far_slot
 
     def turn(ux: np.ndarray, uy: np.ndarray, vx: np.ndarray, vy: np.ndarray) -> np.ndarray:
