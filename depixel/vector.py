@@ -114,11 +114,7 @@ def label_components(n: int, pairs: np.ndarray) -> np.ndarray:
     of each component's smallest item (so labels are stable, scanline order)."""
     if n == 0:
         return np.zeros(0, np.int64)
-    root = component_roots(n, pairs[:, 0], pairs[:, 1])  # smallest item of each component
-    is_root = root == np.arange(n)
-    label = np.cumsum(is_root)
-    label -= 1
-    return label.take(root)
+    return _labels(component_roots(n, pairs[:, 0], pairs[:, 1]))  # the smallest item of each component
 
 
 def regions(cells: CellGraph) -> np.ndarray:
@@ -138,15 +134,31 @@ def faces_and_regions(cells: CellGraph, per_cell: bool = False,
     """:func:`faces` and :func:`regions` together, finding the linked edges once."""
     n = cells.shape[0] * cells.shape[1]
     linked = linked_edges(cells)
+    left, right = cells.edge_pixels[:, 0], cells.edge_pixels[:, 1]
     if per_cell:
-        face = np.arange(n, dtype=np.int64)
+        face_root = np.arange(n, dtype=np.int64)
+        across = linked
     else:
         key = _colour_key(cells.graph.rgba).ravel()
-        left, right = cells.edge_pixels[:, 0], cells.edge_pixels[:, 1]
         same = linked & (key.take(np.maximum(left, 0)) == key.take(np.maximum(right, 0)))
-        face = label_components(n, cells.edge_pixels.compress(same, axis=0))  # (compress: no row fancy indexing)
-    region = label_components(n, cells.edge_pixels.compress(linked, axis=0)) if with_regions else None
-    return face, region
+        face_root = component_roots(n, left.compress(same), right.compress(same))
+        across = linked & ~same
+    face = _labels(face_root)
+    if not with_regions:
+        return face, None
+    # the regions join faces: their components over the face roots (each face's smallest
+    # pixel) by the linked edges between faces, so the smallest root of a region is its
+    # smallest pixel — the same roots as the components of all linked edges, in fewer rounds
+    root_of_root = component_roots(n, face_root.take(left.compress(across)), face_root.take(right.compress(across)))
+    return face, _labels(root_of_root.take(face_root))
+
+
+def _labels(root: np.ndarray) -> np.ndarray:
+    """(n,) the components of :func:`component_roots`' ``root``, numbered in order of their
+    smallest item."""
+    label = np.cumsum(root == np.arange(root.size))
+    label -= 1
+    return label.take(root)
 
 
 def _colour_key(rgba: np.ndarray) -> np.ndarray:
