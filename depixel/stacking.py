@@ -79,6 +79,9 @@ class FaceTopology:
         self.entry_other = entries(left, right)
         u, v = cells.edges[:, 0].take(boundary), cells.edges[:, 1].take(boundary)
         self.entry_from, self.entry_to = entries(u, v), entries(v, u)
+        # where three faces meet (the outside counted as one), three boundary edges do
+        n_nodes = len(cells.nodes)
+        meeting = (np.bincount(u, minlength=n_nodes) + np.bincount(v, minlength=n_nodes)) >= 3
         del u, v
         self.entry_edge = entries(boundary, boundary)
         del order
@@ -107,30 +110,35 @@ class FaceTopology:
         under = self._under_keys(pairs)
         del pairs
         own = np.flatnonzero(self.drawn)
-        self.underlays = _distinct(np.concatenate([own * n + own, under, self._under_keys(self._corner_pairs(labels))]))
+        at_corners = self._under_keys(self._corner_pairs(labels, meeting))
+        self.underlays = _distinct(np.concatenate([own * n + own, under, at_corners]))
 
     def boundaries(self) -> FaceBoundaries:
         """The rank and boundary half-edges alone, to keep when the rest is no longer needed."""
         return FaceBoundaries(self.n_faces, self.rank, self.entry_ptr, self.entry_other, self.entry_from,
                               self.entry_to, self.entry_edge, self.cells.nodes)
 
-    def _corner_pairs(self, labels: np.ndarray) -> np.ndarray:
+    def _corner_pairs(self, labels: np.ndarray, meeting: np.ndarray) -> np.ndarray:
         """(K, 2) (lowest face at a node, another face at that node) for every node where
         three or more faces meet: faces that touch there only at a corner (the diagonal ones
         where four meet) are not neighbours, yet unless the lowest of them lies under all the
-        others a seam opens at that point."""
+        others a seam opens at that point. ``meeting`` (N,) bool: a superset of those nodes
+        (the corners of the cells at the others are left out before the sort)."""
         cells = self.cells
         n = self.n_faces
-        face_at = np.repeat(labels, np.diff(cells.cell_ptr))
+        at_meeting = meeting.take(cells.cell_nodes)
+        face_at = np.repeat(labels, np.diff(cells.cell_ptr)).compress(at_meeting)
         drawn_first = self.rank.take(face_at)
         drawn_first += n * ~self.drawn.take(face_at)  # the lowest drawn face first
         del face_at
         # one sorted key per (node, face) instead of a lexsort: ranks are distinct, so the
         # face comes back from its rank
-        key = cells.cell_nodes.astype(np.int64)
+        key = cells.cell_nodes.compress(at_meeting).astype(np.int64)
         key *= 2 * n
         key += drawn_first
         del drawn_first
+        if key.size == 0:  # one face, or faces that only meet in twos
+            return np.zeros((0, 2), np.int32)
         node, drawn_first = np.divmod(_distinct(key), 2 * n)
         del key
         face_at = self.face_of_rank.take(drawn_first % n)
