@@ -127,17 +127,24 @@ def conjugate_gradients(apply: Callable[[np.ndarray, np.ndarray], None], rhs: np
     p[...] = rhs
     change = np.empty_like(state)
     product = np.empty_like(rhs)
+    k = rhs.shape[0]
+    step = np.empty((2, k, 1))  # the per-row factors (s, -s), written in place: no array built per iteration
+    ratio = np.empty((k, 1))
     rr = row_dots(r, r, product)
     target = 1e-10 * max(max(rr), 1e-30)
     for _ in range(4 * rhs.shape[1] + 10):
         if max(rr) <= target:
             break
         apply(p, ap)
-        step = [a / max(b, 1e-300) for a, b in zip(rr, row_dots(p, ap, product))]
-        np.multiply(directions, np.array([[[s] for s in step], [[-s] for s in step]]), out=change)  # (2, K, 1)
+        for i, (a, b) in enumerate(zip(rr, row_dots(p, ap, product))):
+            step[0, i, 0] = s = a / max(b, 1e-300)
+            step[1, i, 0] = -s
+        np.multiply(directions, step, out=change)
         state += change
         rr_new = row_dots(r, r, product)
-        p *= np.array([[a / max(b, 1e-300)] for a, b in zip(rr_new, rr)])  # (K, 1)
+        for i, (a, b) in enumerate(zip(rr_new, rr)):
+            ratio[i, 0] = a / max(b, 1e-300)
+        p *= ratio
         p += r
         rr = rr_new
     return x
