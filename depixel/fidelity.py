@@ -89,61 +89,52 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
     per-pixel minimum of the squared distances, then one square root: the same numbers as a
     minimum of square roots). The far edges of the centres found outside are measured
     after all."""
-    curved_edge = np.zeros(len(cells.edges), bool)
+    n_edges = len(cells.edges)
+    curved_edge = np.zeros(n_edges, bool)
     curved_edge[drawing.edges] = True
-    control_row = np.zeros(len(cells.edges), np.int64)  # where each curved edge's controls are
+    control_row = np.zeros(n_edges, np.int64)  # where each curved edge's controls are
     control_row[drawing.edges] = np.arange(drawing.edges.size)
     h, w = cells.shape
     n_px = h * w
     wanted = np.ones(n_px, bool) if pixels is None else pixels
-    has = np.append(wanted, False)[cells.edge_pixels]  # (E, 2); a side without a pixel is -1
-    side = np.flatnonzero(has)  # edge e's sides are 2 e and 2 e + 1
-    edge = side >> 1
-    pix = cells.edge_pixels.ravel().take(side)
+    # the pairs: each wanted pixel with each edge of its cell, read off the cell polygons
+    # (the work follows the wanted pixels, often a few, not the edges of the image)
+    px = np.flatnonzero(wanted)
+    first = cells.cell_ptr.take(px)
+    size = cells.cell_ptr.take(px + 1) - first
+    edge = cells.cell_edges.take(np.repeat(first - (np.cumsum(size) - size), size) + np.arange(int(size.sum())))
+    pix = np.repeat(px, size)
     rows, cols = np.divmod(pix, w)
     cx, cy = cols + 0.5, rows + 0.5
-    # everything below as x and y columns: numpy runs the rows of an (N, 2) array two
-    # elements at a time
-    point_x, point_y = drawing.points.T.copy()  # take() copies a strided array whole first
-    # the end points of every edge with a wanted pixel (each pair's edge: ``of``)
-    listed = has[:, 0] | has[:, 1]
-    listed_edge = np.flatnonzero(listed)
-    of = (np.cumsum(listed) - 1).take(edge)
-    ends = cells.edges.take(listed_edge, axis=0)
-    start, stop = ends[:, 0], ends[:, 1]
-    ax, ay, bx, by = point_x.take(start), point_y.take(start), point_x.take(stop), point_y.take(stop)
+    # everything below as x and y columns, a pair at a time: numpy runs the rows of an
+    # (N, 2) array two elements at a time
+    start, stop = cells.edges.take(edge, axis=0).T.copy()
+    ax, ay = drawing.points.take(start, axis=0).T.copy()
+    bx, by = drawing.points.take(stop, axis=0).T.copy()
+    bent = curved_edge.take(edge)
 
     def measure(pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Ray crossings and squared nearest distance (H*W,) of the pairs ``pairs``,
         segment by segment: a straight edge is one, a curve 2 * samples (the order of the
-        segments does not matter: a count and a minimum per pixel)."""
-        e, p, x, y = edge[pairs], pix[pairs], cx[pairs], cy[pairs]
-        bent = curved_edge[e]
-        flat = np.zeros(len(cells.edges), bool)
-        flat[e[bent]] = True
-        flat = np.flatnonzero(flat)  # each curved edge flattened once
-        row = np.zeros(len(cells.edges), np.int64)
-        row[flat] = np.arange(flat.size)
-        ends = cells.edges.take(flat, axis=0)
-        poly_x, poly_y = flatten_edges_planes(drawing.points.take(ends[:, 0], axis=0),
-                                              drawing.controls.take(control_row[flat], axis=0),
-                                              drawing.points.take(ends[:, 1], axis=0), samples)  # (2 * samples + 1, F)
-        of_pair = row[e[bent]]
-        poly_x, poly_y = poly_x.take(of_pair, axis=1), poly_y.take(of_pair, axis=1)
-        straight = of.take(pairs.compress(~bent))
+        segments does not matter: a count and a minimum per pixel). A curved edge beside
+        two wanted pixels is flattened for each: the same numbers twice."""
+        is_bent = bent.take(pairs)
+        curved, straight = pairs.compress(is_bent), pairs.compress(~is_bent)
+        poly_x, poly_y = flatten_edges_planes(drawing.points.take(start.take(curved), axis=0),  # (2 * samples + 1, C)
+                                              drawing.controls.take(control_row.take(edge.take(curved)), axis=0),
+                                              drawing.points.take(stop.take(curved), axis=0), samples)
         q0_x = np.concatenate([ax.take(straight), poly_x[:-1].ravel()])
         q0_y = np.concatenate([ay.take(straight), poly_y[:-1].ravel()])
         q1_x = np.concatenate([bx.take(straight), poly_x[1:].ravel()])
         q1_y = np.concatenate([by.take(straight), poly_y[1:].ravel()])
-        p = np.concatenate([p[~bent]] + [p[bent]] * (2 * samples))  # the segments piece by piece
-        x = np.concatenate([x[~bent]] + [x[bent]] * (2 * samples))
-        y = np.concatenate([y[~bent]] + [y[bent]] * (2 * samples))
+        segment_pair = np.concatenate([straight] + [curved] * (2 * samples))  # the segments piece by piece
+        p, x, y = pix.take(segment_pair), cx.take(segment_pair), cy.take(segment_pair)
         seg_x, seg_y = q1_x - q0_x, q1_y - q0_y
         rel_x, rel_y = x - q0_x, y - q0_y
         straddle = (q0_y > y) != (q1_y > y)
         with np.errstate(divide="ignore", invalid="ignore"):
             x_at = q0_x + rel_y * seg_x / seg_y
-        crossings = np.bincount(p[straddle & (x_at > x)], minlength=n_px)
+        crossings = np.bincount(p.compress(straddle & (x_at > x)), minlength=n_px)
         length2 = np.maximum(seg_x**2 + seg_y**2, 1e-12)
         along = np.clip((rel_x * seg_x + rel_y * seg_y) / length2, 0.0, 1.0)
         dx, dy = rel_x - along * seg_x, rel_y - along * seg_y
@@ -152,20 +143,19 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
         return crossings, nearest2
 
     if np.isfinite(below):
-        # each listed edge's box, then each pair's centre against its edge's box
+        # each pair's edge box, then the pair's centre against it
         lo_x, hi_x, lo_y, hi_y = np.minimum(ax, bx), np.maximum(ax, bx), np.minimum(ay, by), np.maximum(ay, by)
         if drawing.edges.size:
-            controls = drawing.controls.take(control_row.take(listed_edge), axis=0)  # any row for a straight edge
-            bent = curved_edge.take(listed_edge)
+            controls = drawing.controls.take(control_row.take(edge), axis=0)  # any row for a straight edge
             c = [controls[:, i, axis] for axis in range(2) for i in range(3)]  # x of c0, c1, c2, y of them
             lo_x = np.where(bent, np.minimum(np.minimum(np.minimum(lo_x, c[0]), c[1]), c[2]), lo_x)
             hi_x = np.where(bent, np.maximum(np.maximum(np.maximum(hi_x, c[0]), c[1]), c[2]), hi_x)
             lo_y = np.where(bent, np.minimum(np.minimum(np.minimum(lo_y, c[3]), c[4]), c[5]), lo_y)
             hi_y = np.where(bent, np.maximum(np.maximum(np.maximum(hi_y, c[3]), c[4]), c[5]), hi_y)
-        right = lo_x.take(of) - cx > below
-        far = right | (cx - hi_x.take(of) > below) | (lo_y.take(of) - cy > below) | (cy - hi_y.take(of) > below)
+        right = lo_x - cx > below
+        far = right | (cx - hi_x > below) | (lo_y - cy > below) | (cy - hi_y > below)
         count, nearest2 = measure(np.flatnonzero(~far))
-        count += np.bincount(pix[right & ((ay.take(of) > cy) != (by.take(of) > cy))], minlength=n_px)
+        count += np.bincount(pix.compress(right & ((ay > cy) != (by > cy))), minlength=n_px)
         # a centre outside its cell is measured against every edge (its crossings are counted)
         again = np.flatnonzero(far & (count % 2 == 0).take(pix))
         if again.size:
