@@ -126,12 +126,13 @@ class OutlineShapes:
             raise ValueError(f"unknown layout {layout!r}; choose one of {', '.join(LAYOUTS)}")
         self.image, self.layout, self.grid = image, layout, grid
         self.shape = image.cells.shape
-        topo = FaceTopology(image)
+        stacked = layout == "stacked"
+        topo = FaceTopology(image, stacked)
         pieces = build_pieces(image, junction_nodes(image, topo.labels), grid)
         if simplify > 0:
             pieces = simplify_pieces(pieces, image, simplify, grid=grid)
         self.pieces = pieces
-        member_key = topo.members(stacked=layout == "stacked", edge_cost=_edge_costs(image, pieces))
+        member_key = topo.members(_edge_costs(image, pieces) if stacked else None)
         # sorted keys owner * (F + 1) + member of the (owner, member) pairs: base F + 1, so that
         # no key of the outside (member -1) is a member's
         member_key += member_key // topo.n_faces

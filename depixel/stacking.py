@@ -43,9 +43,12 @@ class FaceTopology:
     """Faces, their depth, drawing rank and role, the faces each lies under in the stacked
     layout, and the boundary half-edges of each."""
 
-    def __init__(self, image: VectorImage) -> None:
+    def __init__(self, image: VectorImage, stacked: bool = True) -> None:
+        """``stacked``: the topology of the stacked layout (the faces each lies under), or of
+        the cutout layout (each face alone)."""
         cells = image.cells
         self.cells = cells
+        self.stacked = stacked
         h, w = cells.shape
         labels, region = faces_and_regions(cells)
         assert region is not None
@@ -79,9 +82,9 @@ class FaceTopology:
         self.entry_other = entries(left, right)
         u, v = cells.edges[:, 0].take(boundary), cells.edges[:, 1].take(boundary)
         self.entry_from, self.entry_to = entries(u, v), entries(v, u)
-        # where three faces meet (the outside counted as one), three boundary edges do
-        n_nodes = len(cells.nodes)
-        meeting = (np.bincount(u, minlength=n_nodes) + np.bincount(v, minlength=n_nodes)) >= 3
+        if stacked:  # where three faces meet (the outside counted as one), three boundary edges do
+            n_nodes = len(cells.nodes)
+            meeting = (np.bincount(u, minlength=n_nodes) + np.bincount(v, minlength=n_nodes)) >= 3
         del u, v
         self.entry_edge = entries(boundary, boundary)
         del order
@@ -106,12 +109,16 @@ class FaceTopology:
         self.depth = self._depths(pairs)
         self.rank, self.face_of_rank = self._ranks(region)
         self.role = self._roles(pairs)
-        # the adjacency is kept only as the underlays it gives (what members() starts from)
-        under = self._under_keys(pairs)
-        del pairs
+        # the adjacency is kept only as the members it gives (stacked: the underlays, what
+        # members() starts from)
         own = np.flatnonzero(self.drawn)
-        at_corners = self._under_keys(self._corner_pairs(labels, meeting))
-        self.underlays = _distinct(np.concatenate([own * n + own, under, at_corners]))
+        if stacked:
+            under = self._under_keys(pairs)
+            del pairs
+            at_corners = self._under_keys(self._corner_pairs(labels, meeting))
+            self.underlays = _distinct(np.concatenate([own * n + own, under, at_corners]))
+        else:
+            self.underlays = own * n + own
 
     def boundaries(self) -> FaceBoundaries:
         """The rank and boundary half-edges alone, to keep when the rest is no longer needed."""
@@ -200,7 +207,7 @@ class FaceTopology:
         pocket[centre[around]] = True
         return pocket
 
-    def members(self, stacked: bool, edge_cost: np.ndarray | None = None) -> np.ndarray:
+    def members(self, edge_cost: np.ndarray | None = None) -> np.ndarray:
         """Sorted keys ``owner * F + member`` of (owner face, member face) pairs: the faces
         each drawn face's shape covers before its holes are filled.
 
@@ -208,10 +215,9 @@ class FaceTopology:
         (so the lower of two touching faces lies beneath their boundary), then, while it
         shortens the outline (``edge_cost`` per cell edge: what drawing it costs), every
         opaque face drawn above it whose boundary is mostly shared with the shape already."""
-        if not stacked:
-            own = np.flatnonzero(self.drawn)
-            return own * self.n_faces + own
-        return self.underlays if edge_cost is None else self._absorb(self.underlays, edge_cost)
+        if not self.stacked or edge_cost is None:
+            return self.underlays
+        return self._absorb(self.underlays, edge_cost)
 
     def _under_keys(self, pairs: np.ndarray) -> np.ndarray:
         """Keys ``a * F + b`` of the (a, b) pairs where b is opaque and drawn above a drawn face a."""
