@@ -93,8 +93,9 @@ def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
     x = conjugate_gradients(apply, rhs)
     out = positions.copy()
     nodes = np.flatnonzero(free)
+    before = start.take(nodes, axis=0)  # (rows gathered: a column's take copies the whole column first)
     for i in range(2):  # a column at a time: the same sums as start[free] + x.T, without row copies
-        out[nodes, i] = start[:, i].take(nodes) + x[i]
+        out[nodes, i] = before[:, i] + x[i]
     return out
 
 

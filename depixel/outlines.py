@@ -273,7 +273,7 @@ def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, kee
     take = np.repeat(loops.ptr[:-1][keep] - (np.cumsum(counts) - counts), counts) + np.arange(int(counts.sum()))
     he = loops.halfedges.take(take)
     edge, x = halfedge_edge.take(he), halfedge_from.take(he)
-    u, v = cells.edges[:, 0].take(edge), cells.edges[:, 1].take(edge)
+    u, v = cells.edges.take(edge, axis=0).T  # (rows gathered: a column's take copies the whole column first)
     y = np.where(x == u, v, u)
     loop_of = np.repeat(np.arange(keep.size), counts)
     piece = pieces.edge_piece.take(edge)
@@ -310,12 +310,13 @@ def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, kee
         at_start = ~line & ~fwd & (back == first_seg)
         end_at = np.where(fwd, src, back - 1)
         end_at[line | at_start] = 0
+        firsts, seconds = pieces.ctrl.take(src, axis=0), pieces.ctrl2.take(src, axis=0)
+        starts, ends = pieces.start.take(p, axis=0), pieces.end.take(end_at, axis=0)
         for c in range(2):
-            first, second = pieces.ctrl[:, c].take(src), pieces.ctrl2[:, c].take(src)
+            first, second = firsts[:, c], seconds[:, c]
             ctrl[:, c] = np.where(line, np.nan, np.where(swap, second, first))
             ctrl2[:, c] = np.where(line, np.nan, np.where(swap, first, second))
-            end[:, c] = np.where(line, point[:, c], np.where(at_start, pieces.start[:, c].take(p),
-                                                              pieces.end[:, c].take(end_at)))
+            end[:, c] = np.where(line, point[:, c], np.where(at_start, starts[:, c], ends[:, c]))
         span = np.where(line, -1, pieces.span_slot.take(src).astype(np.int64))
     seg_loop = loop_of.take(step)
     # where a loop goes on along its curve through a junction, the two halves of the span

@@ -80,7 +80,7 @@ class FaceTopology:
             return np.concatenate([of_right.compress(has_r), of_left.compress(has_l)], dtype=np.int32).take(order)
 
         self.entry_other = entries(left, right)
-        u, v = cells.edges[:, 0].take(boundary), cells.edges[:, 1].take(boundary)
+        u, v = cells.edges.take(boundary, axis=0).T.copy()  # (a column's take would copy the whole column first)
         self.entry_from, self.entry_to = entries(u, v), entries(v, u)
         if stacked:  # where three faces meet (the outside counted as one), three boundary edges do
             n_nodes = len(cells.nodes)
