@@ -263,11 +263,14 @@ class FaceTopology:
         return ptr, np.concatenate(others), np.concatenate(costs), perimeter
 
     def _grow(self, keys: np.ndarray, neighbours: tuple[np.ndarray, ...]) -> np.ndarray:
-        """:meth:`_absorb` of the shapes whose keys these are."""
+        """:meth:`_absorb` of the shapes whose keys these are. A round looks at the shapes
+        that grew in the round before (all at first): the others' candidates and sums are
+        those of a round that added nothing to them."""
         n = self.n_faces
         nb_ptr, h, w, perimeter = neighbours
+        growing = keys  # the keys of the shapes that may grow
         while True:
-            owner, member = np.divmod(keys, n)
+            owner, member = np.divmod(growing, n)
             start = nb_ptr.take(member)
             count = nb_ptr.take(member + 1) - start
             idx = np.repeat(start - (np.cumsum(count) - count), count) + np.arange(int(count.sum()))
@@ -285,6 +288,7 @@ class FaceTopology:
             if add.size == 0:
                 return keys
             keys = np.sort(np.concatenate((keys, add)))  # none of them among the keys (fresh)
+            growing = keys.compress(in_sorted(add // n, keys // n))  # (add is sorted: so are its owners)
 
     def _roles(self, pairs: np.ndarray) -> np.ndarray:
         """(F,) int8 role of each face's shape: the lowest shape, when it covers most of the
