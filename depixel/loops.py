@@ -49,10 +49,10 @@ def trace_loops(owner: np.ndarray, u: np.ndarray, v: np.ndarray, points: np.ndar
     if n == 0:
         empty = np.zeros(0, np.int64)
         return Loops(empty, np.zeros(1, np.int64), empty)
-    out_order = _argsort_pairs(owner, u)
-    in_order = _argsort_pairs(owner, v)
-    if not (np.array_equal(owner.take(out_order), owner.take(in_order)) and np.array_equal(u.take(out_order),
-                                                                                          v.take(in_order))):
+    out_order, in_order = _argsort_pairs(owner, u, v)
+    # both orders list the owners sorted: the loops close when the nodes left and the nodes
+    # entered agree, owner by owner
+    if not np.array_equal(u.take(out_order), v.take(in_order)):
         raise ValueError("half-edges do not form closed loops")
     nxt = np.empty(n, np.int64)
     nxt[in_order] = out_order
@@ -113,8 +113,12 @@ def _assign(cost: np.ndarray) -> tuple[list[int], list[int]]:
     return rows, cols
 
 
-def _argsort_pairs(major: np.ndarray, minor: np.ndarray) -> np.ndarray:
-    """Stable argsort by (major, minor), i.e. ``np.lexsort((arange, minor, major))``."""
-    if minor.min() >= 0 and major.min() >= 0 and int(major.max()) < (2**62) // (int(minor.max()) + 1):
-        return np.argsort(major * (int(minor.max()) + 1) + minor, kind="stable")
-    return np.lexsort((minor, major))
+def _argsort_pairs(major: np.ndarray, *minors: np.ndarray) -> list[np.ndarray]:
+    """For each of ``minors``: the stable argsort by (major, minor), i.e.
+    ``np.lexsort((minor, major))`` (one key of both when it fits in an int64)."""
+    low = min(int(a.min()) for a in (major,) + minors)
+    width = max(int(a.max()) for a in minors) + 1
+    if low >= 0 and int(major.max()) < (2**62) // width:
+        base = major * width
+        return [np.argsort(base + minor, kind="stable") for minor in minors]
+    return [np.lexsort((minor, major)) for minor in minors]
