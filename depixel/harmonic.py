@@ -75,20 +75,18 @@ def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
             rhs[i] += np.bincount(at, moved.take(fixed), minlength=m)
     diagonal = np.tile(degree[free].astype(np.float64), 2)
     # x[:, fv] summed into the columns fu (and x[:, fu] into fv), both rows by one bincount
-    # over the flattened (2, M) array: each bin adds its terms in the same order as a
-    # bincount per row would; both gathers are one take of the flattened x
-    to_u = np.concatenate([fu, fu + m])
-    to_v = np.concatenate([fv, fv + m])
+    # over the flattened (2, M) array, into bins 0..2M for the first sums and 2M..4M for the
+    # second (each bin adds its terms in the same order as a bincount per row and sum
+    # would), then the two halves added; both gathers are one take of the flattened x
+    to = np.concatenate([fu, fu + m, fv + 2 * m, fv + 3 * m])
     gather = np.concatenate([fv, fv + m, fu, fu + m])
-    half = to_u.size
 
     def apply(x: np.ndarray, out: np.ndarray) -> None:
-        terms = x.reshape(-1).take(gather)
-        neighbours = np.bincount(to_u, terms[:half], minlength=2 * m)
-        neighbours += np.bincount(to_v, terms[half:], minlength=2 * m)
+        flat_x = x.reshape(-1)
+        sums = np.bincount(to, flat_x.take(gather), minlength=4 * m)
         flat = out.reshape(-1)
-        np.multiply(diagonal, x.reshape(-1), out=flat)
-        flat -= neighbours
+        np.multiply(diagonal, flat_x, out=flat)
+        flat -= np.add(sums[:2 * m], sums[2 * m:], out=sums[:2 * m])
 
     x = conjugate_gradients(apply, rhs)
     out = positions.copy()
