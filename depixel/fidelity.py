@@ -106,6 +106,7 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
     pix = np.repeat(px, size)
     rows, cols = np.divmod(pix, w)
     cx, cy = cols + 0.5, rows + 0.5
+    del rows, cols
     # everything below as x and y columns, a pair at a time: numpy runs the rows of an
     # (N, 2) array two elements at a time
     start, stop = cells.edges.take(edge, axis=0).T.copy()
@@ -143,19 +144,25 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
         return crossings, nearest2
 
     if np.isfinite(below):
-        # each pair's edge box, then the pair's centre against it
+        # each pair's edge box (a curve's with its Bézier controls), then the pair's centre
+        # against it; the boxes are dropped before the near pairs are measured
         lo_x, hi_x, lo_y, hi_y = np.minimum(ax, bx), np.maximum(ax, bx), np.minimum(ay, by), np.maximum(ay, by)
-        if drawing.edges.size:
-            controls = drawing.controls.take(control_row.take(edge), axis=0)  # any row for a straight edge
+        curved = np.flatnonzero(bent)
+        if curved.size:
+            controls = drawing.controls.take(control_row.take(edge.take(curved)), axis=0)
             c = [controls[:, i, axis] for axis in range(2) for i in range(3)]  # x of c0, c1, c2, y of them
-            lo_x = np.where(bent, np.minimum(np.minimum(np.minimum(lo_x, c[0]), c[1]), c[2]), lo_x)
-            hi_x = np.where(bent, np.maximum(np.maximum(np.maximum(hi_x, c[0]), c[1]), c[2]), hi_x)
-            lo_y = np.where(bent, np.minimum(np.minimum(np.minimum(lo_y, c[3]), c[4]), c[5]), lo_y)
-            hi_y = np.where(bent, np.maximum(np.maximum(np.maximum(hi_y, c[3]), c[4]), c[5]), hi_y)
+            lo_x[curved] = np.minimum(np.minimum(np.minimum(lo_x.take(curved), c[0]), c[1]), c[2])
+            hi_x[curved] = np.maximum(np.maximum(np.maximum(hi_x.take(curved), c[0]), c[1]), c[2])
+            lo_y[curved] = np.minimum(np.minimum(np.minimum(lo_y.take(curved), c[3]), c[4]), c[5])
+            hi_y[curved] = np.maximum(np.maximum(np.maximum(hi_y.take(curved), c[3]), c[4]), c[5])
+            del controls, c
         right = lo_x - cx > below
         far = right | (cx - hi_x > below) | (lo_y - cy > below) | (cy - hi_y > below)
-        count, nearest2 = measure(np.flatnonzero(~far))
-        count += np.bincount(pix.compress(right & ((ay > cy) != (by > cy))), minlength=n_px)
+        del lo_x, hi_x, lo_y, hi_y, curved
+        count = np.bincount(pix.compress(right & ((ay > cy) != (by > cy))), minlength=n_px)
+        del right
+        near_count, nearest2 = measure(np.flatnonzero(~far))
+        count += near_count
         # a centre outside its cell is measured against every edge (its crossings are counted)
         again = np.flatnonzero(far & (count % 2 == 0).take(pix))
         if again.size:
