@@ -162,18 +162,35 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
     np.putmask(energy, too_far, np.inf)  # never taken
     best = np.argmin(energy, axis=1)  # ties keep the lower index
     # the trial taken must not bring a curve closer to a protected point than allowed (unless
-    # it was closer already): the best trial is checked against staying; where it is refused,
-    # every trial is checked and the best one allowed is taken (staying always is)
-    rows = np.flatnonzero(best > 0)
+    # it was closer already), so the clearance is measured only where it can decide: of the
+    # best trial, where it is not staying; of staying, where the best one comes within the
+    # clearance; where the best one is refused, of the trials lower than staying (the others
+    # cannot be taken: staying is always allowed and wins ties), of which the best one allowed
+    # is taken. Each number is the one a clearance of every trial would give (a minimum)
     trials = trial.shape[-1]
+    flat = points.reshape(points.shape[:3] + (-1,))  # (3, 3, 2, M·T): trial t of member m at m·T + t
+    rows = np.flatnonzero(best > 0)
     if rows.size:
-        pair = (rows * trials)[:, None] + np.stack([np.zeros_like(rows), best.take(rows)], axis=1)  # (member, trial)
-        clear = model.clearance_of(points.reshape(points.shape[:3] + (-1,)).take(pair, axis=-1), group, rows)
-        rows = rows[(clear[:, 1] < params.centre_clearance) & (clear[:, 1] < clear[:, 0])]
+        chosen = best.take(rows)
+        near = model.clearance_of(flat.take(rows * trials + chosen, axis=-1)[..., None], group, rows)[:, 0]
+        close = near < params.centre_clearance
+        rows, chosen, near = rows.compress(close), chosen.compress(close), near.compress(close)
     if rows.size:
-        clear = model.clearance_of(points.take(rows, axis=3), group, rows)
-        refused = (clear < params.centre_clearance) & (clear < clear[:, :1])
-        best[rows] = np.argmin(np.where(refused, np.inf, energy.take(rows, axis=0)), axis=1)
+        stay = model.clearance_of(flat.take(rows * trials, axis=-1)[..., None], group, rows)[:, 0]
+        closer = near < stay
+        rows, chosen, stay = rows.compress(closer), chosen.compress(closer), stay.compress(closer)
+    if rows.size:
+        energy = energy.take(rows, axis=0)  # (R, T)
+        lower = energy < energy[:, :1]
+        lower.ravel()[np.arange(0, rows.size * trials, trials) + chosen] = False  # refused already
+        energy.ravel()[np.arange(0, rows.size * trials, trials) + chosen] = np.inf
+        pick, at = np.nonzero(lower)  # (row, trial) pairs
+        if pick.size:
+            member = rows.take(pick)
+            clear = model.clearance_of(flat.take(member * trials + at, axis=-1)[..., None], group, member)[:, 0]
+            refused = np.flatnonzero((clear < params.centre_clearance) & (clear < stay.take(pick)))
+            energy.ravel()[pick.take(refused) * trials + at.take(refused)] = np.inf
+        best[rows] = np.argmin(energy, axis=1)
     return trial.reshape(2, -1).take(np.arange(0, best.size * trials, trials) + best, axis=1)  # (2, M)
 
 

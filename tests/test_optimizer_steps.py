@@ -450,6 +450,28 @@ def test_a_move_closer_to_a_pixel_centre_than_the_clearance_is_refused():
     assert model.energy(ctrl, ctrl, group, at)[0, 0] <= energy[allowed].min()
 
 
+def test_a_curve_closer_than_the_clearance_already_may_move_if_it_comes_no_closer():
+    # the node pushed 0.28 px towards the pixel centre (5.5, 2.5): its curve is 0.1 px from
+    # it, under a clearance of 0.25; the best trial draws it back to 0.18 px, still under the
+    # clearance but farther than staying, so it is taken; trials closer than staying are not
+    splines, slot, model, anchor, group = step_case()
+    ctrl = anchor.copy()
+    ctrl[slot] += 0.2
+    angle = np.repeat(np.linspace(0, 2 * np.pi, 16, endpoint=False), 4)[None]
+    radius = np.tile([0.1, 0.2, 0.3, 0.45], 16)[None]
+    trial = ctrl[slot] + np.stack([np.cos(angle), np.sin(angle)], axis=-1) * radius[..., None]
+    trial = np.concatenate([ctrl[slot][None, None], trial], axis=1)
+    energy = model.energy(ctrl, anchor, group, trial)[0]
+    clearance = model.clearance(ctrl, group, trial, np.array([0]))[0]
+    best = int(np.argmin(energy))
+    assert clearance[0] < clearance[best] < 0.25 and (clearance < clearance[0]).any()
+    params = Params(radius=0.45, candidates=64, centre_clearance=0.25)
+    taken = step(model, ctrl, anchor, group, offsets_at(angle, radius), params)[0]
+    at = taken[None, None]
+    assert model.clearance(ctrl, group, at, np.array([0]))[0, 0] >= clearance[0]
+    assert model.energy(ctrl, anchor, group, at)[0, 0] <= energy[best]
+
+
 # --- the trials down the gradient -----------------------------------------------------------------
 
 
