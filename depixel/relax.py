@@ -30,7 +30,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .arrays import batch_slices, set_rows
+from .arrays import batch_slices, flat_rows, set_rows
 from .bspline import Bezier, half_turns, span
 from .fidelity import protected_points, unique_rows
 from .params import Params
@@ -243,7 +243,11 @@ class Energy:
     a member shapes stacked on another, so one step is a few dozen whole-array operations;
     each number is computed by the same floating-point operations, in the same order, as
     :func:`depixel.bspline.span`, :func:`depixel.bspline.half_turns` and
-    :func:`depixel.bspline.flatten` do."""
+    :func:`depixel.bspline.flatten` do, but for the turn of a span whose two halves count:
+    one ``arctan2`` from d0 to d1 instead of the sum of its halves' (the halves turn the same
+    way, through dm = d0 + d1, so the two agree up to rounding, except a span that doubles
+    back onto its start, P2 = P0: its halves give 0, the whole π; the most costly operation
+    of a large step, halved)."""
 
     def __init__(self, splines: SplineSet, excluded: np.ndarray):
         self.prev, self.nxt = splines.neighbours()
@@ -316,13 +320,31 @@ class Energy:
         """(M, K) energy of each member at ``trial`` (2, M, K), the squared distance of each
         trial from its ``anchor`` (2, M, 1), and the spans' :meth:`points`."""
         points = self.points(around, g, trial)
-        # half_turns of the three spans at once: d0 = P1 - P0, d1 = P2 - P1, dm = d0 + d1
-        vec = np.empty_like(points)  # d0, dm, d1 of each span
-        np.subtract(points[1], points[0], out=vec[0])
-        np.subtract(points[2], points[1], out=vec[2])
-        np.add(vec[0], vec[2], out=vec[1])
-        first, second = _half_turns(vec)  # (3, M, K) each
-        smooth = first * g.keep[0] + second * g.keep[1]  # (3, M, K): before, own, after
+        members, k = trial.shape[1:]
+        # d0 = P1 - P0 and d1 = P2 - P1 of the three spans, x and y leading: (2, [d0, d1], 3, M, K)
+        vec = np.empty((2, 2) + points.shape[1:2] + trial.shape[1:])
+        np.subtract(points[1], points[0], out=vec[:, 0].swapaxes(0, 1))
+        np.subtract(points[2], points[1], out=vec[:, 1].swapaxes(0, 1))
+        d0, d1 = vec[:, 0], vec[:, 1]
+        # a span whose two halves count turns by the angle from d0 to d1 (its halves turn the
+        # same way, from d0 to dm and from dm to d1: one arctan2 instead of two)
+        cross = d0[0] * d1[1]
+        cross -= d0[1] * d1[0]
+        dot = d0[0] * d1[0]
+        dot += d0[1] * d1[1]
+        smooth = np.arctan2(cross, dot, out=cross)  # (3, M, K): before, own, after
+        np.abs(smooth, out=smooth)
+        smooth *= g.keep[0] * g.keep[1]
+        one = np.flatnonzero(g.keep[0] != g.keep[1])  # spans (s·M + m) of which one half counts
+        if one.size:
+            flat = vec.reshape(2, -1, k)
+            part = np.empty((3, 1, 2, one.size, k))  # d0, dm, d1 of those spans
+            flat.take(one, axis=1, out=part[0, 0])
+            flat.take(one + 3 * members, axis=1, out=part[2, 0])
+            np.add(part[0, 0], part[2, 0], out=part[1, 0])
+            first, second = _half_turns(part)
+            keep = g.keep.reshape(2, -1).take(one, axis=1)[..., None]
+            smooth.put(flat_rows(one, k), first[0] * keep[0] + second[0] * keep[1])
         offset = trial - anchor
         offset2 = offset[0] ** 2 + offset[1] ** 2
         return smooth[1] + smooth[0] + smooth[2] + offset2**2, offset2, points

@@ -475,6 +475,32 @@ def test_a_curve_closer_than_the_clearance_already_may_move_if_it_comes_no_close
 # --- the trials down the gradient -----------------------------------------------------------------
 
 
+def test_a_slots_energy_changes_as_the_total_energy_does_whichever_halves_count():
+    # E_s of a span whose halves both count is weighed as one turn (d0 to d1), of a span with
+    # one half counted as that half, of a span with none as zero: between two trials of a
+    # slot, its energy changes by what the whole drawing's energy (half by half) changes by
+    splines = depixelize(art(STEP)).optimized.splines
+    rng = np.random.default_rng(5)
+    excluded = rng.uniform(size=(splines.n_slots, 2)) < 0.4
+    model = Energy(splines, excluded)
+    anchor = splines.controls_for(splines.positions)
+    ctrl = anchor.copy()
+    movable = np.flatnonzero(~splines.is_end())
+    ctrl[movable] += rng.uniform(-0.2, 0.2, (movable.size, 2))
+    group = model.prepare(movable)
+    counted = group.keep.sum(axis=0)[..., 0]  # (3, M): halves counted of the spans before, own, after
+    assert {0.0, 1.0, 2.0} <= set(counted.ravel().tolist())
+    offsets = rng.uniform(-0.2, 0.2, (movable.size, 4, 2))
+    energy = model.energy(ctrl, anchor, group, ctrl[movable][:, None] + offsets)
+    for i, slot in enumerate(movable):
+        total = []
+        for offset in offsets[i]:
+            moved = ctrl.copy()
+            moved[slot] += offset
+            total.append(model.total(moved, anchor))
+        assert energy[i] - energy[i, 0] == pytest.approx(np.array(total) - total[0], abs=1e-9)
+
+
 def test_the_descent_is_the_gradient_of_the_energy():
     # every movable slot of a small drawing (its curve cut at its corners: open ends), its
     # neighbours moved off the lattice, some span halves left out of E_s (as beside corners;
