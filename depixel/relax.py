@@ -172,11 +172,11 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
     rows = np.flatnonzero(best > 0)
     if rows.size:
         chosen = best.take(rows)
-        near = model.clearance_of(flat.take(rows * trials + chosen, axis=-1)[..., None], group, rows)[:, 0]
+        near = model.clearance_of(flat.take(rows * trials + chosen, axis=-1), group, rows)
         close = near < params.centre_clearance
         rows, chosen, near = rows.compress(close), chosen.compress(close), near.compress(close)
     if rows.size:
-        stay = model.clearance_of(flat.take(rows * trials, axis=-1)[..., None], group, rows)[:, 0]
+        stay = model.clearance_of(flat.take(rows * trials, axis=-1), group, rows)
         closer = near < stay
         rows, chosen, stay = rows.compress(closer), chosen.compress(closer), stay.compress(closer)
     if rows.size:
@@ -187,7 +187,7 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
         pick, at = np.nonzero(lower)  # (row, trial) pairs
         if pick.size:
             member = rows.take(pick)
-            clear = model.clearance_of(flat.take(member * trials + at, axis=-1)[..., None], group, member)[:, 0]
+            clear = model.clearance_of(flat.take(member * trials + at, axis=-1), group, member)
             refused = np.flatnonzero((clear < params.centre_clearance) & (clear < stay.take(pick)))
             energy.ravel()[pick.take(refused) * trials + at.take(refused)] = np.inf
         best[rows] = np.argmin(energy, axis=1)
@@ -231,7 +231,7 @@ _A2, _A, _MEMBER, _B, _B2, _A2_PARTNER, _B2_PARTNER = range(7)
 #: t of the points each span is checked at, and the weights of its Bézier points there (on
 #: the leading axis of the points)
 _T = np.arange(CLEARANCE_PIECES + 1) / CLEARANCE_PIECES
-_W0, _W1, _W2 = (w[:, None, None, None, None] for w in ((1 - _T) ** 2, 2 * _T * (1 - _T), _T**2))
+_W0, _W1, _W2 = (w[:, None, None, None] for w in ((1 - _T) ** 2, 2 * _T * (1 - _T), _T**2))
 #: the smallest positive float64: a floor for the descent's squared lengths
 _TINY = np.finfo(float).tiny
 
@@ -375,31 +375,30 @@ class Energy:
         return self.evaluate(around, anchor[g.members].T[..., None], g, np.moveaxis(trial, -1, 0))[0]
 
     def clearance_of(self, points: np.ndarray, g: Group, rows: np.ndarray) -> np.ndarray:
-        """(R, K) smallest distance from the three spans of the members ``rows``, given by
-        their :meth:`points` (3, 3, 2, R, K), to their protected points (pixel centres
-        beside them, diagonal-link corners)."""
-        # the points at t = 0, ¼, ½, ¾, 1 of each span on a leading axis (5, 3, 2, R, K); the
+        """(N,) smallest distance from the three spans of the members ``rows`` (N,), one trial
+        each, given by their :meth:`points` (3, 3, 2, N), to their protected points (pixel
+        centres beside them, diagonal-link corners)."""
+        # the points at t = 0, ¼, ½, ¾, 1 of each span on a leading axis (5, 3, 2, N); the
         # before span without its last point, the after span without its first (the own span's
-        # ends); then the 3n+1 points of all the trials of a member in one contiguous row, each
-        # protected point broadcast over it (2, R, Q, K·(3n+1)): numpy's inner loop runs along
-        # that row (with a row of 3n+1 points per trial, as before, its overhead per row made
-        # the subtraction the costliest operation of a step). The minimum over the protected
-        # points runs across whole rows, then over each trial's 3n+1 points (a minimum is
-        # exact in any order)
+        # ends); then the 3n+1 points of a trial in one contiguous row, each protected point
+        # broadcast over it (2, N, Q, 3n+1), and the minimum over the Q·(3n+1) distances of a
+        # trial in one contiguous row (a reduction over a middle axis runs as slowly as a
+        # short inner loop; a minimum is exact in any order)
         p0, p1, p2 = points
         flat = _W0 * p0 + _W1 * p1 + _W2 * p2
-        flat = np.concatenate([flat[:-1, 0], flat[:, 1], flat[1:, 2]])  # (3n+1, 2, R, K)
-        n, _, r, k = flat.shape
-        flat = np.ascontiguousarray(flat.transpose(1, 2, 3, 0)).reshape(2, r, 1, k * n)
+        flat = np.concatenate([flat[:-1, 0], flat[:, 1], flat[1:, 2]])  # (3n+1, 2, N)
+        flat = np.ascontiguousarray(flat.transpose(1, 2, 0))[:, :, None]  # (2, N, 1, 3n+1)
         d = flat - g.protected.take(rows, axis=1).astype(float)
         np.square(d, out=d)  # in place: these are the largest arrays of a step
         np.add(d[0], d[1], out=d[0])
-        return np.sqrt(d[0].min(axis=1).reshape(r, k, n).min(axis=-1))
+        return np.sqrt(d[0].reshape(rows.size, -1).min(axis=1))
 
     def clearance(self, ctrl: np.ndarray, g: Group, trial: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """(R, K) :meth:`clearance_of` the members ``rows`` at trial positions ``trial`` (R, K, 2)."""
         around = ctrl[g.around[:, rows]].transpose(0, 2, 1)[..., None]
-        return self.clearance_of(self.points(around, g.part(rows), np.moveaxis(trial, -1, 0)), g, rows)
+        points = self.points(around, g.part(rows), np.moveaxis(trial, -1, 0))  # (3, 3, 2, R, K)
+        return self.clearance_of(points.reshape(points.shape[:3] + (-1,)), g, np.repeat(rows, trial.shape[1])
+                                 ).reshape(trial.shape[:2])
 
     def near(self, moved: np.ndarray) -> np.ndarray:
         """(P,) bool: the slots within two slots along their curve of a ``moved`` slot (P,)
