@@ -411,9 +411,10 @@ class Energy:
     def total(self, ctrl: np.ndarray, anchor: np.ndarray) -> float:
         """The energy of all the curves: E_s of every span plus E_p of every slot."""
         p = np.flatnonzero(~self.end)
-        a, b = self.prev[p], self.nxt[p]
-        spans = span(ctrl[a], ctrl[p], ctrl[b], self.end[a][:, None], self.end[b][:, None])
-        smooth = smoothness(spans, self.keep[p]).sum()
+        a, b = self.prev.take(p), self.nxt.take(p)
+        spans = span(ctrl.take(a, axis=0), ctrl.take(p, axis=0), ctrl.take(b, axis=0),
+                     self.end.take(a)[:, None], self.end.take(b)[:, None])
+        smooth = smoothness(spans, self.keep.take(p, axis=0)).sum()
         return float(smooth + positional(ctrl, anchor).sum())
 
 
