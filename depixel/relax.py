@@ -42,6 +42,9 @@ CLEARANCE_PIECES = 4
 #: trials weighed together in one step: bounds the memory of their spans (about 150 bytes a
 #: trial) whatever the number of slots moved at once
 STEP_TRIALS = 1 << 15
+#: trials whose clearance is measured in one call: bounds the memory of their distances (about
+#: 2 KB a trial: 13 points × the protected points, x and y, float64)
+CLEARANCE_PAIRS = 1 << 12
 #: trials down the gradient of a slot's energy, at these multiples of ``radius`` from it (a
 #: short step where the energy curves fast, a long one where it is flat; docs/design.md)
 GRADIENT_STEPS = np.array([0.5, 2.0])
@@ -185,11 +188,11 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
         lower.ravel()[np.arange(0, rows.size * trials, trials) + chosen] = False  # refused already
         energy.ravel()[np.arange(0, rows.size * trials, trials) + chosen] = np.inf
         pick, at = np.nonzero(lower)  # (row, trial) pairs
-        if pick.size:
-            member = rows.take(pick)
-            clear = model.clearance_of(flat.take(member * trials + at, axis=-1), group, member)
-            refused = np.flatnonzero((clear < params.centre_clearance) & (clear < stay.take(pick)))
-            energy.ravel()[pick.take(refused) * trials + at.take(refused)] = np.inf
+        for part in batch_slices(pick.size, CLEARANCE_PAIRS):
+            member = rows.take(pick[part])
+            clear = model.clearance_of(flat.take(member * trials + at[part], axis=-1), group, member)
+            refused = np.flatnonzero((clear < params.centre_clearance) & (clear < stay.take(pick[part])))
+            energy.ravel()[pick[part].take(refused) * trials + at[part].take(refused)] = np.inf
         best[rows] = np.argmin(energy, axis=1)
     return trial.reshape(2, -1).take(np.arange(0, best.size * trials, trials) + best, axis=1)  # (2, M)
 

@@ -472,6 +472,24 @@ def test_a_curve_closer_than_the_clearance_already_may_move_if_it_comes_no_close
     assert model.energy(ctrl, anchor, group, at)[0, 0] <= energy[best]
 
 
+def test_the_clearance_of_the_trials_weighed_in_batches_moves_the_same(monkeypatch):
+    # the trials of members whose best trial was refused checked one per call instead of
+    # CLEARANCE_PAIRS at a time: more calls, the same moves (each trial's clearance is its own)
+    splines = split_at(*(lambda s: (s, detect_corners(s, Params()).nodes))(splines_of(art(BLOB))))
+    corners = np.zeros(len(splines.positions), bool)
+    excluded = np.zeros((splines.n_slots, 2), bool)
+    calls: list[int] = []
+    clearance_of = Energy.clearance_of
+    monkeypatch.setattr(Energy, "clearance_of", lambda self, *a: calls.append(1) or clearance_of(self, *a))
+    params = Params(centre_clearance=0.3)  # many refused moves
+    whole = relax(splines, splines.positions, corners, excluded, params)
+    batched = len(calls)
+    monkeypatch.setattr(relax_module, "CLEARANCE_PAIRS", 1)
+    single = relax(splines, splines.positions, corners, excluded, params)
+    assert len(calls) - batched > 2 * batched
+    assert np.array_equal(single.ctrl, whole.ctrl) and single.energy_after == whole.energy_after
+
+
 # --- the trials down the gradient -----------------------------------------------------------------
 
 
