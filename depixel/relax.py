@@ -185,8 +185,9 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
     if rows.size:
         energy = energy.take(rows, axis=0)  # (R, T)
         lower = energy < energy[:, :1]
-        lower.ravel()[np.arange(0, rows.size * trials, trials) + chosen] = False  # refused already
-        energy.ravel()[np.arange(0, rows.size * trials, trials) + chosen] = np.inf
+        refused_best = np.arange(0, rows.size * trials, trials) + chosen  # flat (row, trial)
+        lower.ravel()[refused_best] = False  # refused already
+        energy.ravel()[refused_best] = np.inf
         pick, at = np.nonzero(lower)  # (row, trial) pairs
         for part in batch_slices(pick.size, CLEARANCE_PAIRS):
             member = rows.take(pick[part])
