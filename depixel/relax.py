@@ -30,7 +30,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .arrays import batch_slices, set_rows
+from .arrays import batch_slices, flat_rows, set_rows
 from .bspline import Bezier, half_turns, span
 from .fidelity import protected_points, unique_rows
 from .params import Params
@@ -42,6 +42,9 @@ CLEARANCE_PIECES = 4
 #: trials weighed together in one step: bounds the memory of their spans (about 150 bytes a
 #: trial) whatever the number of slots moved at once
 STEP_TRIALS = 1 << 15
+#: trials whose clearance is measured in one call: bounds the memory of their distances (about
+#: 2 KB a trial: 13 points × the protected points, x and y, float64)
+CLEARANCE_PAIRS = 1 << 12
 #: trials down the gradient of a slot's energy, at these multiples of ``radius`` from it (a
 #: short step where the energy curves fast, a long one where it is flat; docs/design.md)
 GRADIENT_STEPS = np.array([0.5, 2.0])
@@ -162,18 +165,36 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
     np.putmask(energy, too_far, np.inf)  # never taken
     best = np.argmin(energy, axis=1)  # ties keep the lower index
     # the trial taken must not bring a curve closer to a protected point than allowed (unless
-    # it was closer already): the best trial is checked against staying; where it is refused,
-    # every trial is checked and the best one allowed is taken (staying always is)
-    rows = np.flatnonzero(best > 0)
+    # it was closer already), so the clearance is measured only where it can decide: of the
+    # best trial, where it is not staying; of staying, where the best one comes within the
+    # clearance; where the best one is refused, of the trials lower than staying (the others
+    # cannot be taken: staying is always allowed and wins ties), of which the best one allowed
+    # is taken. Each number is the one a clearance of every trial would give (a minimum)
     trials = trial.shape[-1]
+    flat = points.reshape(points.shape[:3] + (-1,))  # (3, 3, 2, M·T): trial t of member m at m·T + t
+    rows = np.flatnonzero(best > 0)
     if rows.size:
-        pair = (rows * trials)[:, None] + np.stack([np.zeros_like(rows), best.take(rows)], axis=1)  # (member, trial)
-        clear = model.clearance_of(points.reshape(points.shape[:3] + (-1,)).take(pair, axis=-1), group, rows)
-        rows = rows[(clear[:, 1] < params.centre_clearance) & (clear[:, 1] < clear[:, 0])]
+        chosen = best.take(rows)
+        near = model.clearance_of(flat.take(rows * trials + chosen, axis=-1), group, rows)
+        close = near < params.centre_clearance
+        rows, chosen, near = rows.compress(close), chosen.compress(close), near.compress(close)
     if rows.size:
-        clear = model.clearance_of(points.take(rows, axis=3), group, rows)
-        refused = (clear < params.centre_clearance) & (clear < clear[:, :1])
-        best[rows] = np.argmin(np.where(refused, np.inf, energy.take(rows, axis=0)), axis=1)
+        stay = model.clearance_of(flat.take(rows * trials, axis=-1), group, rows)
+        closer = near < stay
+        rows, chosen, stay = rows.compress(closer), chosen.compress(closer), stay.compress(closer)
+    if rows.size:
+        energy = energy.take(rows, axis=0)  # (R, T)
+        lower = energy < energy[:, :1]
+        refused_best = np.arange(0, rows.size * trials, trials) + chosen  # flat (row, trial)
+        lower.ravel()[refused_best] = False  # refused already
+        energy.ravel()[refused_best] = np.inf
+        pick, at = np.nonzero(lower)  # (row, trial) pairs
+        for part in batch_slices(pick.size, CLEARANCE_PAIRS):
+            member = rows.take(pick[part])
+            clear = model.clearance_of(flat.take(member * trials + at[part], axis=-1), group, member)
+            refused = np.flatnonzero((clear < params.centre_clearance) & (clear < stay.take(pick[part])))
+            energy.ravel()[pick[part].take(refused) * trials + at[part].take(refused)] = np.inf
+        best[rows] = np.argmin(energy, axis=1)
     return trial.reshape(2, -1).take(np.arange(0, best.size * trials, trials) + best, axis=1)  # (2, M)
 
 
@@ -214,7 +235,7 @@ _A2, _A, _MEMBER, _B, _B2, _A2_PARTNER, _B2_PARTNER = range(7)
 #: t of the points each span is checked at, and the weights of its Bézier points there (on
 #: the leading axis of the points)
 _T = np.arange(CLEARANCE_PIECES + 1) / CLEARANCE_PIECES
-_W0, _W1, _W2 = (w[:, None, None, None, None] for w in ((1 - _T) ** 2, 2 * _T * (1 - _T), _T**2))
+_W0, _W1, _W2 = (w[:, None, None, None] for w in ((1 - _T) ** 2, 2 * _T * (1 - _T), _T**2))
 #: the smallest positive float64: a floor for the descent's squared lengths
 _TINY = np.finfo(float).tiny
 
@@ -226,7 +247,11 @@ class Energy:
     a member shapes stacked on another, so one step is a few dozen whole-array operations;
     each number is computed by the same floating-point operations, in the same order, as
     :func:`depixel.bspline.span`, :func:`depixel.bspline.half_turns` and
-    :func:`depixel.bspline.flatten` do."""
+    :func:`depixel.bspline.flatten` do, but for the turn of a span whose two halves count:
+    one ``arctan2`` from d0 to d1 instead of the sum of its halves' (the halves turn the same
+    way, through dm = d0 + d1, so the two agree up to rounding, except a span that doubles
+    back onto its start, P2 = P0: its halves give 0, the whole π; the most costly operation
+    of a large step, halved)."""
 
     def __init__(self, splines: SplineSet, excluded: np.ndarray):
         self.prev, self.nxt = splines.neighbours()
@@ -299,13 +324,31 @@ class Energy:
         """(M, K) energy of each member at ``trial`` (2, M, K), the squared distance of each
         trial from its ``anchor`` (2, M, 1), and the spans' :meth:`points`."""
         points = self.points(around, g, trial)
-        # half_turns of the three spans at once: d0 = P1 - P0, d1 = P2 - P1, dm = d0 + d1
-        vec = np.empty_like(points)  # d0, dm, d1 of each span
-        np.subtract(points[1], points[0], out=vec[0])
-        np.subtract(points[2], points[1], out=vec[2])
-        np.add(vec[0], vec[2], out=vec[1])
-        first, second = _half_turns(vec)  # (3, M, K) each
-        smooth = first * g.keep[0] + second * g.keep[1]  # (3, M, K): before, own, after
+        members, k = trial.shape[1:]
+        # d0 = P1 - P0 and d1 = P2 - P1 of the three spans, x and y leading: (2, [d0, d1], 3, M, K)
+        vec = np.empty((2, 2) + points.shape[1:2] + trial.shape[1:])
+        np.subtract(points[1], points[0], out=vec[:, 0].swapaxes(0, 1))
+        np.subtract(points[2], points[1], out=vec[:, 1].swapaxes(0, 1))
+        d0, d1 = vec[:, 0], vec[:, 1]
+        # a span whose two halves count turns by the angle from d0 to d1 (its halves turn the
+        # same way, from d0 to dm and from dm to d1: one arctan2 instead of two)
+        cross = d0[0] * d1[1]
+        cross -= d0[1] * d1[0]
+        dot = d0[0] * d1[0]
+        dot += d0[1] * d1[1]
+        smooth = np.arctan2(cross, dot, out=cross)  # (3, M, K): before, own, after
+        np.abs(smooth, out=smooth)
+        smooth *= g.keep[0] * g.keep[1]
+        one = np.flatnonzero(g.keep[0] != g.keep[1])  # spans (s·M + m) of which one half counts
+        if one.size:
+            flat = vec.reshape(2, -1, k)
+            part = np.empty((3, 1, 2, one.size, k))  # d0, dm, d1 of those spans
+            flat.take(one, axis=1, out=part[0, 0])
+            flat.take(one + 3 * members, axis=1, out=part[2, 0])
+            np.add(part[0, 0], part[2, 0], out=part[1, 0])
+            first, second = _half_turns(part)
+            keep = g.keep.reshape(2, -1).take(one, axis=1)[..., None]
+            smooth.put(flat_rows(one, k), first[0] * keep[0] + second[0] * keep[1])
         offset = trial - anchor
         offset2 = offset[0] ** 2 + offset[1] ** 2
         return smooth[1] + smooth[0] + smooth[2] + offset2**2, offset2, points
@@ -336,31 +379,30 @@ class Energy:
         return self.evaluate(around, anchor[g.members].T[..., None], g, np.moveaxis(trial, -1, 0))[0]
 
     def clearance_of(self, points: np.ndarray, g: Group, rows: np.ndarray) -> np.ndarray:
-        """(R, K) smallest distance from the three spans of the members ``rows``, given by
-        their :meth:`points` (3, 3, 2, R, K), to their protected points (pixel centres
-        beside them, diagonal-link corners)."""
-        # the points at t = 0, ¼, ½, ¾, 1 of each span on a leading axis (5, 3, 2, R, K); the
+        """(N,) smallest distance from the three spans of the members ``rows`` (N,), one trial
+        each, given by their :meth:`points` (3, 3, 2, N), to their protected points (pixel
+        centres beside them, diagonal-link corners)."""
+        # the points at t = 0, ¼, ½, ¾, 1 of each span on a leading axis (5, 3, 2, N); the
         # before span without its last point, the after span without its first (the own span's
-        # ends); then the 3n+1 points of all the trials of a member in one contiguous row, each
-        # protected point broadcast over it (2, R, Q, K·(3n+1)): numpy's inner loop runs along
-        # that row (with a row of 3n+1 points per trial, as before, its overhead per row made
-        # the subtraction the costliest operation of a step). The minimum over the protected
-        # points runs across whole rows, then over each trial's 3n+1 points (a minimum is
-        # exact in any order)
+        # ends); then the 3n+1 points of a trial in one contiguous row, each protected point
+        # broadcast over it (2, N, Q, 3n+1), and the minimum over the Q·(3n+1) distances of a
+        # trial in one contiguous row (a reduction over a middle axis runs as slowly as a
+        # short inner loop; a minimum is exact in any order)
         p0, p1, p2 = points
         flat = _W0 * p0 + _W1 * p1 + _W2 * p2
-        flat = np.concatenate([flat[:-1, 0], flat[:, 1], flat[1:, 2]])  # (3n+1, 2, R, K)
-        n, _, r, k = flat.shape
-        flat = np.ascontiguousarray(flat.transpose(1, 2, 3, 0)).reshape(2, r, 1, k * n)
+        flat = np.concatenate([flat[:-1, 0], flat[:, 1], flat[1:, 2]])  # (3n+1, 2, N)
+        flat = np.ascontiguousarray(flat.transpose(1, 2, 0))[:, :, None]  # (2, N, 1, 3n+1)
         d = flat - g.protected.take(rows, axis=1).astype(float)
         np.square(d, out=d)  # in place: these are the largest arrays of a step
         np.add(d[0], d[1], out=d[0])
-        return np.sqrt(d[0].min(axis=1).reshape(r, k, n).min(axis=-1))
+        return np.sqrt(d[0].reshape(rows.size, -1).min(axis=1))
 
     def clearance(self, ctrl: np.ndarray, g: Group, trial: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """(R, K) :meth:`clearance_of` the members ``rows`` at trial positions ``trial`` (R, K, 2)."""
         around = ctrl[g.around[:, rows]].transpose(0, 2, 1)[..., None]
-        return self.clearance_of(self.points(around, g.part(rows), np.moveaxis(trial, -1, 0)), g, rows)
+        points = self.points(around, g.part(rows), np.moveaxis(trial, -1, 0))  # (3, 3, 2, R, K)
+        return self.clearance_of(points.reshape(points.shape[:3] + (-1,)), g, np.repeat(rows, trial.shape[1])
+                                 ).reshape(trial.shape[:2])
 
     def near(self, moved: np.ndarray) -> np.ndarray:
         """(P,) bool: the slots within two slots along their curve of a ``moved`` slot (P,)
@@ -373,9 +415,10 @@ class Energy:
     def total(self, ctrl: np.ndarray, anchor: np.ndarray) -> float:
         """The energy of all the curves: E_s of every span plus E_p of every slot."""
         p = np.flatnonzero(~self.end)
-        a, b = self.prev[p], self.nxt[p]
-        spans = span(ctrl[a], ctrl[p], ctrl[b], self.end[a][:, None], self.end[b][:, None])
-        smooth = smoothness(spans, self.keep[p]).sum()
+        a, b = self.prev.take(p), self.nxt.take(p)
+        spans = span(ctrl.take(a, axis=0), ctrl.take(p, axis=0), ctrl.take(b, axis=0),
+                     self.end.take(a)[:, None], self.end.take(b)[:, None])
+        smooth = smoothness(spans, self.keep.take(p, axis=0)).sum()
         return float(smooth + positional(ctrl, anchor).sum())
 
 

@@ -450,7 +450,73 @@ def test_a_move_closer_to_a_pixel_centre_than_the_clearance_is_refused():
     assert model.energy(ctrl, ctrl, group, at)[0, 0] <= energy[allowed].min()
 
 
+def test_a_curve_closer_than_the_clearance_already_may_move_if_it_comes_no_closer():
+    # the node pushed 0.28 px towards the pixel centre (5.5, 2.5): its curve is 0.1 px from
+    # it, under a clearance of 0.25; the best trial draws it back to 0.18 px, still under the
+    # clearance but farther than staying, so it is taken; trials closer than staying are not
+    splines, slot, model, anchor, group = step_case()
+    ctrl = anchor.copy()
+    ctrl[slot] += 0.2
+    angle = np.repeat(np.linspace(0, 2 * np.pi, 16, endpoint=False), 4)[None]
+    radius = np.tile([0.1, 0.2, 0.3, 0.45], 16)[None]
+    trial = ctrl[slot] + np.stack([np.cos(angle), np.sin(angle)], axis=-1) * radius[..., None]
+    trial = np.concatenate([ctrl[slot][None, None], trial], axis=1)
+    energy = model.energy(ctrl, anchor, group, trial)[0]
+    clearance = model.clearance(ctrl, group, trial, np.array([0]))[0]
+    best = int(np.argmin(energy))
+    assert clearance[0] < clearance[best] < 0.25 and (clearance < clearance[0]).any()
+    params = Params(radius=0.45, candidates=64, centre_clearance=0.25)
+    taken = step(model, ctrl, anchor, group, offsets_at(angle, radius), params)[0]
+    at = taken[None, None]
+    assert model.clearance(ctrl, group, at, np.array([0]))[0, 0] >= clearance[0]
+    assert model.energy(ctrl, anchor, group, at)[0, 0] <= energy[best]
+
+
+def test_the_clearance_of_the_trials_weighed_in_batches_moves_the_same(monkeypatch):
+    # the trials of members whose best trial was refused checked one per call instead of
+    # CLEARANCE_PAIRS at a time: more calls, the same moves (each trial's clearance is its own)
+    splines = split_at(*(lambda s: (s, detect_corners(s, Params()).nodes))(splines_of(art(BLOB))))
+    corners = np.zeros(len(splines.positions), bool)
+    excluded = np.zeros((splines.n_slots, 2), bool)
+    calls: list[int] = []
+    clearance_of = Energy.clearance_of
+    monkeypatch.setattr(Energy, "clearance_of", lambda self, *a: calls.append(1) or clearance_of(self, *a))
+    params = Params(centre_clearance=0.3)  # many refused moves
+    whole = relax(splines, splines.positions, corners, excluded, params)
+    batched = len(calls)
+    monkeypatch.setattr(relax_module, "CLEARANCE_PAIRS", 1)
+    single = relax(splines, splines.positions, corners, excluded, params)
+    assert len(calls) - batched > 2 * batched
+    assert np.array_equal(single.ctrl, whole.ctrl) and single.energy_after == whole.energy_after
+
+
 # --- the trials down the gradient -----------------------------------------------------------------
+
+
+def test_a_slots_energy_changes_as_the_total_energy_does_whichever_halves_count():
+    # E_s of a span whose halves both count is weighed as one turn (d0 to d1), of a span with
+    # one half counted as that half, of a span with none as zero: between two trials of a
+    # slot, its energy changes by what the whole drawing's energy (half by half) changes by
+    splines = depixelize(art(STEP)).optimized.splines
+    rng = np.random.default_rng(5)
+    excluded = rng.uniform(size=(splines.n_slots, 2)) < 0.4
+    model = Energy(splines, excluded)
+    anchor = splines.controls_for(splines.positions)
+    ctrl = anchor.copy()
+    movable = np.flatnonzero(~splines.is_end())
+    ctrl[movable] += rng.uniform(-0.2, 0.2, (movable.size, 2))
+    group = model.prepare(movable)
+    counted = group.keep.sum(axis=0)[..., 0]  # (3, M): halves counted of the spans before, own, after
+    assert {0.0, 1.0, 2.0} <= set(counted.ravel().tolist())
+    offsets = rng.uniform(-0.2, 0.2, (movable.size, 4, 2))
+    energy = model.energy(ctrl, anchor, group, ctrl[movable][:, None] + offsets)
+    for i, slot in enumerate(movable):
+        total = []
+        for offset in offsets[i]:
+            moved = ctrl.copy()
+            moved[slot] += offset
+            total.append(model.total(moved, anchor))
+        assert energy[i] - energy[i, 0] == pytest.approx(np.array(total) - total[0], abs=1e-9)
 
 
 def test_the_descent_is_the_gradient_of_the_energy():
