@@ -346,6 +346,25 @@ def test_forked_worker_holds_no_other_pipe():
             pool._signal(worker, signal.SIGKILL)
 
 
+def test_progress_bar_starts_no_thread(monkeypatch):
+    """The command forks its workers: the progress bar on a terminal adds no thread (tqdm's
+    monitor), whose locks a forked worker could inherit held."""
+    import pty
+    import threading
+
+    from depixel_cli.batch_run import Progress
+
+    master, slave = pty.openpty()
+    with os.fdopen(slave, "w") as terminal:
+        monkeypatch.setattr(sys, "stderr", terminal)
+        threads = threading.active_count()
+        progress = Progress(3)
+        progress.step()
+        assert progress.bar is not None and threading.active_count() == threads
+        progress.close()
+    os.close(master)
+
+
 def test_main_process_converts_only_small_files_itself(tmp_path):
     """Memory: the main process takes a file while its workers start only up to 256×256."""
     from PIL import Image
