@@ -152,6 +152,8 @@ def already_done(job: Job) -> Outcome | None:
     worker: a rerun of an unchanged batch starts no process), else None."""
     if job.options.force or (job.options.frames == "all" and job.frames == 0):
         return None
+    if not all(os.path.exists(target) for _, target in frame_targets(job)):
+        return None  # not made yet (a first run): no options stamp to compute (~0.5 ms a file)
     out = Outcome(job.source, job.output)
     try:
         return None if _outputs_to_make(job, out) else out

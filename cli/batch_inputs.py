@@ -33,25 +33,28 @@ def expand_inputs(args: list[str], recursive: bool,
     found: list[tuple[Path, Path]] = []
     problems: list[tuple[str, str]] = []
     seen: set[Path] = set()
+    outputs = None if exclude is None else exclude.resolve()
+    resolved: dict[Path, Path] = {}  # each file is resolved once (a system call per part of its path)
 
     def add(path: Path, rel: Path) -> None:
-        key = path.resolve()
+        key = resolved.get(path) or path.resolve()
         if key not in seen:
             seen.add(key)
             found.append((path, rel))
 
-    def wanted(path: Path, base: Path) -> bool:
-        rel = path.relative_to(base)
-        hidden = any(part.startswith(".") for part in rel.parts)
+    def wanted(path: Path, base: Path, base_key: Path) -> bool:
+        if path.suffix.lower() not in IMAGE_SUFFIXES or any(part.startswith(".") for part in
+                                                            path.relative_to(base).parts) or not path.is_file():
+            return False
+        key = resolved[path] = path.resolve()
         # the output folder, when it lies inside an input folder, is not an input
-        excluded = exclude is not None and exclude.resolve() in path.resolve().parents and \
-            exclude.resolve() != base.resolve()
-        return path.is_file() and path.suffix.lower() in IMAGE_SUFFIXES and not hidden and not excluded
+        return outputs is None or outputs == base_key or outputs not in key.parents
 
     for arg in args:
         path = Path(arg)
         if path.is_dir():
-            files = sorted(f for f in path.glob("**/*" if recursive else "*") if wanted(f, path))
+            key = path.resolve()
+            files = sorted(f for f in path.glob("**/*" if recursive else "*") if wanted(f, path, key))
             if not files:
                 hint = "" if recursive else " (-r looks in subfolders)"
                 problems.append((arg, f"{display_name(arg)}: no images in this folder{hint}"))
@@ -59,8 +62,9 @@ def expand_inputs(args: list[str], recursive: bool,
                 add(f, f.relative_to(path))
         elif glob.has_magic(arg) and not path.exists():
             base = _glob_base(arg)
+            key = base.resolve()
             matches = sorted(Path(m) for m in glob.glob(arg, recursive=True))
-            files = [m for m in matches if wanted(m, base)]
+            files = [m for m in matches if wanted(m, base, key)]
             if not files:
                 problems.append((arg, f"{display_name(arg)}: no image matches"))
             for f in files:

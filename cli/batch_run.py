@@ -94,7 +94,9 @@ def run(jobs: list[Job], workers: int, report, signals, progress: Progress | Non
 class Progress:
     """A tqdm bar on stderr for two or more files when stderr is a terminal, showing the file
     being converted; messages print above it. A terminal that reports no width (a pty
-    under ``script``) gets an 80-column bar."""
+    under ``script``) gets an 80-column bar. Without tqdm's monitor thread: workers are
+    forked from this process (:mod:`depixel_cli.pool`), which must then have no other
+    thread, and the bar is redrawn as each file begins anyway."""
 
     def __init__(self, total: int) -> None:
         self.bar = None
@@ -107,6 +109,7 @@ class Progress:
                 columns = lines = 0
             # tqdm draws nothing on a terminal of 0 columns or 0 lines: assume 80x24 there
             size = {"dynamic_ncols": True} if columns > 0 else {"ncols": 80}
+            tqdm.monitor_interval = 0
             self.bar = tqdm(total=total, unit="file", file=sys.stderr, leave=False, nrows=lines or 24, **size)
 
     def message(self, text: str) -> None:

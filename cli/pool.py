@@ -16,11 +16,14 @@ One design serves every command (docs/cli.md, "Interrupts and faults"):
   grace, SIGKILL; their temporary files are removed by the caller's ``cleanup``. No worker
   outlives the command: they also get SIGTERM from the kernel when the main process dies.
 
-Workers are forked from a ``forkserver`` that imported depixel once (``spawn`` where there
-is none): each starts in milliseconds and holds only its own pipe, so a dead parent closes
-every worker's pipe (a plain ``fork`` would hand each worker the others' pipes, and the
-threads of the parent). Workers ignore SIGINT, which a terminal sends to the whole process
-group: only the main process decides what Ctrl-C means.
+On Linux, workers are forked from the main process once it has imported what a conversion
+needs (:data:`PRELOAD`): a worker starts in about a millisecond, imports nothing and shares
+those pages, and no fork server imports depixel a second time (~0.5 s of CPU a batch). A
+forked worker closes the other workers' pipes it inherited (so each pipe has one end in one
+worker) and the main process has no other thread when it forks. Elsewhere they are forked
+from a ``forkserver`` that imported :data:`PRELOAD` once (``spawn`` where there is none),
+and the main process converts files while it starts. Workers ignore SIGINT, which a
+terminal sends to the whole process group: only the main process decides what Ctrl-C means.
 """
 from __future__ import annotations
 
@@ -38,12 +41,15 @@ GRACE_SECONDS = 1.0
 RETRIES = 1
 #: Jobs a worker holds at once: the one it runs and the next, already in its pipe.
 DEPTH = 2
-#: What the fork server imports once, so that no worker imports it: the job code, the
-#: modules a conversion imports on first use (~0.1 s of each worker's first file otherwise;
-#: the main process converts files meanwhile) and the worker loop (this module, and ctypes
-#: for ``_die_with_parent``).
+#: What the main process (Linux) or the fork server imports before the workers are forked, so
+#: that no worker imports it: the job code, the modules a conversion imports on first use
+#: (~0.1 s of each worker's first file otherwise) and the worker loop (this module, and
+#: ctypes for ``_die_with_parent``).
 PRELOAD = ["depixel_cli.batch", "PIL.PngImagePlugin", "depixel.splines", "depixel.optimize", "tempfile",
            "depixel_cli.pool", "ctypes"]
+#: How workers start: ``fork`` from the main process on Linux; elsewhere (where a forked
+#: process may not use some system libraries) a ``forkserver``, else ``spawn``.
+START_METHOD = "fork" if sys.platform.startswith("linux") else "forkserver"
 
 
 class Interrupted(BaseException):
@@ -112,12 +118,19 @@ def run_jobs(jobs: Sequence[Any], workers: int, function: Callable[[Any], Any], 
              local: Callable[[Any], bool] = lambda job: True) -> None:
     """Run ``function(job)`` for every job in ``workers`` processes; ``report`` gets each
     :class:`Finished` as it happens (cancelled jobs last), ``started`` each index as it
-    begins. ``function`` must be picklable by reference and must not raise. With ``here``,
-    this process converts jobs itself, ``here(job)`` (None: interrupted, cleaned up), while
-    the workers start, as long as the next is ``local(job)``. Returns when all are reported."""
+    begins. ``function`` must be picklable by reference and must not raise. With ``here``
+    and workers that take time to start (not forked from this process), this process
+    converts jobs itself, ``here(job)`` (None: interrupted, cleaned up), while they start, as
+    long as the next is ``local(job)``. Returns when all are reported."""
     pool = _Pool(function, signals, cleanup, started)
     try:
-        if here is not None and workers >= 2:
+        if pool.forks:
+            import importlib  # noqa: PLC0415
+
+            for name in PRELOAD:  # once here, shared by every worker forked after
+                importlib.import_module(name)
+            pool.run(list(enumerate(jobs)), workers, report)
+        elif here is not None and workers >= 2:
             pool.start_meanwhile(pending := list(enumerate(jobs)), workers, here, local, report)
             pool.run(pending, workers, report)
         else:
@@ -127,11 +140,17 @@ def run_jobs(jobs: Sequence[Any], workers: int, function: Callable[[Any], Any], 
 
 
 class _Worker:
-    def __init__(self, context, function: Callable) -> None:
+    conn: Any  # this process's end of the worker's pipe (a multiprocessing Connection)
+
+    def __init__(self, context, function: Callable, others: Sequence[_Worker] = ()) -> None:
+        """A started worker; forked from this process, it closes the pipes of ``others``."""
         parent, child = context.Pipe()
-        self.process = context.Process(target=_serve, args=(child, function), daemon=True)
-        # SIGINT stays blocked from here until the worker ignores it (the mask is inherited)
-        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        inherited = [w.conn for w in others] + [parent] if context.get_start_method() == "fork" else []
+        self.process = context.Process(target=_serve, args=(child, function, inherited), daemon=True)
+        # SIGINT and SIGTERM stay blocked from here until the worker has its own handlers (a
+        # forked worker inherits the mask, and this process's handlers until then)
+        # (multiprocessing flushes stdout and stderr before it forks: nothing is written twice)
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
         try:
             self.process.start()
         finally:
@@ -173,6 +192,7 @@ class _Pool:
                  started: Callable[[int], None]) -> None:
         self.started = started
         self.context = context()
+        self.forks = self.context.get_start_method() == "fork"
         self.function = function
         self.signals = signals
         self.cleanup = cleanup
@@ -243,7 +263,7 @@ class _Pool:
             while pending and self.signals.signum is None and (depth == 1 or len(pending) >= size):
                 worker = next((w for w in self.workers if len(w.jobs) < depth), None)
                 if worker is None and len(self.workers) < size:
-                    worker = _Worker(self.context, self.function)
+                    worker = _Worker(self.context, self.function, self.workers)
                     self.workers.append(worker)
                 if worker is None:
                     break
@@ -341,11 +361,13 @@ class _Pool:
 
 
 def context() -> Any:
-    """The multiprocessing context of the workers: a ``forkserver`` that imports
-    :data:`PRELOAD` once and forks each worker from it (a worker starts in milliseconds,
-    holding only its own pipe), else ``spawn``."""
+    """The multiprocessing context of the workers (:data:`START_METHOD`): ``fork``, or a
+    ``forkserver`` that imports :data:`PRELOAD` once and forks each worker from it (a worker
+    starts in milliseconds, holding only its own pipe), else ``spawn``."""
     import multiprocessing  # noqa: PLC0415
 
+    if START_METHOD == "fork":
+        return multiprocessing.get_context("fork")
     if "forkserver" not in multiprocessing.get_all_start_methods():
         return multiprocessing.get_context("spawn")
     server = multiprocessing.get_context("forkserver")
@@ -381,11 +403,14 @@ def _unraisable(hook: Any) -> None:
     sys.__unraisablehook__(hook)
 
 
-def _serve(conn, function: Callable) -> None:
-    """A worker's life: ignore SIGINT, stop on SIGTERM or when the main process is gone."""
+def _serve(conn, function: Callable, inherited: Sequence[Any] = ()) -> None:
+    """A worker's life: ignore SIGINT, stop on SIGTERM or when the main process is gone.
+    ``inherited``: the main process's ends of pipes, closed (a forked worker)."""
+    for other in inherited:
+        other.close()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     signal.signal(signal.SIGTERM, _stop)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
     try:  # from here on SIGTERM raises _Stop: the set-up too (a stop request may come at once)
         sys.unraisablehook = _unraisable
         _die_with_parent()

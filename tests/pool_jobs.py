@@ -2,7 +2,8 @@
 
 ``crash`` kills its own worker with SIGKILL (a real dead worker, as the OOM killer leaves
 one): always for a job named "always", only the first time for "once" (a marker file
-remembers it). ``crash_holding_next`` first waits until the worker's next job is in its
+remembers it). ``imported`` tells whether modules are imported in the worker and its
+parent's pid. ``crash_holding_next`` first waits until the worker's next job is in its
 pipe, and writes down whether it came, so the worker dies holding two jobs.
 """
 from __future__ import annotations
@@ -32,3 +33,8 @@ def crash_holding_next(job: tuple[str, str]) -> str:
             time.sleep(0.01)
         (Path(folder) / "held next").write_text(str(conn.poll()))
     return crash(job)
+
+
+def imported(modules: tuple[str, ...]) -> tuple[int, bool]:
+    """The worker's parent and whether every module of ``modules`` is imported in it."""
+    return os.getppid(), all(name in sys.modules for name in modules)

@@ -142,6 +142,28 @@ def test_never_overwrites_an_input(tmp_path, capsys):
     assert (tmp_path / "heart.png").read_bytes() == before
 
 
+def test_folder_inputs_leave_out_hidden_files_other_files_and_the_output_folder(tmp_path):
+    """A folder gives its images (in subfolders with -r), not hidden ones, not other files,
+    not folders named like images, and not what lies in the output folder inside it (unless
+    the output folder is the input folder); a file named again is taken once."""
+    from depixel_cli.batch_inputs import expand_inputs
+
+    src = tmp_path / "in"
+    for name in ("a.png", ".hidden.png", ".cache/b.png", "sub/c.GIF", "out/d.png", "notes.txt"):
+        (src / name).parent.mkdir(parents=True, exist_ok=True)
+        (src / name).write_bytes(b"")
+    (src / "folder.png").mkdir()
+
+    found, problems = expand_inputs([str(src), str(src / "a.png")], True, exclude=src / "out")
+    assert [(str(path), str(rel)) for path, rel in found] == [(str(src / "a.png"), "a.png"),
+                                                              (str(src / "sub" / "c.GIF"), "sub/c.GIF")]
+    assert problems == []
+    found, _ = expand_inputs([str(src)], True, exclude=src)
+    assert [str(rel) for _, rel in found] == ["a.png", "out/d.png", "sub/c.GIF"]
+    found, _ = expand_inputs([str(src / "*" / "*.png")], False, exclude=src / "out")
+    assert found == []
+
+
 def test_glob_keeps_relative_folders(tmp_path):
     for sub in ("a", "b"):
         (tmp_path / "art" / sub).mkdir(parents=True)

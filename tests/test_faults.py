@@ -18,6 +18,7 @@ from pathlib import Path
 
 import pytest
 
+from depixel_cli import pool
 from depixel_cli.pool import Finished, Signals, run_jobs
 
 from conftest import FIXTURES
@@ -89,17 +90,18 @@ def children_of(pid: int) -> list[int]:
 
 
 def children(pid: int) -> list[int]:
-    """Worker processes of ``pid``: its spawned children, or those of its fork server."""
+    """Worker processes of ``pid``: its children (forked or spawned), or those of its fork
+    server."""
     found = []
     for child in children_of(pid):
         try:
             cmdline = Path(f"/proc/{child}/cmdline").read_bytes()
         except (FileNotFoundError, ProcessLookupError):
             continue
-        if b"spawn_main" in cmdline:
-            found.append(child)
-        elif b"forkserver" in cmdline:
+        if b"forkserver" in cmdline:
             found += children_of(child)
+        elif b"resource_tracker" not in cmdline:
+            found.append(child)
     return found
 
 
@@ -288,9 +290,11 @@ def test_worker_killed_holding_its_next_job_loses_neither(tmp_path):
     assert [jobs[i][0] for i in started] == ["a", "once", "once", "b", "c"]  # as each began running
 
 
-def test_main_process_converts_while_the_workers_start(tmp_path):
-    """With ``here``, the main process converts jobs from the end of the queue while the
-    workers start (the fork server's imports), and every job still runs exactly once."""
+def test_main_process_converts_while_the_workers_start(tmp_path, monkeypatch):
+    """With ``here`` and a fork server (not on Linux), the main process converts jobs from
+    the end of the queue while the workers start (the fork server's imports), and every job
+    still runs exactly once."""
+    monkeypatch.setattr(pool, "START_METHOD", "forkserver")
     jobs = [(f"j{i}", str(tmp_path)) for i in range(40)]
     done: list[Finished] = []
     with Signals(raising=False) as signals:
@@ -307,6 +311,58 @@ def test_main_process_converts_while_the_workers_start(tmp_path):
         run_jobs(jobs, 2, crash, done.append, signals, here=crash, local=lambda job: job[0] != "j39")
     assert sorted(f.index for f in done) == list(range(40))
     assert all(int(f.result.split()[-1]) != os.getpid() for f in done)
+
+
+def test_workers_are_forked_from_the_command_with_its_imports():
+    """Linux: a worker is the command's own child and has what a conversion imports (the
+    command imported it once), and what the command had imported besides: no fork server
+    imports depixel again."""
+    from pool_jobs import imported
+
+    import depixel_cli.convert  # noqa: F401  (imported by the command, not by the pool's preload)
+
+    modules = (*pool.PRELOAD, "depixel_cli.convert")
+    done: list[Finished] = []
+    with Signals(raising=False) as signals:
+        run_jobs([modules] * 4, 2, imported, done.append, signals)
+    assert [f.result for f in done] == [(os.getpid(), True)] * 4
+
+
+def test_forked_worker_holds_no_other_pipe():
+    """Each pipe has one end in one worker: a worker forked after another closes the
+    command's end of the other's pipe and of its own, so closing it ends the worker (EOF)."""
+    from pool_jobs import crash
+
+    context = pool.context()
+    first = pool._Worker(context, crash)
+    second = pool._Worker(context, crash, [first])
+    try:
+        for worker in (first, second):
+            worker.conn.close()
+            worker.process.join(10)
+            assert worker.process.exitcode == 0
+    finally:
+        for worker in (first, second):
+            pool._signal(worker, signal.SIGKILL)
+
+
+def test_progress_bar_starts_no_thread(monkeypatch):
+    """The command forks its workers: the progress bar on a terminal adds no thread (tqdm's
+    monitor), whose locks a forked worker could inherit held."""
+    import pty
+    import threading
+
+    from depixel_cli.batch_run import Progress
+
+    master, slave = pty.openpty()
+    with os.fdopen(slave, "w") as terminal:
+        monkeypatch.setattr(sys, "stderr", terminal)
+        threads = threading.active_count()
+        progress = Progress(3)
+        progress.step()
+        assert progress.bar is not None and threading.active_count() == threads
+        progress.close()
+    os.close(master)
 
 
 def test_main_process_converts_only_small_files_itself(tmp_path):
