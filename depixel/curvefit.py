@@ -399,49 +399,42 @@ def _keeps_sides(exact: Exact, prot: Protected, lo, hi, curves: np.ndarray, clea
     xy = prot.xy.take(idx, axis=1)
     parts = curves.shape[2] - 1
     start, end = _parts(curves)
-    d_new = _segment_distance(np.repeat(xy, parts, axis=1).reshape(2, -1, parts), _per_sample(start, count),
-                              _per_sample(end, count)).min(axis=1)
+    # every point against every part of its candidate's polyline: (2, N, parts), which the
+    # distance and the side test share (_segment_distance leaves its operands as they are)
+    a, b = _per_sample(start, count), _per_sample(end, count)
+    q = np.repeat(xy, parts, axis=1).reshape(a.shape)
+    d_new = _segment_distance(q, a, b).min(axis=1)
     too_near = d_new < np.minimum(np.abs(prot.dist[idx]), clearance) - 1e-9
-    crossed = _between(xy, owner, curves, lo, hi, exact)
+    crossed = _between(xy, owner, a, b, lo, hi, exact)
     ok[owner[too_near | crossed]] = False
     return ok
 
 
-def _between(xy: np.ndarray, owner: np.ndarray, curves: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+def _between(xy: np.ndarray, owner: np.ndarray, a: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray,
              exact: Exact) -> np.ndarray:
-    """Whether each point (``xy``: (2, N) planes) lies between its candidate curve (``curves``:
-    (2, R, T) polylines) and the exact run it replaces (inside the closed polygon of the two,
-    which share their end points): the curve has passed over the point, which changes side.
-    Even-odd ray casting towards +x."""
-    n_curve = curves.shape[2]
-    n_seg = hi - lo
-    n_exact = n_seg * _T_ORIG.size  # exact polygon edges: the samples, then back to the start
-    n_edges = (n_curve - 1) + n_exact
-    e_owner = np.repeat(np.arange(lo.size), n_edges)
-    k = np.arange(int(n_edges.sum())) - np.repeat(np.cumsum(n_edges) - n_edges, n_edges)
-    on_curve = k < n_curve - 1
-    j = np.where(on_curve, 0, k - (n_curve - 1))  # index along the exact samples
-    seg, part = np.divmod(j, _T_ORIG.size)
-    seg = np.minimum(np.repeat(lo, n_edges) + seg, exact.end.shape[0] - 1)
-    # the exact polyline of a segment is its samples and its end: its part ``part`` is an edge
-    at = seg * _T_ORIG.size + part
-    kc = e_owner * n_curve + np.minimum(k, n_curve - 2)
-    flat_curves = curves.reshape(2, -1)
-    a = np.where(on_curve, flat_curves.take(kc, axis=1), exact.part_start.reshape(2, -1).take(at, axis=1))
-    b = np.where(on_curve, flat_curves.take(kc + 1, axis=1), exact.part_end.reshape(2, -1).take(at, axis=1))
-    # pairs (point, edge of its candidate's polygon); only the pairs whose edge straddles the
-    # point's height can count, so the rest of the test runs on those alone
-    first = np.cumsum(n_edges) - n_edges
-    per_point = n_edges[owner]
-    p_idx = np.repeat(np.arange(xy.shape[1]), per_point)
-    e_idx = np.arange(int(per_point.sum())) - np.repeat(np.cumsum(per_point) - per_point - first[owner], per_point)
-    qy, ay, by = np.repeat(xy[1], per_point), a[1].take(e_idx), b[1].take(e_idx)
-    straddle = np.flatnonzero((ay > qy) != (by > qy))
-    p_idx, e_idx = p_idx.take(straddle), e_idx.take(straddle)
-    qy, ay, by = qy.take(straddle), ay.take(straddle), by.take(straddle)
-    qx, ax, bx = xy[0].take(p_idx), a[0].take(e_idx), b[0].take(e_idx)
+    """Whether each point (``xy``: (2, N) planes) lies between its candidate curve and the
+    exact run it replaces (inside the closed polygon of the two, which share their end
+    points): the curve has passed over the point, which changes side. ``a``, ``b``: (2, N, V)
+    the starts and the ends of the V parts of each point's candidate's polyline. Even-odd
+    ray casting towards +x."""
+    n_points, n_curve = xy.shape[1], a.shape[2]
+    # pairs (point, edge of its polygon): the parts of its candidate's polyline (given), then
+    # those of the exact run, consecutive in Exact's part tables from the run's first one
+    n_exact = (hi - lo).take(owner) * _T_ORIG.size
+    first = np.cumsum(n_exact) - n_exact
+    exact_part = np.arange(int(n_exact.sum())) - np.repeat(first - lo.take(owner) * _T_ORIG.size, n_exact)
+    a = np.concatenate([a.reshape(2, -1), exact.part_start.reshape(2, -1).take(exact_part, axis=1)], axis=1)
+    b = np.concatenate([b.reshape(2, -1), exact.part_end.reshape(2, -1).take(exact_part, axis=1)], axis=1)
+    points = np.arange(n_points)
+    p_idx = np.concatenate([np.repeat(points, n_curve), np.repeat(points, n_exact)])
+    # only the pairs whose edge straddles the point's height can count, so the rest of the
+    # test runs on those alone
+    qy = xy[1].take(p_idx)
+    straddle = np.flatnonzero((a[1] > qy) != (b[1] > qy))
+    p_idx, qy = p_idx.take(straddle), qy.take(straddle)
+    (ax, ay), (bx, by) = a.take(straddle, axis=1), b.take(straddle, axis=1)
     x_at = ax + (qy - ay) * (bx - ax) / (by - ay)  # by != ay where the edge straddles
-    hits = np.bincount(p_idx, weights=x_at > qx, minlength=xy.shape[1])
+    hits = np.bincount(p_idx, weights=x_at > xy[0].take(p_idx), minlength=n_points)
     return hits.astype(np.int64) % 2 == 1
 
 
