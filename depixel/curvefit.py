@@ -266,23 +266,26 @@ class _Samples:
     def __init__(self, exact: Exact, lo: np.ndarray, hi: np.ndarray) -> None:
         count = hi - lo
         seg = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count - lo, count)
-        self.points = exact.part_start.take(seg, axis=1).reshape(2, -1)  # (2, S) every range's samples
         self.count = count * _T_ORIG.size  # samples of each range, which start at first
         self.first = np.cumsum(self.count) - self.count
         before = exact.arc_before.take(lo)
         arc = (exact.arc_before.take(seg)[:, None] + exact.arc.take(seg, axis=0)).ravel() \
             - np.repeat(before, self.count)
         self.total = exact.arc_before[hi - 1] + exact.length[hi - 1] - before
-        self.u = arc / np.repeat(np.maximum(self.total, 1e-300), self.count)
-        self.cubes = np.stack([_cube(1 - self.u), _cube(self.u)])  # (2, S): every candidate's first step uses them
+        #: (5, S) every range's samples: x, y, their parameters u, (1 - u)³ and u³ (every
+        #: candidate's first Newton step uses the cubes); one table, so one gather picks them
+        self.table = np.empty((5, arc.size))
+        exact.part_start.take(seg, axis=1, out=self.table[:2].reshape(2, seg.size, _T_ORIG.size))
+        u = np.divide(arc, np.repeat(np.maximum(self.total, 1e-300), self.count), out=self.table[2])
+        self.table[3], self.table[4] = _cube(1 - u), _cube(u)
         self.p0, self.p3 = _planes(exact.start.take(lo, axis=0)), _planes(exact.end.take(hi - 1, axis=0))
 
-    def of(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The samples of the ranges ``rows`` (in turn): the index of each sample's row in
-        ``rows``, and the sample."""
-        count = self.count[rows]
-        at = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count - self.first[rows], count)
-        return np.repeat(np.arange(rows.size), count), at
+    def of(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The samples of the ranges ``rows`` (in turn): their number for each row, where each
+        row's begin among them, and the index of each in :attr:`table`."""
+        count = self.count.take(rows)
+        start = np.cumsum(count) - count
+        return count, start, np.arange(int(count.sum())) - np.repeat(start - self.first.take(rows), count)
 
     def within(self, rows: np.ndarray, c1: np.ndarray, c2: np.ndarray, tolerance: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray]:
@@ -292,22 +295,25 @@ class _Samples:
         candidates' polylines (2, M, T) (:func:`_flatten`), which the side test uses too."""
         # the shape test first (one polyline per candidate), then the samples of the
         # candidates that pass it: the costly part, each sample on its own
-        p0, p1, p2, p3 = self.p0.take(rows, axis=1), _planes(c1), _planes(c2), self.p3.take(rows, axis=1)
-        curve = _flatten(p0, p1, p2, p3)  # (2, M, T)
+        k = np.empty((4, 2, rows.size))  # the control points p0, c1, c2, p3 of every candidate
+        self.p0.take(rows, axis=1, out=k[0])
+        k[1], k[2] = c1.T, c2.T
+        self.p3.take(rows, axis=1, out=k[3])
+        curve = _flatten(*k)  # (2, M, T)
         step = np.diff(curve, axis=2)
         length = np.sqrt(step[0] ** 2 + step[1] ** 2).sum(axis=1)
-        chord = np.sqrt((p3[0] - p0[0]) ** 2 + (p3[1] - p0[1]) ** 2)
+        chord = np.sqrt((k[3, 0] - k[0, 0]) ** 2 + (k[3, 1] - k[0, 1]) ** 2)
         ok = (length <= 1.1 * self.total[rows] + 1e-9) & (chord > 0)
         cand = np.flatnonzero(ok)
-        count = self.count.take(rows.take(cand))  # the samples of each candidate tested (consecutive)
-        at = self.of(rows.take(cand))[1]
-        points, u, cubes = self.points.take(at, axis=1), self.u[at], self.cubes.take(at, axis=1)
+        count, start, at = self.of(rows.take(cand))  # the samples of each candidate tested (consecutive)
+        sample = self.table.take(at, axis=1)
+        points, u, cubes = sample[:2], sample[2], sample[3:]
         # the control points and their differences of each candidate, then per sample (the
-        # point and its first and second derivatives below: the Bernstein forms of the cubic)
-        k0, k1, k2, k3 = (p.compress(ok, axis=1) for p in (p0, p1, p2, p3))
-        q0, q1, q2, q3 = (_per_sample(k, count) for k in (k0, k1, k2, k3))
-        d10, d21, d32 = (_per_sample(b - a, count) for a, b in ((k0, k1), (k1, k2), (k2, k3)))
-        e1, e2 = _per_sample(k2 - 2 * k1 + k0, count), _per_sample(k3 - 2 * k2 + k1, count)
+        # point and its first and second derivatives below: the Bernstein forms of the cubic),
+        # all nine (2, S) planes from one repeat
+        k = k.take(cand, axis=2)
+        forms = np.concatenate([k, k[1:] - k[:-1], k[2:] - 2 * k[1:3] + k[:2]])  # k, k1 - k0…, k2 - 2 k1 + k0…
+        q0, q1, q2, q3, d10, d21, d32, e1, e2 = _per_sample(forms, count, axis=2)
         # from its chord-length parameter, two Newton steps towards the nearest point: an
         # upper bound of the distance, so the test is safe
         for newton in range(2):
@@ -326,7 +332,7 @@ class _Samples:
         d = np.sqrt(off[0] ** 2 + off[1] ** 2)
         worst = np.zeros(rows.size)
         if cand.size:  # at least 4 samples a candidate
-            worst[cand] = np.maximum.reduceat(d, np.cumsum(count) - count)
+            worst[cand] = np.maximum.reduceat(d, start)
         return ok & (worst <= tolerance), curve
 
 
@@ -354,14 +360,15 @@ def _cubic_controls(exact: Exact, samples: _Samples, rows: np.ndarray, lo: np.nd
     chord-length parameters)."""
     p0, p3 = samples.p0.take(rows, axis=1), samples.p3.take(rows, axis=1)
     t0, t1 = exact.tan_start.take(lo, axis=0), exact.tan_end.take(hi - 1, axis=0)
-    o, at = samples.of(rows)
-    count = samples.count.take(rows)
-    u = samples.u[at]
+    count, _, at = samples.of(rows)
+    o = np.repeat(np.arange(rows.size), count)
+    sample = samples.table.take(at, axis=1)
+    u = sample[2]
     # P(u) = B0 p0 + B1 (p0 + a t0) + B2 (p3 - b t1) + B3 p3 (cubic_weights, the cubes
     # from the samples: np.power is slow)
     s = 1 - u
-    b0, b1, b2, b3 = samples.cubes[0].take(at), 3 * u * s**2, 3 * u**2 * s, samples.cubes[1].take(at)
-    r = samples.points.take(at, axis=1) - (b0 + b1) * _per_sample(p0, count) - (b2 + b3) * _per_sample(p3, count)
+    b0, b1, b2, b3 = sample[3], 3 * u * s**2, 3 * u**2 * s, sample[4]
+    r = sample[:2] - (b0 + b1) * _per_sample(p0, count) - (b2 + b3) * _per_sample(p3, count)
     va, vb = b1 * _per_sample(_planes(t0), count), -b2 * _per_sample(_planes(t1), count)
     n = rows.size
     m11 = np.bincount(o, va[0] * va[0] + va[1] * va[1], n)
@@ -484,10 +491,10 @@ def _cube(x: np.ndarray) -> np.ndarray:
     return x * x * x
 
 
-def _per_sample(planes: np.ndarray, count: np.ndarray) -> np.ndarray:
-    """``planes`` (2, M, ...) of M items, each repeated ``count`` times along axis 1: what
+def _per_sample(planes: np.ndarray, count: np.ndarray, axis: int = 1) -> np.ndarray:
+    """``planes`` (2, M, ...) of M items, each repeated ``count`` times along ``axis``: what
     ``planes.take(np.repeat(np.arange(M), count), axis=1)`` gives, 2–3 times faster."""
-    return np.repeat(planes, count, axis=1)
+    return np.repeat(planes, count, axis=axis)
 
 
 def _planes(points: np.ndarray) -> np.ndarray:
