@@ -137,15 +137,16 @@ def test_trace_loops_with_points_keeps_touching_loops_apart(cells, areas):
 
 def test_path_numbers_of_both_tables_are_formatted_in_one_table_with_their_flags():
     """svg._format formats the absolute and the relative arguments together: the texts of
-    the first table's used arguments, then the second's; per command the length of its
-    numbers with the separators SVG needs."""
+    the first table's arguments, then the second's; per command the length of its numbers
+    with the separators SVG needs."""
     from depixel.svg import _format
 
-    absolute = np.array([[-50, 25, 0, 0, 0, 0], [100, 7, 300, 0, 0, 0]])  # hundredths
-    relative = np.array([[-50, -25, 0, 0, 0, 0], [0, 0, 0, 0, 0, 0]])
-    arity = np.array([2, 3])
-    texts, (abs_flags, rel_flags) = _format((absolute, relative), arity, 2)
+    # the used arguments (hundredths) of two commands: 2 of the first, 3 of the second
+    num_cmd, num_k = np.array([0, 0, 1, 1, 1]), np.array([0, 1, 0, 1, 2])
+    absolute, relative = np.array([-50, 25, 100, 7, 300]), np.array([-50, -25, 0, 0, 0])
+    texts, flags = _format(absolute, relative, num_cmd, num_k, 2, 2)
     assert texts.tolist() == ["-.5", ".25", "1", ".07", "3", "-.5", "-.25", "0", "0", "0"]
     # "-.5.25": no space before ".25" after a number with a point; "1 .07 3"; "-.5-.25"; "0 0 0"
-    assert abs_flags.length.tolist() == [6, 7] and rel_flags.length.tolist() == [7, 5]
-    assert abs_flags.minus.reshape(2, 6)[:, :2].tolist() == [[True, False], [False, False]]
+    assert flags.length.tolist() == [6, 7, 7, 5]
+    assert flags.minus.tolist() == [True, False, False, False, False, True, True, False, False, False]
+    assert flags.dot_start.tolist()[:5] == [False, True, False, True, False]
