@@ -240,7 +240,7 @@ def fit(exact: Exact, prot: Protected, lo: np.ndarray, hi: np.ndarray, tolerance
     quad_ok = np.zeros(lo.size, bool)
     cubic_ok = np.zeros(lo.size, bool)
     if lo.size <= FUSED_RANGES:
-        r1, r2 = _cubic_controls(exact, samples, np.arange(lo.size), lo, hi, grid)
+        r1, r2 = _cubic_controls(exact, samples, None, lo, hi, grid)
         passed = passes(np.concatenate([quads, np.arange(lo.size)]), np.concatenate([q1.take(quads, axis=0), r1]),
                         np.concatenate([q2.take(quads, axis=0), r2]))
         quad_ok[quads], cubic_ok = passed[: quads.size], passed[quads.size :]
@@ -353,16 +353,19 @@ def _quadratic_control(exact: Exact, p0: np.ndarray, p3: np.ndarray, lo: np.ndar
     return q, valid
 
 
-def _cubic_controls(exact: Exact, samples: _Samples, rows: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+def _cubic_controls(exact: Exact, samples: _Samples, rows: np.ndarray | None, lo: np.ndarray, hi: np.ndarray,
                     grid: float | None) -> tuple[np.ndarray, np.ndarray]:
     """The cubic with the end points and end tangents of the ranges ``rows`` ([lo, hi) of
-    exact segments) whose two leg lengths fit the samples best (least squares at their
-    chord-length parameters)."""
-    p0, p3 = samples.p0.take(rows, axis=1), samples.p3.take(rows, axis=1)
+    exact segments; None: all of them) whose two leg lengths fit the samples best (least
+    squares at their chord-length parameters)."""
+    if rows is None:  # the samples' own tables, without a gather
+        p0, p3, count, sample = samples.p0, samples.p3, samples.count, samples.table
+    else:
+        p0, p3 = samples.p0.take(rows, axis=1), samples.p3.take(rows, axis=1)
+        count, _, at = samples.of(rows)
+        sample = samples.table.take(at, axis=1)
     t0, t1 = exact.tan_start.take(lo, axis=0), exact.tan_end.take(hi - 1, axis=0)
-    count, _, at = samples.of(rows)
-    o = np.repeat(np.arange(rows.size), count)
-    sample = samples.table.take(at, axis=1)
+    n = count.size
     u = sample[2]
     # P(u) = B0 p0 + B1 (p0 + a t0) + B2 (p3 - b t1) + B3 p3 (cubic_weights, the cubes
     # from the samples: np.power is slow)
@@ -370,12 +373,13 @@ def _cubic_controls(exact: Exact, samples: _Samples, rows: np.ndarray, lo: np.nd
     b0, b1, b2, b3 = sample[3], 3 * u * s**2, 3 * u**2 * s, sample[4]
     r = sample[:2] - (b0 + b1) * _per_sample(p0, count) - (b2 + b3) * _per_sample(p3, count)
     va, vb = b1 * _per_sample(_planes(t0), count), -b2 * _per_sample(_planes(t1), count)
-    n = rows.size
-    m11 = np.bincount(o, va[0] * va[0] + va[1] * va[1], n)
-    m12 = np.bincount(o, va[0] * vb[0] + va[1] * vb[1], n)
-    m22 = np.bincount(o, vb[0] * vb[0] + vb[1] * vb[1], n)
-    r1 = np.bincount(o, va[0] * r[0] + va[1] * r[1], n)
-    r2 = np.bincount(o, vb[0] * r[0] + vb[1] * r[1], n)
+    # the five sums of each range by one bincount, each sum in bins of its own (the same
+    # additions in the same order as a bincount apiece)
+    terms = np.empty((5, u.size))
+    for row, (x, y) in enumerate(((va, va), (va, vb), (vb, vb), (va, r), (vb, r))):
+        np.add(x[0] * y[0], x[1] * y[1], out=terms[row])
+    bins = (np.repeat(np.arange(n), count) + n * np.arange(5)[:, None]).ravel()
+    m11, m12, m22, r1, r2 = np.bincount(bins, terms.ravel(), 5 * n).reshape(5, n)
     det = m11 * m22 - m12 * m12
     safe = np.where(np.abs(det) > 1e-12, det, 1.0)
     a = (r1 * m22 - r2 * m12) / safe
