@@ -164,8 +164,11 @@ def _nearest_segment(xy: np.ndarray, seg_of: np.ndarray, exact: Exact
     a = exact.part_start.take(seg_of.ravel().take(valid), axis=1)  # (2, V, 4)
     b = exact.part_end.take(seg_of.ravel().take(valid), axis=1)
     q = np.repeat(_planes(xy).take(valid // seg_of.shape[1], axis=1), n_parts, axis=1).reshape(a.shape)
-    d = np.full(seg_of.size * n_parts, np.inf)
-    d[(valid[:, None] * n_parts + np.arange(n_parts)).ravel()] = _segment_distance(q, a, b).ravel()
+    d = np.full((seg_of.size, n_parts), np.inf)
+    # the rows of distances put whole, each as one opaque item of n_parts floats (the same
+    # bytes; a flat index per element costs ~10 times more)
+    row = np.dtype((np.void, d.itemsize * n_parts))
+    d.view(row).put(valid, np.ascontiguousarray(_segment_distance(q, a, b)).view(row))
     d = d.reshape(seg_of.shape[0], seg_of.shape[1], n_parts)
     flat = d.reshape(d.shape[0], -1).argmin(axis=1)
     which, part = np.divmod(flat, n_parts)
@@ -196,18 +199,19 @@ class _SegmentsOfEdges:
 
     def __call__(self, edge: np.ndarray) -> np.ndarray:
         curves, sorted_key = self.curves, self.sorted_key
-        slot = curves.edge_slot[edge]
-        slots = np.stack([slot, curves.next[slot]], axis=1)  # the edge's two slots
-        piece = self.edge_piece[edge].astype(np.int64)  # 32-bit: the keys below need 64
-        out = np.full((edge.size, 4), -1, np.int64)
-        for j in range(2):
-            want = piece * self.base + slots[:, j]
-            lo = np.searchsorted(sorted_key, want)
-            for k in range(2):  # a slot has up to two segments in a piece (its two halves)
-                pos = np.minimum(lo + k, sorted_key.size - 1)
-                hit = (sorted_key[pos] == want) & (slots[:, j] >= 0)
-                out[:, 2 * j + k] = np.where(hit, self.order[pos], -1)
-        return out
+        slots = np.empty((2, edge.size), np.int64)  # the edge's two slots
+        slots[0] = curves.edge_slot.take(edge)
+        slots[1] = curves.next.take(slots[0])
+        # a slot has up to two segments in a piece (its two halves): the two keys from where
+        # the slot's key would be, each of the four candidates on a plane (2 slots × 2)
+        want = slots + self.edge_piece.take(edge).astype(np.int64) * self.base  # 32-bit: the keys need 64
+        pos = np.empty((2, 2, edge.size), np.int64)
+        pos[:, 0] = np.searchsorted(sorted_key, want)
+        np.add(pos[:, 0], 1, out=pos[:, 1])
+        np.minimum(pos, sorted_key.size - 1, out=pos)
+        hit = sorted_key.take(pos) == want[:, None]
+        hit &= (slots >= 0)[:, None]
+        return np.ascontiguousarray(np.where(hit, self.order.take(pos), -1).reshape(4, -1).T)
 
 
 #: up to this many ranges, :func:`fit` tests the quadratic and the cubic of every range in
