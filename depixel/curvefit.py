@@ -164,12 +164,11 @@ def _nearest_segment(xy: np.ndarray, seg_of: np.ndarray, exact: Exact
     a = exact.part_start.take(seg_of.ravel().take(valid), axis=1)  # (2, V, 4)
     b = exact.part_end.take(seg_of.ravel().take(valid), axis=1)
     q = np.repeat(_planes(xy).take(valid // seg_of.shape[1], axis=1), n_parts, axis=1).reshape(a.shape)
-    d = np.full((seg_of.size, n_parts), np.inf)
+    d = np.full((seg_of.shape[0], seg_of.shape[1], n_parts), np.inf)
     # the rows of distances put whole, each as one opaque item of n_parts floats (the same
     # bytes; a flat index per element costs ~10 times more)
     row = np.dtype((np.void, d.itemsize * n_parts))
     d.view(row).put(valid, np.ascontiguousarray(_segment_distance(q, a, b)).view(row))
-    d = d.reshape(seg_of.shape[0], seg_of.shape[1], n_parts)
     flat = d.reshape(d.shape[0], -1).argmin(axis=1)
     which, part = np.divmod(flat, n_parts)
     rows = np.arange(xy.shape[0])
