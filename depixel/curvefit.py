@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .arrays import batch_slices, set_rows
+from .arrays import batch_slices, nan_to_zero, set_rows
 from .boundaries import CUBIC, QUAD, BoundaryPieces
 from .bspline import cubic_weights, elevate
 from .cells import link_corners
@@ -89,11 +89,11 @@ def _as_cubic(start, kind, ctrl, ctrl2, end) -> tuple[np.ndarray, np.ndarray]:
     """Cubic control points of line, quadratic and cubic segments (degree elevation)."""
     quad = (kind == QUAD)[:, None]
     cubic = (kind == CUBIC)[:, None]
-    q1, q2 = elevate(start, np.nan_to_num(ctrl), end)
+    q1, q2 = elevate(start, nan_to_zero(ctrl), end)
     c1 = np.where(quad, q1, start + (end - start) / 3.0)
     c2 = np.where(quad, q2, end - (end - start) / 3.0)
-    c1 = np.where(cubic, np.nan_to_num(ctrl), c1)
-    c2 = np.where(cubic, np.nan_to_num(ctrl2), c2)
+    c1 = np.where(cubic, nan_to_zero(ctrl), c1)
+    c2 = np.where(cubic, nan_to_zero(ctrl2), c2)
     return c1, c2
 
 

@@ -21,7 +21,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from .arrays import batch_bounds, set_rows
+from .arrays import batch_bounds, nan_to_zero, set_rows
 from .boundaries import CUBIC, LINE, QUAD
 from .outlines import Outlines, OutlineShapes, outline_shapes
 from .stacking import ROLES
@@ -252,8 +252,8 @@ def _commands(outlines: Outlines, unit: float) -> tuple[np.ndarray, np.ndarray]:
     it), Z."""
     kind = outlines.kind
     end = np.round(outlines.end * unit).astype(np.int64)
-    ctrl = np.round(np.nan_to_num(outlines.ctrl) * unit).astype(np.int64)
-    ctrl2 = np.round(np.nan_to_num(outlines.ctrl2) * unit).astype(np.int64)
+    ctrl = np.round(nan_to_zero(outlines.ctrl) * unit).astype(np.int64)
+    ctrl2 = np.round(nan_to_zero(outlines.ctrl2) * unit).astype(np.int64)
     n_loop = outlines.loop_ptr.size - 1
     loop_len = np.diff(outlines.loop_ptr)
     seg_loop = np.repeat(np.arange(n_loop), loop_len)
