@@ -161,23 +161,24 @@ def _nearest_segment(xy: np.ndarray, seg_of: np.ndarray, exact: Exact
     # a (P, 4, 4) table where the others are infinite
     valid = np.flatnonzero(seg_of >= 0)  # (point, candidate) pairs, flat
     n_parts = exact.part_start.shape[2]
-    a = exact.part_start.take(seg_of.ravel().take(valid), axis=1)  # (2, V, 4)
-    b = exact.part_end.take(seg_of.ravel().take(valid), axis=1)
+    seg = seg_of.ravel().take(valid)
+    a, b = exact.part_start.take(seg, axis=1), exact.part_end.take(seg, axis=1)  # (2, V, 4)
     q = np.repeat(_planes(xy).take(valid // seg_of.shape[1], axis=1), n_parts, axis=1).reshape(a.shape)
     d = np.full((seg_of.shape[0], seg_of.shape[1], n_parts), np.inf)
     # the rows of distances put whole, each as one opaque item of n_parts floats (the same
     # bytes; a flat index per element costs ~10 times more)
     row = np.dtype((np.void, d.itemsize * n_parts))
     d.view(row).put(valid, np.ascontiguousarray(_segment_distance(q, a, b)).view(row))
-    flat = d.reshape(d.shape[0], -1).argmin(axis=1)
-    which, part = np.divmod(flat, n_parts)
-    rows = np.arange(xy.shape[0])
-    dist = d[rows, which, part]
-    nearest = np.maximum(seg_of[rows, which], 0) * n_parts + part  # flat part
+    # each point's nearest part (the first minimum), as flat indices of d, then of seg_of
+    cell = d.reshape(d.shape[0], -1).argmin(axis=1) + np.arange(0, d.size, seg_of.shape[1] * n_parts)
+    dist = d.ravel().take(cell)
+    candidate, part = np.divmod(cell, n_parts)
+    nearest_seg = seg_of.ravel().take(candidate)
+    nearest = np.maximum(nearest_seg, 0) * n_parts + part  # flat part
     pa, pb = exact.part_start.reshape(2, -1).take(nearest, axis=1), exact.part_end.reshape(2, -1).take(nearest, axis=1)
     ab, aq = pb - pa, _planes(xy) - pa
     side = np.sign(ab[0] * aq[1] - ab[1] * aq[0])
-    return dist, dist * np.where(side == 0, 1.0, side), seg_of[rows, which]
+    return dist, dist * np.where(side == 0, 1.0, side), nearest_seg
 
 
 class _SegmentsOfEdges:
