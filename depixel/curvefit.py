@@ -135,11 +135,14 @@ class Protected:
         # one point per (segment, place in eighth pixels), the first of each, ordered by
         # segment, then x, then y (a stable sort; what np.unique(axis=0) does, without its
         # per-row copies)
-        order = np.lexsort((np.round(xy[:, 1] * 8), np.round(xy[:, 0] * 8), seg))
-        key = np.stack([seg[order], np.round(xy[order, 0] * 8), np.round(xy[order, 1] * 8)])
-        first = np.ones(order.size, bool)
-        first[1:] = (key[:, 1:] != key[:, :-1]).any(axis=0)
-        pick = order[first]
+        eighths = [np.round(xy[:, axis] * 8) for axis in range(2)]
+        order = np.lexsort((eighths[1], eighths[0], seg))
+        first = np.zeros(order.size, bool)
+        first[:1] = True
+        for key in (seg, *eighths):  # a new (segment, x, y) where any of them changes
+            key = key.take(order)
+            first[1:] |= key[1:] != key[:-1]
+        pick = order.compress(first)
         #: (2, P) the points as x and y planes
         self.xy, self.dist, self.seg = _planes(xy.take(pick, axis=0)), signed[pick], seg[pick]
 
