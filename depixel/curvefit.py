@@ -186,44 +186,35 @@ def _nearest_segment(xy: np.ndarray, seg_of: np.ndarray, exact: Exact
 
 class _SegmentsOfEdges:
     """``(edges)`` → (len(edges), 4): indices of the exact segments of each curved edge's two
-    spans in the edge's piece (the half spans, or the full span when a joint was merged), in
-    segment order, -1 where there is none."""
+    spans (the half spans, or the full span when a joint was merged), -1 where there is none."""
 
     def __init__(self, pieces: BoundaryPieces, image: VectorImage) -> None:
         curves = image.curves
         assert curves is not None  # pieces exist only where there are curves
         self.curves, self.edge_piece = curves, pieces.edge_piece
-        self.piece = np.repeat(np.arange(len(pieces)), np.diff(pieces.ptr))  # of every segment
-        # the segments of every slot's span, in segment order: its two halves (in one piece
-        # or two) or the full span; a table of two per slot, -1 where there is none, so an
-        # edge's segments are two look-ups (no search)
-        slot = pieces.span_slot
-        order = np.argsort(slot, kind="stable")
-        sorted_slot = slot.take(order).astype(np.int64)
-        second = np.zeros(order.size, bool)
-        second[1:] = sorted_slot[1:] == sorted_slot[:-1]
-        assert not (second[1:] & second[:-1]).any(), "a span has at most two segments"
-        self.of_slot = np.full(2 * curves.next.size, -1, np.int64)
-        self.of_slot[2 * sorted_slot + second] = order
+        seg_slot = pieces.span_slot
+        # segments of every piece sorted by span slot, to look the slots up
+        seg_piece = np.repeat(np.arange(len(pieces)), np.diff(pieces.ptr))
+        self.base = int(seg_slot.max()) + 2
+        key = seg_piece * self.base + seg_slot
+        self.order = np.argsort(key, kind="stable")
+        self.sorted_key = key[self.order]
 
     def __call__(self, edge: np.ndarray) -> np.ndarray:
-        curves = self.curves
+        curves, sorted_key = self.curves, self.sorted_key
         slots = np.empty((2, edge.size), np.int64)  # the edge's two slots
         slots[0] = curves.edge_slot.take(edge)
         slots[1] = curves.next.take(slots[0])
-        # each slot's two table entries (a slot of -1 reads other entries: masked below)
-        where = np.empty((2, 2, edge.size), np.int64)
-        np.multiply(slots, 2, out=where[:, 0])
-        np.add(where[:, 0], 1, out=where[:, 1])
-        seg = self.of_slot.take(where)
-        hit = self.piece.take(seg) == self.edge_piece.take(edge)  # (seg -1 reads the last: masked)
-        hit &= seg >= 0
+        # a slot has up to two segments in a piece (its two halves): the two keys from where
+        # the slot's key would be, each of the four candidates on a plane (2 slots × 2)
+        want = slots + self.edge_piece.take(edge).astype(np.int64) * self.base  # 32-bit: the keys need 64
+        pos = np.empty((2, 2, edge.size), np.int64)
+        pos[:, 0] = np.searchsorted(sorted_key, want)
+        np.add(pos[:, 0], 1, out=pos[:, 1])
+        np.minimum(pos, sorted_key.size - 1, out=pos)
+        hit = sorted_key.take(pos) == want[:, None]
         hit &= (slots >= 0)[:, None]
-        # the slot's segments in the edge's piece first, in segment order
-        out = np.empty((2, 2, edge.size), np.int64)
-        out[:, 0] = np.where(hit[:, 0], seg[:, 0], np.where(hit[:, 1], seg[:, 1], -1))
-        out[:, 1] = np.where(hit[:, 0] & hit[:, 1], seg[:, 1], -1)
-        return np.ascontiguousarray(out.reshape(4, -1).T)
+        return np.ascontiguousarray(np.where(hit, self.order.take(pos), -1).reshape(4, -1).T)
 
 
 #: up to this many ranges, :func:`fit` tests the quadratic and the cubic of every range in
