@@ -41,6 +41,13 @@ def in_sorted(sorted_keys: np.ndarray, keys: np.ndarray) -> np.ndarray:
     return sorted_keys[at] == keys
 
 
+def nan_to_zero(values: np.ndarray) -> np.ndarray:
+    """``np.nan_to_num(values)`` of an array without infinities (the missing control points
+    of lines are NaN): a fifth of its cost (~45 µs a call on a sprite's segments, which
+    also tests for both infinities)."""
+    return np.where(np.isnan(values), 0.0, values)
+
+
 def set_rows(target: np.ndarray, rows: np.ndarray, values: np.ndarray) -> None:
     """``target[rows] = values`` for an (N, k) ``target``, a column at a time (the same
     result, several times faster than numpy's row-by-row copy)."""

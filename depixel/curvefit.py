@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .arrays import batch_slices, set_rows
+from .arrays import batch_slices, nan_to_zero, set_rows
 from .boundaries import CUBIC, QUAD, BoundaryPieces
 from .bspline import cubic_weights, elevate
 from .cells import link_corners
@@ -89,11 +89,11 @@ def _as_cubic(start, kind, ctrl, ctrl2, end) -> tuple[np.ndarray, np.ndarray]:
     """Cubic control points of line, quadratic and cubic segments (degree elevation)."""
     quad = (kind == QUAD)[:, None]
     cubic = (kind == CUBIC)[:, None]
-    q1, q2 = elevate(start, np.nan_to_num(ctrl), end)
+    q1, q2 = elevate(start, nan_to_zero(ctrl), end)
     c1 = np.where(quad, q1, start + (end - start) / 3.0)
     c2 = np.where(quad, q2, end - (end - start) / 3.0)
-    c1 = np.where(cubic, np.nan_to_num(ctrl), c1)
-    c2 = np.where(cubic, np.nan_to_num(ctrl2), c2)
+    c1 = np.where(cubic, nan_to_zero(ctrl), c1)
+    c2 = np.where(cubic, nan_to_zero(ctrl2), c2)
     return c1, c2
 
 
@@ -135,11 +135,14 @@ class Protected:
         # one point per (segment, place in eighth pixels), the first of each, ordered by
         # segment, then x, then y (a stable sort; what np.unique(axis=0) does, without its
         # per-row copies)
-        order = np.lexsort((np.round(xy[:, 1] * 8), np.round(xy[:, 0] * 8), seg))
-        key = np.stack([seg[order], np.round(xy[order, 0] * 8), np.round(xy[order, 1] * 8)])
-        first = np.ones(order.size, bool)
-        first[1:] = (key[:, 1:] != key[:, :-1]).any(axis=0)
-        pick = order[first]
+        eighths = [np.round(xy[:, axis] * 8) for axis in range(2)]
+        order = np.lexsort((eighths[1], eighths[0], seg))
+        first = np.zeros(order.size, bool)
+        first[:1] = True
+        for key in (seg, *eighths):  # a new (segment, x, y) where any of them changes
+            key = key.take(order)
+            first[1:] |= key[1:] != key[:-1]
+        pick = order.compress(first)
         #: (2, P) the points as x and y planes
         self.xy, self.dist, self.seg = _planes(xy.take(pick, axis=0)), signed[pick], seg[pick]
 
@@ -161,21 +164,24 @@ def _nearest_segment(xy: np.ndarray, seg_of: np.ndarray, exact: Exact
     # a (P, 4, 4) table where the others are infinite
     valid = np.flatnonzero(seg_of >= 0)  # (point, candidate) pairs, flat
     n_parts = exact.part_start.shape[2]
-    a = exact.part_start.take(seg_of.ravel().take(valid), axis=1)  # (2, V, 4)
-    b = exact.part_end.take(seg_of.ravel().take(valid), axis=1)
+    seg = seg_of.ravel().take(valid)
+    a, b = exact.part_start.take(seg, axis=1), exact.part_end.take(seg, axis=1)  # (2, V, 4)
     q = np.repeat(_planes(xy).take(valid // seg_of.shape[1], axis=1), n_parts, axis=1).reshape(a.shape)
-    d = np.full(seg_of.size * n_parts, np.inf)
-    d[(valid[:, None] * n_parts + np.arange(n_parts)).ravel()] = _segment_distance(q, a, b).ravel()
-    d = d.reshape(seg_of.shape[0], seg_of.shape[1], n_parts)
-    flat = d.reshape(d.shape[0], -1).argmin(axis=1)
-    which, part = np.divmod(flat, n_parts)
-    rows = np.arange(xy.shape[0])
-    dist = d[rows, which, part]
-    nearest = np.maximum(seg_of[rows, which], 0) * n_parts + part  # flat part
+    d = np.full((seg_of.shape[0], seg_of.shape[1], n_parts), np.inf)
+    # the rows of distances put whole, each as one opaque item of n_parts floats (the same
+    # bytes; a flat index per element costs ~10 times more)
+    row = np.dtype((np.void, d.itemsize * n_parts))
+    d.view(row).put(valid, np.ascontiguousarray(_segment_distance(q, a, b)).view(row))
+    # each point's nearest part (the first minimum), as flat indices of d, then of seg_of
+    cell = d.reshape(d.shape[0], -1).argmin(axis=1) + np.arange(0, d.size, seg_of.shape[1] * n_parts)
+    dist = d.ravel().take(cell)
+    candidate, part = np.divmod(cell, n_parts)
+    nearest_seg = seg_of.ravel().take(candidate)
+    nearest = np.maximum(nearest_seg, 0) * n_parts + part  # flat part
     pa, pb = exact.part_start.reshape(2, -1).take(nearest, axis=1), exact.part_end.reshape(2, -1).take(nearest, axis=1)
     ab, aq = pb - pa, _planes(xy) - pa
     side = np.sign(ab[0] * aq[1] - ab[1] * aq[0])
-    return dist, dist * np.where(side == 0, 1.0, side), seg_of[rows, which]
+    return dist, dist * np.where(side == 0, 1.0, side), nearest_seg
 
 
 class _SegmentsOfEdges:
@@ -196,18 +202,19 @@ class _SegmentsOfEdges:
 
     def __call__(self, edge: np.ndarray) -> np.ndarray:
         curves, sorted_key = self.curves, self.sorted_key
-        slot = curves.edge_slot[edge]
-        slots = np.stack([slot, curves.next[slot]], axis=1)  # the edge's two slots
-        piece = self.edge_piece[edge].astype(np.int64)  # 32-bit: the keys below need 64
-        out = np.full((edge.size, 4), -1, np.int64)
-        for j in range(2):
-            want = piece * self.base + slots[:, j]
-            lo = np.searchsorted(sorted_key, want)
-            for k in range(2):  # a slot has up to two segments in a piece (its two halves)
-                pos = np.minimum(lo + k, sorted_key.size - 1)
-                hit = (sorted_key[pos] == want) & (slots[:, j] >= 0)
-                out[:, 2 * j + k] = np.where(hit, self.order[pos], -1)
-        return out
+        slots = np.empty((2, edge.size), np.int64)  # the edge's two slots
+        slots[0] = curves.edge_slot.take(edge)
+        slots[1] = curves.next.take(slots[0])
+        # a slot has up to two segments in a piece (its two halves): the two keys from where
+        # the slot's key would be, each of the four candidates on a plane (2 slots × 2)
+        want = slots + self.edge_piece.take(edge).astype(np.int64) * self.base  # 32-bit: the keys need 64
+        pos = np.empty((2, 2, edge.size), np.int64)
+        pos[:, 0] = np.searchsorted(sorted_key, want)
+        np.add(pos[:, 0], 1, out=pos[:, 1])
+        np.minimum(pos, sorted_key.size - 1, out=pos)
+        hit = sorted_key.take(pos) == want[:, None]
+        hit &= (slots >= 0)[:, None]
+        return np.ascontiguousarray(np.where(hit, self.order.take(pos), -1).reshape(4, -1).T)
 
 
 #: up to this many ranges, :func:`fit` tests the quadratic and the cubic of every range in
@@ -240,7 +247,7 @@ def fit(exact: Exact, prot: Protected, lo: np.ndarray, hi: np.ndarray, tolerance
     quad_ok = np.zeros(lo.size, bool)
     cubic_ok = np.zeros(lo.size, bool)
     if lo.size <= FUSED_RANGES:
-        r1, r2 = _cubic_controls(exact, samples, np.arange(lo.size), lo, hi, grid)
+        r1, r2 = _cubic_controls(exact, samples, None, lo, hi, grid)
         passed = passes(np.concatenate([quads, np.arange(lo.size)]), np.concatenate([q1.take(quads, axis=0), r1]),
                         np.concatenate([q2.take(quads, axis=0), r2]))
         quad_ok[quads], cubic_ok = passed[: quads.size], passed[quads.size :]
@@ -266,23 +273,26 @@ class _Samples:
     def __init__(self, exact: Exact, lo: np.ndarray, hi: np.ndarray) -> None:
         count = hi - lo
         seg = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count - lo, count)
-        self.points = exact.part_start.take(seg, axis=1).reshape(2, -1)  # (2, S) every range's samples
         self.count = count * _T_ORIG.size  # samples of each range, which start at first
         self.first = np.cumsum(self.count) - self.count
         before = exact.arc_before.take(lo)
         arc = (exact.arc_before.take(seg)[:, None] + exact.arc.take(seg, axis=0)).ravel() \
             - np.repeat(before, self.count)
         self.total = exact.arc_before[hi - 1] + exact.length[hi - 1] - before
-        self.u = arc / np.repeat(np.maximum(self.total, 1e-300), self.count)
-        self.cubes = np.stack([_cube(1 - self.u), _cube(self.u)])  # (2, S): every candidate's first step uses them
+        #: (5, S) every range's samples: x, y, their parameters u, (1 - u)³ and u³ (every
+        #: candidate's first Newton step uses the cubes); one table, so one gather picks them
+        self.table = np.empty((5, arc.size))
+        exact.part_start.take(seg, axis=1, out=self.table[:2].reshape(2, seg.size, _T_ORIG.size))
+        u = np.divide(arc, np.repeat(np.maximum(self.total, 1e-300), self.count), out=self.table[2])
+        self.table[3], self.table[4] = _cube(1 - u), _cube(u)
         self.p0, self.p3 = _planes(exact.start.take(lo, axis=0)), _planes(exact.end.take(hi - 1, axis=0))
 
-    def of(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The samples of the ranges ``rows`` (in turn): the index of each sample's row in
-        ``rows``, and the sample."""
-        count = self.count[rows]
-        at = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count - self.first[rows], count)
-        return np.repeat(np.arange(rows.size), count), at
+    def of(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The samples of the ranges ``rows`` (in turn): their number for each row, where each
+        row's begin among them, and the index of each in :attr:`table`."""
+        count = self.count.take(rows)
+        start = np.cumsum(count) - count
+        return count, start, np.arange(int(count.sum())) - np.repeat(start - self.first.take(rows), count)
 
     def within(self, rows: np.ndarray, c1: np.ndarray, c2: np.ndarray, tolerance: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray]:
@@ -292,22 +302,25 @@ class _Samples:
         candidates' polylines (2, M, T) (:func:`_flatten`), which the side test uses too."""
         # the shape test first (one polyline per candidate), then the samples of the
         # candidates that pass it: the costly part, each sample on its own
-        p0, p1, p2, p3 = self.p0.take(rows, axis=1), _planes(c1), _planes(c2), self.p3.take(rows, axis=1)
-        curve = _flatten(p0, p1, p2, p3)  # (2, M, T)
+        k = np.empty((4, 2, rows.size))  # the control points p0, c1, c2, p3 of every candidate
+        self.p0.take(rows, axis=1, out=k[0])
+        k[1], k[2] = c1.T, c2.T
+        self.p3.take(rows, axis=1, out=k[3])
+        curve = _flatten(*k)  # (2, M, T)
         step = np.diff(curve, axis=2)
         length = np.sqrt(step[0] ** 2 + step[1] ** 2).sum(axis=1)
-        chord = np.sqrt((p3[0] - p0[0]) ** 2 + (p3[1] - p0[1]) ** 2)
+        chord = np.sqrt((k[3, 0] - k[0, 0]) ** 2 + (k[3, 1] - k[0, 1]) ** 2)
         ok = (length <= 1.1 * self.total[rows] + 1e-9) & (chord > 0)
         cand = np.flatnonzero(ok)
-        count = self.count.take(rows.take(cand))  # the samples of each candidate tested (consecutive)
-        at = self.of(rows.take(cand))[1]
-        points, u, cubes = self.points.take(at, axis=1), self.u[at], self.cubes.take(at, axis=1)
+        count, start, at = self.of(rows.take(cand))  # the samples of each candidate tested (consecutive)
+        sample = self.table.take(at, axis=1)
+        points, u, cubes = sample[:2], sample[2], sample[3:]
         # the control points and their differences of each candidate, then per sample (the
-        # point and its first and second derivatives below: the Bernstein forms of the cubic)
-        k0, k1, k2, k3 = (p.compress(ok, axis=1) for p in (p0, p1, p2, p3))
-        q0, q1, q2, q3 = (_per_sample(k, count) for k in (k0, k1, k2, k3))
-        d10, d21, d32 = (_per_sample(b - a, count) for a, b in ((k0, k1), (k1, k2), (k2, k3)))
-        e1, e2 = _per_sample(k2 - 2 * k1 + k0, count), _per_sample(k3 - 2 * k2 + k1, count)
+        # point and its first and second derivatives below: the Bernstein forms of the cubic),
+        # all nine (2, S) planes from one repeat
+        k = k.take(cand, axis=2)
+        forms = np.concatenate([k, k[1:] - k[:-1], k[2:] - 2 * k[1:3] + k[:2]])  # k, k1 - k0…, k2 - 2 k1 + k0…
+        q0, q1, q2, q3, d10, d21, d32, e1, e2 = _per_sample(forms, count, axis=2)
         # from its chord-length parameter, two Newton steps towards the nearest point: an
         # upper bound of the distance, so the test is safe
         for newton in range(2):
@@ -326,7 +339,7 @@ class _Samples:
         d = np.sqrt(off[0] ** 2 + off[1] ** 2)
         worst = np.zeros(rows.size)
         if cand.size:  # at least 4 samples a candidate
-            worst[cand] = np.maximum.reduceat(d, np.cumsum(count) - count)
+            worst[cand] = np.maximum.reduceat(d, start)
         return ok & (worst <= tolerance), curve
 
 
@@ -347,28 +360,33 @@ def _quadratic_control(exact: Exact, p0: np.ndarray, p3: np.ndarray, lo: np.ndar
     return q, valid
 
 
-def _cubic_controls(exact: Exact, samples: _Samples, rows: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+def _cubic_controls(exact: Exact, samples: _Samples, rows: np.ndarray | None, lo: np.ndarray, hi: np.ndarray,
                     grid: float | None) -> tuple[np.ndarray, np.ndarray]:
     """The cubic with the end points and end tangents of the ranges ``rows`` ([lo, hi) of
-    exact segments) whose two leg lengths fit the samples best (least squares at their
-    chord-length parameters)."""
-    p0, p3 = samples.p0.take(rows, axis=1), samples.p3.take(rows, axis=1)
+    exact segments; None: all of them) whose two leg lengths fit the samples best (least
+    squares at their chord-length parameters)."""
+    if rows is None:  # the samples' own tables, without a gather
+        p0, p3, count, sample = samples.p0, samples.p3, samples.count, samples.table
+    else:
+        p0, p3 = samples.p0.take(rows, axis=1), samples.p3.take(rows, axis=1)
+        count, _, at = samples.of(rows)
+        sample = samples.table.take(at, axis=1)
     t0, t1 = exact.tan_start.take(lo, axis=0), exact.tan_end.take(hi - 1, axis=0)
-    o, at = samples.of(rows)
-    count = samples.count.take(rows)
-    u = samples.u[at]
+    n = count.size
+    u = sample[2]
     # P(u) = B0 p0 + B1 (p0 + a t0) + B2 (p3 - b t1) + B3 p3 (cubic_weights, the cubes
     # from the samples: np.power is slow)
     s = 1 - u
-    b0, b1, b2, b3 = samples.cubes[0].take(at), 3 * u * s**2, 3 * u**2 * s, samples.cubes[1].take(at)
-    r = samples.points.take(at, axis=1) - (b0 + b1) * _per_sample(p0, count) - (b2 + b3) * _per_sample(p3, count)
+    b0, b1, b2, b3 = sample[3], 3 * u * s**2, 3 * u**2 * s, sample[4]
+    r = sample[:2] - (b0 + b1) * _per_sample(p0, count) - (b2 + b3) * _per_sample(p3, count)
     va, vb = b1 * _per_sample(_planes(t0), count), -b2 * _per_sample(_planes(t1), count)
-    n = rows.size
-    m11 = np.bincount(o, va[0] * va[0] + va[1] * va[1], n)
-    m12 = np.bincount(o, va[0] * vb[0] + va[1] * vb[1], n)
-    m22 = np.bincount(o, vb[0] * vb[0] + vb[1] * vb[1], n)
-    r1 = np.bincount(o, va[0] * r[0] + va[1] * r[1], n)
-    r2 = np.bincount(o, vb[0] * r[0] + vb[1] * r[1], n)
+    # the five sums of each range by one bincount, each sum in bins of its own (the same
+    # additions in the same order as a bincount apiece)
+    terms = np.empty((5, u.size))
+    for row, (x, y) in enumerate(((va, va), (va, vb), (vb, vb), (va, r), (vb, r))):
+        np.add(x[0] * y[0], x[1] * y[1], out=terms[row])
+    bins = (np.repeat(np.arange(n), count) + n * np.arange(5)[:, None]).ravel()
+    m11, m12, m22, r1, r2 = np.bincount(bins, terms.ravel(), 5 * n).reshape(5, n)
     det = m11 * m22 - m12 * m12
     safe = np.where(np.abs(det) > 1e-12, det, 1.0)
     a = (r1 * m22 - r2 * m12) / safe
@@ -399,49 +417,42 @@ def _keeps_sides(exact: Exact, prot: Protected, lo, hi, curves: np.ndarray, clea
     xy = prot.xy.take(idx, axis=1)
     parts = curves.shape[2] - 1
     start, end = _parts(curves)
-    d_new = _segment_distance(np.repeat(xy, parts, axis=1).reshape(2, -1, parts), _per_sample(start, count),
-                              _per_sample(end, count)).min(axis=1)
+    # every point against every part of its candidate's polyline: (2, N, parts), which the
+    # distance and the side test share (_segment_distance leaves its operands as they are)
+    a, b = _per_sample(start, count), _per_sample(end, count)
+    q = np.repeat(xy, parts, axis=1).reshape(a.shape)
+    d_new = _segment_distance(q, a, b).min(axis=1)
     too_near = d_new < np.minimum(np.abs(prot.dist[idx]), clearance) - 1e-9
-    crossed = _between(xy, owner, curves, lo, hi, exact)
+    crossed = _between(xy, owner, a, b, lo, hi, exact)
     ok[owner[too_near | crossed]] = False
     return ok
 
 
-def _between(xy: np.ndarray, owner: np.ndarray, curves: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+def _between(xy: np.ndarray, owner: np.ndarray, a: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray,
              exact: Exact) -> np.ndarray:
-    """Whether each point (``xy``: (2, N) planes) lies between its candidate curve (``curves``:
-    (2, R, T) polylines) and the exact run it replaces (inside the closed polygon of the two,
-    which share their end points): the curve has passed over the point, which changes side.
-    Even-odd ray casting towards +x."""
-    n_curve = curves.shape[2]
-    n_seg = hi - lo
-    n_exact = n_seg * _T_ORIG.size  # exact polygon edges: the samples, then back to the start
-    n_edges = (n_curve - 1) + n_exact
-    e_owner = np.repeat(np.arange(lo.size), n_edges)
-    k = np.arange(int(n_edges.sum())) - np.repeat(np.cumsum(n_edges) - n_edges, n_edges)
-    on_curve = k < n_curve - 1
-    j = np.where(on_curve, 0, k - (n_curve - 1))  # index along the exact samples
-    seg, part = np.divmod(j, _T_ORIG.size)
-    seg = np.minimum(np.repeat(lo, n_edges) + seg, exact.end.shape[0] - 1)
-    # the exact polyline of a segment is its samples and its end: its part ``part`` is an edge
-    at = seg * _T_ORIG.size + part
-    kc = e_owner * n_curve + np.minimum(k, n_curve - 2)
-    flat_curves = curves.reshape(2, -1)
-    a = np.where(on_curve, flat_curves.take(kc, axis=1), exact.part_start.reshape(2, -1).take(at, axis=1))
-    b = np.where(on_curve, flat_curves.take(kc + 1, axis=1), exact.part_end.reshape(2, -1).take(at, axis=1))
-    # pairs (point, edge of its candidate's polygon); only the pairs whose edge straddles the
-    # point's height can count, so the rest of the test runs on those alone
-    first = np.cumsum(n_edges) - n_edges
-    per_point = n_edges[owner]
-    p_idx = np.repeat(np.arange(xy.shape[1]), per_point)
-    e_idx = np.arange(int(per_point.sum())) - np.repeat(np.cumsum(per_point) - per_point - first[owner], per_point)
-    qy, ay, by = np.repeat(xy[1], per_point), a[1].take(e_idx), b[1].take(e_idx)
-    straddle = np.flatnonzero((ay > qy) != (by > qy))
-    p_idx, e_idx = p_idx.take(straddle), e_idx.take(straddle)
-    qy, ay, by = qy.take(straddle), ay.take(straddle), by.take(straddle)
-    qx, ax, bx = xy[0].take(p_idx), a[0].take(e_idx), b[0].take(e_idx)
+    """Whether each point (``xy``: (2, N) planes) lies between its candidate curve and the
+    exact run it replaces (inside the closed polygon of the two, which share their end
+    points): the curve has passed over the point, which changes side. ``a``, ``b``: (2, N, V)
+    the starts and the ends of the V parts of each point's candidate's polyline. Even-odd
+    ray casting towards +x."""
+    n_points, n_curve = xy.shape[1], a.shape[2]
+    # pairs (point, edge of its polygon): the parts of its candidate's polyline (given), then
+    # those of the exact run, consecutive in Exact's part tables from the run's first one
+    n_exact = (hi - lo).take(owner) * _T_ORIG.size
+    first = np.cumsum(n_exact) - n_exact
+    exact_part = np.arange(int(n_exact.sum())) - np.repeat(first - lo.take(owner) * _T_ORIG.size, n_exact)
+    a = np.concatenate([a.reshape(2, -1), exact.part_start.reshape(2, -1).take(exact_part, axis=1)], axis=1)
+    b = np.concatenate([b.reshape(2, -1), exact.part_end.reshape(2, -1).take(exact_part, axis=1)], axis=1)
+    points = np.arange(n_points)
+    p_idx = np.concatenate([np.repeat(points, n_curve), np.repeat(points, n_exact)])
+    # only the pairs whose edge straddles the point's height can count, so the rest of the
+    # test runs on those alone
+    qy = xy[1].take(p_idx)
+    straddle = np.flatnonzero((a[1] > qy) != (b[1] > qy))
+    p_idx, qy = p_idx.take(straddle), qy.take(straddle)
+    (ax, ay), (bx, by) = a.take(straddle, axis=1), b.take(straddle, axis=1)
     x_at = ax + (qy - ay) * (bx - ax) / (by - ay)  # by != ay where the edge straddles
-    hits = np.bincount(p_idx, weights=x_at > qx, minlength=xy.shape[1])
+    hits = np.bincount(p_idx, weights=x_at > xy[0].take(p_idx), minlength=n_points)
     return hits.astype(np.int64) % 2 == 1
 
 
@@ -491,10 +502,10 @@ def _cube(x: np.ndarray) -> np.ndarray:
     return x * x * x
 
 
-def _per_sample(planes: np.ndarray, count: np.ndarray) -> np.ndarray:
-    """``planes`` (2, M, ...) of M items, each repeated ``count`` times along axis 1: what
+def _per_sample(planes: np.ndarray, count: np.ndarray, axis: int = 1) -> np.ndarray:
+    """``planes`` (2, M, ...) of M items, each repeated ``count`` times along ``axis``: what
     ``planes.take(np.repeat(np.arange(M), count), axis=1)`` gives, 2–3 times faster."""
-    return np.repeat(planes, count, axis=1)
+    return np.repeat(planes, count, axis=axis)
 
 
 def _planes(points: np.ndarray) -> np.ndarray:

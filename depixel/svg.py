@@ -21,7 +21,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from .arrays import batch_bounds, set_rows
+from .arrays import batch_bounds, nan_to_zero, set_rows
 from .boundaries import CUBIC, LINE, QUAD
 from .outlines import Outlines, OutlineShapes, outline_shapes
 from .stacking import ROLES
@@ -178,8 +178,13 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     # previous loop of the same path, or the origin)
     absolute = args  # (C, 6) int64 units, (x, y) pairs; H has x, V has y in column 0
     rel = _relative(cmd, absolute, shape_of_cmd)
-    texts, (flags_abs, flags_rel) = _format((absolute, rel), arity, precision)
-    use_rel = flags_rel.length < flags_abs.length
+    # the numbers the commands use: command num_cmd's argument column num_k, in order
+    n_num = arity
+    num_cmd = np.repeat(np.arange(n_cmd), n_num)
+    num_k = np.arange(num_cmd.size) - np.repeat(np.cumsum(n_num) - n_num, n_num)
+    flat = num_cmd * _W + num_k  # the number's place in (C, 6) argument tables
+    texts, flags = _format(absolute.ravel().take(flat), rel.ravel().take(flat), num_cmd, num_k, n_cmd, precision)
+    use_rel = flags.length[n_cmd:] < flags.length[:n_cmd]
     use_rel &= cmd != Z
     letter = np.where(use_rel, cmd + 8, cmd)  # 0-7 upper case, 8-15 lower case
     prev_letter = _prepend(-1, letter[:-1])
@@ -189,23 +194,17 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     implicit &= ~new_shape
 
     # token stream: per command an optional letter, then its numbers
-    n_num = arity
     tok_count = (~implicit).astype(np.int64) + n_num
     tok_start = np.cumsum(tok_count) - tok_count
     n_tok = int(tok_count.sum())
     is_number = np.ones(n_tok, bool)
     is_number[tok_start[~implicit]] = False
     letters = Texts.of(list(_LETTERS) + list(_LETTERS.lower()))
-    number_rows = np.where(use_rel[:, None], 1, 0)  # which table: abs 0 / rel 1
-    num_cmd = np.repeat(np.arange(n_cmd), n_num)
-    num_k = np.arange(num_cmd.size) - np.repeat(np.cumsum(n_num) - n_num, n_num)
     num_pos = tok_start.take(num_cmd) + (~implicit).take(num_cmd) + num_k
     rel_num = use_rel.take(num_cmd)
-    flat = num_cmd * _W + num_k  # the number's place in (C, 6) argument tables
-    minus = np.where(rel_num, flags_rel.minus.take(flat), flags_abs.minus.take(flat))
-    dot_start = np.where(rel_num, flags_rel.dot_start.take(flat), flags_abs.dot_start.take(flat))
-    has_dot = np.where(rel_num, flags_rel.has_dot.take(flat), flags_abs.has_dot.take(flat))
-    del number_rows
+    # each number's text among the absolute ones (the first half), then the relative ones
+    num_text = np.arange(num_cmd.size) + np.where(rel_num, num_cmd.size, 0)
+    minus, dot_start, has_dot = (f.take(num_text) for f in (flags.minus, flags.dot_start, flags.has_dot))
 
     # separators: a space before a number that follows a number, unless the number starts
     # with "-", or with "." after a number that has a point
@@ -219,10 +218,9 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     sep &= _prepend(False, tok_shape[1:] == tok_shape[:-1])
 
     table, (letter_row, abs_row, space_row) = stack([letters, texts, Texts.of([" "])])
-    rel_row = abs_row + len(texts) // 2  # the relative arguments' texts follow the absolute ones
     row = np.empty(n_tok, np.int64)
     row[tok_start[~implicit]] = letter_row + letter[~implicit]
-    row[num_pos] = np.where(rel_num, rel_row, abs_row) + np.cumsum(_used(arity).ravel()).take(flat) - 1  # used only
+    row[num_pos] = abs_row + num_text
     # interleave the separators: token i becomes [space] + token
     out_count = 1 + sep.astype(np.int64)
     out_start = np.cumsum(out_count) - out_count
@@ -254,8 +252,8 @@ def _commands(outlines: Outlines, unit: float) -> tuple[np.ndarray, np.ndarray]:
     it), Z."""
     kind = outlines.kind
     end = np.round(outlines.end * unit).astype(np.int64)
-    ctrl = np.round(np.nan_to_num(outlines.ctrl) * unit).astype(np.int64)
-    ctrl2 = np.round(np.nan_to_num(outlines.ctrl2) * unit).astype(np.int64)
+    ctrl = np.round(nan_to_zero(outlines.ctrl) * unit).astype(np.int64)
+    ctrl2 = np.round(nan_to_zero(outlines.ctrl2) * unit).astype(np.int64)
     n_loop = outlines.loop_ptr.size - 1
     loop_len = np.diff(outlines.loop_ptr)
     seg_loop = np.repeat(np.arange(n_loop), loop_len)
@@ -345,40 +343,29 @@ def _relative(cmd: np.ndarray, absolute: np.ndarray, shape_of_cmd: np.ndarray) -
 
 
 class _Flags:
-    """Per number (C*6, flattened): starts with "-", starts with ".", holds a "."; per
-    command: the length of its numbers with their separators."""
+    """Per number: starts with "-", starts with ".", holds a "."; per command: the length of
+    its numbers with their separators."""
 
     def __init__(self, minus: np.ndarray, dot_start: np.ndarray, has_dot: np.ndarray, length: np.ndarray):
         self.minus, self.dot_start, self.has_dot, self.length = minus, dot_start, has_dot, length
 
 
-def _used(arity: np.ndarray) -> np.ndarray:
-    """``(C, 6)``: which argument columns each command uses."""
-    return np.arange(_W)[None, :] < arity[:, None]
-
-
-def _format(tables: tuple[np.ndarray, np.ndarray], arity: np.ndarray, precision: int
-            ) -> tuple[Texts, tuple[_Flags, _Flags]]:
-    """Compact text of every argument a command uses (one string per number, in order: those
-    of the first table of ``(C, 6)`` arguments, then those of the second), and flags of all
-    ``(C*6,)`` arguments of each table. Both tables at once: the numpy calls cost more than
-    the arithmetic on a sprite's few hundred commands."""
-    values = np.stack(tables)  # (2, C, 6)
-    used = _used(arity)
-    at = np.flatnonzero(np.tile(used.ravel(), 2))  # the used numbers of both tables, flat
-    texts = numbers(values.ravel().take(at) / 10.0**precision, precision, compact=True)
+def _format(absolute: np.ndarray, relative: np.ndarray, num_cmd: np.ndarray, num_k: np.ndarray, n_cmd: int,
+            precision: int) -> tuple[Texts, _Flags]:
+    """Compact text of the numbers the commands use, ``absolute`` then ``relative`` (each in
+    10^-precision units, of the commands ``num_cmd``, argument columns ``num_k``), and their
+    flags; the lengths are per command, the ``n_cmd`` absolute then the relative ones. Both
+    forms at once: the numpy calls cost more than the arithmetic on a sprite's few hundred
+    commands."""
+    values = np.concatenate([absolute, relative])
+    texts = numbers(values / 10.0**precision, precision, compact=True)
     scale = 10**precision
     minus = values < 0
     has_dot = (values % scale) != 0
     dot_start = (values > 0) & (values < scale)  # "0.…": a whole part of 0 and a fraction
-    length = np.zeros(values.shape, np.int64)
-    length.ravel().put(at, texts.length)
-    # a space between two numbers of one command unless the second starts with "-" or "."
-    # (the used columns are the first ones: the column before a used one is used)
-    sep = ~minus[:, :, 1:] & ~(dot_start[:, :, 1:] & has_dot[:, :, :-1])
-    sep &= used[:, 1:]
-    length[:, :, 1:] += sep
-    total = sum((length[:, :, j] for j in range(1, _W)), length[:, :, 0])  # (a sum over a short axis is slow)
-    abs_flags, rel_flags = (_Flags(minus[i].ravel(), dot_start[i].ravel(), has_dot[i].ravel(), total[i])
-                            for i in range(2))
-    return texts, (abs_flags, rel_flags)
+    # a space between two numbers of one command unless the second starts with "-", or with
+    # "." after a number with a point
+    later = num_k > 0
+    sep = ~minus & ~(dot_start & _prepend(False, has_dot[:-1])) & np.concatenate([later, later])
+    length = np.bincount(np.concatenate([num_cmd, num_cmd + n_cmd]), weights=texts.length + sep, minlength=2 * n_cmd)
+    return texts, _Flags(minus, dot_start, has_dot, length)

@@ -77,11 +77,10 @@ def numbers(values: np.ndarray, precision: int, prefix: str = "", compact: bool 
     values = np.asarray(values, dtype=np.float64)
     n = len(values)
     k = int(np.prod(values.shape[1:], dtype=np.int64)) if values.ndim > 1 else 1
-    digit_planes, keep_planes = _decimal_planes(values.ravel(), precision, compact)  # (W, n*k)
-    if k == 1 and not prefix:  # one number a string (the path data's): its characters alone
-        length = keep_planes.sum(axis=0)
-        chars = digit_planes.T.ravel()  # (n, W) in order, a copy
-        return Texts(chars.compress(keep_planes.T.ravel()), np.cumsum(length) - length, length)
+    decimals = _Decimals(values.ravel(), precision)
+    if k == 1 and not prefix and max(decimals.n_digits, precision) <= _TABLE_DIGITS:  # the path data's
+        return _packed(decimals, compact)
+    digit_planes, keep_planes = _decimal_planes(decimals, compact)  # (W, n*k)
     digits, digits_keep = digit_planes.T, keep_planes.T  # (n*k, W)
     lead, width = len(prefix), digits.shape[1] + 1  # each number: a space, then its digits
     chars = np.empty((n, lead + k * width), dtype=np.uint8)
@@ -95,16 +94,81 @@ def numbers(values: np.ndarray, precision: int, prefix: str = "", compact: bool 
     return Texts(chars.ravel().compress(keep.ravel()), np.cumsum(length) - length, length)
 
 
-def _decimal_planes(values: np.ndarray, precision: int, compact: bool = False) -> tuple[np.ndarray, np.ndarray]:
+class _Decimals:
+    """``values`` rounded to ``precision`` decimals: their sign, whole and fraction parts,
+    and the characters a number can have (a sign, ``n_digits`` whole digits, a point,
+    ``precision`` fraction digits)."""
+
+    def __init__(self, values: np.ndarray, precision: int) -> None:
+        self.precision = precision
+        self.scaled = np.round(values * 10**precision).astype(np.int64)
+        self.whole, self.frac = np.divmod(np.abs(self.scaled), 10**precision)
+        self.n_digits = max(len(str(int(self.whole.max(initial=0)))), 1)
+        self.width = 2 + self.n_digits + precision  # characters
+
+
+#: numbers whose whole and fraction parts have at most this many digits are formatted by
+#: table look-ups (:func:`_packed`)
+_TABLE_DIGITS = 3
+_tables: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+
+def _digit_tables(k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For every v < 10**k: its k digits (zero-padded, in reading order) as the bytes of a
+    little-endian integer, its number of digits (1 for 0), and the number of digits of v as
+    a fraction of k places up to its last nonzero one (0 for 0). Built on first use."""
+    if k not in _tables:
+        v = np.arange(10**k)
+        digits = np.zeros(v.size, np.int64)
+        n_whole, n_frac = np.ones(v.size, np.int64), np.zeros(v.size, np.int64)
+        for i in range(k):  # the digit of place 10**i is the (k - 1 - i)-th character
+            digit = v // 10**i % 10
+            digits += (digit + ord("0")) << 8 * (k - 1 - i)
+            n_whole += (v >= 10 ** (i + 1)) if i + 1 < k else 0
+            n_frac = np.where((n_frac == 0) & (digit != 0), k - i, n_frac)
+        _tables[k] = digits, n_whole, n_frac
+    return _tables[k]
+
+
+def _packed(d: _Decimals, compact: bool) -> Texts:
+    """:func:`numbers` of one number a string, without a prefix, when its whole and fraction
+    parts have at most :data:`_TABLE_DIGITS` digits: each number's characters in one
+    little-endian 8-byte integer, a character a byte in the places of :func:`_decimal_planes`'
+    planes (the sign slot, the whole digits, the point, the fraction digits), from two table
+    look-ups (no (W, n) planes to transpose, nor kept characters to gather); a number's text
+    is the run of its word from its first character to its last, the sign written over the
+    "0" just before its first digit kept."""
+    whole, frac, n_digits, precision = d.whole, d.frac, d.n_digits, d.precision
+    point = n_digits + 1
+    whole_digits, n_whole, _ = _digit_tables(n_digits)
+    word = whole_digits.take(whole) << 8  # after the sign slot
+    word |= ord("0") | (ord(".") << 8 * point)
+    first = point - n_whole.take(whole)  # the first significant whole digit
+    if precision:
+        frac_digits, _, n_frac = _digit_tables(precision)
+        word |= frac_digits.take(frac) << 8 * (point + 1)
+        n_frac = n_frac.take(frac)
+        has_frac = n_frac != 0
+        if compact:  # no units digit "0" before a fraction
+            first[(whole == 0) & has_frac] = point
+        last = point + n_frac - ~has_frac  # the last nonzero fraction digit, or the units digit
+    else:
+        last = np.full(whole.size, n_digits)
+    minus = d.scaled < 0
+    word -= (minus * (ord("0") - ord("-"))) << 8 * (first - 1)
+    first -= minus
+    return Texts(word.astype("<i8", copy=False).view(np.uint8), np.arange(0, 8 * whole.size, 8) + first,
+                 last - first + 1)
+
+
+def _decimal_planes(d: _Decimals, compact: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Characters ``(W, n) uint8`` of the formatted values, a plane per character position
     (contiguous rows: numpy writes and sums those several times faster than the columns of
     an (n, W) table), and which of them to keep (``compact``: no units digit "0" before a
     fraction)."""
-    scaled = np.round(values * 10**precision).astype(np.int64)
-    whole, frac = np.divmod(np.abs(scaled), 10**precision)
-    n_digits = max(len(str(int(whole.max(initial=0)))), 1)
+    scaled, whole, frac, n_digits = d.scaled, d.whole, d.frac, d.n_digits
     # planes: sign, n_digits whole digits, ".", precision fraction digits
-    chars = np.empty((2 + n_digits + precision, scaled.size), dtype=np.uint8)
+    chars = np.empty((d.width, scaled.size), dtype=np.uint8)
     keep = np.empty(chars.shape, dtype=bool)
     chars[0], keep[0] = ord("-"), scaled < 0
     rest = whole

@@ -5,7 +5,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from depixel.arrays import batch_bounds, batch_slices, flat_rows, in_sorted, set_rows, sums_by_key, unique
+from depixel.arrays import batch_bounds, batch_slices, flat_rows, in_sorted, nan_to_zero, set_rows, sums_by_key, unique
 
 
 @given(st.lists(st.integers(0, 50), max_size=60), st.integers(1, 120))
@@ -69,3 +69,10 @@ def test_flat_rows_put_writes_the_rows_as_set_rows_does():
     target.put(flat_rows(rows, 3), values)
     assert np.array_equal(target, expected)
     assert flat_rows(np.array([], dtype=np.int64), 2).size == 0
+
+
+@given(st.lists(st.one_of(st.floats(allow_infinity=False), st.just(-0.0)), max_size=40))
+def test_nan_to_zero_is_nan_to_num_without_infinities(values):
+    array = np.array(values, dtype=np.float64).reshape(-1, 1)
+    got, expected = nan_to_zero(array), np.nan_to_num(array)
+    assert got.shape == expected.shape and got.tobytes() == expected.tobytes()  # -0.0 stays -0.0

@@ -23,6 +23,26 @@ def test_numbers_match_python_formatting(precision):
     assert numbers(values, precision).tolist() == [reference_number(v, precision) for v in values]
 
 
+def reference_compact(value: float, precision: int) -> str:
+    text = reference_number(value, precision)
+    return text.replace("0.", ".", 1) if text.lstrip("-").startswith("0.") else text
+
+
+@pytest.mark.parametrize("compact", [False, True])
+@pytest.mark.parametrize("precision", [0, 1, 2, 3])
+def test_path_numbers_by_table_look_ups_and_by_planes_agree_with_python(precision, compact):
+    """Numbers of at most three whole and three fraction digits (the path data of images up
+    to 999 pixels) are formatted from digit tables; with one larger number in the call, by
+    character planes. Both give the reference text."""
+    rng = np.random.default_rng(10 + precision)
+    values = np.concatenate([rng.uniform(-990, 990, 3000), rng.uniform(-1.2, 1.2, 1000),
+                             rng.integers(-4000, 4000, 500) / 8, [0.0, -0.0, 0.0004, -0.0004, 0.5, -0.5, 99.99, 989.999]])
+    reference = [(reference_compact if compact else reference_number)(v, precision) for v in values]
+    assert numbers(values, precision, compact=compact).tolist() == reference
+    larger = numbers(np.append(values, 12345.5), precision, compact=compact).tolist()
+    assert larger[:-1] == reference and larger[-1] == reference_number(12345.5, precision)
+
+
 def test_numbers_rows_joined_with_spaces_and_prefix():
     assert numbers(np.array([[1.5, -2.0], [0.125, 10.0]]), 3, prefix="L").tolist() == ["L1.5 -2", "L0.125 10"]
     assert numbers(np.zeros((0, 4)), 3).tolist() == []
@@ -137,15 +157,16 @@ def test_trace_loops_with_points_keeps_touching_loops_apart(cells, areas):
 
 def test_path_numbers_of_both_tables_are_formatted_in_one_table_with_their_flags():
     """svg._format formats the absolute and the relative arguments together: the texts of
-    the first table's used arguments, then the second's; per command the length of its
-    numbers with the separators SVG needs."""
+    the first table's arguments, then the second's; per command the length of its numbers
+    with the separators SVG needs."""
     from depixel.svg import _format
 
-    absolute = np.array([[-50, 25, 0, 0, 0, 0], [100, 7, 300, 0, 0, 0]])  # hundredths
-    relative = np.array([[-50, -25, 0, 0, 0, 0], [0, 0, 0, 0, 0, 0]])
-    arity = np.array([2, 3])
-    texts, (abs_flags, rel_flags) = _format((absolute, relative), arity, 2)
+    # the used arguments (hundredths) of two commands: 2 of the first, 3 of the second
+    num_cmd, num_k = np.array([0, 0, 1, 1, 1]), np.array([0, 1, 0, 1, 2])
+    absolute, relative = np.array([-50, 25, 100, 7, 300]), np.array([-50, -25, 0, 0, 0])
+    texts, flags = _format(absolute, relative, num_cmd, num_k, 2, 2)
     assert texts.tolist() == ["-.5", ".25", "1", ".07", "3", "-.5", "-.25", "0", "0", "0"]
     # "-.5.25": no space before ".25" after a number with a point; "1 .07 3"; "-.5-.25"; "0 0 0"
-    assert abs_flags.length.tolist() == [6, 7] and rel_flags.length.tolist() == [7, 5]
-    assert abs_flags.minus.reshape(2, 6)[:, :2].tolist() == [[True, False], [False, False]]
+    assert flags.length.tolist() == [6, 7, 7, 5]
+    assert flags.minus.tolist() == [True, False, False, False, False, True, True, False, False, False]
+    assert flags.dot_start.tolist()[:5] == [False, True, False, True, False]
