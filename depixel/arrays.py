@@ -62,6 +62,14 @@ def flat_rows(rows: np.ndarray, k: int) -> np.ndarray:
     return (rows[:, None] * k + np.arange(k)).ravel()
 
 
+def ranges(first: np.ndarray | int, count: np.ndarray) -> np.ndarray:
+    """``first[i], first[i] + 1, …, first[i] + count[i] - 1`` for every ``i`` in turn (the
+    counts ≥ 0): ``np.concatenate([np.arange(f, f + c) for f, c in zip(first, count)])`` in a
+    few whole-array calls. ``first`` 0: each item's place within its own run."""
+    start = np.cumsum(count) - count
+    return np.arange(int(count.sum())) - np.repeat(start - first, count)
+
+
 def batch_slices(n: int, batch: int) -> list[slice]:
     """Consecutive slices of ``n`` like items, ``batch`` at a time (the last one shorter): to
     bound the temporary memory of work done a batch at a time. No items, no slices."""

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .arrays import batch_slices, nan_to_zero, set_rows
+from .arrays import batch_slices, nan_to_zero, ranges, set_rows
 from .boundaries import CUBIC, QUAD, BoundaryPieces
 from .bspline import cubic_weights, elevate
 from .cells import link_corners
@@ -272,7 +272,7 @@ class _Samples:
 
     def __init__(self, exact: Exact, lo: np.ndarray, hi: np.ndarray) -> None:
         count = hi - lo
-        seg = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count - lo, count)
+        seg = ranges(lo, count)
         self.count = count * _T_ORIG.size  # samples of each range, which start at first
         self.first = np.cumsum(self.count) - self.count
         before = exact.arc_before.take(lo)
@@ -292,7 +292,7 @@ class _Samples:
         row's begin among them, and the index of each in :attr:`table`."""
         count = self.count.take(rows)
         start = np.cumsum(count) - count
-        return count, start, np.arange(int(count.sum())) - np.repeat(start - self.first.take(rows), count)
+        return count, start, ranges(self.first.take(rows), count)
 
     def within(self, rows: np.ndarray, c1: np.ndarray, c2: np.ndarray, tolerance: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray]:
@@ -413,7 +413,7 @@ def _keeps_sides(exact: Exact, prot: Protected, lo, hi, curves: np.ndarray, clea
     if count.sum() == 0:
         return ok
     owner = np.repeat(np.arange(lo.size), count)
-    idx = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count - first, count)
+    idx = ranges(first, count)
     xy = prot.xy.take(idx, axis=1)
     parts = curves.shape[2] - 1
     start, end = _parts(curves)
@@ -439,8 +439,7 @@ def _between(xy: np.ndarray, owner: np.ndarray, a: np.ndarray, b: np.ndarray, lo
     # pairs (point, edge of its polygon): the parts of its candidate's polyline (given), then
     # those of the exact run, consecutive in Exact's part tables from the run's first one
     n_exact = (hi - lo).take(owner) * _T_ORIG.size
-    first = np.cumsum(n_exact) - n_exact
-    exact_part = np.arange(int(n_exact.sum())) - np.repeat(first - lo.take(owner) * _T_ORIG.size, n_exact)
+    exact_part = ranges(lo.take(owner) * _T_ORIG.size, n_exact)
     a = np.concatenate([a.reshape(2, -1), exact.part_start.reshape(2, -1).take(exact_part, axis=1)], axis=1)
     b = np.concatenate([b.reshape(2, -1), exact.part_end.reshape(2, -1).take(exact_part, axis=1)], axis=1)
     points = np.arange(n_points)

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .arrays import set_rows
+from .arrays import ranges, set_rows
 from .bspline import flatten_edges_planes
 from .cells import CellGraph, link_corners
 from .splines import Drawing, SplineSet
@@ -102,7 +102,7 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
     px = np.flatnonzero(wanted)
     first = cells.cell_ptr.take(px)
     size = cells.cell_ptr.take(px + 1) - first
-    edge = cells.cell_edges.take(np.repeat(first - (np.cumsum(size) - size), size) + np.arange(int(size.sum())))
+    edge = cells.cell_edges.take(ranges(first, size))
     pix = np.repeat(px, size)
     rows, cols = np.divmod(pix, w)
     cx, cy = cols + 0.5, rows + 0.5

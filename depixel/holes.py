@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .arrays import ranges
 from .loops import Loops
 
 
@@ -68,7 +69,7 @@ def holds_a_probe(a: np.ndarray, b: np.ndarray, loop: np.ndarray, probe_key: np.
     r0, r1 = -((2 - lo) // 4), -((2 - hi) // 4)  # ceil((lo - 2) / 4), ceil((hi - 2) / 4)
     count = np.maximum(r1 - r0, 0)
     edge = np.repeat(np.arange(a.shape[0]), count)
-    row = np.repeat(r0, count) + np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
+    row = ranges(r0, count)
     ax, ay, bx, by = a[:, 0].take(edge), a[:, 1].take(edge), b[:, 0].take(edge), b[:, 1].take(edge)
     py, dy = 4 * row + 2, by - ay
     # x_c = ax + (py - ay)(bx - ax) / dy, rounded up exactly in integers (dy made positive)

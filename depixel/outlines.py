@@ -39,7 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .arrays import batch_bounds, in_sorted
+from .arrays import batch_bounds, in_sorted, ranges
 from .boundaries import CUBIC, LINE, QUAD, BoundaryPieces, build_pieces, junction_nodes
 from .holes import loops_to_keep, probe_keys
 from .loops import Loops, trace_loops
@@ -285,7 +285,7 @@ def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, kee
     n_seg = np.where(curved, np.where(enters, length.take(np.maximum(piece, 0)), 0), 1)
     total = int(n_seg.sum())
     step = np.repeat(np.arange(edge.size), n_seg)
-    index = np.arange(total) - np.repeat(np.cumsum(n_seg) - n_seg, n_seg)  # within the piece
+    index = ranges(0, n_seg)  # within the piece
     line = ~curved.take(step)
     # every coordinate a column at a time, picked by np.where from gathers of all rows
     # (masked writes into (total, 2) rows cost numpy a row-by-row copy): a line ends at

@@ -26,6 +26,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .arrays import ranges
 from .bspline import bend, edge_halves, flatten_edges, pieces_for
 from .errors import RenderError
 from .image import rgb_to_yuv
@@ -175,7 +176,7 @@ def _cell_labels(seg: _Segments, k0: int, k1: int, fy: float, fx: float, width: 
     hit = np.flatnonzero(count)
     count, first = count[hit], first[hit]
     which = np.repeat(hit + band.start, count)  # one entry per (segment, row) crossing
-    row = np.repeat(first - np.cumsum(count) + count, count) + np.arange(count.sum())
+    row = ranges(first, count)
     x = seg.x_top[which] + ((row + 0.5) / fy - seg.y_top[which]) * seg.slope[which]
     col = np.clip(np.ceil(x * fx - 0.5), 0, width).astype(np.int64)
     order = np.lexsort((seg.slope[which], x, row))

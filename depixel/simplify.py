@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .arrays import batch_bounds, in_sorted, set_rows
+from .arrays import batch_bounds, in_sorted, ranges, set_rows
 from .boundaries import CUBIC, BoundaryPieces
 from .curvefit import BATCH, Exact, Protected, fit
 from .vector import VectorImage
@@ -143,7 +143,7 @@ def _chunks(ptr: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
     length = np.diff(ptr)
     count = np.where(length > 1, -(-length // size), 0)
     piece = np.repeat(np.arange(length.size), count)
-    k = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
+    k = ranges(0, count)
     lo = ptr[piece] + (length[piece] * k) // count[piece]
     hi = ptr[piece] + (length[piece] * (k + 1)) // count[piece]
     return lo, hi

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .arrays import batch_bounds, in_sorted, sums_by_key, unique
+from .arrays import batch_bounds, in_sorted, ranges, sums_by_key, unique
 from .vector import VectorImage, faces_and_regions
 
 #: shape roles, for the labels of an editor's layers panel
@@ -273,7 +273,7 @@ class FaceTopology:
             owner, member = np.divmod(growing, n)
             start = nb_ptr.take(member)
             count = nb_ptr.take(member + 1) - start
-            idx = np.repeat(start - (np.cumsum(count) - count), count) + np.arange(int(count.sum()))
+            idx = ranges(start, count)
             f = np.repeat(owner, count)
             cand = h.take(idx)
             ok = self.opaque.take(cand) & (self.rank.take(cand) > self.rank.take(f))

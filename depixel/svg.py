@@ -21,7 +21,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from .arrays import batch_bounds, nan_to_zero, set_rows
+from .arrays import batch_bounds, nan_to_zero, ranges, set_rows
 from .boundaries import CUBIC, LINE, QUAD
 from .outlines import Outlines, OutlineShapes, outline_shapes
 from .stacking import ROLES
@@ -181,7 +181,7 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     # the numbers the commands use: command num_cmd's argument column num_k, in order
     n_num = arity
     num_cmd = np.repeat(np.arange(n_cmd), n_num)
-    num_k = np.arange(num_cmd.size) - np.repeat(np.cumsum(n_num) - n_num, n_num)
+    num_k = ranges(0, n_num)
     flat = num_cmd * _W + num_k  # the number's place in (C, 6) argument tables
     texts, flags = _format(absolute.ravel().take(flat), rel.ravel().take(flat), num_cmd, num_k, n_cmd, precision)
     use_rel = flags.length[n_cmd:] < flags.length[:n_cmd]
@@ -304,7 +304,7 @@ def _commands(outlines: Outlines, unit: float) -> tuple[np.ndarray, np.ndarray]:
     source[loop_first] = kind.size + np.arange(n_loop)
     cmd[loop_first + per_loop - 1] = Z
     seg_index = np.flatnonzero(keep)
-    rank_in_loop = np.arange(seg_index.size) - np.repeat(np.cumsum(per_loop - 2) - (per_loop - 2), per_loop - 2)
+    rank_in_loop = ranges(0, per_loop - 2)
     pos = loop_first.take(seg_loop.take(seg_index)) + 1 + rank_in_loop
     cmd[pos] = code.take(seg_index)
     source[pos] = seg_index

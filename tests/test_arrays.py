@@ -2,10 +2,12 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from depixel.arrays import batch_bounds, batch_slices, flat_rows, in_sorted, nan_to_zero, set_rows, sums_by_key, unique
+from depixel.arrays import (batch_bounds, batch_slices, flat_rows, in_sorted, nan_to_zero, ranges, set_rows,
+                            sums_by_key, unique)
 
 
 @given(st.lists(st.integers(0, 50), max_size=60), st.integers(1, 120))
@@ -38,15 +40,28 @@ def test_in_sorted_finds_exactly_the_keys_present_and_takes_an_empty_table():
     assert in_sorted(np.zeros(0, np.int64), keys).tolist() == [False] * keys.size
 
 
-def test_set_rows_writes_the_rows_given_as_fancy_assignment_would():
-    rng = np.random.default_rng(3)
-    target = rng.random((20, 2))
-    rows = np.array([4, 0, 17, 9])
-    values = rng.random((4, 2))
+@pytest.mark.parametrize("write", [set_rows, lambda target, rows, values: target.put(flat_rows(rows, target.shape[1]),
+                                                                                     values)],
+                         ids=["set_rows", "put at flat_rows"])
+@pytest.mark.parametrize("k", [2, 3])
+def test_row_writes_write_the_rows_given_as_fancy_assignment_would(write, k):
+    rng = np.random.default_rng(k)
+    target = rng.random((30, k))
+    rows = np.array([4, 0, 29, 17, 9])
+    values = rng.random((rows.size, k))
     expected = target.copy()
     expected[rows] = values
-    set_rows(target, rows, values)
+    write(target, rows, values)
     assert np.array_equal(target, expected)
+
+
+@given(st.lists(st.tuples(st.integers(-20, 20), st.integers(0, 6)), max_size=30))
+def test_ranges_are_the_aranges_of_each_item_in_turn(items):
+    first = np.array([f for f, _ in items], np.int64)
+    count = np.array([c for _, c in items], np.int64)
+    expected = [v for f, c in items for v in range(f, f + c)]
+    assert ranges(first, count).tolist() == expected
+    assert ranges(0, count).tolist() == [v for _, c in items for v in range(c)]
 
 
 @given(st.lists(st.integers(-5, 5), max_size=60), st.integers(0, 2**31))
@@ -57,17 +72,6 @@ def test_sums_by_key_are_uniques_keys_and_bincounts_sums_to_the_bit(keys, seed):
     expected, inverse = np.unique(keys, return_inverse=True)
     assert np.array_equal(distinct, expected)
     assert sums.tobytes() == np.bincount(inverse, weights=weights, minlength=expected.size).tobytes()
-
-
-def test_flat_rows_put_writes_the_rows_as_set_rows_does():
-    rng = np.random.default_rng(5)
-    target = rng.random((30, 3))
-    rows = np.array([7, 2, 29, 0])
-    values = rng.random((4, 3))
-    expected = target.copy()
-    set_rows(expected, rows, values)
-    target.put(flat_rows(rows, 3), values)
-    assert np.array_equal(target, expected)
     assert flat_rows(np.array([], dtype=np.int64), 2).size == 0
 
 
