@@ -22,12 +22,12 @@ def sums_by_key(keys: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.n
     order given: ``np.unique(keys, return_inverse=True)`` then ``np.bincount`` of the
     inverse, the same sums, with a third of the numpy calls (a stable sort keeps each
     key's weights in order)."""
-    order = np.argsort(keys, kind="stable")
+    order = keys.argsort(kind="stable")
     ranked = keys.take(order)
     first = np.empty(ranked.size, bool)
     first[:1] = True
     np.not_equal(ranked[1:], ranked[:-1], out=first[1:])
-    group = np.cumsum(first)
+    group = first.cumsum()
     group -= 1
     return ranked.compress(first), np.bincount(group, weights=weights.take(order))
 
@@ -37,7 +37,7 @@ def in_sorted(sorted_keys: np.ndarray, keys: np.ndarray) -> np.ndarray:
     binary search each, for integer keys packed from several numbers."""
     if sorted_keys.size == 0:
         return np.zeros(keys.shape, bool)
-    at = np.minimum(np.searchsorted(sorted_keys, keys), sorted_keys.size - 1)
+    at = np.minimum(sorted_keys.searchsorted(keys), sorted_keys.size - 1)
     return sorted_keys[at] == keys
 
 
@@ -66,8 +66,8 @@ def ranges(first: np.ndarray | int, count: np.ndarray) -> np.ndarray:
     """``first[i], first[i] + 1, …, first[i] + count[i] - 1`` for every ``i`` in turn (the
     counts ≥ 0): ``np.concatenate([np.arange(f, f + c) for f, c in zip(first, count)])`` in a
     few whole-array calls. ``first`` 0: each item's place within its own run."""
-    start = np.cumsum(count) - count
-    return np.arange(int(count.sum())) - np.repeat(start - first, count)
+    start = count.cumsum() - count
+    return np.arange(int(count.sum())) - (start - first).repeat(count)
 
 
 def batch_slices(n: int, batch: int) -> list[slice]:
@@ -80,10 +80,10 @@ def batch_bounds(sizes: np.ndarray, batch: int) -> list[tuple[int, int]]:
     """Consecutive slices ``[a, b)`` of items of the given ``sizes``, each holding about
     ``batch`` in all (an item larger than that alone): to bound the temporary memory of
     work done a batch of items at a time. No items, no slices."""
-    total = np.cumsum(sizes)
+    total = sizes.cumsum()
     if total.size == 0:
         return []
     if int(total[-1]) <= batch:  # one batch (a sprite's): no search
         return [(0, int(total.size))]
-    cuts = unique(np.concatenate(([0], np.searchsorted(total, np.arange(batch, int(total[-1]), batch)), [total.size])))
+    cuts = unique(np.concatenate(([0], total.searchsorted(np.arange(batch, int(total[-1]), batch)), [total.size])))
     return list(zip(cuts[:-1].tolist(), cuts[1:].tolist()))

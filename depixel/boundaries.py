@@ -104,17 +104,17 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
     # A curve's slots are consecutive in order (SplineSet's flat arrays; next wraps round a
     # closed curve), so a slot's piece is the last start at or before it, or on a closed
     # curve before its first start, the curve's last one (the piece that wraps round)
-    starts = np.flatnonzero(anchor_or_seed & (nxt >= 0))
+    starts = (anchor_or_seed & (nxt >= 0)).nonzero()[0]
     curve = curves.curve
     start_curve = curve[starts]
-    label = np.cumsum(anchor_or_seed & (nxt >= 0)) - 1
-    wraps = label < np.searchsorted(start_curve, curve, side="left")
-    label[wraps] = np.searchsorted(start_curve, curve[wraps], side="right") - 1
+    label = (anchor_or_seed & (nxt >= 0)).cumsum() - 1
+    wraps = label < start_curve.searchsorted(curve, side="left")
+    label[wraps] = start_curve.searchsorted(curve[wraps], side="right") - 1
     edge_slot_ok = nxt >= 0  # slots that start an edge
     piece_of_slot = np.where(edge_slot_ok, label, -1).astype(np.int32)  # piece of the edge slot → next
     length = np.bincount(piece_of_slot[edge_slot_ok], minlength=starts.size).astype(np.int64)  # edges per piece
-    curve_first = np.searchsorted(curve, start_curve, side="left")
-    curve_size = np.searchsorted(curve, start_curve, side="right") - curve_first
+    curve_first = curve.searchsorted(start_curve, side="left")
+    curve_size = curve.searchsorted(start_curve, side="right") - curve_first
     last_slot = curve_first + (starts - curve_first + length) % curve_size  # the anchor each piece ends at
     first_slot = starts
     del label, wraps, edge_slot_ok
@@ -123,7 +123,7 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
     edge_first = np.zeros(n_edges, bool)
     edge_last = np.zeros(n_edges, bool)
     edge_slot = curves.edge_slot
-    curved_edges = np.flatnonzero(edge_slot >= 0)
+    curved_edges = (edge_slot >= 0).nonzero()[0]
     slot_of_edge = edge_slot[curved_edges]
     edge_piece[curved_edges] = piece_of_slot[slot_of_edge]
     edge_first[curved_edges] = anchor_or_seed[slot_of_edge]
@@ -137,9 +137,9 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
     tail = ~end[last_slot] & ~seed
     n_full = length - 1 + seed  # a seeded piece: every slot's span, seed included
     count = head + n_full + tail
-    ptr = np.concatenate(([0], np.cumsum(count)), dtype=np.int64)
+    ptr = np.concatenate(([0], count.cumsum()), dtype=np.int64)
     total = int(ptr[-1])
-    piece = np.repeat(np.arange(starts.size), count)
+    piece = np.arange(starts.size).repeat(count)
     offset = np.arange(total) - ptr.take(piece)
     # which slot's span each segment is, walking from the first slot
     head_of = head.take(piece)
@@ -158,12 +158,12 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
     seg_end = spans.joint(slot)
     # the halves of a span (de Casteljau at t = ½) have the controls (S0 + C) / 2 and (C + S1) / 2
     head_slot, tail_slot = slot.compress(is_head), slot.compress(is_tail)
-    heads, tails = np.flatnonzero(is_head), np.flatnonzero(is_tail)
+    heads, tails = is_head.nonzero()[0], is_tail.nonzero()[0]
     set_rows(seg_ctrl, heads, _on_grid((spans.ctrl(head_slot) + spans.joint(head_slot)) / 2.0, grid))
     set_rows(seg_ctrl, tails, _on_grid((spans.joint_before(tail_slot) + spans.ctrl(tail_slot)) / 2.0, grid))
     set_rows(seg_end, tails, point.take(node.take(tail_slot), axis=0))
     start = point.take(node.take(first_slot), axis=0)
-    set_rows(start, np.flatnonzero(seed), spans.joint_before(first_slot.compress(seed)))
+    set_rows(start, seed.nonzero()[0], spans.joint_before(first_slot.compress(seed)))
     del spans, point, head_slot, tail_slot, is_head, is_tail
     span_slot = slot.astype(np.int32)
     del slot
@@ -194,9 +194,9 @@ class _Spans:
         joint = leg_joint(self.ctrl(slot), self.ctrl(b))
         node, point = self.curves.node, self.point
         at_end = self.end.take(slot)
-        set_rows(joint, np.flatnonzero(at_end), point.take(node.take(slot.compress(at_end)), axis=0))
+        set_rows(joint, at_end.nonzero()[0], point.take(node.take(slot.compress(at_end)), axis=0))
         before_end = ~at_end & self.end.take(b)
-        set_rows(joint, np.flatnonzero(before_end), point.take(node.take(b.compress(before_end)), axis=0))
+        set_rows(joint, before_end.nonzero()[0], point.take(node.take(b.compress(before_end)), axis=0))
         joint[nxt < 0] = np.nan
         return joint
 
@@ -209,12 +209,12 @@ class _Spans:
 
 
 def _on_grid(xy: np.ndarray, grid: float | None) -> np.ndarray:
-    return xy.copy() if grid is None else np.round(xy / grid) * grid
+    return xy.copy() if grid is None else (xy / grid).round() * grid
 
 
 def _ctrl_on_grid(ctrl: np.ndarray, grid: float | None) -> np.ndarray:
     """Control points on twice the grid, so every implied on-curve point (a midpoint) is on it."""
-    return ctrl if grid is None else np.round(ctrl / (2 * grid)) * (2 * grid)
+    return ctrl if grid is None else (ctrl / (2 * grid)).round() * (2 * grid)
 
 
 def _advance(nxt: np.ndarray, slot: np.ndarray, steps: np.ndarray) -> np.ndarray:
@@ -240,7 +240,7 @@ def _seeds(curve: np.ndarray, closed: np.ndarray, anchor: np.ndarray) -> np.ndar
     first = np.full(n_curves, curve.size, np.int64)
     np.minimum.at(first, curve, np.arange(curve.size))
     seed = np.zeros(curve.size, bool)
-    free = np.flatnonzero(closed & ~anchored & (first < curve.size))
+    free = (closed & ~anchored & (first < curve.size)).nonzero()[0]
     seed[first[free]] = True
     return seed
 

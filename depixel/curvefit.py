@@ -32,8 +32,8 @@ _RELATIVE_TOLERANCE = 1 / 16
 
 def _piece_tolerance(pieces: BoundaryPieces, exact: Exact, tolerance: float) -> np.ndarray:
     """(K,) the tolerance of every exact segment: ``tolerance``, or less on small pieces."""
-    piece = np.repeat(np.arange(len(pieces)), np.diff(pieces.ptr))
-    owner = np.repeat(piece, exact.part_start.shape[2])
+    piece = np.arange(len(pieces)).repeat(np.diff(pieces.ptr))
+    owner = piece.repeat(exact.part_start.shape[2])
     extent = []
     for axis in range(2):  # 1-d ufunc.at: on (N, 2) it handles every item on its own, ~20× slower
         coord = exact.part_start[axis].ravel()  # the samples
@@ -56,7 +56,7 @@ class Exact:
 
     def __init__(self, pieces: BoundaryPieces, tolerance: float) -> None:
         n = pieces.kind.size
-        piece = np.repeat(np.arange(len(pieces)), np.diff(pieces.ptr))
+        piece = np.arange(len(pieces)).repeat(np.diff(pieces.ptr))
         first = pieces.ptr[:-1][piece] == np.arange(n)
         self.start = np.where(first[:, None], pieces.start.take(piece, axis=0), np.roll(pieces.end, 1, axis=0))
         self.end = pieces.end
@@ -71,17 +71,19 @@ class Exact:
         p0, p1, p2, p3 = (_planes(p)[:, None, :] for p in (self.start, c1, c2, self.end))
         polyline = np.concatenate([b0 * p0 + b1 * p1 + b2 * p2 + b3 * p3, p3], axis=1)
         del p0, p1, p2, p3
-        #: (2, K, 4) the starts (the samples) and the ends of the parts of each segment's polyline
-        #: (:func:`_parts`). Only these two are kept (~128 bytes a segment; the writer holds them
-        #: for every segment)
-        self.part_start, self.part_end = _parts(polyline.transpose(0, 2, 1))
+        #: (4, K, 4) the starts (x, y: the samples) and the ends (x, y) of the parts of each
+        #: segment's polyline (:func:`_parts`), one table so that one gather picks a part's both
+        #: ends. Only this is kept (~128 bytes a segment; the writer holds it for every segment)
+        self.parts = _parts(polyline.transpose(0, 2, 1))
+        #: (2, K, 4) views of :attr:`parts`: the parts' starts and ends
+        self.part_start, self.part_end = self.parts[:2], self.parts[2:]
         del polyline
         dx, dy = self.part_end - self.part_start  # the same differences as np.diff of the polyline
         step = np.sqrt(dx * dx + dy * dy)
         del dx, dy
         self.length = step.sum(axis=1)  # polyline length of each segment
-        self.arc = np.cumsum(step, axis=1) - step  # arc length of each sample within its segment
-        self.arc_before = np.cumsum(self.length) - self.length  # arc length before each segment (global)
+        self.arc = step.cumsum(axis=1) - step  # arc length of each sample within its segment
+        self.arc_before = self.length.cumsum() - self.length  # arc length before each segment (global)
         self.tolerance = _piece_tolerance(pieces, self, tolerance)  # (K,) each segment's own limit
 
 
@@ -107,7 +109,7 @@ class Protected:
     def __init__(self, pieces: BoundaryPieces, image: VectorImage, exact: Exact, reach: float) -> None:
         cells = image.cells
         w = cells.shape[1]
-        curved = np.flatnonzero(pieces.edge_piece >= 0)
+        curved = (pieces.edge_piece >= 0).nonzero()[0]
         sides = cells.edge_pixels[curved]
         corners = [_split_corner(cells.nodes.take(cells.edges[curved, j], axis=0)) for j in range(2)]
         segments_of = _SegmentsOfEdges(pieces, image)
@@ -116,7 +118,7 @@ class Protected:
         # the near ones
         whiches, xys = [], []
         for j in range(2):
-            which = np.flatnonzero(sides[:, j] >= 0)
+            which = (sides[:, j] >= 0).nonzero()[0]
             rows, cols = np.divmod(sides[which, j], w)
             whiches.append(which)
             xys.append(np.stack([cols + 0.5, rows + 0.5], axis=-1))
@@ -135,7 +137,7 @@ class Protected:
         # one point per (segment, place in eighth pixels), the first of each, ordered by
         # segment, then x, then y (a stable sort; what np.unique(axis=0) does, without its
         # per-row copies)
-        eighths = [np.round(xy[:, axis] * 8) for axis in range(2)]
+        eighths = [(xy[:, axis] * 8).round() for axis in range(2)]
         order = np.lexsort((eighths[1], eighths[0], seg))
         first = np.zeros(order.size, bool)
         first[:1] = True
@@ -151,7 +153,7 @@ def _split_corner(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Which of the nodes ``q`` (E, 2; quarter pixels) lie a quarter pixel off a lattice
     corner in both x and y (a diagonal link's nodes), and that corner (in pixels)."""
     split, lattice = link_corners(q)
-    which = np.flatnonzero(split)
+    which = split.nonzero()[0]
     return which, lattice[which] / 4.0
 
 
@@ -165,8 +167,9 @@ def _nearest_segment(xy: np.ndarray, seg_of: np.ndarray, exact: Exact
     valid = np.flatnonzero(seg_of >= 0)  # (point, candidate) pairs, flat
     n_parts = exact.part_start.shape[2]
     seg = seg_of.ravel().take(valid)
-    a, b = exact.part_start.take(seg, axis=1), exact.part_end.take(seg, axis=1)  # (2, V, 4)
-    q = np.repeat(_planes(xy).take(valid // seg_of.shape[1], axis=1), n_parts, axis=1).reshape(a.shape)
+    ab = exact.parts.take(seg, axis=1)  # (4, V, 4)
+    a, b = ab[:2], ab[2:]
+    q = _planes(xy).take(valid // seg_of.shape[1], axis=1).repeat(n_parts, axis=1).reshape(a.shape)
     d = np.full((seg_of.shape[0], seg_of.shape[1], n_parts), np.inf)
     # the rows of distances put whole, each as one opaque item of n_parts floats (the same
     # bytes; a flat index per element costs ~10 times more)
@@ -178,7 +181,8 @@ def _nearest_segment(xy: np.ndarray, seg_of: np.ndarray, exact: Exact
     candidate, part = np.divmod(cell, n_parts)
     nearest_seg = seg_of.ravel().take(candidate)
     nearest = np.maximum(nearest_seg, 0) * n_parts + part  # flat part
-    pa, pb = exact.part_start.reshape(2, -1).take(nearest, axis=1), exact.part_end.reshape(2, -1).take(nearest, axis=1)
+    pab = exact.parts.reshape(4, -1).take(nearest, axis=1)
+    pa, pb = pab[:2], pab[2:]
     ab, aq = pb - pa, _planes(xy) - pa
     side = np.sign(ab[0] * aq[1] - ab[1] * aq[0])
     return dist, dist * np.where(side == 0, 1.0, side), nearest_seg
@@ -194,10 +198,10 @@ class _SegmentsOfEdges:
         self.curves, self.edge_piece = curves, pieces.edge_piece
         seg_slot = pieces.span_slot
         # segments of every piece sorted by span slot, to look the slots up
-        seg_piece = np.repeat(np.arange(len(pieces)), np.diff(pieces.ptr))
+        seg_piece = np.arange(len(pieces)).repeat(np.diff(pieces.ptr))
         self.base = int(seg_slot.max()) + 2
         key = seg_piece * self.base + seg_slot
-        self.order = np.argsort(key, kind="stable")
+        self.order = key.argsort(kind="stable")
         self.sorted_key = key[self.order]
 
     def __call__(self, edge: np.ndarray) -> np.ndarray:
@@ -209,7 +213,7 @@ class _SegmentsOfEdges:
         # the slot's key would be, each of the four candidates on a plane (2 slots × 2)
         want = slots + self.edge_piece.take(edge).astype(np.int64) * self.base  # 32-bit: the keys need 64
         pos = np.empty((2, 2, edge.size), np.int64)
-        pos[:, 0] = np.searchsorted(sorted_key, want)
+        pos[:, 0] = sorted_key.searchsorted(want)
         np.add(pos[:, 0], 1, out=pos[:, 1])
         np.minimum(pos, sorted_key.size - 1, out=pos)
         hit = sorted_key.take(pos) == want[:, None]
@@ -243,7 +247,7 @@ def fit(exact: Exact, prot: Protected, lo: np.ndarray, hi: np.ndarray, tolerance
         ok[ok] = _keeps_sides(exact, prot, lo[rows[ok]], hi[rows[ok]], curves.compress(ok, axis=1), clearance)
         return ok
 
-    quads = np.flatnonzero(has_q)
+    quads = has_q.nonzero()[0]
     quad_ok = np.zeros(lo.size, bool)
     cubic_ok = np.zeros(lo.size, bool)
     if lo.size <= FUSED_RANGES:
@@ -253,7 +257,7 @@ def fit(exact: Exact, prot: Protected, lo: np.ndarray, hi: np.ndarray, tolerance
         quad_ok[quads], cubic_ok = passed[: quads.size], passed[quads.size :]
     else:
         quad_ok[quads] = passes(quads, q1.take(quads, axis=0), q2.take(quads, axis=0))
-        rest = np.flatnonzero(~quad_ok)
+        rest = (~quad_ok).nonzero()[0]
         c1, c2 = _cubic_controls(exact, samples, rest, lo[rest], hi[rest], grid)
         cubic_ok[rest] = passes(rest, c1, c2)
         r1, r2 = np.full_like(q, np.nan), np.full_like(q, np.nan)
@@ -274,16 +278,16 @@ class _Samples:
         count = hi - lo
         seg = ranges(lo, count)
         self.count = count * _T_ORIG.size  # samples of each range, which start at first
-        self.first = np.cumsum(self.count) - self.count
+        self.first = self.count.cumsum() - self.count
         before = exact.arc_before.take(lo)
         arc = (exact.arc_before.take(seg)[:, None] + exact.arc.take(seg, axis=0)).ravel() \
-            - np.repeat(before, self.count)
+            - before.repeat(self.count)
         self.total = exact.arc_before[hi - 1] + exact.length[hi - 1] - before
         #: (5, S) every range's samples: x, y, their parameters u, (1 - u)³ and u³ (every
         #: candidate's first Newton step uses the cubes); one table, so one gather picks them
         self.table = np.empty((5, arc.size))
         exact.part_start.take(seg, axis=1, out=self.table[:2].reshape(2, seg.size, _T_ORIG.size))
-        u = np.divide(arc, np.repeat(np.maximum(self.total, 1e-300), self.count), out=self.table[2])
+        u = np.divide(arc, np.maximum(self.total, 1e-300).repeat(self.count), out=self.table[2])
         self.table[3], self.table[4] = _cube(1 - u), _cube(u)
         self.p0, self.p3 = _planes(exact.start.take(lo, axis=0)), _planes(exact.end.take(hi - 1, axis=0))
 
@@ -291,7 +295,7 @@ class _Samples:
         """The samples of the ranges ``rows`` (in turn): their number for each row, where each
         row's begin among them, and the index of each in :attr:`table`."""
         count = self.count.take(rows)
-        start = np.cumsum(count) - count
+        start = count.cumsum() - count
         return count, start, ranges(self.first.take(rows), count)
 
     def within(self, rows: np.ndarray, c1: np.ndarray, c2: np.ndarray, tolerance: np.ndarray
@@ -307,11 +311,11 @@ class _Samples:
         k[1], k[2] = c1.T, c2.T
         self.p3.take(rows, axis=1, out=k[3])
         curve = _flatten(*k)  # (2, M, T)
-        step = np.diff(curve, axis=2)
+        step = curve[:, :, 1:] - curve[:, :, :-1]
         length = np.sqrt(step[0] ** 2 + step[1] ** 2).sum(axis=1)
         chord = np.sqrt((k[3, 0] - k[0, 0]) ** 2 + (k[3, 1] - k[0, 1]) ** 2)
         ok = (length <= 1.1 * self.total[rows] + 1e-9) & (chord > 0)
-        cand = np.flatnonzero(ok)
+        cand = ok.nonzero()[0]
         count, start, at = self.of(rows.take(cand))  # the samples of each candidate tested (consecutive)
         sample = self.table.take(at, axis=1)
         points, u, cubes = sample[:2], sample[2], sample[3:]
@@ -356,7 +360,7 @@ def _quadratic_control(exact: Exact, p0: np.ndarray, p3: np.ndarray, lo: np.ndar
     valid = (np.abs(det) > 1e-9) & (s > 0) & (r > 0) & (s < 2 * length) & (r < 2 * length)
     q = p0 + s[:, None] * t0
     if grid is not None:
-        q = np.round(q / grid) * grid
+        q = (q / grid).round() * grid
     return q, valid
 
 
@@ -385,7 +389,7 @@ def _cubic_controls(exact: Exact, samples: _Samples, rows: np.ndarray | None, lo
     terms = np.empty((5, u.size))
     for row, (x, y) in enumerate(((va, va), (va, vb), (vb, vb), (va, r), (vb, r))):
         np.add(x[0] * y[0], x[1] * y[1], out=terms[row])
-    bins = (np.repeat(np.arange(n), count) + n * np.arange(5)[:, None]).ravel()
+    bins = (np.arange(n).repeat(count) + n * np.arange(5)[:, None]).ravel()
     m11, m12, m22, r1, r2 = np.bincount(bins, terms.ravel(), 5 * n).reshape(5, n)
     det = m11 * m22 - m12 * m12
     safe = np.where(np.abs(det) > 1e-12, det, 1.0)
@@ -398,7 +402,7 @@ def _cubic_controls(exact: Exact, samples: _Samples, rows: np.ndarray | None, lo
     c1 = p0.T + a[:, None] * t0
     c2 = p3.T - b[:, None] * t1
     if grid is not None:
-        c1, c2 = np.round(c1 / grid) * grid, np.round(c2 / grid) * grid
+        c1, c2 = (c1 / grid).round() * grid, (c2 / grid).round() * grid
     return c1, c2
 
 
@@ -406,50 +410,50 @@ def _keeps_sides(exact: Exact, prot: Protected, lo, hi, curves: np.ndarray, clea
     """No protected point nearest to the exact segments lo-1 .. hi changes side or comes
     nearer to the new curve (``curves``: its polyline (2, R, T)) than min(its distance to
     the exact curve, clearance)."""
-    first = np.searchsorted(prot.seg, lo - 1)
-    last = np.searchsorted(prot.seg, hi + 1)
+    first = prot.seg.searchsorted(lo - 1)
+    last = prot.seg.searchsorted(hi + 1)
     count = last - first
     ok = np.ones(lo.size, bool)
     if count.sum() == 0:
         return ok
-    owner = np.repeat(np.arange(lo.size), count)
+    owner = np.arange(lo.size).repeat(count)
     idx = ranges(first, count)
     xy = prot.xy.take(idx, axis=1)
-    parts = curves.shape[2] - 1
-    start, end = _parts(curves)
-    # every point against every part of its candidate's polyline: (2, N, parts), which the
-    # distance and the side test share (_segment_distance leaves its operands as they are)
-    a, b = _per_sample(start, count), _per_sample(end, count)
-    q = np.repeat(xy, parts, axis=1).reshape(a.shape)
-    d_new = _segment_distance(q, a, b).min(axis=1)
+    # every point against every part of its candidate's polyline: (4, N, parts) starts and
+    # ends, which the distance and the side test share (_segment_distance leaves its
+    # operands as they are)
+    ab = _per_sample(_parts(curves), count)
+    q = xy.repeat(ab.shape[2], axis=1).reshape(2, *ab.shape[1:])
+    d_new = _segment_distance(q, ab[:2], ab[2:]).min(axis=1)
     too_near = d_new < np.minimum(np.abs(prot.dist[idx]), clearance) - 1e-9
-    crossed = _between(xy, owner, a, b, lo, hi, exact)
+    crossed = _between(xy, owner, ab, lo, hi, exact)
     ok[owner[too_near | crossed]] = False
     return ok
 
 
-def _between(xy: np.ndarray, owner: np.ndarray, a: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+def _between(xy: np.ndarray, owner: np.ndarray, ab: np.ndarray, lo: np.ndarray, hi: np.ndarray,
              exact: Exact) -> np.ndarray:
     """Whether each point (``xy``: (2, N) planes) lies between its candidate curve and the
     exact run it replaces (inside the closed polygon of the two, which share their end
-    points): the curve has passed over the point, which changes side. ``a``, ``b``: (2, N, V)
-    the starts and the ends of the V parts of each point's candidate's polyline. Even-odd
-    ray casting towards +x."""
-    n_points, n_curve = xy.shape[1], a.shape[2]
-    # pairs (point, edge of its polygon): the parts of its candidate's polyline (given), then
-    # those of the exact run, consecutive in Exact's part tables from the run's first one
+    points): the curve has passed over the point, which changes side. ``ab``: (4, N, V) the
+    starts and the ends (x, y, x, y) of the V parts of each point's candidate's polyline.
+    Even-odd ray casting towards +x."""
+    n_points, n_curve = xy.shape[1], ab.shape[2]
+    qy = xy[1]
+    # pairs (point, edge of its polygon): the parts of its candidate's polyline, then those of
+    # the exact run, consecutive in Exact's part table from the run's first one. Only the
+    # pairs whose edge straddles the point's height can count: found on the heights alone,
+    # the rest of the test runs on those
+    curve_pair = np.flatnonzero((ab[1] > qy[:, None]) != (ab[3] > qy[:, None]))  # flat (point, part)
     n_exact = (hi - lo).take(owner) * _T_ORIG.size
     exact_part = ranges(lo.take(owner) * _T_ORIG.size, n_exact)
-    a = np.concatenate([a.reshape(2, -1), exact.part_start.reshape(2, -1).take(exact_part, axis=1)], axis=1)
-    b = np.concatenate([b.reshape(2, -1), exact.part_end.reshape(2, -1).take(exact_part, axis=1)], axis=1)
-    points = np.arange(n_points)
-    p_idx = np.concatenate([np.repeat(points, n_curve), np.repeat(points, n_exact)])
-    # only the pairs whose edge straddles the point's height can count, so the rest of the
-    # test runs on those alone
-    qy = xy[1].take(p_idx)
-    straddle = np.flatnonzero((a[1] > qy) != (b[1] > qy))
-    p_idx, qy = p_idx.take(straddle), qy.take(straddle)
-    (ax, ay), (bx, by) = a.take(straddle, axis=1), b.take(straddle, axis=1)
+    table = exact.parts.reshape(4, -1)
+    exact_qy = qy.repeat(n_exact)
+    straddle = ((table[1].take(exact_part) > exact_qy) != (table[3].take(exact_part) > exact_qy)).nonzero()[0]
+    p_idx = np.concatenate([curve_pair // n_curve, np.arange(n_points).repeat(n_exact).take(straddle)])
+    ax, ay, bx, by = np.concatenate([ab.reshape(4, -1).take(curve_pair, axis=1),
+                                     table.take(exact_part.take(straddle), axis=1)], axis=1)
+    qy = qy.take(p_idx)
     x_at = ax + (qy - ay) * (bx - ax) / (by - ay)  # by != ay where the edge straddles
     hits = np.bincount(p_idx, weights=x_at > xy[0].take(p_idx), minlength=n_points)
     return hits.astype(np.int64) % 2 == 1
@@ -504,7 +508,7 @@ def _cube(x: np.ndarray) -> np.ndarray:
 def _per_sample(planes: np.ndarray, count: np.ndarray, axis: int = 1) -> np.ndarray:
     """``planes`` (2, M, ...) of M items, each repeated ``count`` times along ``axis``: what
     ``planes.take(np.repeat(np.arange(M), count), axis=1)`` gives, 2–3 times faster."""
-    return np.repeat(planes, count, axis=axis)
+    return planes.repeat(count, axis=axis)
 
 
 def _planes(points: np.ndarray) -> np.ndarray:
@@ -515,10 +519,14 @@ def _planes(points: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(points.T)
 
 
-def _parts(polylines: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The starts and the ends of the parts of polylines ``(2, R, V)`` (x and y planes), two
-    contiguous ``(2, R, V - 1)`` arrays: numpy's loops then run over whole rows."""
-    return np.ascontiguousarray(polylines[:, :, :-1]), np.ascontiguousarray(polylines[:, :, 1:])
+def _parts(polylines: np.ndarray) -> np.ndarray:
+    """The starts and the ends of the parts of polylines ``(2, R, V)`` (x and y planes): one
+    ``(4, R, V - 1)`` array, starts (x, y) then ends (x, y), each plane contiguous (numpy's
+    loops then run over whole rows), so one gather picks both ends of a part."""
+    parts = np.empty((4, polylines.shape[1], polylines.shape[2] - 1))
+    parts[:2] = polylines[:, :, :-1]
+    parts[2:] = polylines[:, :, 1:]
+    return parts
 
 
 def _flatten(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, p3: np.ndarray) -> np.ndarray:

@@ -36,19 +36,19 @@ def loops_to_keep(loops: Loops, halfedge_from: np.ndarray, nodes: np.ndarray, pr
     nxt_pos[loops.ptr[1:] - 1] = loops.ptr[:-1]
     p, q = nodes.take(start, axis=0).astype(np.int64), nodes.take(start.take(nxt_pos), axis=0).astype(np.int64)
     cross = p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]
-    loop_of = np.repeat(everything, np.diff(loops.ptr))
+    loop_of = everything.repeat(np.diff(loops.ptr))
     area2 = np.bincount(loop_of, weights=cross, minlength=len(loops))  # clockwise on screen > 0
-    holes = np.flatnonzero(area2 < 0)
+    holes = (area2 < 0).nonzero()[0]
     if holes.size == 0:
         return everything
     if probe_key is None:
-        return np.flatnonzero(area2 >= 0)
+        return (area2 >= 0).nonzero()[0]
     is_hole = area2 < 0
-    hole_edges = np.flatnonzero(is_hole.take(loop_of))
+    hole_edges = is_hole.take(loop_of).nonzero()[0]
     blocked = holds_a_probe(p.take(hole_edges, axis=0), q.take(hole_edges, axis=0), loop_of.take(hole_edges), probe_key,
                             len(loops), width)
     keep = (area2 >= 0) | blocked
-    return np.flatnonzero(keep)
+    return keep.nonzero()[0]
 
 
 def holds_a_probe(a: np.ndarray, b: np.ndarray, loop: np.ndarray, probe_key: np.ndarray, n_loops: int,
@@ -68,7 +68,7 @@ def holds_a_probe(a: np.ndarray, b: np.ndarray, loop: np.ndarray, probe_key: np.
     # the probe rows each edge straddles: lo <= 4r + 2 < hi
     r0, r1 = -((2 - lo) // 4), -((2 - hi) // 4)  # ceil((lo - 2) / 4), ceil((hi - 2) / 4)
     count = np.maximum(r1 - r0, 0)
-    edge = np.repeat(np.arange(a.shape[0]), count)
+    edge = np.arange(a.shape[0]).repeat(count)
     row = ranges(r0, count)
     ax, ay, bx, by = a[:, 0].take(edge), a[:, 1].take(edge), b[:, 0].take(edge), b[:, 1].take(edge)
     py, dy = 4 * row + 2, by - ay
@@ -80,11 +80,11 @@ def holds_a_probe(a: np.ndarray, b: np.ndarray, loop: np.ndarray, probe_key: np.
     ceil = np.clip(ceil, 0, span - 1)
     order = np.lexsort((ceil, row, loop[edge]))
     group = loop[edge][order] * (row.max(initial=0) + 1) + row[order]
-    rank = np.arange(order.size) - np.searchsorted(group, group)  # position within (loop, row)
+    rank = np.arange(order.size) - group.searchsorted(group)  # position within (loop, row)
     first = order[rank % 2 == 0]
     second = order[rank % 2 == 1]  # each (loop, row) has an even number of crossings
-    start = np.searchsorted(probe_key, row[first] * span + ceil[first])
-    stop = np.searchsorted(probe_key, row[second] * span + ceil[second])
+    start = probe_key.searchsorted(row[first] * span + ceil[first])
+    stop = probe_key.searchsorted(row[second] * span + ceil[second])
     held = np.zeros(n_loops, bool)
     held[loop[edge][first][stop > start]] = True
     return held

@@ -63,12 +63,12 @@ def trace_loops(owner: np.ndarray, u: np.ndarray, v: np.ndarray, points: np.ndar
     # the half-edges by owner, leader, then along the loop: the loops (one per leader, the
     # half-edge at position 0) ordered by owner and leader, each half-edge placed at its
     # loop's start plus its position (no sort of all the half-edges)
-    leaders = np.flatnonzero(position == 0)  # ascending, so a stable sort by owner keeps them in order
+    leaders = (position == 0).nonzero()[0]  # ascending, so a stable sort by owner keeps them in order
     loop_owner = owner.take(leaders)
-    by_owner = np.argsort(loop_owner, kind="stable")
+    by_owner = loop_owner.argsort(kind="stable")
     leaders, loop_owner = leaders.take(by_owner), loop_owner.take(by_owner)
     ptr = np.zeros(leaders.size + 1, np.int64)
-    np.cumsum(np.bincount(leader, minlength=n).take(leaders), out=ptr[1:])
+    np.bincount(leader, minlength=n).take(leaders).cumsum(out=ptr[1:])
     start = np.empty(n, np.int64)  # at the leaders only
     start[leaders] = ptr[:-1]
     place = start.take(leader)
@@ -83,11 +83,11 @@ def _pair_by_angle(nxt: np.ndarray, owner: np.ndarray, u: np.ndarray, v: np.ndar
                    in_order: np.ndarray, points: np.ndarray) -> None:
     """Re-pair the half-edges at every (owner, node) with several in and out, in place."""
     key = owner[out_order] * (int(u.max()) + 1) + u[out_order]
-    crowded = np.flatnonzero(key[1:] == key[:-1])
+    crowded = (key[1:] == key[:-1]).nonzero()[0]
     if crowded.size == 0:
         return
     for group in unique(key[crowded]).tolist():
-        lo, hi = np.searchsorted(key, [group, group + 1])
+        lo, hi = key.searchsorted([group, group + 1])
         outs, ins = out_order[lo:hi], in_order[lo:hi]
         node = points[u[outs[0]]].astype(np.float64)
         out_angle = np.arctan2(*(points[v[outs]] - node)[:, ::-1].T)
@@ -103,7 +103,7 @@ def _assign(cost: np.ndarray) -> tuple[list[int], list[int]]:
     """Pair rows with columns, each row with its cheapest free column, cheapest pairs first."""
     rows, cols = [], []
     free_r, free_c = set(range(cost.shape[0])), set(range(cost.shape[1]))
-    for flat in np.argsort(cost, axis=None, kind="stable").tolist():
+    for flat in cost.argsort(axis=None, kind="stable").tolist():
         i, j = divmod(flat, cost.shape[1])
         if i in free_r and j in free_c:
             rows.append(i)
@@ -120,5 +120,5 @@ def _argsort_pairs(major: np.ndarray, *minors: np.ndarray) -> list[np.ndarray]:
     width = max(int(a.max()) for a in minors) + 1
     if low >= 0 and int(major.max()) < (2**62) // width:
         base = major * width
-        return [np.argsort(base + minor, kind="stable") for minor in minors]
+        return [(base + minor).argsort(kind="stable") for minor in minors]
     return [np.lexsort((minor, major)) for minor in minors]

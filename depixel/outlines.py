@@ -137,11 +137,11 @@ class OutlineShapes:
         # no key of the outside (member -1) is a member's
         member_key += member_key // topo.n_faces
         self.member_key = member_key
-        self.member_ptr = np.searchsorted(member_key, np.arange(topo.n_faces + 1) * (topo.n_faces + 1))  # per owner
+        self.member_ptr = member_key.searchsorted(np.arange(topo.n_faces + 1) * (topo.n_faces + 1))  # per owner
         self.face = topo.face_of_rank[topo.drawn[topo.face_of_rank]]
         self.rgba, self.region = topo.face_rgba[self.face], topo.face_region[self.face]
         self.role = topo.role[self.face]
-        clear = np.flatnonzero(~topo.opaque)  # a pixel of each transparent or translucent face
+        clear = (~topo.opaque).nonzero()[0]  # a pixel of each transparent or translucent face
         self.probe_key = probe_keys(topo.first_pixel[clear], self.shape[1]) if clear.size else None
         self.faces = topo.boundaries()  # the rest of the topology is dropped here
 
@@ -153,7 +153,7 @@ class OutlineShapes:
         boundary half-edges (the result does not depend on the batches)."""
         faces, member_ptr = self.faces, self.member_ptr
         per_member = np.diff(faces.entry_ptr).take(self.member_key % (faces.n_faces + 1))
-        entries = np.concatenate(([0], np.cumsum(per_member)))  # running
+        entries = np.concatenate(([0], per_member.cumsum()))  # running
         del per_member
         sizes = (entries[member_ptr[1:]] - entries[member_ptr[:-1]])[self.face]
         del entries
@@ -165,7 +165,7 @@ class OutlineShapes:
         faces, face = self.faces, self.face[first:stop]
         lo, hi = self.member_ptr[face], self.member_ptr[face + 1]
         member = self.member_key[_ranges(lo, hi)] % (faces.n_faces + 1)
-        owner = np.repeat(face, hi - lo)
+        owner = face.repeat(hi - lo)
         owner_face, entry = _batch_entries(faces, owner, member, self.member_key)
         u = faces.entry_from.take(entry)
         loops = trace_loops(faces.rank.take(owner_face), u, faces.entry_to.take(entry), points=faces.nodes)
@@ -175,7 +175,7 @@ class OutlineShapes:
                                                                 faces.entry_edge.take(entry), u, self.grid)
         shape_rank = loops.owner[keep]
         bounds = np.concatenate((faces.rank.take(face), [np.iinfo(np.int64).max]))
-        shape_ptr = np.asarray(np.searchsorted(shape_rank, bounds), np.int64)
+        shape_ptr = np.asarray(shape_rank.searchsorted(bounds), np.int64)
         return Outlines(
             shape=self.shape, layout=self.layout, grid=self.grid, face=face, rgba=self.rgba[first:stop],
             region=self.region[first:stop], role=self.role[first:stop], shape_ptr=shape_ptr,
@@ -212,7 +212,7 @@ def _joined(shapes: OutlineShapes, parts: list[Outlines]) -> Outlines:
 def _ranges(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """The integers of every range [lo, hi), concatenated."""
     count = hi - lo
-    return np.repeat(lo - (np.cumsum(count) - count), count) + np.arange(int(count.sum()))
+    return (lo - (count.cumsum() - count)).repeat(count) + np.arange(int(count.sum()))
 
 
 def _edge_costs(image: VectorImage, pieces: BoundaryPieces) -> np.ndarray:
@@ -233,7 +233,7 @@ def _batch_entries(faces: FaceBoundaries, owner: np.ndarray, member: np.ndarray,
     (owner, member) pairs; ``member_key`` of all pairs (sorted)."""
     lo, hi = faces.entry_ptr[member], faces.entry_ptr[member + 1]
     entry = _ranges(lo, hi)
-    shape_face = np.repeat(owner, hi - lo)
+    shape_face = owner.repeat(hi - lo)
     del lo, hi
     other = faces.entry_other.take(entry)
     # a half-edge bounds the union unless the face across is a member of the same shape
@@ -270,12 +270,12 @@ def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, kee
     loop's direction."""
     cells = image.cells
     counts = np.diff(loops.ptr)[keep]
-    take = np.repeat(loops.ptr[:-1][keep] - (np.cumsum(counts) - counts), counts) + np.arange(int(counts.sum()))
+    take = (loops.ptr[:-1][keep] - (counts.cumsum() - counts)).repeat(counts) + np.arange(int(counts.sum()))
     he = loops.halfedges.take(take)
     edge, x = halfedge_edge.take(he), halfedge_from.take(he)
     u, v = cells.edges.take(edge, axis=0).T  # (rows gathered: a column's take copies the whole column first)
     y = np.where(x == u, v, u)
-    loop_of = np.repeat(np.arange(keep.size), counts)
+    loop_of = np.arange(keep.size).repeat(counts)
     piece = pieces.edge_piece.take(edge)
     curved = piece >= 0
     forward_edge = image.curves.edge_forward.take(edge) if image.curves is not None else np.ones(edge.size, bool)
@@ -284,7 +284,7 @@ def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, kee
     length = np.concatenate((np.diff(pieces.ptr), [0]))  # (a sentinel for images without curves)
     n_seg = np.where(curved, np.where(enters, length.take(np.maximum(piece, 0)), 0), 1)
     total = int(n_seg.sum())
-    step = np.repeat(np.arange(edge.size), n_seg)
+    step = np.arange(edge.size).repeat(n_seg)
     index = ranges(0, n_seg)  # within the piece
     line = ~curved.take(step)
     # every coordinate a column at a time, picked by np.where from gathers of all rows
@@ -321,20 +321,20 @@ def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, kee
     seg_loop = loop_of.take(step)
     # where a loop goes on along its curve through a junction, the two halves of the span
     # there (the end of one piece, the start of the next) are that one span
-    whole = np.flatnonzero((span[:-1] >= 0) & (span[:-1] == span[1:]) & (seg_loop[:-1] == seg_loop[1:])
-                           & (kind[:-1] == QUAD) & (kind[1:] == QUAD))  # (straight halves merge as lines)
+    whole = ((span[:-1] >= 0) & (span[:-1] == span[1:]) & (seg_loop[:-1] == seg_loop[1:])
+                           & (kind[:-1] == QUAD) & (kind[1:] == QUAD)).nonzero()[0]  # (straight halves merge as lines)
     if whole.size:
         ctrl[whole + 1] = pieces.span_ctrl(span[whole])
         keep_seg = np.ones(total, bool)
         keep_seg[whole] = False
         kind, seg_loop = kind.compress(keep_seg), seg_loop.compress(keep_seg)
         ctrl, ctrl2, end = (a.compress(keep_seg, axis=0) for a in (ctrl, ctrl2, end))
-    loop_ptr = np.searchsorted(seg_loop, np.arange(keep.size + 1)).astype(np.int64)
+    loop_ptr = seg_loop.searchsorted(np.arange(keep.size + 1)).astype(np.int64)
     return _merge_lines(kind, ctrl, ctrl2, end, loop_ptr, grid)
 
 
 def _on_grid(xy: np.ndarray, grid: float | None) -> np.ndarray:
-    return xy.copy() if grid is None else np.round(xy / grid) * grid
+    return xy.copy() if grid is None else (xy / grid).round() * grid
 
 
 def _merge_lines(kind, ctrl, ctrl2, end, loop_ptr, grid):
@@ -342,7 +342,7 @@ def _merge_lines(kind, ctrl, ctrl2, end, loop_ptr, grid):
     n = kind.size
     if n == 0:
         return kind, ctrl, ctrl2, end, loop_ptr
-    loop_of = np.repeat(np.arange(loop_ptr.size - 1), np.diff(loop_ptr))
+    loop_of = np.arange(loop_ptr.size - 1).repeat(np.diff(loop_ptr))
     k = np.arange(n)
     first, last = loop_ptr[:-1][loop_of], loop_ptr[1:][loop_of] - 1
     before = np.where(k == first, last, k - 1)
@@ -359,5 +359,5 @@ def _merge_lines(kind, ctrl, ctrl2, end, loop_ptr, grid):
     kept_per_loop = np.bincount(loop_of[keep], minlength=loop_ptr.size - 1)
     keep |= (kept_per_loop[loop_of] == 0) & (k == last)  # never drop every segment of a loop
     loop_of = loop_of[keep]
-    loop_ptr = np.searchsorted(loop_of, np.arange(loop_ptr.size)).astype(np.int64)
+    loop_ptr = loop_of.searchsorted(np.arange(loop_ptr.size)).astype(np.int64)
     return kind[keep], ctrl.compress(keep, axis=0), ctrl2.compress(keep, axis=0), end.compress(keep, axis=0), loop_ptr

@@ -98,12 +98,12 @@ class _Fits:
             new = np.unique(wanted[~in_sorted(self.keys, wanted)], return_index=True)[0]
             new_lo, new_hi = np.divmod(new, int(self.ptr[-1]) + 1)
             kind, c1, c2, ok = self._fit(new_lo, new_hi)
-            order = np.argsort(np.concatenate([self.keys, new]), kind="stable")
+            order = np.concatenate([self.keys, new]).argsort(kind="stable")
             self.keys = np.concatenate([self.keys, new])[order]
             self.kind, self.ok = np.concatenate([self.kind, kind])[order], np.concatenate([self.ok, ok])[order]
             self.c1 = np.concatenate([self.c1, c1]).take(order, axis=0)
             self.c2 = np.concatenate([self.c2, c2]).take(order, axis=0)
-        at = np.searchsorted(self.keys, keys)
+        at = self.keys.searchsorted(keys)
         return self.kind[at], self.c1.take(at, axis=0), self.c2.take(at, axis=0), self.ok[at]
 
     def _fit(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -142,7 +142,7 @@ def _chunks(ptr: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
     """Every piece of more than one segment cut into near-equal runs of at most ``size``."""
     length = np.diff(ptr)
     count = np.where(length > 1, -(-length // size), 0)
-    piece = np.repeat(np.arange(length.size), count)
+    piece = np.arange(length.size).repeat(count)
     k = ranges(0, count)
     lo = ptr[piece] + (length[piece] * k) // count[piece]
     hi = ptr[piece] + (length[piece] * (k + 1)) // count[piece]
@@ -160,14 +160,14 @@ def _merge_neighbours(fits: _Fits, ptr, fitted, failed):
     if not fitted:
         return fitted
     lo, hi, kinds, c1, c2 = (np.concatenate([f[i] for f in fitted]) for i in range(5))
-    order = np.argsort(lo, kind="stable")
+    order = lo.argsort(kind="stable")
     lo, hi, kinds, c1, c2 = lo[order], hi[order], kinds[order], c1.take(order, axis=0), c2.take(order, axis=0)
-    piece_of = np.searchsorted(ptr, lo, side="right") - 1
+    piece_of = ptr.searchsorted(lo, side="right") - 1
     for parity in (0, 1):
         if lo.size < 2:
             break
         touching = (hi[:-1] == lo[1:]) & (piece_of[:-1] == piece_of[1:])
-        a = np.flatnonzero(touching & (np.arange(lo.size - 1) % 2 == parity))
+        a = (touching & (np.arange(lo.size - 1) % 2 == parity)).nonzero()[0]
         a = a[~in_sorted(failed, _range_keys(lo[a], hi[a + 1], ptr))]
         if a.size == 0:
             continue
@@ -223,7 +223,7 @@ def _assemble(pieces: BoundaryPieces, fitted) -> BoundaryPieces:
     cover = np.zeros(n + 1, np.int64)
     np.add.at(cover, los, 1)
     np.add.at(cover, his, -1)
-    replaced = np.cumsum(cover)[:n] > 0
+    replaced = cover.cumsum()[:n] > 0
     keep = ~replaced | (head >= 0)
     at = np.maximum(head, 0)
     kind = np.where(head >= 0, kinds[at] if los.size else CUBIC, pieces.kind).astype(np.uint8)
@@ -231,7 +231,7 @@ def _assemble(pieces: BoundaryPieces, fitted) -> BoundaryPieces:
     ctrl2 = np.where((head >= 0)[:, None], c2s.take(at, axis=0) if los.size else 0.0, pieces.ctrl2)
     end = np.where((head >= 0)[:, None], pieces.end.take(np.maximum(his[at] - 1, 0), axis=0) if los.size else 0.0,
                    pieces.end)
-    piece = np.repeat(np.arange(len(pieces)), np.diff(pieces.ptr))[keep]
-    ptr = np.searchsorted(piece, np.arange(len(pieces) + 1)).astype(np.int64)
+    piece = np.arange(len(pieces)).repeat(np.diff(pieces.ptr))[keep]
+    ptr = piece.searchsorted(np.arange(len(pieces) + 1)).astype(np.int64)
     return pieces.replace_segments(pieces.start, ptr, kind[keep], ctrl.compress(keep, axis=0),
                                    end.compress(keep, axis=0), ctrl2.compress(keep, axis=0))

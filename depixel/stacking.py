@@ -69,12 +69,12 @@ class FaceTopology:
         sides = cells.edge_pixels
         left = np.where(sides[:, 0] >= 0, labels.take(np.maximum(sides[:, 0], 0)), -1)
         right = np.where(sides[:, 1] >= 0, labels.take(np.maximum(sides[:, 1], 0)), -1)
-        boundary = np.flatnonzero(left != right)
+        boundary = (left != right).nonzero()[0]
         left, right = left.take(boundary), right.take(boundary)
         # one entry per face side of a boundary edge, oriented with the face on the right,
         # sorted by face (stable); 32-bit, since an image has far fewer than 2^31 of anything
         has_r, has_l = right >= 0, left >= 0
-        order = np.argsort(np.concatenate([right.compress(has_r), left.compress(has_l)]), kind="stable")
+        order = np.concatenate([right.compress(has_r), left.compress(has_l)]).argsort(kind="stable")
 
         def entries(of_right: np.ndarray, of_left: np.ndarray, order: np.ndarray = order) -> np.ndarray:
             return np.concatenate([of_right.compress(has_r), of_left.compress(has_l)], dtype=np.int32).take(order)
@@ -89,7 +89,7 @@ class FaceTopology:
         self.entry_edge = entries(boundary, boundary)
         del order
         per_face = np.bincount(right[has_r], minlength=n) + np.bincount(left[has_l], minlength=n)
-        self.entry_ptr = np.concatenate(([0], np.cumsum(per_face)))
+        self.entry_ptr = np.concatenate(([0], per_face.cumsum()))
 
         inner = has_l & has_r
         lo, hi = np.minimum(left[inner], right[inner]).astype(np.int64), np.maximum(left[inner], right[inner])
@@ -111,7 +111,7 @@ class FaceTopology:
         self.role = self._roles(pairs)
         # the adjacency is kept only as the members it gives (stacked: the underlays, what
         # members() starts from)
-        own = np.flatnonzero(self.drawn)
+        own = self.drawn.nonzero()[0]
         if stacked:
             under = self._under_keys(pairs)
             del pairs
@@ -134,7 +134,7 @@ class FaceTopology:
         cells = self.cells
         n = self.n_faces
         at_meeting = meeting.take(cells.cell_nodes)
-        face_at = np.repeat(labels, np.diff(cells.cell_ptr)).compress(at_meeting)
+        face_at = labels.repeat(np.diff(cells.cell_ptr)).compress(at_meeting)
         drawn_first = self.rank.take(face_at)
         drawn_first += n * ~self.drawn.take(face_at)  # the lowest drawn face first
         del face_at
@@ -150,11 +150,11 @@ class FaceTopology:
         del key
         face_at = self.face_of_rank.take(drawn_first % n)
         del drawn_first
-        start = np.flatnonzero(np.concatenate(([True], node[1:] != node[:-1])))
+        start = np.concatenate(([True], node[1:] != node[:-1])).nonzero()[0]
         del node
         count = np.diff(np.concatenate((start, [face_at.size])))
-        lowest = np.repeat(face_at.take(start), count)  # sorted by rank within each node
-        crowded = np.repeat(count >= 3, count) & (face_at != lowest)
+        lowest = face_at.take(start).repeat(count)  # sorted by rank within each node
+        crowded = (count >= 3).repeat(count) & (face_at != lowest)
         corners = np.empty((int(crowded.sum()), 2), np.int32)
         corners[:, 0], corners[:, 1] = lowest.compress(crowded), face_at.compress(crowded)
         return corners
@@ -222,7 +222,7 @@ class FaceTopology:
     def _under_keys(self, pairs: np.ndarray) -> np.ndarray:
         """Keys ``a * F + b`` of the (a, b) pairs where b is opaque and drawn above a drawn face a."""
         a, b = pairs[:, 0], pairs[:, 1]
-        under = np.flatnonzero(self.drawn[a] & self.opaque[b] & (self.rank[b] > self.rank[a]))
+        under = (self.drawn[a] & self.opaque[b] & (self.rank[b] > self.rank[a])).nonzero()[0]
         return a[under].astype(np.int64) * self.n_faces + b[under]
 
     def _absorb(self, keys: np.ndarray, edge_cost: np.ndarray) -> np.ndarray:
@@ -233,7 +233,7 @@ class FaceTopology:
         n = self.n_faces
         neighbours = self._neighbours(edge_cost)
         owner = keys // n
-        cuts = unique(np.concatenate(([0], np.searchsorted(owner, owner[ABSORB_BATCH::ABSORB_BATCH]), [keys.size])))
+        cuts = unique(np.concatenate(([0], owner.searchsorted(owner[ABSORB_BATCH::ABSORB_BATCH]), [keys.size])))
         del owner
         return np.concatenate([self._grow(keys[a:b], neighbours)
                                for a, b in zip(cuts[:-1].tolist(), cuts[1:].tolist())] or [keys])
@@ -249,7 +249,7 @@ class FaceTopology:
         costs: list[np.ndarray] = [np.zeros(0)]
         for a, b in batch_bounds(np.diff(self.entry_ptr), ABSORB_BATCH):
             lo, hi = int(self.entry_ptr[a]), int(self.entry_ptr[b])
-            face = np.repeat(np.arange(a, b), np.diff(self.entry_ptr[a : b + 1]))
+            face = np.arange(a, b).repeat(np.diff(self.entry_ptr[a : b + 1]))
             other = self.entry_other[lo:hi]
             key, cost = sums_by_key(face * (n + 1) + np.where(other >= 0, other, n),
                                     edge_cost.take(self.entry_edge[lo:hi]))
@@ -259,7 +259,7 @@ class FaceTopology:
             count[a:b] = np.bincount(face[inner] - a, minlength=b - a)
             others.append(other[inner].astype(np.int32))
             costs.append(cost[inner])
-        ptr = np.concatenate(([0], np.cumsum(count)))
+        ptr = np.concatenate(([0], count.cumsum()))
         return ptr, np.concatenate(others), np.concatenate(costs), perimeter
 
     def _grow(self, keys: np.ndarray, neighbours: tuple[np.ndarray, ...]) -> np.ndarray:
@@ -274,7 +274,7 @@ class FaceTopology:
             start = nb_ptr.take(member)
             count = nb_ptr.take(member + 1) - start
             idx = ranges(start, count)
-            f = np.repeat(owner, count)
+            f = owner.repeat(count)
             cand = h.take(idx)
             ok = self.opaque.take(cand) & (self.rank.take(cand) > self.rank.take(f))
             cand_key = f.compress(ok) * n + cand.compress(ok)

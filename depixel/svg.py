@@ -107,14 +107,14 @@ class _Labels:
     def __init__(self, shapes: Outlines | OutlineShapes) -> None:
         region = shapes.region
         self.run_start = _prepend(True, region[1:] != region[:-1])
-        self.run_id = np.cumsum(self.run_start) - 1
+        self.run_id = self.run_start.cumsum() - 1
         self.run_size = np.bincount(self.run_id)
         rgba = shapes.rgba.astype(np.int64)
         key = (shapes.role.astype(np.int64) << 24) | (rgba[:, 0] << 16) | (rgba[:, 1] << 8) | rgba[:, 2]
-        order = np.argsort(key, kind="stable")
+        order = key.argsort(kind="stable")
         ranked = key[order]
         self.count = np.empty(key.size, np.int64)  # the how-manieth shape of its id
-        self.count[order] = np.arange(key.size) - np.searchsorted(ranked, ranked) + 1
+        self.count[order] = np.arange(key.size) - ranked.searchsorted(ranked) + 1
 
 
 def _elements(outlines: Outlines, first: int, labels: _Labels, precision: int) -> str:
@@ -167,12 +167,12 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     cmd, args = _commands(outlines, unit)
     n_cmd = cmd.size
     arity = _ARITY.take(cmd)
-    shape_of_loop = np.repeat(np.arange(len(outlines)), np.diff(outlines.shape_ptr))
+    shape_of_loop = np.arange(len(outlines)).repeat(np.diff(outlines.shape_ptr))
     # every loop is M + segments + Z: the command's shape from its loop
     loop_len = np.diff(outlines.loop_ptr)
     last_line = outlines.kind[outlines.loop_ptr[1:] - 1] == LINE
     per_loop = loop_len - last_line + 2
-    shape_of_cmd = np.repeat(shape_of_loop, per_loop)
+    shape_of_cmd = shape_of_loop.repeat(per_loop)
 
     # relative arguments: from the current point (previous end; for M, the start of the
     # previous loop of the same path, or the origin)
@@ -180,7 +180,7 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     rel = _relative(cmd, absolute, shape_of_cmd)
     # the numbers the commands use: command num_cmd's argument column num_k, in order
     n_num = arity
-    num_cmd = np.repeat(np.arange(n_cmd), n_num)
+    num_cmd = np.arange(n_cmd).repeat(n_num)
     num_k = ranges(0, n_num)
     flat = num_cmd * _W + num_k  # the number's place in (C, 6) argument tables
     texts, flags = _format(absolute.ravel().take(flat), rel.ravel().take(flat), num_cmd, num_k, n_cmd, precision)
@@ -195,7 +195,7 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
 
     # token stream: per command an optional letter, then its numbers
     tok_count = (~implicit).astype(np.int64) + n_num
-    tok_start = np.cumsum(tok_count) - tok_count
+    tok_start = tok_count.cumsum() - tok_count
     n_tok = int(tok_count.sum())
     is_number = np.ones(n_tok, bool)
     is_number[tok_start[~implicit]] = False
@@ -214,7 +214,7 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     sep = np.zeros(n_tok, bool)
     after_dot = _prepend(False, tok_has_dot[:-1]).take(num_pos)
     sep[num_pos] = prev_is_number.take(num_pos) & ~minus & ~(dot_start & after_dot)
-    tok_shape = np.repeat(shape_of_cmd, tok_count)
+    tok_shape = shape_of_cmd.repeat(tok_count)
     sep &= _prepend(False, tok_shape[1:] == tok_shape[:-1])
 
     table, (letter_row, abs_row, space_row) = stack([letters, texts, Texts.of([" "])])
@@ -223,16 +223,16 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     row[num_pos] = abs_row + num_text
     # interleave the separators: token i becomes [space] + token
     out_count = 1 + sep.astype(np.int64)
-    out_start = np.cumsum(out_count) - out_count
+    out_start = out_count.cumsum() - out_count
     stream = np.empty(int(out_count.sum()), np.int64)
     stream[out_start + sep] = row
     stream[out_start[sep]] = space_row
     pieces = table.take(stream)
     # split per shape
-    shape_tok_end = np.searchsorted(tok_shape, np.arange(len(outlines)) + 1)
+    shape_tok_end = tok_shape.searchsorted(np.arange(len(outlines)) + 1)
     out_end = np.concatenate((out_start, [stream.size])).take(shape_tok_end)
     text = pieces.tobytes().decode("ascii")
-    byte_end = np.cumsum(pieces.length)
+    byte_end = pieces.length.cumsum()
     bounds = _prepend(0, byte_end.take(out_end - 1))
     return [text[bounds[i] : bounds[i + 1]] for i in range(len(outlines))]
 
@@ -251,12 +251,12 @@ def _commands(outlines: Outlines, unit: float) -> tuple[np.ndarray, np.ndarray]:
     every path: per loop M, its segments (the last one left out when it is a line: Z draws
     it), Z."""
     kind = outlines.kind
-    end = np.round(outlines.end * unit).astype(np.int64)
-    ctrl = np.round(nan_to_zero(outlines.ctrl) * unit).astype(np.int64)
-    ctrl2 = np.round(nan_to_zero(outlines.ctrl2) * unit).astype(np.int64)
+    end = (outlines.end * unit).round().astype(np.int64)
+    ctrl = (nan_to_zero(outlines.ctrl) * unit).round().astype(np.int64)
+    ctrl2 = (nan_to_zero(outlines.ctrl2) * unit).round().astype(np.int64)
     n_loop = outlines.loop_ptr.size - 1
     loop_len = np.diff(outlines.loop_ptr)
-    seg_loop = np.repeat(np.arange(n_loop), loop_len)
+    seg_loop = np.arange(n_loop).repeat(loop_len)
     last = outlines.loop_ptr[1:] - 1
     start = end.take(last, axis=0)  # each loop starts where its last segment ends
     seg_start = np.empty_like(end)  # the previous segment's end; a loop's first: the loop's start
@@ -296,14 +296,14 @@ def _commands(outlines: Outlines, unit: float) -> tuple[np.ndarray, np.ndarray]:
     table = np.concatenate([table, moves, np.zeros((1, _W), np.int64)])
     keep = ~drop
     per_loop = np.bincount(seg_loop[keep], minlength=n_loop) + 2
-    loop_first = np.cumsum(per_loop) - per_loop
+    loop_first = per_loop.cumsum() - per_loop
     total = int(per_loop.sum())
     cmd = np.empty(total, np.int64)
     source = np.full(total, table.shape[0] - 1)  # the table row of every command
     cmd[loop_first] = M
     source[loop_first] = kind.size + np.arange(n_loop)
     cmd[loop_first + per_loop - 1] = Z
-    seg_index = np.flatnonzero(keep)
+    seg_index = keep.nonzero()[0]
     rank_in_loop = ranges(0, per_loop - 2)
     pos = loop_first.take(seg_loop.take(seg_index)) + 1 + rank_in_loop
     cmd[pos] = code.take(seg_index)

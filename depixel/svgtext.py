@@ -33,7 +33,7 @@ class Texts:
         encoded = [s.encode("ascii") for s in strings]
         length = np.array([len(b) for b in encoded], dtype=np.int64)
         data = np.frombuffer(b"".join(encoded), dtype=np.uint8)
-        return cls(data, np.cumsum(length) - length, length)
+        return cls(data, length.cumsum() - length, length)
 
     def take(self, index: np.ndarray) -> Texts:
         """The strings at ``index``, sharing this table's buffer."""
@@ -45,7 +45,7 @@ class Texts:
 
     def tolist(self) -> list[str]:
         text = self.tobytes().decode("ascii")
-        ends = np.cumsum(self.length).tolist()
+        ends = self.length.cumsum().tolist()
         return [text[a:b] for a, b in zip([0] + ends[:-1], ends)]
 
 
@@ -91,7 +91,7 @@ def numbers(values: np.ndarray, precision: int, prefix: str = "", compact: bool 
     body_keep[:, 0, 0] = False  # no space before the first number of a row
     body[..., 1:], body_keep[..., 1:] = digits.reshape(n, k, width - 1), digits_keep.reshape(n, k, width - 1)
     length = keep.sum(axis=1)
-    return Texts(chars.ravel().compress(keep.ravel()), np.cumsum(length) - length, length)
+    return Texts(chars.ravel().compress(keep.ravel()), length.cumsum() - length, length)
 
 
 class _Decimals:
@@ -101,7 +101,7 @@ class _Decimals:
 
     def __init__(self, values: np.ndarray, precision: int) -> None:
         self.precision = precision
-        self.scaled = np.round(values * 10**precision).astype(np.int64)
+        self.scaled = (values * 10**precision).round().astype(np.int64)
         self.whole, self.frac = np.divmod(np.abs(self.scaled), 10**precision)
         self.n_digits = max(len(str(int(self.whole.max(initial=0)))), 1)
         self.width = 2 + self.n_digits + precision  # characters
@@ -192,10 +192,10 @@ def _copy_segments(data: np.ndarray, start: np.ndarray, length: np.ndarray) -> n
     """``data[start[i] : start[i] + length[i]]`` for every i, concatenated."""
     nonempty = length > 0
     start, length = start[nonempty], length[nonempty]
-    ends = np.cumsum(length)
+    ends = length.cumsum()
     if ends.size == 0:
         return np.zeros(0, dtype=np.uint8)
-    bounds = np.searchsorted(ends, np.arange(_CHUNK, int(ends[-1]), _CHUNK), side="right")
+    bounds = ends.searchsorted(np.arange(_CHUNK, int(ends[-1]), _CHUNK), side="right")
     parts = []
     bounds = bounds.tolist()
     for a, b in zip([0] + bounds, bounds + [start.size]):
@@ -204,8 +204,8 @@ def _copy_segments(data: np.ndarray, start: np.ndarray, length: np.ndarray) -> n
         s, ln = start[a:b], length[a:b]
         # source index: +1 within a segment, a jump to the next segment's start between them
         step = np.ones(int(ln.sum()), dtype=np.int32 if data.size < 2**31 else np.int64)
-        first = np.cumsum(ln) - ln
+        first = ln.cumsum() - ln
         step[0] = s[0]
         step[first[1:]] = s[1:] - (s[:-1] + ln[:-1] - 1)
-        parts.append(data[np.cumsum(step, out=step)])
+        parts.append(data[step.cumsum(out=step)])
     return np.concatenate(parts) if len(parts) > 1 else parts[0]

@@ -156,7 +156,7 @@ def faces_and_regions(cells: CellGraph, per_cell: bool = False,
 def _labels(root: np.ndarray) -> np.ndarray:
     """(n,) the components of :func:`component_roots`' ``root``, numbered in order of their
     smallest item."""
-    label = np.cumsum(root == np.arange(root.size))
+    label = (root == np.arange(root.size)).cumsum()
     label -= 1
     return label.take(root)
 
