@@ -190,35 +190,43 @@ def _nearest_segment(xy: np.ndarray, seg_of: np.ndarray, exact: Exact
 
 class _SegmentsOfEdges:
     """``(edges)`` → (len(edges), 4): indices of the exact segments of each curved edge's two
-    spans (the half spans, or the full span when a joint was merged), -1 where there is none."""
+    spans (the half spans, or the full span when a joint was merged), -1 where there is none.
+
+    A span has at most two segments, its halves (in index order, which is the order of the
+    pieces), in one piece or one in each of two: a table of every slot's first and second
+    segment, and each segment's piece to check against the edge's."""
 
     def __init__(self, pieces: BoundaryPieces, image: VectorImage) -> None:
         curves = image.curves
         assert curves is not None  # pieces exist only where there are curves
         self.curves, self.edge_piece = curves, pieces.edge_piece
-        seg_slot = pieces.span_slot
-        # segments of every piece sorted by span slot, to look the slots up
-        seg_piece = np.arange(len(pieces)).repeat(np.diff(pieces.ptr))
-        self.base = int(seg_slot.max()) + 2
-        key = seg_piece * self.base + seg_slot
-        self.order = key.argsort(kind="stable")
-        self.sorted_key = key[self.order]
+        n_seg, n_slots = pieces.span_slot.size, curves.next.size
+        # the tables end in a -1 that slot -1 (no next slot) and segment -1 (none) read
+        piece = np.empty(n_seg + 1, np.int32)
+        piece[:-1] = np.arange(len(pieces), dtype=np.int32).repeat(np.diff(pieces.ptr))
+        piece[-1] = -1
+        self.seg_piece = piece
+        slot, seg = pieces.span_slot, np.arange(n_seg, dtype=np.int32)
+        first, last = np.full(n_slots + 1, n_seg, np.int32), np.full(n_slots + 1, -1, np.int32)
+        np.minimum.at(first, slot, seg)
+        np.maximum.at(last, slot, seg)
+        first[-1], last[-1] = n_seg, -1  # (a simplified segment's slot -1 does not count)
+        self.first = np.where(first < n_seg, first, -1)
+        self.second = np.where(last > first, last, -1)
 
     def __call__(self, edge: np.ndarray) -> np.ndarray:
-        curves, sorted_key = self.curves, self.sorted_key
         slots = np.empty((2, edge.size), np.int64)  # the edge's two slots
-        slots[0] = curves.edge_slot.take(edge)
-        slots[1] = curves.next.take(slots[0])
-        # a slot has up to two segments in a piece (its two halves): the two keys from where
-        # the slot's key would be, each of the four candidates on a plane (2 slots × 2)
-        want = slots + self.edge_piece.take(edge).astype(np.int64) * self.base  # 32-bit: the keys need 64
-        pos = np.empty((2, 2, edge.size), np.int64)
-        pos[:, 0] = sorted_key.searchsorted(want)
-        np.add(pos[:, 0], 1, out=pos[:, 1])
-        np.minimum(pos, sorted_key.size - 1, out=pos)
-        hit = sorted_key.take(pos) == want[:, None]
-        hit &= (slots >= 0)[:, None]
-        return np.ascontiguousarray(np.where(hit, self.order.take(pos), -1).reshape(4, -1).T)
+        slots[0] = self.curves.edge_slot.take(edge)
+        slots[1] = self.curves.next.take(slots[0])
+        piece = self.edge_piece.take(edge)
+        first, second = self.first.take(slots), self.second.take(slots)
+        in_first = self.seg_piece.take(first) == piece
+        in_second = self.seg_piece.take(second) == piece
+        # each of the four candidates on a plane (2 slots × 2), the piece's segments first
+        found = np.empty((2, 2, edge.size), np.int64)
+        found[:, 0] = np.where(in_first, first, np.where(in_second, second, -1))
+        found[:, 1] = np.where(in_first & in_second, second, -1)
+        return np.ascontiguousarray(found.reshape(4, -1).T)
 
 
 #: up to this many ranges, :func:`fit` tests the quadratic and the cubic of every range in

@@ -49,3 +49,34 @@ def test_exact_samples_are_flatten_cubics_to_the_bit():
     assert np.array_equal(exact.part_start, samples)
     assert np.array_equal(exact.part_end[:, :, :-1], samples[:, :, 1:])
     assert np.array_equal(exact.part_end[:, :, -1], exact.end.T)
+
+
+def test_segments_of_edges_are_the_segments_of_each_span_in_the_edges_piece():
+    """Protected's look-up: for every curved edge, the segments of its two spans (its slot and
+    the next) that lie in the edge's piece, in index order, -1 for the rest (a span has at
+    most two, its halves; a span cut between two pieces has one in each)."""
+    from conftest import FIXTURES
+
+    from depixel import depixelize, load_image
+    from depixel.curvefit import _SegmentsOfEdges
+    from depixel.outlines import OutlineShapes
+
+    vector = depixelize(load_image(FIXTURES / "mushroom.png")).vector
+    pieces = OutlineShapes(vector, "stacked", grid=0.01, simplify=0.0).pieces
+    curves = vector.curves
+    seg_piece = np.repeat(np.arange(len(pieces)), np.diff(pieces.ptr))
+    edges = np.flatnonzero(pieces.edge_piece >= 0)
+    found = _SegmentsOfEdges(pieces, vector)(edges)
+    assert found.shape == (edges.size, 4)
+    for row, edge in zip(found.tolist(), edges):
+        expected = []
+        for slot in (curves.edge_slot[edge], curves.next[curves.edge_slot[edge]]):
+            segments = [] if slot < 0 else [j for j in np.flatnonzero(pieces.span_slot == slot)
+                                             if seg_piece[j] == pieces.edge_piece[edge]]
+            expected += segments + [-1] * (2 - len(segments))
+        assert row == expected
+    # the fixture has spans cut between two pieces (a half in each)
+    pieces_of_slot: dict[int, list[int]] = {}
+    for j, slot in enumerate(pieces.span_slot.tolist()):
+        pieces_of_slot.setdefault(slot, []).append(seg_piece[j])
+    assert any(len(p) == 2 and p[0] != p[1] for p in pieces_of_slot.values())
