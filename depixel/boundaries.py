@@ -71,7 +71,7 @@ def junction_nodes(image: VectorImage, face: np.ndarray) -> np.ndarray:
     """(N,) bool: nodes where three or more face boundaries meet (``face``: label per pixel)."""
     cells = image.cells
     sides = cells.edge_pixels
-    inner = (sides >= 0).all(axis=1)
+    inner = (sides[:, 0] >= 0) & (sides[:, 1] >= 0)
     boundary = inner & (face[np.maximum(sides[:, 0], 0)] != face[np.maximum(sides[:, 1], 0)])
     degree = np.bincount(cells.edges[boundary].ravel(), minlength=len(cells.nodes))
     return degree >= 3

@@ -61,10 +61,8 @@ class Exact:
         self.start = np.where(first[:, None], pieces.start.take(piece, axis=0), np.roll(pieces.end, 1, axis=0))
         self.end = pieces.end
         c1, c2 = _as_cubic(self.start, pieces.kind, pieces.ctrl, pieces.ctrl2, self.end)
-        self.tan_start = _unit(np.where((np.abs(c1 - self.start) > 0).any(axis=1)[:, None], c1 - self.start,
-                                        self.end - self.start))
-        self.tan_end = _unit(np.where((np.abs(self.end - c2) > 0).any(axis=1)[:, None], self.end - c2,
-                                      self.end - self.start))
+        chord = self.end - self.start
+        self.tan_start, self.tan_end = _tangent(c1 - self.start, chord), _tangent(self.end - c2, chord)
         # flatten_cubic's samples (the same products and sums) on x and y planes with the
         # segments innermost: (2, 4, K), then (2, 5, K) with the ends
         b0, b1, b2, b3 = _W_ORIG
@@ -85,6 +83,20 @@ class Exact:
         self.arc = step.cumsum(axis=1) - step  # arc length of each sample within its segment
         self.arc_before = self.length.cumsum() - self.length  # arc length before each segment (global)
         self.tolerance = _piece_tolerance(pieces, self, tolerance)  # (K,) each segment's own limit
+
+
+def _tangent(leg: np.ndarray, chord: np.ndarray) -> np.ndarray:
+    """(K, 2) unit vectors along the control legs ``leg``, or along ``chord`` where a leg is
+    zero: v / max(|v|, 1e-300), |v| written out (the numbers of ``np.linalg.norm``), a
+    coordinate at a time (numpy runs an inner loop of 2 where a per-row number meets (K, 2)
+    rows)."""
+    has_leg = (np.abs(leg[:, 0]) > 0) | (np.abs(leg[:, 1]) > 0)
+    x, y = np.where(has_leg, leg[:, 0], chord[:, 0]), np.where(has_leg, leg[:, 1], chord[:, 1])
+    length = np.maximum(np.sqrt(x * x + y * y), 1e-300)
+    unit = np.empty(leg.shape)
+    np.divide(x, length, out=unit[:, 0])
+    np.divide(y, length, out=unit[:, 1])
+    return unit
 
 
 def _as_cubic(start, kind, ctrl, ctrl2, end) -> tuple[np.ndarray, np.ndarray]:
@@ -111,7 +123,8 @@ class Protected:
         w = cells.shape[1]
         curved = (pieces.edge_piece >= 0).nonzero()[0]
         sides = cells.edge_pixels[curved]
-        corners = [_split_corner(cells.nodes.take(cells.edges[curved, j], axis=0)) for j in range(2)]
+        ends = cells.edges.take(curved, axis=0)
+        corners = [_split_corner(cells.nodes.take(ends[:, j], axis=0)) for j in range(2)]
         segments_of = _SegmentsOfEdges(pieces, image)
         # the points, in this order: the pixel centres on either side of every curved edge,
         # the lattice corners at either end; all kinds together, a batch at a time, keeping
@@ -154,7 +167,7 @@ def _split_corner(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     corner in both x and y (a diagonal link's nodes), and that corner (in pixels)."""
     split, lattice = link_corners(q)
     which = split.nonzero()[0]
-    return which, lattice[which] / 4.0
+    return which, lattice.take(which, axis=0) / 4.0
 
 
 def _nearest_segment(xy: np.ndarray, seg_of: np.ndarray, exact: Exact
@@ -472,21 +485,6 @@ def _between(xy: np.ndarray, owner: np.ndarray, ab: np.ndarray, lo: np.ndarray, 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
-
-
-def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Dot products of (..., 2) vectors, written out: the same sum as ``(a * b).sum(axis=-1)``
-    without the cost of a reduction over an axis of two."""
-    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1]
-
-
-def _norm(v: np.ndarray) -> np.ndarray:
-    """Lengths of (..., 2) vectors, the same numbers as ``np.linalg.norm(v, axis=-1)``."""
-    return np.sqrt(_dot(v, v))
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.maximum(_norm(v)[..., None], 1e-300)
 
 
 def _segment_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:

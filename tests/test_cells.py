@@ -132,3 +132,16 @@ def test_cell_polygons_are_the_traced_loops(indices):
     assert np.array_equal(cg.cell_ptr, ptr)
     assert np.array_equal(cg.cell_nodes, nodes)
     assert np.array_equal(cg.cell_edges, edges)
+
+
+def test_link_corners_are_the_nodes_a_quarter_pixel_off_a_lattice_point_in_x_and_y():
+    from depixel.cells import link_corners
+
+    q = np.stack(np.meshgrid(np.arange(-9, 10), np.arange(-9, 10)), axis=-1).reshape(-1, 2).astype(np.int32)
+    split, lattice = link_corners(q)
+    assert np.array_equal(lattice, 4 * np.round(q / 4.0))
+    for (x, y), s in zip(q.tolist(), split.tolist()):
+        assert s == (x % 4 in (1, 3) and y % 4 in (1, 3)), (x, y)
+    assert split.any() and not split.all()
+    split2, _ = link_corners(q.reshape(19, 19, 2))  # any leading shape
+    assert np.array_equal(split2.ravel(), split)

@@ -80,3 +80,17 @@ def test_segments_of_edges_are_the_segments_of_each_span_in_the_edges_piece():
     for j, slot in enumerate(pieces.span_slot.tolist()):
         pieces_of_slot.setdefault(slot, []).append(seg_piece[j])
     assert any(len(p) == 2 and p[0] != p[1] for p in pieces_of_slot.values())
+
+
+def test_tangent_is_the_unit_leg_or_chord_of_the_plain_formula_to_the_bit():
+    from depixel.curvefit import _tangent
+
+    rng = np.random.default_rng(7)
+    leg, chord = rng.uniform(-3, 3, (200, 2)), rng.uniform(-3, 3, (200, 2))
+    leg[:50] = 0.0  # no leg: the chord's direction
+    leg[50:60, 0] = 0.0  # a leg along an axis
+    chord[:10] = 0.0  # neither: zero, not NaN
+    v = np.where((np.abs(leg) > 0).any(axis=1)[:, None], leg, chord)
+    plain = v / np.maximum(np.linalg.norm(v, axis=-1)[:, None], 1e-300)
+    assert np.array_equal(_tangent(leg, chord), plain)
+    assert np.array_equal(_tangent(leg, chord)[:10], np.zeros((10, 2)))
