@@ -32,17 +32,17 @@ _RELATIVE_TOLERANCE = 1 / 16
 
 def _piece_tolerance(pieces: BoundaryPieces, exact: Exact, tolerance: float) -> np.ndarray:
     """(K,) the tolerance of every exact segment: ``tolerance``, or less on small pieces."""
-    piece = np.arange(len(pieces)).repeat(np.diff(pieces.ptr))
-    owner = piece.repeat(exact.part_start.shape[2])
+    count = np.diff(pieces.ptr)
+    has = count > 0
+    # a piece's samples are consecutive: its extent by reduceat from its first (ufunc.at
+    # would handle every sample on its own)
+    first = pieces.ptr[:-1].compress(has) * exact.part_start.shape[2]
     extent = []
-    for axis in range(2):  # 1-d ufunc.at: on (N, 2) it handles every item on its own, ~20× slower
+    for axis in range(2):
         coord = exact.part_start[axis].ravel()  # the samples
-        low, high = np.full(len(pieces), np.inf), np.full(len(pieces), -np.inf)
-        np.minimum.at(low, owner, coord)
-        np.maximum.at(high, owner, coord)
-        extent.append(high - low)
+        extent.append(np.maximum.reduceat(coord, first) - np.minimum.reduceat(coord, first))
     size = np.sqrt(extent[0] ** 2 + extent[1] ** 2)
-    return np.minimum(tolerance, _RELATIVE_TOLERANCE * size)[piece]
+    return np.minimum(tolerance, _RELATIVE_TOLERANCE * size).repeat(count.compress(has))
 
 
 #: ranges are fitted and checked in batches of about this many exact segments, to bound the

@@ -94,3 +94,23 @@ def test_tangent_is_the_unit_leg_or_chord_of_the_plain_formula_to_the_bit():
     plain = v / np.maximum(np.linalg.norm(v, axis=-1)[:, None], 1e-300)
     assert np.array_equal(_tangent(leg, chord), plain)
     assert np.array_equal(_tangent(leg, chord)[:10], np.zeros((10, 2)))
+
+
+def test_piece_tolerance_is_the_tolerance_or_a_sixteenth_of_the_pieces_sample_box():
+    from conftest import FIXTURES
+
+    from depixel import depixelize, load_image
+    from depixel.curvefit import _RELATIVE_TOLERANCE, Exact
+    from depixel.outlines import OutlineShapes
+
+    vector = depixelize(load_image(FIXTURES / "mushroom.png")).vector
+    pieces = OutlineShapes(vector, "stacked", grid=0.01, simplify=0.0).pieces
+    for tolerance in (0.25, 2.0):
+        exact = Exact(pieces, tolerance)
+        expected = []
+        for a, b in zip(pieces.ptr[:-1].tolist(), pieces.ptr[1:].tolist()):
+            x, y = exact.part_start[0, a:b].ravel(), exact.part_start[1, a:b].ravel()
+            size = np.hypot(x.max() - x.min(), y.max() - y.min())
+            expected += [min(tolerance, _RELATIVE_TOLERANCE * size)] * (b - a)
+        np.testing.assert_allclose(exact.tolerance, expected, rtol=1e-15)
+        assert (exact.tolerance < tolerance).any()  # the small pieces
