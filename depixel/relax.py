@@ -159,7 +159,7 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
     np.add(here, descent * (params.radius * GRADIENT_STEPS), out=trial[:, :, k + 1:grad])
     if repeat is not None:
         np.add(here, repeat, out=trial[:, :, grad:])
-    energy, offset2, points = model.evaluate(around, home, group, trial)
+    energy, offset2 = model.evaluate(around, home, group, trial)
     too_far = offset2 > params.max_offset**2
     too_far[:, 0] = False
     np.putmask(energy, too_far, np.inf)  # never taken
@@ -171,15 +171,16 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
     # cannot be taken: staying is always allowed and wins ties), of which the best one allowed
     # is taken. Each number is the one a clearance of every trial would give (a minimum)
     trials = trial.shape[-1]
-    flat = points.reshape(points.shape[:3] + (-1,))  # (3, 3, 2, M·T): trial t of member m at m·T + t
     rows = np.flatnonzero(best > 0)
     if rows.size:
         chosen = best.take(rows)
-        near = model.clearance_of(flat.take(rows * trials + chosen, axis=-1), group, rows)
+        # the spans at the best trial and at staying, of every member moving (one call)
+        points = _trial_points(around, group, trial, rows, np.stack([chosen, np.zeros_like(chosen)], axis=1))
+        near = model.clearance_of(points[..., 0], group, rows)
         close = near < params.centre_clearance
         rows, chosen, near = rows.compress(close), chosen.compress(close), near.compress(close)
     if rows.size:
-        stay = model.clearance_of(flat.take(rows * trials, axis=-1), group, rows)
+        stay = model.clearance_of(points[..., 1].compress(close, axis=-1), group, rows)
         closer = near < stay
         rows, chosen, stay = rows.compress(closer), chosen.compress(closer), stay.compress(closer)
     if rows.size:
@@ -191,11 +192,21 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
         pick, at = np.nonzero(lower)  # (row, trial) pairs
         for part in batch_slices(pick.size, CLEARANCE_PAIRS):
             member = rows.take(pick[part])
-            clear = model.clearance_of(flat.take(member * trials + at[part], axis=-1), group, member)
+            clear = model.clearance_of(_trial_points(around, group, trial, member, at[part, None])[..., 0], group,
+                                       member)
             refused = np.flatnonzero((clear < params.centre_clearance) & (clear < stay.take(pick[part])))
             energy.ravel()[pick[part].take(refused) * trials + at[part].take(refused)] = np.inf
         best[rows] = np.argmin(energy, axis=1)
     return trial.reshape(2, -1).take(np.arange(0, best.size * trials, trials) + best, axis=1)  # (2, M)
+
+
+def _trial_points(around: np.ndarray, group: Group, trial: np.ndarray, rows: np.ndarray, at: np.ndarray
+                  ) -> np.ndarray:
+    """(3, 3, 2, N, J) :meth:`Energy.points` of the members ``rows`` (N,) at their trials
+    ``at`` (N, J) (columns of ``trial`` (2, M, T)), for ``around`` as in :func:`_best_trials`."""
+    flat = rows[:, None] * trial.shape[-1] + at
+    chosen = trial.reshape(2, -1).take(flat.ravel(), axis=1).reshape((2,) + flat.shape)
+    return Energy.points(around.take(rows, axis=2), group.ends.take(rows, axis=1), chosen)
 
 
 @dataclass(frozen=True, eq=False)
@@ -297,10 +308,11 @@ class Energy:
         )
 
     @staticmethod
-    def points(around: np.ndarray, g: Group, trial: np.ndarray) -> np.ndarray:
+    def points(around: np.ndarray, ends: np.ndarray, trial: np.ndarray) -> np.ndarray:
         """The three spans (before, own, after) of each member at ``trial`` (2, M, K), for
-        ``around`` = ``ctrl[g.around]`` as (7, 2, M, 1): ``(3, 3, 2, M, K)``, [Bézier point
-        P0-P2, span, coordinate], written in place (no temporaries, no ``np.where``)."""
+        ``around`` = ``ctrl[g.around]`` as (7, 2, M, 1) and ``ends`` its :attr:`Group.ends`:
+        ``(3, 3, 2, M, K)``, [Bézier point P0-P2, span, coordinate], written in place (no
+        temporaries, no ``np.where``)."""
         c_a2, c_a, _, c_b, c_b2, c_a2_partner, c_b2_partner = around
         points = np.empty((3, 3) + trial.shape)
         m_a, m_b = points[2, 0], points[0, 2]
@@ -311,24 +323,37 @@ class Energy:
         np.add(c_a2, c_a2_partner, out=points[0, 0])
         np.divide(points[0, 0], 2.0, out=points[0, 0])
         np.copyto(points[0, 1], m_a)
-        np.copyto(points[0, 1], c_a, where=g.ends[0])
+        np.copyto(points[0, 1], c_a, where=ends[0])
         points[1, 0], points[1, 1], points[1, 2] = c_a, trial, c_b
         np.copyto(points[2, 1], m_b)
-        np.copyto(points[2, 1], c_b, where=g.ends[1])
+        np.copyto(points[2, 1], c_b, where=ends[1])
         np.add(c_b2_partner, c_b2, out=points[2, 2])
         np.divide(points[2, 2], 2.0, out=points[2, 2])
         return points
 
     def evaluate(self, around: np.ndarray, anchor: np.ndarray, g: Group, trial: np.ndarray
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(M, K) energy of each member at ``trial`` (2, M, K), the squared distance of each
-        trial from its ``anchor`` (2, M, 1), and the spans' :meth:`points`."""
-        points = self.points(around, g, trial)
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """(M, K) energy of each member at ``trial`` (2, M, K), and the squared distance of each
+        trial from its ``anchor`` (2, M, 1). The spans' legs are computed from the points that
+        :meth:`points` would write, by the same operations, but without writing the points
+        (only those of the few trials whose clearance is measured are: :func:`_trial_points`):
+        the legs that do not depend on the trial are broadcast from one value a member."""
+        c_a2, c_a, _, c_b, c_b2, c_a2_partner, c_b2_partner = around
         members, k = trial.shape[1:]
         # d0 = P1 - P0 and d1 = P2 - P1 of the three spans, x and y leading: (2, [d0, d1], 3, M, K)
-        vec = np.empty((2, 2) + points.shape[1:2] + trial.shape[1:])
-        np.subtract(points[1], points[0], out=vec[:, 0].swapaxes(0, 1))
-        np.subtract(points[2], points[1], out=vec[:, 1].swapaxes(0, 1))
+        vec = np.empty((2, 2, 3, members, k))
+        m_a = np.add(c_a, trial)  # where the span before meets the own span
+        m_a /= 2.0
+        m_b = np.add(trial, c_b)  # and the own span the span after
+        m_b /= 2.0
+        np.subtract(c_a, (c_a2 + c_a2_partner) / 2.0, out=vec[:, 0, 0])
+        np.subtract(m_a, c_a, out=vec[:, 1, 0])
+        np.subtract(trial, m_a, out=vec[:, 0, 1])
+        np.subtract(trial, c_a, out=vec[:, 0, 1], where=g.ends[0])  # the own span starts at an end a
+        np.subtract(m_b, trial, out=vec[:, 1, 1])
+        np.subtract(c_b, trial, out=vec[:, 1, 1], where=g.ends[1])  # and ends at an end b
+        np.subtract(c_b, m_b, out=vec[:, 0, 2])
+        np.subtract((c_b2_partner + c_b2) / 2.0, c_b, out=vec[:, 1, 2])
         d0, d1 = vec[:, 0], vec[:, 1]
         # a span whose two halves count turns by the angle from d0 to d1 (its halves turn the
         # same way, from d0 to dm and from dm to d1: one arctan2 instead of two)
@@ -351,7 +376,7 @@ class Energy:
             smooth.put(flat_rows(one, k), first[0] * keep[0] + second[0] * keep[1])
         offset = trial - anchor
         offset2 = offset[0] ** 2 + offset[1] ** 2
-        return smooth[1] + smooth[0] + smooth[2] + offset2**2, offset2, points
+        return smooth[1] + smooth[0] + smooth[2] + offset2**2, offset2
 
     def descent(self, around: np.ndarray, anchor: np.ndarray, g: Group) -> np.ndarray:
         """(2, M, 1) unit direction of steepest descent of each member's energy at its place
@@ -400,7 +425,7 @@ class Energy:
     def clearance(self, ctrl: np.ndarray, g: Group, trial: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """(R, K) :meth:`clearance_of` the members ``rows`` at trial positions ``trial`` (R, K, 2)."""
         around = ctrl[g.around[:, rows]].transpose(0, 2, 1)[..., None]
-        points = self.points(around, g.part(rows), np.moveaxis(trial, -1, 0))  # (3, 3, 2, R, K)
+        points = self.points(around, g.ends[:, rows], np.moveaxis(trial, -1, 0))  # (3, 3, 2, R, K)
         return self.clearance_of(points.reshape(points.shape[:3] + (-1,)), g, np.repeat(rows, trial.shape[1])
                                  ).reshape(trial.shape[:2])
 
