@@ -45,6 +45,11 @@ STEP_TRIALS = 1 << 15
 #: trials whose clearance is measured in one call: bounds the memory of their distances (about
 #: 2 KB a trial: 13 points × the protected points, x and y, float64)
 CLEARANCE_PAIRS = 1 << 12
+#: at most this many movable slots are prepared in one :meth:`Energy.prepare` and each colour
+#: class is a slice of it (a sprite's four preparations are ~100 numpy calls each, most of
+#: their cost); more are prepared class by class, which bounds the preparation's temporaries
+#: (about 500 bytes a slot) on a large image
+PREPARE_ONCE = 1 << 12
 #: trials down the gradient of a slot's energy, at these multiples of ``radius`` from it (a
 #: short step where the energy curves fast, a long one where it is flat; docs/design.md)
 GRADIENT_STEPS = np.array([0.5, 2.0])
@@ -78,7 +83,7 @@ def relax(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: 
     anchor = ctrl.copy()
     energy_before = model.total(ctrl, anchor)
     rng = SplitMix64(params.seed)
-    classes = [model.prepare(m) for m in independent_classes(splines, movable) if m.size]
+    classes = _prepared_classes(model, independent_classes(splines, movable))
     active = movable  # the slots tried in this sweep
     last = np.zeros_like(ctrl)  # each slot's move in the sweep before
     for sweep in range(params.iterations):
@@ -99,6 +104,19 @@ def relax(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: 
         if not active.any():
             break
     return Relaxed(ctrl, movable, energy_before, model.total(ctrl, anchor))
+
+
+def _prepared_classes(model: Energy, classes: list[np.ndarray]) -> list[Group]:
+    """The :class:`Group` of each non-empty class of slots: slices of one preparation of them
+    all when they are at most :data:`PREPARE_ONCE` (each member's numbers are its own; only
+    the protected points' padding is wider), else one preparation a class."""
+    classes = [c for c in classes if c.size]
+    sizes = [c.size for c in classes]
+    if not classes or sum(sizes) > PREPARE_ONCE:
+        return [model.prepare(c) for c in classes]
+    whole = model.prepare(np.concatenate(classes))
+    ends = np.cumsum(sizes).tolist()
+    return [whole.part(slice(lo, hi)) for lo, hi in zip([0] + ends[:-1], ends)]
 
 
 def disc_offsets(rng: SplitMix64, members: int, candidates: int, radius: float) -> np.ndarray:
