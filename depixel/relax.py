@@ -128,11 +128,10 @@ def disc_offsets(rng: SplitMix64, members: int, candidates: int, radius: float) 
     One draw per member, not per trial."""
     draws = rng.unit_pairs(members)  # (turn θ / 2π, radial shift u) per member
     index = np.arange(candidates)
-    angle = (2.0 * np.pi) * draws[:, :1] + index * GOLDEN_ANGLE
-    rho = radius * np.sqrt((index + draws[:, 1:]) / candidates)
+    turned = np.exp((2j * np.pi) * draws[:, :1]) * np.exp((1j * GOLDEN_ANGLE) * index)  # (M, K) unit
+    turned *= radius * np.sqrt((index + draws[:, 1:]) / candidates)
     offsets = np.empty((2, members, candidates))
-    np.multiply(np.cos(angle), rho, out=offsets[0])
-    np.multiply(np.sin(angle), rho, out=offsets[1])
+    offsets[0], offsets[1] = turned.real, turned.imag
     return offsets
 
 
