@@ -276,10 +276,12 @@ class Energy:
     each number is computed by the same floating-point operations, in the same order, as
     :func:`depixel.bspline.span`, :func:`depixel.bspline.half_turns` and
     :func:`depixel.bspline.flatten` do, but for the turn of a span whose two halves count:
-    one ``arctan2`` from d0 to d1 instead of the sum of its halves' (the halves turn the same
-    way, through dm = d0 + d1, so the two agree up to rounding, except a span that doubles
-    back onto its start, P2 = P0: its halves give 0, the whole π; the most costly operation
-    of a large step, halved)."""
+    the difference of the directions of d0 and d1, wrapped into [0, π], instead of the sum of
+    its halves' (the halves turn the same way, through dm = d0 + d1, so the two agree up to
+    rounding, except a span that doubles back onto its start, P2 = P0: its halves give 0, the
+    whole π). The legs that move with a trial point two ways, from a to the member and from
+    the member to b, so the three spans of a trial take two ``arctan2`` (the most costly
+    operation of a large step) instead of six."""
 
     def __init__(self, splines: SplineSet, excluded: np.ndarray):
         self.prev, self.nxt = splines.neighbours()
@@ -363,23 +365,30 @@ class Energy:
         m_a /= 2.0
         m_b = np.add(trial, c_b)  # and the own span the span after
         m_b /= 2.0
-        np.subtract(c_a, (c_a2 + c_a2_partner) / 2.0, out=vec[:, 0, 0])
+        fixed = np.empty((2, 2, members, 1))  # d0 of the span before, d1 of the span after
+        np.subtract(c_a, (c_a2 + c_a2_partner) / 2.0, out=fixed[:, 0])
+        np.subtract((c_b2_partner + c_b2) / 2.0, c_b, out=fixed[:, 1])
+        vec[:, 0, 0], vec[:, 1, 2] = fixed[:, 0], fixed[:, 1]
         np.subtract(m_a, c_a, out=vec[:, 1, 0])
         np.subtract(trial, m_a, out=vec[:, 0, 1])
         np.subtract(trial, c_a, out=vec[:, 0, 1], where=g.ends[0])  # the own span starts at an end a
         np.subtract(m_b, trial, out=vec[:, 1, 1])
         np.subtract(c_b, trial, out=vec[:, 1, 1], where=g.ends[1])  # and ends at an end b
         np.subtract(c_b, m_b, out=vec[:, 0, 2])
-        np.subtract((c_b2_partner + c_b2) / 2.0, c_b, out=vec[:, 1, 2])
-        d0, d1 = vec[:, 0], vec[:, 1]
         # a span whose two halves count turns by the angle from d0 to d1 (its halves turn the
-        # same way, from d0 to dm and from dm to d1: one arctan2 instead of two)
-        cross = d0[0] * d1[1]
-        cross -= d0[1] * d1[0]
-        dot = d0[0] * d1[0]
-        dot += d0[1] * d1[1]
-        smooth = np.arctan2(cross, dot, out=cross)  # (3, M, K): before, own, after
+        # same way, from d0 to dm and from dm to d1), the difference of their directions; the
+        # legs that move with the trial have two directions: from a to the member (d1 of the
+        # span before, d0 of the own span) and from the member to b (d1 of the own span, d0
+        # of the span after)
+        legs = vec.reshape(2, 6, members, k)
+        moving = np.arctan2(legs[1, 2:4], legs[0, 2:4])  # (2, M, K): d0 after, d1 before
+        ends = np.arctan2(fixed[1], fixed[0])  # (2, M, 1): d0 before, d1 after
+        smooth = np.empty((3, members, k))  # before, own, after
+        np.subtract(moving[1], ends[0], out=smooth[0])
+        np.subtract(moving[0], moving[1], out=smooth[1])
+        np.subtract(ends[1], moving[0], out=smooth[2])
         np.abs(smooth, out=smooth)
+        np.minimum(smooth, 2.0 * np.pi - smooth, out=smooth)  # the turn, in [0, π]
         smooth *= g.keep[0] * g.keep[1]
         one = np.flatnonzero(g.keep[0] != g.keep[1])  # spans (s·M + m) of which one half counts
         if one.size:
