@@ -54,18 +54,24 @@ def unique_rows(points: np.ndarray) -> np.ndarray:
     key = points[..., 0] * 4096.0 + points[..., 1]
     order = np.argsort(key, axis=1)
     order += (np.arange(m) * q)[:, None]  # flat indices, by key
-    sorted_key = key.ravel().take(order)
+    key = key.ravel().take(order)  # sorted (each temporary dropped once used: this runs on every movable slot)
     kept = points[..., 0].ravel().take(order) < FAR
-    kept[:, 1:] &= sorted_key[:, 1:] != sorted_key[:, :-1]
+    kept[:, 1:] &= key[:, 1:] != key[:, :-1]
+    del key
     rank = np.cumsum(kept, axis=1)  # a kept point's rank in its row, from 1
     width = max(int(rank[:, -1].max(initial=0)) if q else 0, 1)
     rank += (np.arange(-1, m * width - 1, width))[:, None]  # its flat row in the result
-    source = order.ravel().compress(kept.ravel())
-    target = rank.ravel().compress(kept.ravel()) * 2
+    kept = kept.ravel()
+    source = order.ravel().compress(kept)
+    del order
+    target = rank.ravel().compress(kept)
+    del rank, kept
+    target *= 2
     out = np.full((m, width, 2), FAR)
     flat = out.reshape(-1)
     flat.put(target, points[..., 0].ravel().take(source))
-    flat.put(target + 1, points[..., 1].ravel().take(source))
+    target += 1
+    flat.put(target, points[..., 1].ravel().take(source))
     return out
 
 
