@@ -370,10 +370,8 @@ class Energy:
         np.subtract((c_b2_partner + c_b2) / 2.0, c_b, out=fixed[:, 1])
         vec[:, 0, 0], vec[:, 1, 2] = fixed[:, 0], fixed[:, 1]
         np.subtract(m_a, c_a, out=vec[:, 1, 0])
-        np.subtract(trial, m_a, out=vec[:, 0, 1])
-        np.subtract(trial, c_a, out=vec[:, 0, 1], where=g.ends[0])  # the own span starts at an end a
-        np.subtract(m_b, trial, out=vec[:, 1, 1])
-        np.subtract(c_b, trial, out=vec[:, 1, 1], where=g.ends[1])  # and ends at an end b
+        np.subtract(trial, np.where(g.ends[0], c_a, m_a), out=vec[:, 0, 1])  # the own span starts at a or at an end a
+        np.subtract(np.where(g.ends[1], c_b, m_b), trial, out=vec[:, 1, 1])
         np.subtract(c_b, m_b, out=vec[:, 0, 2])
         # a span whose two halves count turns by the angle from d0 to d1 (its halves turn the
         # same way, from d0 to dm and from dm to d1), the difference of their directions; the
