@@ -353,51 +353,53 @@ class Energy:
     def evaluate(self, around: np.ndarray, anchor: np.ndarray, g: Group, trial: np.ndarray
                  ) -> tuple[np.ndarray, np.ndarray]:
         """(M, K) energy of each member at ``trial`` (2, M, K), and the squared distance of each
-        trial from its ``anchor`` (2, M, 1). The spans' legs are computed from the points that
-        :meth:`points` would write, by the same operations, but without writing the points
-        (only those of the few trials whose clearance is measured are: :func:`_trial_points`):
-        the legs that do not depend on the trial are broadcast from one value a member."""
+        trial from its ``anchor`` (2, M, 1). E_s from the directions of the spans' legs (no
+        points written: only those of the few trials whose clearance is measured are,
+        :func:`_trial_points`)."""
         c_a2, c_a, _, c_b, c_b2, c_a2_partner, c_b2_partner = around
         members, k = trial.shape[1:]
-        # d0 = P1 - P0 and d1 = P2 - P1 of the three spans, x and y leading: (2, [d0, d1], 3, M, K)
-        vec = np.empty((2, 2, 3, members, k))
-        m_a = np.add(c_a, trial)  # where the span before meets the own span
-        m_a /= 2.0
-        m_b = np.add(trial, c_b)  # and the own span the span after
-        m_b /= 2.0
-        fixed = np.empty((2, 2, members, 1))  # d0 of the span before, d1 of the span after
-        np.subtract(c_a, (c_a2 + c_a2_partner) / 2.0, out=fixed[:, 0])
-        np.subtract((c_b2_partner + c_b2) / 2.0, c_b, out=fixed[:, 1])
-        vec[:, 0, 0], vec[:, 1, 2] = fixed[:, 0], fixed[:, 1]
-        np.subtract(m_a, c_a, out=vec[:, 1, 0])
-        np.subtract(trial, np.where(g.ends[0], c_a, m_a), out=vec[:, 0, 1])  # the own span starts at a or at an end a
-        np.subtract(np.where(g.ends[1], c_b, m_b), trial, out=vec[:, 1, 1])
-        np.subtract(c_b, m_b, out=vec[:, 0, 2])
-        # a span whose two halves count turns by the angle from d0 to d1 (its halves turn the
-        # same way, from d0 to dm and from dm to d1), the difference of their directions; the
-        # legs that move with the trial have two directions: from a to the member (d1 of the
-        # span before, d0 of the own span) and from the member to b (d1 of the own span, d0
-        # of the span after)
-        legs = vec.reshape(2, 6, members, k)
-        moving = np.arctan2(legs[1, 2:4], legs[0, 2:4])  # (2, M, K): d0 after, d1 before
-        ends = np.arctan2(fixed[1], fixed[0])  # (2, M, 1): d0 before, d1 after
-        smooth = np.empty((3, members, k))  # before, own, after
-        np.subtract(moving[1], ends[0], out=smooth[0])
-        np.subtract(moving[0], moving[1], out=smooth[1])
-        np.subtract(ends[1], moving[0], out=smooth[2])
-        np.abs(smooth, out=smooth)
-        np.minimum(smooth, 2.0 * np.pi - smooth, out=smooth)  # the turn, in [0, π]
+        # the directions of the legs d0, d1 of the spans before, own, after run in a chain, the
+        # d1 of one span the d0 of the next: (d0 before: fixed) a → member (d1 before, d0 own),
+        # member → b (d1 own, d0 after), (d1 after: fixed); so the three turns are differences
+        # of four directions, two arctan2 a trial
+        knots = np.empty((2, 4, members, 1))  # P0 of the span before, a, b, P2 of the span after
+        np.add(c_a2, c_a2_partner, out=knots[:, 0])
+        knots[:, 0] /= 2.0
+        np.add(c_b2_partner, c_b2, out=knots[:, 3])
+        knots[:, 3] /= 2.0
+        knots[:, 1], knots[:, 2] = c_a, c_b
+        fixed = np.arctan2(knots[1, 1::2] - knots[1, ::2], knots[0, 1::2] - knots[0, ::2])  # (2, M, 1)
+        legs = np.empty((2, 2, members, k))
+        np.subtract(trial, c_a, out=legs[:, 0])
+        np.subtract(c_b, trial, out=legs[:, 1])
+        phi = np.empty((4, members, k))  # the four directions
+        np.arctan2(legs[1], legs[0], out=phi[1:3])
+        phi[::3] = fixed
+        smooth = _turns(np.subtract(phi[1:], phi[:-1]))  # (3, M, K): before, own, after
         smooth *= g.keep[0] * g.keep[1]
         one = np.flatnonzero(g.keep[0] != g.keep[1])  # spans (s·M + m) of which one half counts
         if one.size:
-            flat = vec.reshape(2, -1, k)
-            part = np.empty((3, 1, 2, one.size, k))  # d0, dm, d1 of those spans
-            flat.take(one, axis=1, out=part[0, 0])
-            flat.take(one + 3 * members, axis=1, out=part[2, 0])
-            np.add(part[0, 0], part[2, 0], out=part[1, 0])
-            first, second = _half_turns(part)
+            # a half turns from d0 to dm = P2 - P0 or from dm to d1; the spans' end points in a
+            # chain too (the span before ends where the own one starts unless a is an open end,
+            # and then it counts no half; the same for the span after)
+            tips = np.empty((2, 4, members, k))  # P0 before, P0 own, P2 own, P2 after
+            tips[:, 0], tips[:, 3] = knots[:, 0], knots[:, 3]
+            np.add(c_a, trial, out=tips[:, 1])
+            tips[:, 1] /= 2.0
+            np.copyto(tips[:, 1], c_a, where=g.ends[0])
+            np.add(trial, c_b, out=tips[:, 2])
+            tips[:, 2] /= 2.0
+            np.copyto(tips[:, 2], c_b, where=g.ends[1])
+            tips = tips.reshape(2, -1, k)
+            chord = tips.take(one + members, axis=1) - tips.take(one, axis=1)  # dm of those spans
+            middle = np.arctan2(chord[1], chord[0])
+            flat = phi.reshape(-1, k)
+            half = np.empty((2, one.size, k))
+            np.subtract(middle, flat.take(one, axis=0), out=half[0])
+            np.subtract(flat.take(one + members, axis=0), middle, out=half[1])
+            _turns(half)
             keep = g.keep.reshape(2, -1).take(one, axis=1)[..., None]
-            smooth.put(flat_rows(one, k), first[0] * keep[0] + second[0] * keep[1])
+            smooth.put(flat_rows(one, k), half[0] * keep[0] + half[1] * keep[1])
         offset = trial - anchor
         offset2 = offset[0] ** 2 + offset[1] ** 2
         return smooth[1] + smooth[0] + smooth[2] + offset2**2, offset2
@@ -471,19 +473,11 @@ class Energy:
         return float(smooth + positional(ctrl, anchor).sum())
 
 
-def _half_turns(vec: np.ndarray) -> np.ndarray:
-    """(2, ...) :func:`depixel.bspline.half_turns` (first, second) of spans given by ``vec`` = (d0, dm, d1) on its
-    leading axis and x, y on its third, with both halves in one ``arctan2``: the first half
-    turns from d0 to dm, the second from dm to d1, so (d0, dm) and (dm, d1) are two
-    overlapping views of ``vec`` and each number is the same products in the same order."""
-    u, v = vec[:, :, 0], vec[:, :, 1]
-    from_u, from_v, to_u, to_v = u[:2], v[:2], u[1:], v[1:]  # (2, spans, ...): halves first, second
-    cross = from_u * to_v
-    cross -= from_v * to_u
-    dot = from_u * to_u
-    dot += from_v * to_v
-    turn = np.arctan2(cross, dot, out=cross)
-    return np.abs(turn, out=turn)
+def _turns(change: np.ndarray) -> np.ndarray:
+    """The turns of changes of direction (differences of ``arctan2`` angles, in (−2π, 2π)): their
+    size, the short way round, in [0, π]; in place."""
+    np.abs(change, out=change)
+    return np.minimum(change, 2.0 * np.pi - change, out=change)
 
 
 def smoothness(spans: Bezier, keep: np.ndarray) -> np.ndarray:
