@@ -390,8 +390,8 @@ class Energy:
             np.add(trial, c_b, out=tips[:, 2])
             tips[:, 2] /= 2.0
             np.copyto(tips[:, 2], c_b, where=g.ends[1])
-            tips = tips.reshape(2, -1, k)
-            chord = tips.take(one + members, axis=1) - tips.take(one, axis=1)  # dm of those spans
+            chain = tips.reshape(2, -1, k)
+            chord = chain.take(one + members, axis=1) - chain.take(one, axis=1)  # dm of those spans
             middle = np.arctan2(chord[1], chord[0])
             flat = phi.reshape(-1, k)
             half = np.empty((2, one.size, k))
