@@ -272,16 +272,16 @@ class Energy:
     """E_s + E_p of slots and their clearance from protected points, over the curve slots.
 
     The hot path keeps x and y on a leading axis (arrays ``(2, M, K)``) and the three spans
-    a member shapes stacked on another, so one step is a few dozen whole-array operations;
-    each number is computed by the same floating-point operations, in the same order, as
-    :func:`depixel.bspline.span`, :func:`depixel.bspline.half_turns` and
-    :func:`depixel.bspline.flatten` do, but for the turn of a span whose two halves count:
-    the difference of the directions of d0 and d1, wrapped into [0, π], instead of the sum of
-    its halves' (the halves turn the same way, through dm = d0 + d1, so the two agree up to
-    rounding, except a span that doubles back onto its start, P2 = P0: its halves give 0, the
-    whole π). The legs that move with a trial point two ways, from a to the member and from
-    the member to b, so the three spans of a trial take two ``arctan2`` (the most costly
-    operation of a large step) instead of six."""
+    a member shapes stacked on another, so one step is a few dozen whole-array operations.
+    The spans' points and their clearance are computed by the same floating-point operations,
+    in the same order, as :func:`depixel.bspline.span` and :func:`depixel.bspline.flatten`;
+    E_s agrees with :func:`depixel.bspline.half_turns` up to rounding: a turn is the
+    difference of two leg directions wrapped into [0, π], and a span whose two halves count
+    turns from d0 to d1 in one (its halves turn the same way, through dm = d0 + d1; except a
+    span that doubles back onto its start, P2 = P0: its halves give 0, the whole π). The legs
+    run in a chain (the d1 of a span is the d0 of the next), and those that move with a trial
+    point two ways, from a to the member and from the member to b, so the three spans of a
+    trial take two ``arctan2`` (the most costly operation of a large step) instead of six."""
 
     def __init__(self, splines: SplineSet, excluded: np.ndarray):
         self.prev, self.nxt = splines.neighbours()
