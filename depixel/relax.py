@@ -45,6 +45,10 @@ STEP_TRIALS = 1 << 15
 #: trials whose clearance is measured in one call: bounds the memory of their distances (about
 #: 2 KB a trial: 13 points × the protected points, x and y, float64)
 CLEARANCE_PAIRS = 1 << 12
+#: a step of fewer members writes the spans' end points of all of them for the spans with one
+#: half counted; a larger one, only of the members with such a span (~13 % of a frame's),
+#: which saves arithmetic but costs a few calls (a sprite's steps have ~100 members)
+SPANS_OF_FEW = 1 << 10
 #: at most this many movable slots are prepared in one :meth:`Energy.prepare` and each colour
 #: class is a slice of it (a sprite's four preparations are ~100 numpy calls each, most of
 #: their cost); more are prepared class by class, which bounds the preparation's temporaries
@@ -382,16 +386,18 @@ class Energy:
             # a half turns from d0 to dm = P2 - P0 or from dm to d1; the spans' end points in a
             # chain too (the span before ends where the own one starts unless a is an open end,
             # and then it counts no half; the same for the span after)
-            tips = np.empty((2, 4, members, k))  # P0 before, P0 own, P2 own, P2 after
-            tips[:, 0], tips[:, 3] = knots[:, 0], knots[:, 3]
-            np.add(c_a, trial, out=tips[:, 1])
-            tips[:, 1] /= 2.0
-            np.copyto(tips[:, 1], c_a, where=g.ends[0])
-            np.add(trial, c_b, out=tips[:, 2])
-            tips[:, 2] /= 2.0
-            np.copyto(tips[:, 2], c_b, where=g.ends[1])
-            chain = tips.reshape(2, -1, k)
-            chord = chain.take(one + members, axis=1) - chain.take(one, axis=1)  # dm of those spans
+            if members < SPANS_OF_FEW:
+                chain, rows, n = _span_tips(knots, c_a, c_b, g.ends, trial), one, members
+            else:  # of the members with such a span alone (~13 % of a frame's)
+                span, member = np.divmod(one, members)
+                has = np.zeros(members, bool)
+                has[member] = True
+                who = np.flatnonzero(has)
+                n = who.size
+                chain = _span_tips(knots.take(who, axis=2), c_a.take(who, axis=1), c_b.take(who, axis=1),
+                                   g.ends.take(who, axis=1), trial.take(who, axis=1))
+                rows = span * n + (np.cumsum(has) - 1).take(member)
+            chord = chain.take(rows + n, axis=1) - chain.take(rows, axis=1)  # dm of those spans
             middle = np.arctan2(chord[1], chord[0])
             flat = phi.reshape(-1, k)
             half = np.empty((2, one.size, k))
@@ -471,6 +477,23 @@ class Energy:
                      self.end.take(a)[:, None], self.end.take(b)[:, None])
         smooth = smoothness(spans, self.keep.take(p, axis=0)).sum()
         return float(smooth + positional(ctrl, anchor).sum())
+
+
+def _span_tips(knots: np.ndarray, c_a: np.ndarray, c_b: np.ndarray, ends: np.ndarray, trial: np.ndarray
+               ) -> np.ndarray:
+    """(2, 4·N, K) the end points P0 of the span before, P0 and P2 of the own span, P2 of the
+    span after, of N members at their ``trial`` (2, N, K), given :meth:`Energy.evaluate`'s
+    ``knots`` (2, 4, N, 1), a and b ``c_a``, ``c_b`` (2, N, 1) and :attr:`Group.ends`."""
+    n, k = trial.shape[1:]
+    tips = np.empty((2, 4, n, k))
+    tips[:, 0], tips[:, 3] = knots[:, 0], knots[:, 3]
+    np.add(c_a, trial, out=tips[:, 1])
+    tips[:, 1] /= 2.0
+    np.copyto(tips[:, 1], c_a, where=ends[0])
+    np.add(trial, c_b, out=tips[:, 2])
+    tips[:, 2] /= 2.0
+    np.copyto(tips[:, 2], c_b, where=ends[1])
+    return tips.reshape(2, -1, k)
 
 
 def _turns(change: np.ndarray) -> np.ndarray:
