@@ -50,9 +50,10 @@ CLEARANCE_PAIRS = 1 << 12
 #: which saves arithmetic but costs a few calls (a sprite's steps have ~100 members)
 SPANS_OF_FEW = 1 << 10
 #: at most this many movable slots are prepared in one :meth:`Energy.prepare` and each colour
-#: class is a slice of it (a sprite's four preparations are ~100 numpy calls each, most of
-#: their cost); more are prepared class by class, which bounds the preparation's temporaries
-#: (about 500 bytes a slot) on a large image
+#: class is a slice of it (a sprite's 3-4 preparations were ~15 % of its relaxation, mostly
+#: their numpy calls); more are prepared class by class, which bounds the preparation's
+#: temporaries on a large image (all at once raised the 512² stripes' peak to ~1245 bytes a
+#: pixel: docs/performance.md)
 PREPARE_ONCE = 1 << 12
 #: trials down the gradient of a slot's energy, at these multiples of ``radius`` from it (a
 #: short step where the energy curves fast, a long one where it is flat; docs/design.md)
