@@ -43,8 +43,7 @@ def link_corners(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     quarter pixel off a lattice point in both x and y: the point the link splits), and the
     nearest lattice point (quarter pixels, float)."""
     lattice = 4 * np.round(q / 4.0)
-    off = np.abs(q - lattice) == 1
-    return off[..., 0] & off[..., 1], lattice  # (not .all(axis=-1): a reduction over an axis of two is slow)
+    return (np.abs(q - lattice) == 1).all(axis=-1), lattice
 
 
 @dataclass(frozen=True, eq=False)
