@@ -47,20 +47,32 @@ def protected_points(splines: SplineSet, slots: np.ndarray | slice = slice(None)
 def unique_rows(points: np.ndarray) -> np.ndarray:
     """(M, Q, 2) → (M, Q', 2): each row's distinct points first, padded with :data:`FAR`.
 
-    The points are ordered by a key of both coordinates, sorted as indices (one gather of
-    the points at the end, flat ``take`` instead of ``take_along_axis``)."""
+    The points are ordered by a key of both coordinates, sorted as indices; each kept point
+    goes to its rank among its row's kept ones (a running count: no second sort), its x and
+    y written by two flat ``put`` (no ``take_along_axis``, no (N, 2) rows gathered)."""
     m, q = points.shape[:2]
     key = points[..., 0] * 4096.0 + points[..., 1]
-    base = (np.arange(m) * q)[:, None]
-    order = np.argsort(key, axis=1) + base  # flat indices, by key
-    sorted_key = key.ravel().take(order)
-    drop = points[..., 0].ravel().take(order) >= FAR
-    drop[:, 1:] |= sorted_key[:, 1:] == sorted_key[:, :-1]
-    count = q - drop.sum(axis=1)
-    width = max(int(count.max(initial=0)), 1)
-    kept = order.ravel().take(np.argsort(drop, axis=1, kind="stable")[:, :width] + base)  # the kept ones first
-    pts = points.reshape(-1, 2).take(kept.ravel(), axis=0).reshape(m, width, 2)
-    return np.where((np.arange(width) < count[:, None])[..., None], pts, FAR)
+    order = np.argsort(key, axis=1)
+    order += (np.arange(m) * q)[:, None]  # flat indices, by key
+    key = key.ravel().take(order)  # sorted (each temporary dropped once used: this runs on every movable slot)
+    kept = points[..., 0].ravel().take(order) < FAR
+    kept[:, 1:] &= key[:, 1:] != key[:, :-1]
+    del key
+    rank = np.cumsum(kept, axis=1)  # a kept point's rank in its row, from 1
+    width = max(int(rank[:, -1].max(initial=0)) if q else 0, 1)
+    rank += (np.arange(-1, m * width - 1, width))[:, None]  # its flat row in the result
+    kept = kept.ravel()
+    source = order.ravel().compress(kept)
+    del order
+    target = rank.ravel().compress(kept)
+    del rank, kept
+    target *= 2
+    out = np.full((m, width, 2), FAR)
+    flat = out.reshape(-1)
+    flat.put(target, points[..., 0].ravel().take(source))
+    target += 1
+    flat.put(target, points[..., 1].ravel().take(source))
+    return out
 
 
 def centre_clearance(image: VectorImage, pixels: np.ndarray | None = None, samples: int = 3) -> np.ndarray:

@@ -45,6 +45,16 @@ STEP_TRIALS = 1 << 15
 #: trials whose clearance is measured in one call: bounds the memory of their distances (about
 #: 2 KB a trial: 13 points × the protected points, x and y, float64)
 CLEARANCE_PAIRS = 1 << 12
+#: a step of fewer members writes the spans' end points of all of them for the spans with one
+#: half counted; a larger one, only of the members with such a span (~13 % of a frame's),
+#: which saves arithmetic but costs a few calls (a sprite's steps have ~100 members)
+SPANS_OF_FEW = 1 << 10
+#: at most this many movable slots are prepared in one :meth:`Energy.prepare` and each colour
+#: class is a slice of it (a sprite's 3-4 preparations were ~15 % of its relaxation, mostly
+#: their numpy calls); more are prepared class by class, which bounds the preparation's
+#: temporaries on a large image (all at once raised the 512² stripes' peak to ~1245 bytes a
+#: pixel: docs/performance.md)
+PREPARE_ONCE = 1 << 12
 #: trials down the gradient of a slot's energy, at these multiples of ``radius`` from it (a
 #: short step where the energy curves fast, a long one where it is flat; docs/design.md)
 GRADIENT_STEPS = np.array([0.5, 2.0])
@@ -78,7 +88,7 @@ def relax(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: 
     anchor = ctrl.copy()
     energy_before = model.total(ctrl, anchor)
     rng = SplitMix64(params.seed)
-    classes = [model.prepare(m) for m in independent_classes(splines, movable) if m.size]
+    classes = _prepared_classes(model, independent_classes(splines, movable))
     active = movable  # the slots tried in this sweep
     last = np.zeros_like(ctrl)  # each slot's move in the sweep before
     for sweep in range(params.iterations):
@@ -95,10 +105,24 @@ def relax(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: 
             set_rows(ctrl, group.members, step(model, ctrl, anchor, group, offsets, params, last if sweep else None))
         ctrl = splines.snap(ctrl)  # ends that sit on a moved curve follow it
         np.subtract(ctrl, before, out=last)
-        active = model.near((last != 0).any(axis=1)) & movable
+        moved = last != 0
+        active = model.near(moved[:, 0] | moved[:, 1]) & movable  # (not .any(axis=1): slow over an axis of two)
         if not active.any():
             break
     return Relaxed(ctrl, movable, energy_before, model.total(ctrl, anchor))
+
+
+def _prepared_classes(model: Energy, classes: list[np.ndarray]) -> list[Group]:
+    """The :class:`Group` of each non-empty class of slots: slices of one preparation of them
+    all when they are at most :data:`PREPARE_ONCE` (each member's numbers are its own; only
+    the protected points' padding is wider), else one preparation a class."""
+    classes = [c for c in classes if c.size]
+    sizes = [c.size for c in classes]
+    if not classes or sum(sizes) > PREPARE_ONCE:
+        return [model.prepare(c) for c in classes]
+    whole = model.prepare(np.concatenate(classes))
+    ends = np.cumsum(sizes).tolist()
+    return [whole.part(slice(lo, hi)) for lo, hi in zip([0] + ends[:-1], ends)]
 
 
 def disc_offsets(rng: SplitMix64, members: int, candidates: int, radius: float) -> np.ndarray:
@@ -110,11 +134,10 @@ def disc_offsets(rng: SplitMix64, members: int, candidates: int, radius: float) 
     One draw per member, not per trial."""
     draws = rng.unit_pairs(members)  # (turn θ / 2π, radial shift u) per member
     index = np.arange(candidates)
-    angle = (2.0 * np.pi) * draws[:, :1] + index * GOLDEN_ANGLE
-    rho = radius * np.sqrt((index + draws[:, 1:]) / candidates)
+    turned = np.exp((2j * np.pi) * draws[:, :1]) * np.exp((1j * GOLDEN_ANGLE) * index)  # (M, K) unit
+    turned *= radius * np.sqrt((index + draws[:, 1:]) / candidates)
     offsets = np.empty((2, members, candidates))
-    np.multiply(np.cos(angle), rho, out=offsets[0])
-    np.multiply(np.sin(angle), rho, out=offsets[1])
+    offsets[0], offsets[1] = turned.real, turned.imag
     return offsets
 
 
@@ -159,7 +182,7 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
     np.add(here, descent * (params.radius * GRADIENT_STEPS), out=trial[:, :, k + 1:grad])
     if repeat is not None:
         np.add(here, repeat, out=trial[:, :, grad:])
-    energy, offset2, points = model.evaluate(around, home, group, trial)
+    energy, offset2 = model.evaluate(around, home, group, trial)
     too_far = offset2 > params.max_offset**2
     too_far[:, 0] = False
     np.putmask(energy, too_far, np.inf)  # never taken
@@ -171,15 +194,16 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
     # cannot be taken: staying is always allowed and wins ties), of which the best one allowed
     # is taken. Each number is the one a clearance of every trial would give (a minimum)
     trials = trial.shape[-1]
-    flat = points.reshape(points.shape[:3] + (-1,))  # (3, 3, 2, M·T): trial t of member m at m·T + t
     rows = np.flatnonzero(best > 0)
     if rows.size:
         chosen = best.take(rows)
-        near = model.clearance_of(flat.take(rows * trials + chosen, axis=-1), group, rows)
+        # the spans at the best trial and at staying, of every member moving (one call)
+        points = _trial_points(around, group, trial, rows, np.stack([chosen, np.zeros_like(chosen)], axis=1))
+        near = model.clearance_of(points[..., 0], group, rows)
         close = near < params.centre_clearance
         rows, chosen, near = rows.compress(close), chosen.compress(close), near.compress(close)
     if rows.size:
-        stay = model.clearance_of(flat.take(rows * trials, axis=-1), group, rows)
+        stay = model.clearance_of(points[..., 1].compress(close, axis=-1), group, rows)
         closer = near < stay
         rows, chosen, stay = rows.compress(closer), chosen.compress(closer), stay.compress(closer)
     if rows.size:
@@ -191,11 +215,21 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
         pick, at = np.nonzero(lower)  # (row, trial) pairs
         for part in batch_slices(pick.size, CLEARANCE_PAIRS):
             member = rows.take(pick[part])
-            clear = model.clearance_of(flat.take(member * trials + at[part], axis=-1), group, member)
+            clear = model.clearance_of(_trial_points(around, group, trial, member, at[part, None])[..., 0], group,
+                                       member)
             refused = np.flatnonzero((clear < params.centre_clearance) & (clear < stay.take(pick[part])))
             energy.ravel()[pick[part].take(refused) * trials + at[part].take(refused)] = np.inf
         best[rows] = np.argmin(energy, axis=1)
     return trial.reshape(2, -1).take(np.arange(0, best.size * trials, trials) + best, axis=1)  # (2, M)
+
+
+def _trial_points(around: np.ndarray, group: Group, trial: np.ndarray, rows: np.ndarray, at: np.ndarray
+                  ) -> np.ndarray:
+    """(3, 3, 2, N, J) :meth:`Energy.points` of the members ``rows`` (N,) at their trials
+    ``at`` (N, J) (columns of ``trial`` (2, M, T)), for ``around`` as in :func:`_best_trials`."""
+    flat = rows[:, None] * trial.shape[-1] + at
+    chosen = trial.reshape(2, -1).take(flat.ravel(), axis=1).reshape((2,) + flat.shape)
+    return Energy.points(around.take(rows, axis=2), group.ends.take(rows, axis=1), chosen)
 
 
 @dataclass(frozen=True, eq=False)
@@ -244,14 +278,16 @@ class Energy:
     """E_s + E_p of slots and their clearance from protected points, over the curve slots.
 
     The hot path keeps x and y on a leading axis (arrays ``(2, M, K)``) and the three spans
-    a member shapes stacked on another, so one step is a few dozen whole-array operations;
-    each number is computed by the same floating-point operations, in the same order, as
-    :func:`depixel.bspline.span`, :func:`depixel.bspline.half_turns` and
-    :func:`depixel.bspline.flatten` do, but for the turn of a span whose two halves count:
-    one ``arctan2`` from d0 to d1 instead of the sum of its halves' (the halves turn the same
-    way, through dm = d0 + d1, so the two agree up to rounding, except a span that doubles
-    back onto its start, P2 = P0: its halves give 0, the whole π; the most costly operation
-    of a large step, halved)."""
+    a member shapes stacked on another, so one step is a few dozen whole-array operations.
+    The spans' points and their clearance are computed by the same floating-point operations,
+    in the same order, as :func:`depixel.bspline.span` and :func:`depixel.bspline.flatten`;
+    E_s agrees with :func:`depixel.bspline.half_turns` up to rounding: a turn is the
+    difference of two leg directions wrapped into [0, π], and a span whose two halves count
+    turns from d0 to d1 in one (its halves turn the same way, through dm = d0 + d1; except a
+    span that doubles back onto its start, P2 = P0: its halves give 0, the whole π). The legs
+    run in a chain (the d1 of a span is the d0 of the next), and those that move with a trial
+    point two ways, from a to the member and from the member to b, so the three spans of a
+    trial take two ``arctan2`` (the most costly operation of a large step) instead of six."""
 
     def __init__(self, splines: SplineSet, excluded: np.ndarray):
         self.prev, self.nxt = splines.neighbours()
@@ -297,10 +333,11 @@ class Energy:
         )
 
     @staticmethod
-    def points(around: np.ndarray, g: Group, trial: np.ndarray) -> np.ndarray:
+    def points(around: np.ndarray, ends: np.ndarray, trial: np.ndarray) -> np.ndarray:
         """The three spans (before, own, after) of each member at ``trial`` (2, M, K), for
-        ``around`` = ``ctrl[g.around]`` as (7, 2, M, 1): ``(3, 3, 2, M, K)``, [Bézier point
-        P0-P2, span, coordinate], written in place (no temporaries, no ``np.where``)."""
+        ``around`` = ``ctrl[g.around]`` as (7, 2, M, 1) and ``ends`` its :attr:`Group.ends`:
+        ``(3, 3, 2, M, K)``, [Bézier point P0-P2, span, coordinate], written in place (no
+        temporaries, no ``np.where``)."""
         c_a2, c_a, _, c_b, c_b2, c_a2_partner, c_b2_partner = around
         points = np.empty((3, 3) + trial.shape)
         m_a, m_b = points[2, 0], points[0, 2]
@@ -311,47 +348,69 @@ class Energy:
         np.add(c_a2, c_a2_partner, out=points[0, 0])
         np.divide(points[0, 0], 2.0, out=points[0, 0])
         np.copyto(points[0, 1], m_a)
-        np.copyto(points[0, 1], c_a, where=g.ends[0])
+        np.copyto(points[0, 1], c_a, where=ends[0])
         points[1, 0], points[1, 1], points[1, 2] = c_a, trial, c_b
         np.copyto(points[2, 1], m_b)
-        np.copyto(points[2, 1], c_b, where=g.ends[1])
+        np.copyto(points[2, 1], c_b, where=ends[1])
         np.add(c_b2_partner, c_b2, out=points[2, 2])
         np.divide(points[2, 2], 2.0, out=points[2, 2])
         return points
 
     def evaluate(self, around: np.ndarray, anchor: np.ndarray, g: Group, trial: np.ndarray
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(M, K) energy of each member at ``trial`` (2, M, K), the squared distance of each
-        trial from its ``anchor`` (2, M, 1), and the spans' :meth:`points`."""
-        points = self.points(around, g, trial)
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """(M, K) energy of each member at ``trial`` (2, M, K), and the squared distance of each
+        trial from its ``anchor`` (2, M, 1). E_s from the directions of the spans' legs (no
+        points written: only those of the few trials whose clearance is measured are,
+        :func:`_trial_points`)."""
+        c_a2, c_a, _, c_b, c_b2, c_a2_partner, c_b2_partner = around
         members, k = trial.shape[1:]
-        # d0 = P1 - P0 and d1 = P2 - P1 of the three spans, x and y leading: (2, [d0, d1], 3, M, K)
-        vec = np.empty((2, 2) + points.shape[1:2] + trial.shape[1:])
-        np.subtract(points[1], points[0], out=vec[:, 0].swapaxes(0, 1))
-        np.subtract(points[2], points[1], out=vec[:, 1].swapaxes(0, 1))
-        d0, d1 = vec[:, 0], vec[:, 1]
-        # a span whose two halves count turns by the angle from d0 to d1 (its halves turn the
-        # same way, from d0 to dm and from dm to d1: one arctan2 instead of two)
-        cross = d0[0] * d1[1]
-        cross -= d0[1] * d1[0]
-        dot = d0[0] * d1[0]
-        dot += d0[1] * d1[1]
-        smooth = np.arctan2(cross, dot, out=cross)  # (3, M, K): before, own, after
-        np.abs(smooth, out=smooth)
+        # the directions of the legs d0, d1 of the spans before, own, after run in a chain, the
+        # d1 of one span the d0 of the next: (d0 before: fixed) a → member (d1 before, d0 own),
+        # member → b (d1 own, d0 after), (d1 after: fixed); so the three turns are differences
+        # of four directions, two arctan2 a trial
+        knots = np.empty((2, 4, members, 1))  # P0 of the span before, a, b, P2 of the span after
+        np.add(c_a2, c_a2_partner, out=knots[:, 0])
+        knots[:, 0] /= 2.0
+        np.add(c_b2_partner, c_b2, out=knots[:, 3])
+        knots[:, 3] /= 2.0
+        knots[:, 1], knots[:, 2] = c_a, c_b
+        fixed = np.arctan2(knots[1, 1::2] - knots[1, ::2], knots[0, 1::2] - knots[0, ::2])  # (2, M, 1)
+        legs = np.empty((2, 2, members, k))
+        np.subtract(trial, c_a, out=legs[:, 0])
+        np.subtract(c_b, trial, out=legs[:, 1])
+        phi = np.empty((4, members, k))  # the four directions
+        np.arctan2(legs[1], legs[0], out=phi[1:3])
+        phi[::3] = fixed
+        smooth = _turns(np.subtract(phi[1:], phi[:-1]))  # (3, M, K): before, own, after
         smooth *= g.keep[0] * g.keep[1]
         one = np.flatnonzero(g.keep[0] != g.keep[1])  # spans (s·M + m) of which one half counts
         if one.size:
-            flat = vec.reshape(2, -1, k)
-            part = np.empty((3, 1, 2, one.size, k))  # d0, dm, d1 of those spans
-            flat.take(one, axis=1, out=part[0, 0])
-            flat.take(one + 3 * members, axis=1, out=part[2, 0])
-            np.add(part[0, 0], part[2, 0], out=part[1, 0])
-            first, second = _half_turns(part)
+            # a half turns from d0 to dm = P2 - P0 or from dm to d1; the spans' end points in a
+            # chain too (the span before ends where the own one starts unless a is an open end,
+            # and then it counts no half; the same for the span after)
+            if members < SPANS_OF_FEW:
+                chain, rows, n = _span_tips(knots, c_a, c_b, g.ends, trial), one, members
+            else:  # of the members with such a span alone (~13 % of a frame's)
+                span, member = np.divmod(one, members)
+                has = np.zeros(members, bool)
+                has[member] = True
+                who = np.flatnonzero(has)
+                n = who.size
+                chain = _span_tips(knots.take(who, axis=2), c_a.take(who, axis=1), c_b.take(who, axis=1),
+                                   g.ends.take(who, axis=1), trial.take(who, axis=1))
+                rows = span * n + (np.cumsum(has) - 1).take(member)
+            chord = chain.take(rows + n, axis=1) - chain.take(rows, axis=1)  # dm of those spans
+            middle = np.arctan2(chord[1], chord[0])
+            flat = phi.reshape(-1, k)
+            half = np.empty((2, one.size, k))
+            np.subtract(middle, flat.take(one, axis=0), out=half[0])
+            np.subtract(flat.take(one + members, axis=0), middle, out=half[1])
+            _turns(half)
             keep = g.keep.reshape(2, -1).take(one, axis=1)[..., None]
-            smooth.put(flat_rows(one, k), first[0] * keep[0] + second[0] * keep[1])
+            smooth.put(flat_rows(one, k), half[0] * keep[0] + half[1] * keep[1])
         offset = trial - anchor
         offset2 = offset[0] ** 2 + offset[1] ** 2
-        return smooth[1] + smooth[0] + smooth[2] + offset2**2, offset2, points
+        return smooth[1] + smooth[0] + smooth[2] + offset2**2, offset2
 
     def descent(self, around: np.ndarray, anchor: np.ndarray, g: Group) -> np.ndarray:
         """(2, M, 1) unit direction of steepest descent of each member's energy at its place
@@ -400,7 +459,7 @@ class Energy:
     def clearance(self, ctrl: np.ndarray, g: Group, trial: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """(R, K) :meth:`clearance_of` the members ``rows`` at trial positions ``trial`` (R, K, 2)."""
         around = ctrl[g.around[:, rows]].transpose(0, 2, 1)[..., None]
-        points = self.points(around, g.part(rows), np.moveaxis(trial, -1, 0))  # (3, 3, 2, R, K)
+        points = self.points(around, g.ends[:, rows], np.moveaxis(trial, -1, 0))  # (3, 3, 2, R, K)
         return self.clearance_of(points.reshape(points.shape[:3] + (-1,)), g, np.repeat(rows, trial.shape[1])
                                  ).reshape(trial.shape[:2])
 
@@ -422,19 +481,28 @@ class Energy:
         return float(smooth + positional(ctrl, anchor).sum())
 
 
-def _half_turns(vec: np.ndarray) -> np.ndarray:
-    """(2, ...) :func:`depixel.bspline.half_turns` (first, second) of spans given by ``vec`` = (d0, dm, d1) on its
-    leading axis and x, y on its third, with both halves in one ``arctan2``: the first half
-    turns from d0 to dm, the second from dm to d1, so (d0, dm) and (dm, d1) are two
-    overlapping views of ``vec`` and each number is the same products in the same order."""
-    u, v = vec[:, :, 0], vec[:, :, 1]
-    from_u, from_v, to_u, to_v = u[:2], v[:2], u[1:], v[1:]  # (2, spans, ...): halves first, second
-    cross = from_u * to_v
-    cross -= from_v * to_u
-    dot = from_u * to_u
-    dot += from_v * to_v
-    turn = np.arctan2(cross, dot, out=cross)
-    return np.abs(turn, out=turn)
+def _span_tips(knots: np.ndarray, c_a: np.ndarray, c_b: np.ndarray, ends: np.ndarray, trial: np.ndarray
+               ) -> np.ndarray:
+    """(2, 4·N, K) the end points P0 of the span before, P0 and P2 of the own span, P2 of the
+    span after, of N members at their ``trial`` (2, N, K), given :meth:`Energy.evaluate`'s
+    ``knots`` (2, 4, N, 1), a and b ``c_a``, ``c_b`` (2, N, 1) and :attr:`Group.ends`."""
+    n, k = trial.shape[1:]
+    tips = np.empty((2, 4, n, k))
+    tips[:, 0], tips[:, 3] = knots[:, 0], knots[:, 3]
+    np.add(c_a, trial, out=tips[:, 1])
+    tips[:, 1] /= 2.0
+    np.copyto(tips[:, 1], c_a, where=ends[0])
+    np.add(trial, c_b, out=tips[:, 2])
+    tips[:, 2] /= 2.0
+    np.copyto(tips[:, 2], c_b, where=ends[1])
+    return tips.reshape(2, -1, k)
+
+
+def _turns(change: np.ndarray) -> np.ndarray:
+    """The turns of changes of direction (differences of ``arctan2`` angles, in (−2π, 2π)): their
+    size, the short way round, in [0, π]; in place."""
+    np.abs(change, out=change)
+    return np.minimum(change, 2.0 * np.pi - change, out=change)
 
 
 def smoothness(spans: Bezier, keep: np.ndarray) -> np.ndarray:
@@ -445,7 +513,8 @@ def smoothness(spans: Bezier, keep: np.ndarray) -> np.ndarray:
 
 def positional(p: np.ndarray, anchor: np.ndarray) -> np.ndarray:
     """E_p = ‖p − p̂‖⁴ (the paper's fourth power: free near home, stiff beyond)."""
-    return (((p - anchor) ** 2).sum(axis=-1)) ** 2
+    square = np.square(p - anchor)
+    return (square[..., 0] + square[..., 1]) ** 2  # (the sum of an axis of two, without its slow reduction)
 
 
 def independent_classes(splines: SplineSet, movable: np.ndarray) -> list[np.ndarray]:

@@ -490,6 +490,43 @@ def test_the_clearance_of_the_trials_weighed_in_batches_moves_the_same(monkeypat
     assert np.array_equal(single.ctrl, whole.ctrl) and single.energy_after == whole.energy_after
 
 
+def test_a_small_drawing_is_prepared_once_and_moves_as_when_prepared_class_by_class(monkeypatch):
+    # up to PREPARE_ONCE movable slots, one Energy.prepare of them all, each colour class a
+    # slice of it; above, one a class: the same moves either way (each member's numbers are its own)
+    splines = split_at(*(lambda s: (s, detect_corners(s, Params()).nodes))(splines_of(art(BLOB))))
+    corners = np.zeros(len(splines.positions), bool)
+    excluded = np.zeros((splines.n_slots, 2), bool)
+    calls: list[int] = []
+    prepare = Energy.prepare
+    monkeypatch.setattr(Energy, "prepare", lambda self, m: calls.append(m.size) or prepare(self, m))
+    once = relax(splines, splines.positions, corners, excluded)
+    assert len(calls) == 1 and calls[0] == once.movable.sum()
+    calls.clear()
+    monkeypatch.setattr(relax_module, "PREPARE_ONCE", int(once.movable.sum()) - 1)
+    by_class = relax(splines, splines.positions, corners, excluded)
+    assert len(calls) >= 3 and sum(calls) == once.movable.sum()
+    assert np.array_equal(by_class.ctrl, once.ctrl) and by_class.energy_after == once.energy_after
+
+
+def test_the_chords_of_half_counted_spans_are_the_same_from_the_members_that_have_them(monkeypatch):
+    # a large step writes the spans' end points of only the members with a half-counted span
+    # (next to a corner), a small one of all of them: the same energies, so the same moves
+    optimized = depixelize(art(BLOB)).optimized
+    splines, corners = optimized.splines, optimized.corners
+    excluded, start = excluded_halves(splines, corners.nodes), corners.place(splines)
+    span_tips = relax_module._span_tips
+    results, written = {}, {}
+    for path, few in (("all", 1 << 10), ("some", 0)):
+        sizes: list[int] = []  # members whose end points are written, call by call
+        monkeypatch.setattr(relax_module, "SPANS_OF_FEW", few)
+        monkeypatch.setattr(relax_module, "_span_tips", lambda *a, sizes=sizes: sizes.append(a[-1].shape[1])
+                            or span_tips(*a))
+        results[path], written[path] = relax(splines, start, corners.nodes, excluded), sum(sizes)
+    assert 0 < written["some"] < written["all"]
+    assert np.array_equal(results["some"].ctrl, results["all"].ctrl)
+    assert results["some"].energy_after == results["all"].energy_after
+
+
 # --- the trials down the gradient -----------------------------------------------------------------
 
 
