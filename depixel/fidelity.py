@@ -104,8 +104,8 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
     size = cells.cell_ptr.take(px + 1) - first
     edge = cells.cell_edges.take(ranges(first, size))
     pix = np.repeat(px, size)
-    rows, cols = np.divmod(pix, w)
-    cx, cy = cols + 0.5, rows + 0.5
+    rows, cols = np.divmod(px, w)  # per pixel, then spread over its pairs
+    cx, cy = np.repeat(cols + 0.5, size), np.repeat(rows + 0.5, size)
     del rows, cols
     # everything below as x and y columns, a pair at a time: numpy runs the rows of an
     # (N, 2) array two elements at a time
@@ -146,19 +146,28 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
     if np.isfinite(below):
         # each pair's edge box (a curve's with its Bézier controls), then the pair's centre
         # against it; the boxes are dropped before the near pairs are measured
-        lo_x, hi_x, lo_y, hi_y = np.minimum(ax, bx), np.maximum(ax, bx), np.minimum(ay, by), np.maximum(ay, by)
         curved = np.flatnonzero(bent)
-        if curved.size:
-            controls = drawing.controls.take(control_row.take(edge.take(curved)), axis=0)
-            c = [controls[:, i, axis] for axis in range(2) for i in range(3)]  # x of c0, c1, c2, y of them
-            lo_x[curved] = np.minimum(np.minimum(np.minimum(lo_x.take(curved), c[0]), c[1]), c[2])
-            hi_x[curved] = np.maximum(np.maximum(np.maximum(hi_x.take(curved), c[0]), c[1]), c[2])
-            lo_y[curved] = np.minimum(np.minimum(np.minimum(lo_y.take(curved), c[3]), c[4]), c[5])
-            hi_y[curved] = np.maximum(np.maximum(np.maximum(hi_y.take(curved), c[3]), c[4]), c[5])
-            del controls, c
-        right = lo_x - cx > below
-        far = right | (cx - hi_x > below) | (lo_y - cy > below) | (cy - hi_y > below)
-        del lo_x, hi_x, lo_y, hi_y, curved
+        if curved.size:  # x and y of c0, of c1, of c2
+            c = drawing.controls.take(control_row.take(edge.take(curved)), axis=0).reshape(-1, 6).T
+        # one side of the boxes at a time in one buffer (the side, then its distance beyond
+        # the centre): a pair table a frame's size costs more in fresh pages than in arithmetic
+        side = np.empty(edge.size)
+        beyond = np.empty(edge.size, bool)
+        far = np.zeros(edge.size, bool)
+        for axis, (a, b, centre) in enumerate(((ax, bx, cx), (ay, by, cy))):
+            for extreme in (np.minimum, np.maximum):
+                extreme(a, b, out=side)
+                if curved.size:
+                    side[curved] = extreme(extreme(extreme(side.take(curved), c[axis]), c[2 + axis]), c[4 + axis])
+                if extreme is np.minimum:
+                    np.subtract(side, centre, out=side)
+                else:
+                    np.subtract(centre, side, out=side)
+                np.greater(side, below, out=beyond)
+                far |= beyond
+                if axis == 0 and extreme is np.minimum:
+                    right = beyond.copy()  # the box lies right of the centre
+        del side, beyond, curved
         count = np.bincount(pix.compress(right & ((ay > cy) != (by > cy))), minlength=n_px)
         del right
         near_count, nearest2 = measure(np.flatnonzero(~far))
@@ -169,9 +178,10 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
             nearest2 = np.minimum(nearest2, measure(again)[1])
     else:
         count, nearest2 = measure(np.arange(edge.size))
-    nearest = np.sqrt(nearest2)
-    inside = count % 2 == 1
-    return np.where(wanted, np.where(inside, nearest, -nearest), np.inf)
+    nearest = np.sqrt(nearest2, out=nearest2)  # in place: nearest2 is this call's own
+    np.negative(nearest, out=nearest, where=count % 2 == 0)  # outside
+    np.copyto(nearest, np.inf, where=~wanted)
+    return nearest
 
 
 def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.ndarray, margin: float,
