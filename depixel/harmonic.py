@@ -121,24 +121,17 @@ class _NeighbourSums:
     few whole-row additions, instead of a gather and a scatter into fresh arrays."""
 
     def __init__(self, fu: np.ndarray, fv: np.ndarray, m: int) -> None:
-        ahead, behind = self._table(fu, fv, m), self._table(fv, fu, m)
-        self.ahead = len(ahead)
-        self.table = np.concatenate([ahead, behind])  # indices into the (2M + 1,) padded values
+        (rank_u, self.ahead), (rank_v, behind) = _ranks(fu, m), _ranks(fv, m)
+        # indices into the (2M + 1,) padded values: the edges at u, then those at v; a
+        # column per unknown, x row then y row
+        self.table = np.full((self.ahead + behind, 2 * m), 2 * m)
+        flat = self.table.reshape(-1)
+        for rank, at, other in ((rank_u, fu, fv), (rank_v + self.ahead, fv, fu)):
+            place = rank * (2 * m) + at
+            flat.put(place, other)
+            flat.put(place + m, other + m)
         self.padded = np.zeros(2 * m + 1)  # the values, then the zero
         self.gathered = np.empty(self.table.shape)
-
-    @staticmethod
-    def _table(at: np.ndarray, other: np.ndarray, m: int) -> np.ndarray:
-        """(width, 2M) the ``other`` ends of the edges at each node, in edge order down a
-        column, x row then y row; 2M (the zero) where a node has fewer edges."""
-        order = np.argsort(at, kind="stable")
-        node, ends = at.take(order), other.take(order)
-        count = np.bincount(node, minlength=m)
-        rank = np.arange(node.size) - np.repeat(np.cumsum(count) - count, count)
-        table = np.full((max(int(count.max(initial=0)), 1), 2 * m), 2 * m)
-        table[rank, node] = ends
-        table[rank, node + m] = ends + m
-        return table
 
     def of(self, x: np.ndarray) -> np.ndarray:
         """(2M,) the neighbour sums of ``x`` (2, M), flattened: a buffer the next call reuses."""
@@ -151,6 +144,25 @@ class _NeighbourSums:
             behind += row
         ahead += behind
         return ahead
+
+
+def _ranks(at: np.ndarray, m: int) -> tuple[np.ndarray, int]:
+    """Each edge's place among the edges at the same node ``at`` (of M), in edge order, and
+    the most edges at a node (at least 1): the first edge at each node found by a minimum
+    per node, then the first of the rest, and so on (a cell graph node has at most four
+    edges; no sort)."""
+    rank = np.zeros(at.size, np.int64)
+    rest = np.arange(at.size)
+    width = 0
+    while rest.size:
+        nodes = at.take(rest)
+        first = np.full(m, at.size)
+        np.minimum.at(first, nodes, rest)
+        later = first.take(nodes) != rest
+        rest = rest.compress(later)
+        width += 1
+        rank[rest] = width
+    return rank, max(width, 1)
 
 
 def follow(display: np.ndarray, before: np.ndarray, after: np.ndarray) -> np.ndarray:
