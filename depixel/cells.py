@@ -201,9 +201,19 @@ def _cell_polygons(split_main: np.ndarray, split_anti: np.ndarray,
         if there is not None:
             present[:, k] = there.ravel()
     present = present.ravel()
-    forward = np.array([right for _, right, _ in slots])
+    backward = np.array([not right for _, right, _ in slots])
     cell_edges = edge.ravel().compress(present)
-    start = np.where(forward, edges[:, 0].take(edge), edges[:, 1].take(edge))  # where each half-edge starts
+    # where each half-edge starts: u where the pixel is on the edge's right, else v, read
+    # from the flattened (E, 2) edges at 2e or 2e + 1 (one gather of the present slots, no
+    # strided column gathers of every slot)
+    end = edge.astype(np.int64)
+    end *= 2
+    end += backward
+    start = edges.ravel().take(end.ravel().compress(present))
+    del end
     cell_ptr = np.zeros(h * w + 1, dtype=INDEX)
-    np.cumsum(present.reshape(h * w, len(slots)).sum(axis=1), out=cell_ptr[1:])
-    return cell_ptr, start.ravel().compress(present), cell_edges
+    # a pixel's eight presence flags (bytes 0 or 1) are one 8-byte word: their sum is the
+    # word's top byte after a multiplication by 0x0101010101010101 (no carries: a sum ≤ 8)
+    flags = present.reshape(h * w, len(slots)).view(np.uint64).ravel()
+    np.cumsum(flags * np.uint64(0x0101010101010101) >> np.uint64(56), dtype=INDEX, out=cell_ptr[1:])
+    return cell_ptr, start, cell_edges
