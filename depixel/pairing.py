@@ -46,14 +46,14 @@ def visible_edges(cells: CellGraph, linked: np.ndarray | None = None) -> np.ndar
     """(E,) bool: edges between two pixels that are not linked (dissimilar colours);
     ``linked`` is :func:`linked_edges` if the caller has it."""
     linked = linked_edges(cells) if linked is None else linked
-    return (np.minimum(cells.edge_pixels[:, 0], cells.edge_pixels[:, 1]) >= 0) & ~linked
+    return _both_inside(cells) & ~linked
 
 
 def shading_edges(cells: CellGraph, visible: np.ndarray, params: Params) -> np.ndarray:
     """(E,) bool: visible edges whose two colours are within ``shading_distance`` in YUV."""
     g = cells.graph
     at = np.flatnonzero(visible)  # only they can be shading edges
-    left, right = cells.edge_pixels[:, 0].take(at), cells.edge_pixels[:, 1].take(at)  # both inside
+    left, right = cells.edge_pixels.take(at, axis=0).T  # both inside (rows gathered: a strided column's take copies it whole)
     yuv = g.yuv().reshape(-1, 3)
     # the norm of the YUV difference a channel at a time (numpy's row gathers of an (N, 3)
     # array copy row by row), the squares summed in the order ``np.linalg.norm`` sums them
@@ -83,7 +83,13 @@ def band_edges(cells: CellGraph, linked: np.ndarray | None = None) -> np.ndarray
     left, right = cells.edge_pixels[:, 0], cells.edge_pixels[:, 1]
     colour = np.ascontiguousarray(cells.graph.rgba).view(np.uint32).ravel()  # one number per RGBA
     differ = colour.take(np.maximum(left, 0)) != colour.take(np.maximum(right, 0))
-    return (np.minimum(left, right) >= 0) & linked & differ
+    return _both_inside(cells) & linked & differ
+
+
+def _both_inside(cells: CellGraph) -> np.ndarray:
+    """(E,) bool: both pixels of each edge are inside the image (neither is -1); an edge's
+    two tests read as one 2-byte word (no strided columns)."""
+    return (cells.edge_pixels >= 0).view(np.uint16).ravel() == 0x0101
 
 
 def pair_ends(cells: CellGraph, edges: np.ndarray, shading: np.ndarray) -> HalfEnds:
@@ -91,8 +97,7 @@ def pair_ends(cells: CellGraph, edges: np.ndarray, shading: np.ndarray) -> HalfE
     curve edges meeting there: two continue each other; at three (a T-junction) one pair
     is joined by :func:`_t_junction_pairs`; at one or four and more every curve ends."""
     n_half = 2 * edges.size
-    node = np.empty(n_half, dtype=INDEX)  # the ends of each edge in turn, a column at a time
-    node[0::2], node[1::2] = cells.edges[:, 0].take(edges), cells.edges[:, 1].take(edges)
+    node = cells.edges.take(edges, axis=0).reshape(-1)  # the ends of each edge in turn: its row, flattened
     partner = np.full(n_half, -1, dtype=INDEX)
     order = np.argsort(node, kind="stable")
     sorted_nodes = node.take(order)
