@@ -53,7 +53,8 @@ def shading_edges(cells: CellGraph, visible: np.ndarray, params: Params) -> np.n
     """(E,) bool: visible edges whose two colours are within ``shading_distance`` in YUV."""
     g = cells.graph
     at = np.flatnonzero(visible)  # only they can be shading edges
-    left, right = cells.edge_pixels.take(at, axis=0).T  # both inside (rows gathered: a strided column's take copies it whole)
+    # both inside; rows gathered (a strided column's take copies the whole column first)
+    left, right = cells.edge_pixels.take(at, axis=0).T
     yuv = g.yuv().reshape(-1, 3)
     # the norm of the YUV difference a channel at a time (numpy's row gathers of an (N, 3)
     # array copy row by row), the squares summed in the order ``np.linalg.norm`` sums them
