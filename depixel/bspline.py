@@ -174,6 +174,7 @@ def flatten_edges_planes(start: np.ndarray, controls: np.ndarray, stop: np.ndarr
         planes.append(np.concatenate([first, second[1:]]))
     return planes[0], planes[1]
 
+
 @lru_cache(maxsize=8)
 def _piece_weights(pieces: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The Bernstein weights ((pieces + 1, 1) each) of :func:`flatten_edges_planes`, computed
@@ -183,6 +184,7 @@ def _piece_weights(pieces: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     for weight in weights:
         weight.setflags(write=False)
     return weights
+
 
 # --- cubic Béziers: the SVG writer's simplified curves (depixel/curvefit.py) ---------------------
 
