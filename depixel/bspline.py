@@ -17,6 +17,7 @@ renderer, the stage figure and the SVG writer (its boundary pieces, and the cubi
 """
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import NamedTuple
 
 import numpy as np
@@ -164,8 +165,7 @@ def flatten_edges_planes(start: np.ndarray, controls: np.ndarray, stop: np.ndarr
     """:func:`flatten_edges` as x and y planes ``(2 * pieces + 1, E)`` (point j of edge e at
     ``[j, e]``), the same numbers: every operation runs along the E edges instead of over
     rows of two coordinates."""
-    t = np.arange(pieces + 1) / pieces  # the weights of evaluate(), computed as it does
-    weights = ((1 - t) ** 2)[:, None], (2 * t * (1 - t))[:, None], (t**2)[:, None]
+    weights = _piece_weights(pieces)
     planes = []
     for axis in range(2):
         c0, c1, c2 = controls[:, 0, axis], controls[:, 1, axis], controls[:, 2, axis]
@@ -173,6 +173,18 @@ def flatten_edges_planes(start: np.ndarray, controls: np.ndarray, stop: np.ndarr
         second = weights[0] * c1 + weights[1] * c2 + weights[2] * stop[:, axis]
         planes.append(np.concatenate([first, second[1:]]))
     return planes[0], planes[1]
+
+
+@lru_cache(maxsize=8)
+def _piece_weights(pieces: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The Bernstein weights ((pieces + 1, 1) each) of :func:`flatten_edges_planes`, computed
+    as :func:`evaluate` computes them, once per number of pieces (read-only)."""
+    t = np.arange(pieces + 1) / pieces
+    weights = ((1 - t) ** 2)[:, None], (2 * t * (1 - t))[:, None], (t**2)[:, None]
+    for weight in weights:
+        weight.setflags(write=False)
+    return weights
+
 
 # --- cubic Béziers: the SVG writer's simplified curves (depixel/curvefit.py) ---------------------
 

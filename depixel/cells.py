@@ -43,8 +43,10 @@ def link_corners(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     quarter pixel off a lattice point in both x and y: the point the link splits), and the
     nearest lattice point (quarter pixels, float)."""
     lattice = 4 * (q / 4.0).round()
-    off_by_one = np.abs(q - lattice) == 1
-    return off_by_one[..., 0] & off_by_one[..., 1], lattice  # (not .all(axis=-1): a reduction over 2 is slow)
+    off = np.abs(q - lattice) == 1
+    # both coordinates' tests as one 2-byte word (both true: 0x0101), not a reduction over
+    # an axis of two
+    return off.view(np.uint16)[..., 0] == 0x0101, lattice
 
 
 @dataclass(frozen=True, eq=False)
@@ -199,9 +201,19 @@ def _cell_polygons(split_main: np.ndarray, split_anti: np.ndarray,
         if there is not None:
             present[:, k] = there.ravel()
     present = present.ravel()
-    forward = np.array([right for _, right, _ in slots])
+    backward = np.array([not right for _, right, _ in slots])
     cell_edges = edge.ravel().compress(present)
-    start = np.where(forward, edges[:, 0].take(edge), edges[:, 1].take(edge))  # where each half-edge starts
+    # where each half-edge starts: u where the pixel is on the edge's right, else v, read
+    # from the flattened (E, 2) edges at 2e or 2e + 1 (one gather of the present slots, no
+    # strided column gathers of every slot)
+    end = edge.astype(np.int64)
+    end *= 2
+    end += backward
+    start = edges.ravel().take(end.ravel().compress(present))
+    del end
     cell_ptr = np.zeros(h * w + 1, dtype=INDEX)
-    np.cumsum(present.reshape(h * w, len(slots)).sum(axis=1), out=cell_ptr[1:])
-    return cell_ptr, start.ravel().compress(present), cell_edges
+    # a pixel's eight presence flags (bytes 0 or 1) are one 8-byte word: their sum is the
+    # word's top byte after a multiplication by 0x0101010101010101 (no carries: a sum ≤ 8)
+    flags = present.reshape(h * w, len(slots)).view(np.uint64).ravel()
+    np.cumsum(flags * np.uint64(0x0101010101010101) >> np.uint64(56), dtype=INDEX, out=cell_ptr[1:])
+    return cell_ptr, start, cell_edges

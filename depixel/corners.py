@@ -162,29 +162,34 @@ def detect_run_corners(splines: SplineSet, params: Params = Params()) -> np.ndar
         far_slot = np.full(at.size, -1, dtype=np.int64)
         for part in batch_slices(starts.size, RUN_BATCH):
             # per run still growing: its row and the slot it reached (ids), and in one float
-            # array (filtered by one compress a step) its start x, y, then the x and then the
-            # y of the vector from the start to the far node of every earlier step
+            # table of rows (filtered by one gather a step) its start x, y, then the x and the
+            # y of the vector from the start to the far node of every earlier step; the table
+            # holds the rows filled so far and the two of the step (a frame's runs are
+            # megabytes: a full-width table would be copied, and its fresh pages touched, for
+            # steps not reached)
             ids = np.stack([starts[part], step.take(starts[part])], axis=1)
             ids = ids.compress(ids[:, 1] >= 0, axis=0)
             first = at.take(ids[:, 0])
-            geo = np.empty((ids.shape[0], 2 + 2 * steps))
-            geo[:, 0], geo[:, 1] = qx.take(first), qy.take(first)
+            geo = np.empty((4, ids.shape[0]))
+            geo[0], geo[1] = qx.take(first), qy.take(first)
             for i in range(steps):
                 if ids.shape[0] == 0:
                     break
                 rows, walk = ids[:, 0], ids[:, 1]
                 far = at.take(walk)
-                candidate_x = np.subtract(qx.take(far), geo[:, 0], out=geo[:, 2 + i])
-                candidate_y = np.subtract(qy.take(far), geo[:, 1], out=geo[:, 2 + steps + i])
+                candidate_x = np.subtract(qx.take(far), geo[0], out=geo[2 + 2 * i])
+                candidate_y = np.subtract(qy.take(far), geo[1], out=geo[3 + 2 * i])
                 length = np.sqrt(candidate_x * candidate_x + candidate_y * candidate_y)
                 # every node passed must stay near the new chord
-                cross = np.abs(candidate_x[:, None] * geo[:, 2 + steps:2 + steps + i]
-                               - candidate_y[:, None] * geo[:, 2:2 + i])
-                ok = (cross <= (tolerance * np.maximum(length, 1e-9))[:, None]).all(axis=1)
+                cross = np.abs(candidate_x * geo[3:2 + 2 * i:2] - candidate_y * geo[2:2 + 2 * i:2])
+                ok = (cross <= tolerance * np.maximum(length, 1e-9)).all(axis=0)
                 far_slot[rows.compress(ok)] = walk.compress(ok)  # the run reaches this far (so far)
                 ids[:, 1] = step.take(walk)  # the next step, if the run goes on
-                go = ok & (length < params.run_reach) & (ids[:, 1] >= 0)
-                ids, geo = ids.compress(go, axis=0), geo.compress(go, axis=0)
+                go = np.flatnonzero(ok & (length < params.run_reach) & (ids[:, 1] >= 0))
+                ids = ids.take(go, axis=0)
+                kept = np.empty((6 + 2 * i, go.size))
+                geo.take(go, axis=1, out=kept[:4 + 2 * i], mode="clip")  # (in range; "raise" would copy first)
+                geo = kept
         # the chord to the far end, the same subtraction as the accepted candidate's
         reached = far_slot >= 0
         far = at.take(np.maximum(far_slot, 0))

@@ -60,8 +60,10 @@ def resolve_crossings(graph: SimilarityGraph, params: Params = Params()) -> Cros
     ambiguous = crossing & ~sides
     cleared = graph.with_diagonals(graph.diag_main & ~flat, graph.diag_anti & ~flat)
 
-    zeros = np.zeros((max(h - 1, 0), max(w - 1, 0)), dtype=np.float64)
-    curve_vote, sparse_vote, island_vote = zeros.copy(), zeros.copy(), zeros.copy()
+    # three fresh zero arrays (np.zeros: pages that only a vote written touches; a copy of
+    # one writes every page of a frame-sized array)
+    shape = (max(h - 1, 0), max(w - 1, 0))
+    curve_vote, sparse_vote, island_vote = np.zeros(shape), np.zeros(shape), np.zeros(shape)
     rows, cols = np.nonzero(ambiguous)
     if rows.size:
         degree = cleared.degree().ravel()

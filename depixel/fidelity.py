@@ -116,8 +116,8 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
     size = cells.cell_ptr.take(px + 1) - first
     edge = cells.cell_edges.take(ranges(first, size))
     pix = np.repeat(px, size)
-    rows, cols = np.divmod(pix, w)
-    cx, cy = cols + 0.5, rows + 0.5
+    rows, cols = np.divmod(px, w)  # per pixel, then spread over its pairs
+    cx, cy = np.repeat(cols + 0.5, size), np.repeat(rows + 0.5, size)
     del rows, cols
     # everything below as x and y columns, a pair at a time: numpy runs the rows of an
     # (N, 2) array two elements at a time
@@ -158,19 +158,28 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
     if np.isfinite(below):
         # each pair's edge box (a curve's with its Bézier controls), then the pair's centre
         # against it; the boxes are dropped before the near pairs are measured
-        lo_x, hi_x, lo_y, hi_y = np.minimum(ax, bx), np.maximum(ax, bx), np.minimum(ay, by), np.maximum(ay, by)
         curved = np.flatnonzero(bent)
-        if curved.size:
-            controls = drawing.controls.take(control_row.take(edge.take(curved)), axis=0)
-            c = [controls[:, i, axis] for axis in range(2) for i in range(3)]  # x of c0, c1, c2, y of them
-            lo_x[curved] = np.minimum(np.minimum(np.minimum(lo_x.take(curved), c[0]), c[1]), c[2])
-            hi_x[curved] = np.maximum(np.maximum(np.maximum(hi_x.take(curved), c[0]), c[1]), c[2])
-            lo_y[curved] = np.minimum(np.minimum(np.minimum(lo_y.take(curved), c[3]), c[4]), c[5])
-            hi_y[curved] = np.maximum(np.maximum(np.maximum(hi_y.take(curved), c[3]), c[4]), c[5])
-            del controls, c
-        right = lo_x - cx > below
-        far = right | (cx - hi_x > below) | (lo_y - cy > below) | (cy - hi_y > below)
-        del lo_x, hi_x, lo_y, hi_y, curved
+        if curved.size:  # x and y of c0, of c1, of c2
+            c = drawing.controls.take(control_row.take(edge.take(curved)), axis=0).reshape(-1, 6).T
+        # one side of the boxes at a time in one buffer (the side, then its distance beyond
+        # the centre): a pair table a frame's size costs more in fresh pages than in arithmetic
+        side = np.empty(edge.size)
+        beyond = np.empty(edge.size, bool)
+        far = np.zeros(edge.size, bool)
+        for axis, (a, b, centre) in enumerate(((ax, bx, cx), (ay, by, cy))):
+            for extreme in (np.minimum, np.maximum):
+                extreme(a, b, out=side)
+                if curved.size:
+                    side[curved] = extreme(extreme(extreme(side.take(curved), c[axis]), c[2 + axis]), c[4 + axis])
+                if extreme is np.minimum:
+                    np.subtract(side, centre, out=side)
+                else:
+                    np.subtract(centre, side, out=side)
+                np.greater(side, below, out=beyond)
+                far |= beyond
+                if axis == 0 and extreme is np.minimum:
+                    right = beyond.copy()  # the box lies right of the centre
+        del side, beyond, curved
         count = np.bincount(pix.compress(right & ((ay > cy) != (by > cy))), minlength=n_px)
         del right
         near_count, nearest2 = measure(np.flatnonzero(~far))
@@ -181,9 +190,10 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
             nearest2 = np.minimum(nearest2, measure(again)[1])
     else:
         count, nearest2 = measure(np.arange(edge.size))
-    nearest = np.sqrt(nearest2)
-    inside = count % 2 == 1
-    return np.where(wanted, np.where(inside, nearest, -nearest), np.inf)
+    nearest = np.sqrt(nearest2, out=nearest2)  # in place: nearest2 is this call's own
+    np.negative(nearest, out=nearest, where=count % 2 == 0)  # outside
+    np.copyto(nearest, np.inf, where=~wanted)
+    return nearest
 
 
 def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.ndarray, margin: float,
@@ -206,8 +216,7 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
     for round_ in range(rounds):
         if round_:
             current = splines.drawing(positions)  # the same curved edges as the reference, in the same order
-        moved = _differs(current.points, reference.points).take(cells.edges)  # (E, 2)
-        changed = moved[:, 0] | moved[:, 1]
+        changed = _either(_differs(current.points, reference.points).take(cells.edges))  # an end moved
         changed[current.edges] |= _differs(current.controls, reference.controls)
         # the pixels beside the changed edges (a side without a pixel, -1, marks the extra last entry)
         beside = np.zeros(n_px + 1, bool)
@@ -226,9 +235,9 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
         reference = current
         if ok.all():
             return positions, current
-        bad = np.append(~ok, False).take(cells.edge_pixels)  # (E, 2)
+        bad = _either(np.append(~ok, False).take(cells.edge_pixels))  # a bad cell on either side
         revert = np.zeros(len(positions), bool)  # the nodes of the edges around a bad cell
-        revert[cells.edges.compress(bad[:, 0] | bad[:, 1], axis=0).ravel()] = True
+        revert[cells.edges.compress(bad, axis=0).ravel()] = True
         # widen to the whole neighbourhood on the curves through those nodes
         on = revert.take(splines.curve_nodes)
         for step in (prev, nxt):
@@ -240,11 +249,27 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
     return positions, splines.drawing(positions)
 
 
+def _either(pairs: np.ndarray) -> np.ndarray:
+    """(n,) bool: either test of each row of ``pairs`` (n, 2) bool, read as one 2-byte word."""
+    return pairs.view(np.uint16).ravel() != 0
+
+
 def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(n,) bool: some coordinate of row i of ``a`` and ``b`` (n, ...) differs by more than
-    1e-12 (the columns are or-ed one by one: a reduction over a short last axis is slow)."""
-    far = (np.abs(a - b) > 1e-12).reshape(len(a), int(np.prod(a.shape[1:])))
-    out = far[:, 0].copy()
-    for column in far.T[1:]:
-        out |= column
+    1e-12. The differences in one array, in place; a row's tests read as whole 2-byte
+    words where a row has an even number of coordinates (the reduction over a short last
+    axis, or a column at a time, costs several calls and passes)."""
+    difference = np.subtract(a, b)
+    far = np.abs(difference, out=difference) > 1e-12
+    k = far.size // len(a) if len(a) else 1
+    if k % 2:
+        far = far.reshape(len(a), k)
+        out = far[:, 0].copy()
+        for column in far.T[1:]:
+            out |= column
+        return out
+    words = far.reshape(len(a), k).view(np.uint16)  # (n, k / 2): two tests a word
+    out = words[:, 0] != 0
+    for column in words.T[1:]:
+        out |= column != 0
     return out

@@ -46,14 +46,15 @@ def visible_edges(cells: CellGraph, linked: np.ndarray | None = None) -> np.ndar
     """(E,) bool: edges between two pixels that are not linked (dissimilar colours);
     ``linked`` is :func:`linked_edges` if the caller has it."""
     linked = linked_edges(cells) if linked is None else linked
-    return (np.minimum(cells.edge_pixels[:, 0], cells.edge_pixels[:, 1]) >= 0) & ~linked
+    return _both_inside(cells) & ~linked
 
 
 def shading_edges(cells: CellGraph, visible: np.ndarray, params: Params) -> np.ndarray:
     """(E,) bool: visible edges whose two colours are within ``shading_distance`` in YUV."""
     g = cells.graph
     at = np.flatnonzero(visible)  # only they can be shading edges
-    left, right = cells.edge_pixels[:, 0].take(at), cells.edge_pixels[:, 1].take(at)  # both inside
+    # both inside; rows gathered (a strided column's take copies the whole column first)
+    left, right = cells.edge_pixels.take(at, axis=0).T
     yuv = g.yuv().reshape(-1, 3)
     # the norm of the YUV difference a channel at a time (numpy's row gathers of an (N, 3)
     # array copy row by row), the squares summed in the order ``np.linalg.norm`` sums them
@@ -83,7 +84,13 @@ def band_edges(cells: CellGraph, linked: np.ndarray | None = None) -> np.ndarray
     left, right = cells.edge_pixels[:, 0], cells.edge_pixels[:, 1]
     colour = np.ascontiguousarray(cells.graph.rgba).view(np.uint32).ravel()  # one number per RGBA
     differ = colour.take(np.maximum(left, 0)) != colour.take(np.maximum(right, 0))
-    return (np.minimum(left, right) >= 0) & linked & differ
+    return _both_inside(cells) & linked & differ
+
+
+def _both_inside(cells: CellGraph) -> np.ndarray:
+    """(E,) bool: both pixels of each edge are inside the image (neither is -1); an edge's
+    two tests read as one 2-byte word (no strided columns)."""
+    return (cells.edge_pixels >= 0).view(np.uint16).ravel() == 0x0101
 
 
 def pair_ends(cells: CellGraph, edges: np.ndarray, shading: np.ndarray) -> HalfEnds:
@@ -91,8 +98,7 @@ def pair_ends(cells: CellGraph, edges: np.ndarray, shading: np.ndarray) -> HalfE
     curve edges meeting there: two continue each other; at three (a T-junction) one pair
     is joined by :func:`_t_junction_pairs`; at one or four and more every curve ends."""
     n_half = 2 * edges.size
-    node = np.empty(n_half, dtype=INDEX)  # the ends of each edge in turn, a column at a time
-    node[0::2], node[1::2] = cells.edges[:, 0].take(edges), cells.edges[:, 1].take(edges)
+    node = cells.edges.take(edges, axis=0).reshape(-1)  # the ends of each edge in turn: its row, flattened
     partner = np.full(n_half, -1, dtype=INDEX)
     order = np.argsort(node, kind="stable")
     sorted_nodes = node.take(order)
@@ -150,22 +156,23 @@ def chain_curves(half_ends: HalfEnds) -> Chains:
     n = end_node.size
     state = np.arange(n, dtype=INDEX)
     far = state ^ 1
-    nxt = np.where(partner[far] >= 0, partner[far], far)
-    del far
+    after = partner.take(far)
+    nxt = np.where(after >= 0, after, far)
+    del after, far
     leader, position = cycle_leaders(nxt)
     del nxt
     length = np.bincount(leader, minlength=n).astype(INDEX)  # of the cycle each state leads
     free = np.flatnonzero(partner < 0)
-    open_lead, first = np.unique(leader[free], return_index=True)
-    open_start = free[first]  # each open curve's first free end (``free`` is ascending)
+    open_lead, first = np.unique(leader.take(free), return_index=True)
+    open_start = free.take(first)  # each open curve's first free end (``free`` is ascending)
     by_start = np.argsort(open_start)
-    open_lead, open_start = open_lead[by_start], open_start[by_start]
+    open_lead, open_start = open_lead.take(by_start), open_start.take(by_start)
     is_open = np.zeros(n, dtype=bool)
     is_open[open_lead] = True
     closed_lead = np.flatnonzero((leader == state) & (state % 2 == 0) & ~is_open)
     del is_open
     n_open = open_lead.size
-    counts = np.concatenate([length[open_lead] // 2 + 1, length[closed_lead]])  # slots per curve
+    counts = np.concatenate([length.take(open_lead) // 2 + 1, length.take(closed_lead)])  # slots per curve
     ptr = np.zeros(counts.size + 1, dtype=INDEX)
     np.cumsum(counts, out=ptr[1:])
     # each state's curve (-1: the way back of an open curve, the other way of a closed one)
@@ -174,26 +181,27 @@ def chain_curves(half_ends: HalfEnds) -> Chains:
     rank[open_lead] = np.arange(n_open)
     rank[closed_lead] = n_open + np.arange(closed_lead.size)
     origin = np.zeros(n, dtype=INDEX)
-    origin[open_lead] = position[open_start]
-    curve = rank[leader]
+    origin[open_lead] = position.take(open_start)
+    curve = rank.take(leader)
     del rank
     offset = position.astype(INDEX)
     del position
-    offset -= origin[leader]
+    offset -= origin.take(leader)
     del origin
-    offset %= np.maximum(length[leader], 1)
+    offset %= np.maximum(length.take(leader), 1)
     del leader, length
-    keep = curve >= 0
-    keep[keep] = offset[keep] < counts[curve[keep]]  # an open curve's way there, and its far end
-    kept = state[keep]
-    slot = ptr[curve[keep]] + offset[keep]
-    del state, curve, offset, keep
+    kept = np.flatnonzero(curve >= 0)  # the states on a curve (state s is index s)
+    curve, offset = curve.take(kept), offset.take(kept)
+    there = offset < counts.take(curve)  # an open curve's way there, and its far end
+    kept, curve, offset = kept.compress(there), curve.compress(there), offset.compress(there)
+    slot = ptr.take(curve) + offset
+    del state, curve, offset, there
     nodes = np.empty(ptr[-1], dtype=INDEX)
     edges = np.empty(ptr[-1], dtype=INDEX)
     forward = np.empty(ptr[-1], dtype=bool)
-    nodes[slot] = end_node[kept]
-    edges[slot] = vis[kept >> 1]
-    forward[slot] = (kept & 1) == 0
+    nodes.put(slot, end_node.take(kept))
+    edges.put(slot, vis.take(kept >> 1))
+    forward.put(slot, (kept & 1) == 0)
     last = ptr[1 : n_open + 1] - 1  # an open curve's far end: no edge leaves it
     edges[last] = -1
     forward[last] = True

@@ -13,6 +13,7 @@ from depixel.harmonic import conjugate_gradients, follow, harmonic_map, row_dots
 from depixel.params import Params
 from depixel.pipeline import depixelize
 from depixel.raster import render_rgba
+from depixel import harmonic as harmonic_module
 from depixel import relax as relax_module
 from depixel.relax import GRADIENT_STEPS, Energy, Group, disc_offsets, independent_classes, relax, smoothness, step
 from depixel.splines import SplineSet, split_at
@@ -297,6 +298,26 @@ def test_harmonic_map_runs_in_the_pipeline():
     q = opt.splines.cells.nodes
     inside = ~on_curve & (q > 0).all(axis=1) & (q[:, 0] < 4 * 14) & (q[:, 1] < 4 * 11)
     assert np.abs(opt.positions[inside] - opt.initial[inside]).max() > 0.01
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_harmonic_operator_by_neighbour_table_adds_as_the_scatter_does(monkeypatch, seed):
+    # frames use the padded neighbour table, sprites the bincount: the same sums in the same
+    # order, so the same positions to the bit, on an image with cut corners and diagonals
+    rng = np.random.default_rng(seed)
+    img = np.where(rng.random((24, 24, 1)) < 0.45, [[[200, 40, 40, 255]]], [[[250, 250, 250, 255]]]).astype(np.uint8)
+    img[8:16, 8:16] = DIAMOND[1:9, 3:11]
+    opt = depixelize(img).optimized
+    splines, start = opt.splines, opt.initial
+    positions = start.copy()
+    positions[splines.curve_nodes] = opt.positions[splines.curve_nodes]
+    corners = opt.corners.nodes
+    monkeypatch.setattr(harmonic_module, "TABLE_UNKNOWNS", 10**9)
+    by_scatter = harmonic_map(splines, start, positions, corners)
+    monkeypatch.setattr(harmonic_module, "TABLE_UNKNOWNS", 0)
+    by_table = harmonic_map(splines, start, positions, corners)
+    assert np.abs(by_scatter - start).max() > 0.01  # the free nodes moved
+    assert np.array_equal(by_table, by_scatter)
 
 
 def test_conjugate_gradients_solves_each_row_to_the_residual_it_promises():
