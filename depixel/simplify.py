@@ -29,12 +29,18 @@ its checks, on whole batches of runs, are :mod:`depixel.curvefit`.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
+from functools import partial
+
 import numpy as np
 
 from .arrays import batch_bounds, in_sorted, ranges, set_rows
 from .boundaries import CUBIC, BoundaryPieces
 from .curvefit import BATCH, Exact, Protected, fit
 from .vector import VectorImage
+
+#: ranges [lo, hi) of exact segments: the two arrays
+Ranges = tuple[np.ndarray, np.ndarray]
 
 
 def simplify_pieces(pieces: BoundaryPieces, image: VectorImage, tolerance: float, clearance: float = 0.075,
@@ -55,9 +61,9 @@ def simplify_pieces(pieces: BoundaryPieces, image: VectorImage, tolerance: float
     lo, hi = _chunks(pieces.ptr, _CHUNK)
     fits = _Fits(exact, protected, pieces.ptr, tolerance, clearance, grid)
     fitted: list[tuple[np.ndarray, ...]] = []
-    failed = []  # ranges that did not fit (a fit depends on its range alone)
+    failed: list[np.ndarray] = []  # ranges that did not fit (a fit depends on its range alone)
     while lo.size:
-        kind, c1, c2, ok = fits.get(lo, hi, _descendants(lo, hi, SPECULATIVE_SEGMENTS - int((hi - lo).sum())))
+        kind, c1, c2, ok = fits.get(lo, hi, partial(_ahead, lo, hi, fitted, failed, pieces.ptr))
         fitted.append((lo[ok], hi[ok], kind[ok], c1.compress(ok, axis=0), c2.compress(ok, axis=0)))
         lo, hi = lo[~ok], hi[~ok]
         failed.append(_range_keys(lo, hi, pieces.ptr))
@@ -68,11 +74,15 @@ def simplify_pieces(pieces: BoundaryPieces, image: VectorImage, tolerance: float
 
 
 _CHUNK = 8
-#: a pass of fits costs about a millisecond of numpy calls whatever its size, plus a few µs
-#: a segment: up to this many segments in all, a pass also fits the ranges the next passes
-#: may ask for (the halves of its ranges, the merges after this one). The result does not
-#: depend on it (a fit depends on its range alone)
+#: a pass of fits costs about half a millisecond of numpy calls whatever its size, plus
+#: 1.5–2 µs a segment: up to this many segments in all, a pass also fits the ranges the next
+#: passes may ask for (the halves of its ranges, the merges after this one). The result does
+#: not depend on it (a fit depends on its range alone)
 SPECULATIVE_SEGMENTS = 256
+#: up to this many segments, the pass of the halving's last level also fits every pair of
+#: touching ranges the first merge pass may ask for (about twice what it asks for: a sprite's
+#: 10–840 segments, saving a pass; a frame's ~12 500 are left to the merge pass itself)
+MERGE_AHEAD_SEGMENTS = 1024
 
 
 class _Fits:
@@ -88,13 +98,15 @@ class _Fits:
         self.kind, self.ok = np.zeros(0, np.uint8), np.zeros(0, bool)
         self.c1, self.c2 = np.zeros((0, 2)), np.zeros((0, 2))
 
-    def get(self, lo: np.ndarray, hi: np.ndarray, ahead: tuple[np.ndarray, np.ndarray] | None = None
+    def get(self, lo: np.ndarray, hi: np.ndarray, ahead: Callable[[], Ranges | None] | None = None
             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """``(kind, c1, c2, ok)`` of the ranges [lo, hi) (:func:`fit`); the ranges ``ahead``
-        (lo, hi) are fitted in the same pass where they are new, for later calls."""
+        """``(kind, c1, c2, ok)`` of the ranges [lo, hi) (:func:`fit`); the ranges (lo, hi)
+        that ``ahead()`` gives, called only when there is a pass, are fitted in the same pass
+        where they are new, for later calls."""
         keys = _range_keys(lo, hi, self.ptr)
         if not in_sorted(self.keys, keys).all():  # a pass (only then one ahead)
-            wanted = keys if ahead is None else np.concatenate([keys, _range_keys(*ahead, self.ptr)])
+            extra = None if ahead is None else ahead()
+            wanted = keys if extra is None else np.concatenate([keys, _range_keys(*extra, self.ptr)])
             new = np.unique(wanted[~in_sorted(self.keys, wanted)], return_index=True)[0]
             new_lo, new_hi = np.divmod(new, int(self.ptr[-1]) + 1)
             kind, c1, c2, ok = self._fit(new_lo, new_hi)
@@ -138,6 +150,38 @@ def _descendants(lo: np.ndarray, hi: np.ndarray, budget: int) -> tuple[np.ndarra
     return (np.concatenate(los), np.concatenate(his)) if los else (lo[:0], hi[:0])
 
 
+def _ahead(lo: np.ndarray, hi: np.ndarray, fitted: list[tuple[np.ndarray, ...]], failed: list[np.ndarray],
+           ptr: np.ndarray) -> Ranges | None:
+    """The ranges that the pass fitting the ranges [lo, hi) of a level of the halving also
+    fits for the passes after it: their halves, the halves' halves and so on while they fit
+    in :data:`SPECULATIVE_SEGMENTS` with them; at the last level (no range of more than two
+    segments: the halves would be single segments, never fitted) the first merge pass's."""
+    if int((hi - lo).max()) > 2:
+        return _descendants(lo, hi, SPECULATIVE_SEGMENTS - int((hi - lo).sum()))
+    return _first_merges(fitted, lo, hi, failed, ptr)
+
+
+def _first_merges(fitted: list[tuple[np.ndarray, ...]], lo: np.ndarray, hi: np.ndarray, failed: list[np.ndarray],
+                  ptr: np.ndarray) -> Ranges | None:
+    """Every union of two touching ranges among those ``fitted`` so far and the last level's
+    [lo, hi), whether these fit or not, that did not fail before (``failed``: arrays of
+    :func:`_range_keys`): those the first merge pass of :func:`_merge_neighbours` asks for
+    are among them (it asks for every other pair of the fitted ranges; which of a pair's
+    parities depends on the last level's fits before it). None when they hold more than
+    :data:`MERGE_AHEAD_SEGMENTS` segments."""
+    los = np.concatenate([f[0] for f in fitted] + [lo])
+    his = np.concatenate([f[1] for f in fitted] + [hi])
+    order = los.argsort(kind="stable")
+    los, his = los.take(order), his.take(order)
+    piece_of = ptr.searchsorted(los, side="right") - 1
+    a = ((his[:-1] == los[1:]) & (piece_of[:-1] == piece_of[1:])).nonzero()[0]
+    merged_lo, merged_hi = los.take(a), his.take(a + 1)
+    done = np.sort(np.concatenate(failed)) if failed else np.zeros(0, np.int64)
+    new = ~in_sorted(done, _range_keys(merged_lo, merged_hi, ptr))
+    merged_lo, merged_hi = merged_lo.compress(new), merged_hi.compress(new)
+    return (merged_lo, merged_hi) if int((merged_hi - merged_lo).sum()) <= MERGE_AHEAD_SEGMENTS else None
+
+
 def _chunks(ptr: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
     """Every piece of more than one segment cut into near-equal runs of at most ``size``."""
     length = np.diff(ptr)
@@ -171,7 +215,7 @@ def _merge_neighbours(fits: _Fits, ptr, fitted, failed):
         a = a[~in_sorted(failed, _range_keys(lo[a], hi[a + 1], ptr))]
         if a.size == 0:
             continue
-        ahead = _next_merges(lo, hi, touching, a, failed, ptr) if parity == 0 else None
+        ahead = partial(_next_merges, lo, hi, touching, a, failed, ptr) if parity == 0 else None
         mk, m1, m2, ok = fits.get(lo[a], hi[a + 1], ahead)
         a, mk, m1, m2 = a[ok], mk[ok], m1.compress(ok, axis=0), m2.compress(ok, axis=0)
         hi[a] = hi[a + 1]

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 import depixel.simplify as simplify
 from depixel import depixelize, load_image
 from depixel.outlines import build_outlines
-from depixel.simplify import _descendants, _halves, _next_merges, _range_keys
+from depixel.simplify import _descendants, _first_merges, _halves, _next_merges, _range_keys
 
 
 def _pairs(lo, hi):
@@ -88,6 +88,52 @@ def test_a_large_first_merge_pass_fits_nothing_ahead(monkeypatch):
     assert _next_merges(lo, hi, touching, a, failed, np.array([0, 24])) is None
 
 
+@given(st.lists(st.tuples(st.integers(1, 3), _seldom, _seldom, st.booleans(), st.booleans()), min_size=1,
+                max_size=14), st.data())
+def test_the_last_levels_pass_holds_every_range_of_the_first_merge_pass(runs, data):
+    """Whichever ranges of the halving's last level fit, the first merge pass asks only for
+    ranges :func:`_first_merges` gave to that level's pass to fit ahead."""
+    # consecutive ranges (a gap before some, a new piece at some), each fitted at an earlier
+    # level or of the last level (at most two segments) and then fitting or not
+    lo, hi, earlier, fits, ptr, at = [], [], [], [], [0], 0
+    for length, gap, new_piece, before, fitting in runs:
+        at += gap
+        if new_piece and at > ptr[-1]:
+            ptr.append(at)
+        lo.append(at)
+        at += length if before else min(length, 2)
+        hi.append(at)
+        earlier.append(before)
+        fits.append(fitting)
+    ptr.append(at)
+    lo, hi, earlier, fits, ptr = np.array(lo), np.array(hi), np.array(earlier), np.array(fits), np.array(ptr)
+    # some unions of two neighbours did not fit at an earlier level
+    tried = data.draw(st.lists(st.integers(0, max(lo.size - 2, 0)), max_size=3)) if lo.size > 1 else []
+    failed = [_range_keys(lo.take(tried), hi.take(np.add(tried, 1)), ptr)] if tried else []
+    fitted = [(lo[earlier], hi[earlier])]
+    ahead = _first_merges(fitted, lo[~earlier], hi[~earlier], failed, ptr)
+    assert ahead is not None  # small: within the budget
+    # the first merge pass (simplify._merge_neighbours, written out plainly): every other
+    # pair of the fitted ranges in order, where they touch in one piece
+    kept = earlier | fits
+    final_lo, final_hi = lo[kept], hi[kept]
+    piece = np.searchsorted(ptr, final_lo, side="right") - 1
+    failed_keys = set(np.concatenate(failed).tolist()) if failed else set()
+    asked = [(final_lo[i], final_hi[i + 1]) for i in range(0, final_lo.size - 1, 2)
+             if final_hi[i] == final_lo[i + 1] and piece[i] == piece[i + 1]
+             and _range_keys(final_lo[i : i + 1], final_hi[i + 1 : i + 2], ptr)[0] not in failed_keys]
+    assert set(_pairs(*zip(*asked)) if asked else []) <= set(_pairs(*ahead))
+
+
+def test_a_large_last_level_fits_no_merge_ahead(monkeypatch):
+    lo = np.arange(0, 24, 2)  # 12 touching ranges of 2 segments: 11 pairs of 4, 44 segments
+    fitted = [(lo[::2], lo[::2] + 2)]
+    args = (fitted, lo[1::2], lo[1::2] + 2, [], np.array([0, 24]))
+    assert _pairs(*_first_merges(*args)) == [(i, i + 4) for i in range(0, 21, 2)]
+    monkeypatch.setattr(simplify, "MERGE_AHEAD_SEGMENTS", 43)
+    assert _first_merges(*args) is None
+
+
 @pytest.mark.parametrize("name", ["ghost.png", "mushroom.png", "potion_rgba.png"])
 def test_fitting_ahead_saves_passes_and_changes_no_curve(name, monkeypatch):
     """The halving's and the merges' later ranges fitted ahead in one pass: fewer calls of
@@ -98,6 +144,7 @@ def test_fitting_ahead_saves_passes_and_changes_no_curve(name, monkeypatch):
     for budget in (0, 1 << 30):  # never ahead, always
         calls = []
         monkeypatch.setattr(simplify, "SPECULATIVE_SEGMENTS", budget)
+        monkeypatch.setattr(simplify, "MERGE_AHEAD_SEGMENTS", budget)
         monkeypatch.setattr(simplify, "fit", lambda *args, calls=calls: calls.append(1) or real_fit(*args))
         out = build_outlines(vector, "stacked", grid=1e-2, simplify=0.25)
         results.append((out.kind, np.nan_to_num(out.ctrl, nan=-1), np.nan_to_num(out.ctrl2, nan=-1), out.end))
@@ -105,3 +152,21 @@ def test_fitting_ahead_saves_passes_and_changes_no_curve(name, monkeypatch):
     for a, b in zip(*results):
         assert a.shape == b.shape and np.array_equal(a, b)
     assert passes[1] <= 2 < passes[0]
+
+
+def test_the_last_levels_pass_fits_the_first_merges(monkeypatch):
+    """mushroom at 0.1 px: the halving's last level (ranges of 2 segments) and the first merge
+    pass in one call of curvefit.fit instead of two, the same curves."""
+    vector = depixelize(load_image(FIXTURES / "mushroom.png")).vector
+    results, passes = [], []
+    real_fit = simplify.fit
+    for budget in (-1, simplify.MERGE_AHEAD_SEGMENTS):  # never, the default
+        calls = []
+        monkeypatch.setattr(simplify, "MERGE_AHEAD_SEGMENTS", budget)
+        monkeypatch.setattr(simplify, "fit", lambda *args, calls=calls: calls.append(1) or real_fit(*args))
+        out = build_outlines(vector, "stacked", grid=1e-3, simplify=0.1)
+        results.append((out.kind, np.nan_to_num(out.ctrl, nan=-1), np.nan_to_num(out.ctrl2, nan=-1), out.end))
+        passes.append(len(calls))
+    for a, b in zip(*results):
+        assert a.shape == b.shape and np.array_equal(a, b)
+    assert passes == [3, 2]
