@@ -493,12 +493,16 @@ def test_a_curve_closer_than_the_clearance_already_may_move_if_it_comes_no_close
     assert model.energy(ctrl, anchor, group, at)[0, 0] <= energy[best]
 
 
+def _blob_cut_at_its_corners() -> tuple[SplineSet, np.ndarray, np.ndarray]:
+    """BLOB's curves cut at their detected corners, with no corner node held and no half excluded."""
+    splines = split_at(*(lambda s: (s, detect_corners(s, Params()).nodes))(splines_of(art(BLOB))))
+    return splines, np.zeros(len(splines.positions), bool), np.zeros((splines.n_slots, 2), bool)
+
+
 def test_the_clearance_of_the_trials_weighed_in_batches_moves_the_same(monkeypatch):
     # the trials of members whose best trial was refused checked one per call instead of
     # CLEARANCE_PAIRS at a time: more calls, the same moves (each trial's clearance is its own)
-    splines = split_at(*(lambda s: (s, detect_corners(s, Params()).nodes))(splines_of(art(BLOB))))
-    corners = np.zeros(len(splines.positions), bool)
-    excluded = np.zeros((splines.n_slots, 2), bool)
+    splines, corners, excluded = _blob_cut_at_its_corners()
     calls: list[int] = []
     clearance_of = Energy.clearance_of
     monkeypatch.setattr(Energy, "clearance_of", lambda self, *a: calls.append(1) or clearance_of(self, *a))
@@ -514,9 +518,7 @@ def test_the_clearance_of_the_trials_weighed_in_batches_moves_the_same(monkeypat
 def test_a_small_drawing_is_prepared_once_and_moves_as_when_prepared_class_by_class(monkeypatch):
     # up to PREPARE_ONCE movable slots, one Energy.prepare of them all, each colour class a
     # slice of it; above, one a class: the same moves either way (each member's numbers are its own)
-    splines = split_at(*(lambda s: (s, detect_corners(s, Params()).nodes))(splines_of(art(BLOB))))
-    corners = np.zeros(len(splines.positions), bool)
-    excluded = np.zeros((splines.n_slots, 2), bool)
+    splines, corners, excluded = _blob_cut_at_its_corners()
     calls: list[int] = []
     prepare = Energy.prepare
     monkeypatch.setattr(Energy, "prepare", lambda self, m: calls.append(m.size) or prepare(self, m))
@@ -637,9 +639,8 @@ def test_only_slots_near_a_moved_one_are_tried_again_and_the_sweeps_stop_when_no
     # every step is recorded (its members and which of them moved), a sweep begins with the
     # shuffle of the classes; after the first sweep, the slots tried are exactly the movable
     # ones within two slots along their curve of a slot that moved in the sweep before
-    splines = split_at(*(lambda s: (s, detect_corners(s, Params()).nodes))(splines_of(art(BLOB))))
+    splines, corners, excluded = _blob_cut_at_its_corners()
     assert splines.snap_pairs()[0].size == 0  # no T-junction end moves between the steps
-    corners = np.zeros(len(splines.positions), bool)
     sweeps: list[list[tuple[np.ndarray, np.ndarray]]] = []
     shuffle, real_step = SplitMix64.permutation, relax_module.step
 
@@ -654,8 +655,7 @@ def test_only_slots_near_a_moved_one_are_tried_again_and_the_sweeps_stop_when_no
 
     monkeypatch.setattr(SplitMix64, "permutation", spy_shuffle)
     monkeypatch.setattr(relax_module, "step", spy_step)
-    result = relax(splines, splines.positions, corners, np.zeros((splines.n_slots, 2), bool),
-                   Params(iterations=100))
+    result = relax(splines, splines.positions, corners, excluded, Params(iterations=100))
     prev, nxt = splines.neighbours()
 
     def within_two(slots: set[int]) -> set[int]:

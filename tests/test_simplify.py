@@ -134,23 +134,33 @@ def test_a_large_last_level_fits_no_merge_ahead(monkeypatch):
     assert _first_merges(*args) is None
 
 
+def _outlines_counting_passes(monkeypatch, vector, speculative, merge_ahead, grid, tolerance):
+    """Stacked outlines of ``vector`` simplified at ``tolerance`` under the given fit-ahead
+    budgets, and the number of curvefit.fit passes they took."""
+    calls = []
+    real_fit = simplify.fit
+    monkeypatch.setattr(simplify, "SPECULATIVE_SEGMENTS", speculative)
+    monkeypatch.setattr(simplify, "MERGE_AHEAD_SEGMENTS", merge_ahead)
+    monkeypatch.setattr(simplify, "fit", lambda *args: calls.append(1) or real_fit(*args))
+    out = build_outlines(vector, "stacked", grid=grid, simplify=tolerance)
+    monkeypatch.setattr(simplify, "fit", real_fit)
+    return out, len(calls)
+
+
+def _assert_same_outlines(a, b):
+    for x, y in zip((a.kind, a.ctrl, a.ctrl2, a.end), (b.kind, b.ctrl, b.ctrl2, b.end)):
+        assert x.shape == y.shape and np.array_equal(x, y, equal_nan=x.dtype.kind == "f")
+
+
 @pytest.mark.parametrize("name", ["ghost.png", "mushroom.png", "potion_rgba.png"])
 def test_fitting_ahead_saves_passes_and_changes_no_curve(name, monkeypatch):
     """The halving's and the merges' later ranges fitted ahead in one pass: fewer calls of
     curvefit.fit, the same curves as one pass per level."""
     vector = depixelize(load_image(FIXTURES / name)).vector
-    results, passes = [], []
-    real_fit = simplify.fit
-    for budget in (0, 1 << 30):  # never ahead, always
-        calls = []
-        monkeypatch.setattr(simplify, "SPECULATIVE_SEGMENTS", budget)
-        monkeypatch.setattr(simplify, "MERGE_AHEAD_SEGMENTS", budget)
-        monkeypatch.setattr(simplify, "fit", lambda *args, calls=calls: calls.append(1) or real_fit(*args))
-        out = build_outlines(vector, "stacked", grid=1e-2, simplify=0.25)
-        results.append((out.kind, np.nan_to_num(out.ctrl, nan=-1), np.nan_to_num(out.ctrl2, nan=-1), out.end))
-        passes.append(len(calls))
-    for a, b in zip(*results):
-        assert a.shape == b.shape and np.array_equal(a, b)
+    runs = [_outlines_counting_passes(monkeypatch, vector, budget, budget, grid=1e-2, tolerance=0.25)
+            for budget in (0, 1 << 30)]  # never ahead, always
+    _assert_same_outlines(*(out for out, _ in runs))
+    passes = [count for _, count in runs]
     assert passes[1] <= 2 < passes[0]
 
 
@@ -158,15 +168,9 @@ def test_the_last_levels_pass_fits_the_first_merges(monkeypatch):
     """mushroom at 0.1 px: the halving's last level (ranges of 2 segments) and the first merge
     pass in one call of curvefit.fit instead of two, the same curves."""
     vector = depixelize(load_image(FIXTURES / "mushroom.png")).vector
-    results, passes = [], []
-    real_fit = simplify.fit
-    for budget in (-1, simplify.MERGE_AHEAD_SEGMENTS):  # never, the default
-        calls = []
-        monkeypatch.setattr(simplify, "MERGE_AHEAD_SEGMENTS", budget)
-        monkeypatch.setattr(simplify, "fit", lambda *args, calls=calls: calls.append(1) or real_fit(*args))
-        out = build_outlines(vector, "stacked", grid=1e-3, simplify=0.1)
-        results.append((out.kind, np.nan_to_num(out.ctrl, nan=-1), np.nan_to_num(out.ctrl2, nan=-1), out.end))
-        passes.append(len(calls))
-    for a, b in zip(*results):
-        assert a.shape == b.shape and np.array_equal(a, b)
+    speculative = simplify.SPECULATIVE_SEGMENTS
+    runs = [_outlines_counting_passes(monkeypatch, vector, speculative, budget, grid=1e-3, tolerance=0.1)
+            for budget in (-1, simplify.MERGE_AHEAD_SEGMENTS)]  # never, the default
+    _assert_same_outlines(*(out for out, _ in runs))
+    passes = [count for _, count in runs]
     assert passes == [3, 2]
