@@ -349,10 +349,10 @@ class Energy:
         np.divide(m_b, 2.0, out=m_b)
         np.add(c_a2, c_a2_partner, out=points[0, 0])
         np.divide(points[0, 0], 2.0, out=points[0, 0])
-        np.copyto(points[0, 1], m_a)
+        points[0, 1] = m_a
         np.copyto(points[0, 1], c_a, where=ends[0])
         points[1, 0], points[1, 1], points[1, 2] = c_a, trial, c_b
-        np.copyto(points[2, 1], m_b)
+        points[2, 1] = m_b
         np.copyto(points[2, 1], c_b, where=ends[1])
         np.add(c_b2_partner, c_b2, out=points[2, 2])
         np.divide(points[2, 2], 2.0, out=points[2, 2])
