@@ -88,7 +88,7 @@ class CellGraph:
 def build_cell_graph(resolved: CrossingResolution | SimilarityGraph) -> CellGraph:
     """Build the reshaped cell graph of a planar similarity graph."""
     graph = resolved.graph if isinstance(resolved, CrossingResolution) else resolved
-    if np.any(graph.diag_main & graph.diag_anti):
+    if (graph.diag_main & graph.diag_anti).any():
         raise ValueError("similarity graph still has crossing diagonals; resolve them first")
     h, w = graph.shape
     split_main = np.zeros((h + 1, w + 1), dtype=bool)
@@ -111,7 +111,7 @@ def _template_nodes(split_main: np.ndarray, split_anti: np.ndarray) -> np.ndarra
     rows, cols = split.shape
     x = np.arange(0, 4 * cols, 4, dtype=INDEX)
     y = np.arange(0, 4 * rows, 4, dtype=INDEX)[:, None]
-    at = np.flatnonzero(split)
+    at = split.ravel().nonzero()[0]
     nodes = np.empty((rows * cols + at.size, 2), dtype=INDEX)
     lattice = nodes[: rows * cols]
     lattice[:, 0] = (x - split).ravel()
@@ -143,7 +143,7 @@ def _pixel_edges(split_main: np.ndarray, split_anti: np.ndarray) -> tuple[np.nda
 
     # written a column at a time into the (E, 2) arrays: the horizontal edges, the vertical
     # ones, then the links'
-    at = np.flatnonzero(split)
+    at = split.ravel().nonzero()[0]
     n_h, n_v = (h + 1) * w, h * (w + 1)
     edges = np.empty((n_h + n_v + at.size, 2), dtype=INDEX)
     edge_pixels = np.empty_like(edges)

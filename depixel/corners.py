@@ -50,9 +50,9 @@ class Corners:
         """(N, 2) the nodes' initial positions with every right-angle corner moved onto its
         lattice point (the cut made by the diagonal link is undone)."""
         start = splines.positions.copy()
-        square = np.flatnonzero(self.square)
+        square = self.square.nonzero()[0]
         q = splines.cells.nodes.take(square, axis=0)
-        set_rows(start, square, 4 * np.round(q / 4.0) / 4.0)
+        set_rows(start, square, 4 * (q / 4.0).round() / 4.0)
         return start
 
 
@@ -81,13 +81,13 @@ def detect_square_corners(splines: SplineSet) -> np.ndarray:
     # only interior slots at a cut node with two more slots on both sides can match: the
     # pattern is tested on those alone (the rest would only cost memory)
     cut_node = link_corners(q)[0]
-    slot = np.flatnonzero(cut_node[node] & (prev >= 0) & (nxt >= 0))
+    slot = (cut_node[node] & (prev >= 0) & (nxt >= 0)).nonzero()[0]
     prev1, next1 = prev[slot], nxt[slot]
     prev2, next2 = prev[prev1], nxt[next1]
     ok = (prev2 >= 0) & (next2 >= 0)
     slot, prev1, next1, prev2, next2 = slot[ok], prev1[ok], next1[ok], prev2[ok], next2[ok]
     k = q.take(node.take(slot), axis=0)
-    lattice = 4 * np.round(k / 4.0).astype(np.int64)
+    lattice = 4 * (k / 4.0).round().astype(np.int64)
     off = k - lattice
     sx, sy = off[:, 0], off[:, 1]
     lx, ly = lattice[:, 0], lattice[:, 1]
@@ -150,7 +150,7 @@ def detect_run_corners(splines: SplineSet, params: Params = Params()) -> np.ndar
     qx, qy = nodes[:, 0] / 4.0, nodes[:, 1] / 4.0
     prev, nxt = splines.neighbours()
     node = splines.curve_nodes
-    interior = np.flatnonzero((prev >= 0) & (nxt >= 0))
+    interior = ((prev >= 0) & (nxt >= 0)).nonzero()[0]
     # nodes are at least a quarter pixel apart diagonally (0.35 px): this many steps reach
     steps = int(np.ceil(params.run_reach / 0.35))
 
@@ -185,7 +185,7 @@ def detect_run_corners(splines: SplineSet, params: Params = Params()) -> np.ndar
                 ok = (cross <= tolerance * np.maximum(length, 1e-9)).all(axis=0)
                 far_slot[rows.compress(ok)] = walk.compress(ok)  # the run reaches this far (so far)
                 ids[:, 1] = step.take(walk)  # the next step, if the run goes on
-                go = np.flatnonzero(ok & (length < params.run_reach) & (ids[:, 1] >= 0))
+                go = (ok & (length < params.run_reach) & (ids[:, 1] >= 0)).nonzero()[0]
                 ids = ids.take(go, axis=0)
                 kept = np.empty((6 + 2 * i, go.size))
                 geo.take(go, axis=1, out=kept[:4 + 2 * i], mode="clip")  # (in range; "raise" would copy first)
@@ -201,7 +201,7 @@ def detect_run_corners(splines: SplineSet, params: Params = Params()) -> np.ndar
         """Angle between directions u and v (0 = straight on)."""
         norms = np.sqrt(ux * ux + uy * uy) * np.sqrt(vx * vx + vy * vy)
         cos = (ux * vx + uy * vy) / np.maximum(norms, 1e-12)
-        return np.arccos(np.clip(cos, -1.0, 1.0))
+        return np.arccos(cos.clip(-1.0, 1.0))
 
     # both directions in one walk: index j + P is slot j walking ahead
     p = node.size

@@ -64,7 +64,7 @@ def resolve_crossings(graph: SimilarityGraph, params: Params = Params()) -> Cros
     # one writes every page of a frame-sized array)
     shape = (max(h - 1, 0), max(w - 1, 0))
     curve_vote, sparse_vote, island_vote = np.zeros(shape), np.zeros(shape), np.zeros(shape)
-    rows, cols = np.nonzero(ambiguous)
+    rows, cols = ambiguous.nonzero()
     if rows.size:
         degree = cleared.degree().ravel()
         main_a, main_b = rows * w + cols, (rows + 1) * w + cols + 1
@@ -88,7 +88,7 @@ def resolve_crossings(graph: SimilarityGraph, params: Params = Params()) -> Cros
     tie_break = np.zeros_like(total)
     if params.tie_break:
         tied = ambiguous & (total == 0)
-        tied_rows, tied_cols = np.nonzero(tied)
+        tied_rows, tied_cols = tied.nonzero()
         tie_break[tied] = _colour_frequency_vote(graph, graph.yuv(), tied_rows, tied_cols, params)
     total = total + tie_break
     keep_main = cleared.diag_main & ~(ambiguous & (total <= 0))
@@ -123,8 +123,8 @@ def _colour_frequency_vote(graph: SimilarityGraph, yuv: np.ndarray, rows: np.nda
     h, w = graph.shape
     window = params.sparse_window
     offs = np.arange(window) - (window // 2 - 1)
-    wr = np.clip(rows[:, None] + offs[None, :], 0, h - 1)[:, :, None]
-    wc = np.clip(cols[:, None] + offs[None, :], 0, w - 1)[:, None, :]
+    wr = (rows[:, None] + offs[None, :]).clip(0, h - 1)[:, :, None]
+    wc = (cols[:, None] + offs[None, :]).clip(0, w - 1)[:, None, :]
     inside = ((rows[:, None] + offs >= 0) & (rows[:, None] + offs < h))[:, :, None] & \
              ((cols[:, None] + offs >= 0) & (cols[:, None] + offs < w))[:, None, :]
     window_yuv, alpha = yuv[wr, wc], graph.rgba[..., 3][wr, wc]

@@ -52,13 +52,13 @@ def unique_rows(points: np.ndarray) -> np.ndarray:
     y written by two flat ``put`` (no ``take_along_axis``, no (N, 2) rows gathered)."""
     m, q = points.shape[:2]
     key = points[..., 0] * 4096.0 + points[..., 1]
-    order = np.argsort(key, axis=1)
+    order = key.argsort(axis=1)
     order += (np.arange(m) * q)[:, None]  # flat indices, by key
     key = key.ravel().take(order)  # sorted (each temporary dropped once used: this runs on every movable slot)
     kept = points[..., 0].ravel().take(order) < FAR
     kept[:, 1:] &= key[:, 1:] != key[:, :-1]
     del key
-    rank = np.cumsum(kept, axis=1)  # a kept point's rank in its row, from 1
+    rank = kept.cumsum(axis=1)  # a kept point's rank in its row, from 1
     width = max(int(rank[:, -1].max(initial=0)) if q else 0, 1)
     rank += (np.arange(-1, m * width - 1, width))[:, None]  # its flat row in the result
     kept = kept.ravel()
@@ -111,13 +111,13 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
     wanted = np.ones(n_px, bool) if pixels is None else pixels
     # the pairs: each wanted pixel with each edge of its cell, read off the cell polygons
     # (the work follows the wanted pixels, often a few, not the edges of the image)
-    px = np.flatnonzero(wanted)
+    px = wanted.ravel().nonzero()[0]
     first = cells.cell_ptr.take(px)
     size = cells.cell_ptr.take(px + 1) - first
     edge = cells.cell_edges.take(ranges(first, size))
-    pix = np.repeat(px, size)
+    pix = px.repeat(size)
     rows, cols = np.divmod(px, w)  # per pixel, then spread over its pairs
-    cx, cy = np.repeat(cols + 0.5, size), np.repeat(rows + 0.5, size)
+    cx, cy = (cols + 0.5).repeat(size), (rows + 0.5).repeat(size)
     del rows, cols
     # everything below as x and y columns, a pair at a time: numpy runs the rows of an
     # (N, 2) array two elements at a time
@@ -149,7 +149,7 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
             x_at = q0_x + rel_y * seg_x / seg_y
         crossings = np.bincount(p.compress(straddle & (x_at > x)), minlength=n_px)
         length2 = np.maximum(seg_x**2 + seg_y**2, 1e-12)
-        along = np.clip((rel_x * seg_x + rel_y * seg_y) / length2, 0.0, 1.0)
+        along = ((rel_x * seg_x + rel_y * seg_y) / length2).clip(0.0, 1.0)
         dx, dy = rel_x - along * seg_x, rel_y - along * seg_y
         nearest2 = np.full(n_px, np.inf)
         np.minimum.at(nearest2, p, dx * dx + dy * dy)
@@ -158,7 +158,7 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
     if np.isfinite(below):
         # each pair's edge box (a curve's with its Bézier controls), then the pair's centre
         # against it; the boxes are dropped before the near pairs are measured
-        curved = np.flatnonzero(bent)
+        curved = bent.nonzero()[0]
         if curved.size:  # x and y of c0, of c1, of c2
             c = drawing.controls.take(control_row.take(edge.take(curved)), axis=0).reshape(-1, 6).T
         # one side of the boxes at a time in one buffer (the side, then its distance beyond
@@ -182,10 +182,10 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
         del side, beyond, curved
         count = np.bincount(pix.compress(right & ((ay > cy) != (by > cy))), minlength=n_px)
         del right
-        near_count, nearest2 = measure(np.flatnonzero(~far))
+        near_count, nearest2 = measure((~far).nonzero()[0])
         count += near_count
         # a centre outside its cell is measured against every edge (its crossings are counted)
-        again = np.flatnonzero(far & (count % 2 == 0).take(pix))
+        again = (far & (count % 2 == 0).take(pix)).nonzero()[0]
         if again.size:
             nearest2 = np.minimum(nearest2, measure(again)[1])
     else:
@@ -244,7 +244,7 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
             near = step[on & (step >= 0)]
             on[near] = True
         revert[splines.curve_nodes.compress(on)] = True
-        nodes = np.flatnonzero(revert)
+        nodes = revert.nonzero()[0]
         set_rows(positions, nodes, start.take(nodes, axis=0))
     return positions, splines.drawing(positions)
 

@@ -67,7 +67,7 @@ def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
     degree = np.bincount(u, minlength=n) + np.bincount(v, minlength=n)
     # the system on the free nodes only: compact indices, free–free edges for the operator,
     # free–fixed edges for the right-hand side
-    index = np.cumsum(free) - 1
+    index = free.cumsum() - 1
     m = int(free.sum())
     free_u, free_v = free.take(u), free.take(v)
     inner = free_u & free_v
@@ -105,7 +105,7 @@ def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
 
     x = conjugate_gradients(apply, rhs)
     out = positions.copy()
-    nodes = np.flatnonzero(free)
+    nodes = free.nonzero()[0]
     before = start.take(nodes, axis=0)  # (rows gathered: a column's take copies the whole column first)
     for i in range(2):  # a column at a time: the same sums as start[free] + x.T, without row copies
         out[nodes, i] = before[:, i] + x[i]
@@ -169,7 +169,7 @@ def follow(display: np.ndarray, before: np.ndarray, after: np.ndarray) -> np.nda
     """(N, 2) the display points of ``after`` from those of ``before`` (``display``), when
     ``after`` moved nodes off the curves alone (as :func:`harmonic_map` does): a moved node
     is shown where it is, the curves and their display points stay."""
-    moved = np.flatnonzero((after != before).view(np.uint16).ravel())  # either coordinate: one 2-byte word
+    moved = (after != before).view(np.uint16).ravel().nonzero()[0]  # either coordinate: one 2-byte word
     out = display.copy()
     set_rows(out, moved, after.take(moved, axis=0))
     return out

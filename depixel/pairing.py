@@ -52,7 +52,7 @@ def visible_edges(cells: CellGraph, linked: np.ndarray | None = None) -> np.ndar
 def shading_edges(cells: CellGraph, visible: np.ndarray, params: Params) -> np.ndarray:
     """(E,) bool: visible edges whose two colours are within ``shading_distance`` in YUV."""
     g = cells.graph
-    at = np.flatnonzero(visible)  # only they can be shading edges
+    at = visible.nonzero()[0]  # only they can be shading edges
     # both inside; rows gathered (a strided column's take copies the whole column first)
     left, right = cells.edge_pixels.take(at, axis=0).T
     yuv = g.yuv().reshape(-1, 3)
@@ -100,13 +100,13 @@ def pair_ends(cells: CellGraph, edges: np.ndarray, shading: np.ndarray) -> HalfE
     n_half = 2 * edges.size
     node = cells.edges.take(edges, axis=0).reshape(-1)  # the ends of each edge in turn: its row, flattened
     partner = np.full(n_half, -1, dtype=INDEX)
-    order = np.argsort(node, kind="stable")
+    order = node.argsort(kind="stable")
     sorted_nodes = node.take(order)
     new_node = np.empty(n_half + 1, dtype=bool)  # where each node's run starts, and the end
     new_node[0] = new_node[-1] = True
     np.not_equal(sorted_nodes[1:], sorted_nodes[:-1], out=new_node[1:-1])
-    bounds = np.flatnonzero(new_node)
-    starts, counts = bounds[:-1], np.diff(bounds)
+    bounds = new_node.nonzero()[0]
+    starts, counts = bounds[:-1], bounds[1:] - bounds[:-1]
 
     two = starts[counts == 2]
     partner[order[two]] = order[two + 1]
@@ -134,9 +134,9 @@ def _t_junction_pairs(cells: CellGraph, node: np.ndarray, h: np.ndarray,
     cosine = np.einsum("tpk,tpk->tp", direction[:, pairs[:, 0]], direction[:, pairs[:, 1]])
     # contour-over-shading rule: exactly one shading edge → join the other two
     one_shading = is_shading.sum(axis=1) == 1
-    lone = np.argmax(is_shading, axis=1)  # index of the shading edge
+    lone = is_shading.argmax(axis=1)  # index of the shading edge
     by_rule = 2 - lone  # the pair not containing `lone`: (1,2)→idx 2, (0,2)→1, (0,1)→0
-    straightest = np.argmin(cosine, axis=1)  # closest to 180° (first on ties)
+    straightest = cosine.argmin(axis=1)  # closest to 180° (first on ties)
     choice = np.where(one_shading, by_rule, straightest)
     rows = np.arange(h.shape[0])
     return h[rows, pairs[choice, 0]], h[rows, pairs[choice, 1]]
@@ -162,19 +162,19 @@ def chain_curves(half_ends: HalfEnds) -> Chains:
     leader, position = cycle_leaders(nxt)
     del nxt
     length = np.bincount(leader, minlength=n).astype(INDEX)  # of the cycle each state leads
-    free = np.flatnonzero(partner < 0)
+    free = (partner < 0).nonzero()[0]
     open_lead, first = np.unique(leader.take(free), return_index=True)
     open_start = free.take(first)  # each open curve's first free end (``free`` is ascending)
-    by_start = np.argsort(open_start)
+    by_start = open_start.argsort()
     open_lead, open_start = open_lead.take(by_start), open_start.take(by_start)
     is_open = np.zeros(n, dtype=bool)
     is_open[open_lead] = True
-    closed_lead = np.flatnonzero((leader == state) & (state % 2 == 0) & ~is_open)
+    closed_lead = ((leader == state) & (state % 2 == 0) & ~is_open).nonzero()[0]
     del is_open
     n_open = open_lead.size
     counts = np.concatenate([length.take(open_lead) // 2 + 1, length.take(closed_lead)])  # slots per curve
     ptr = np.zeros(counts.size + 1, dtype=INDEX)
-    np.cumsum(counts, out=ptr[1:])
+    counts.cumsum(out=ptr[1:])
     # each state's curve (-1: the way back of an open curve, the other way of a closed one)
     # and its place on the curve, counted from the curve's first state
     rank = np.full(n, -1, dtype=INDEX)
@@ -190,7 +190,7 @@ def chain_curves(half_ends: HalfEnds) -> Chains:
     del origin
     offset %= np.maximum(length.take(leader), 1)
     del leader, length
-    kept = np.flatnonzero(curve >= 0)  # the states on a curve (state s is index s)
+    kept = (curve >= 0).nonzero()[0]  # the states on a curve (state s is index s)
     curve, offset = curve.take(kept), offset.take(kept)
     there = offset < counts.take(curve)  # an open curve's way there, and its far end
     kept, curve, offset = kept.compress(there), curve.compress(there), offset.compress(there)

@@ -99,7 +99,7 @@ def relax(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: 
             if not chosen.all():
                 if not chosen.any():
                     continue
-                group = group.part(np.flatnonzero(chosen))
+                group = group.part(chosen.nonzero()[0])
             offsets = disc_offsets(rng, group.members.size, params.candidates, params.radius)
             # no last move to repeat in the first sweep
             set_rows(ctrl, group.members, step(model, ctrl, anchor, group, offsets, params, last if sweep else None))
@@ -186,7 +186,7 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
     too_far = offset2 > params.max_offset**2
     too_far[:, 0] = False
     np.putmask(energy, too_far, np.inf)  # never taken
-    best = np.argmin(energy, axis=1)  # ties keep the lower index
+    best = energy.argmin(axis=1)  # ties keep the lower index
     # the trial taken must not bring a curve closer to a protected point than allowed (unless
     # it was closer already), so the clearance is measured only where it can decide: of the
     # best trial, where it is not staying; of staying, where the best one comes within the
@@ -194,11 +194,13 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
     # cannot be taken: staying is always allowed and wins ties), of which the best one allowed
     # is taken. Each number is the one a clearance of every trial would give (a minimum)
     trials = trial.shape[-1]
-    rows = np.flatnonzero(best > 0)
+    rows = (best > 0).nonzero()[0]
     if rows.size:
         chosen = best.take(rows)
         # the spans at the best trial and at staying, of every member moving (one call)
-        points = _trial_points(around, group, trial, rows, np.stack([chosen, np.zeros_like(chosen)], axis=1))
+        at = np.zeros((rows.size, 2), chosen.dtype)  # (R, 2): the best trial, staying
+        at[:, 0] = chosen
+        points = _trial_points(around, group, trial, rows, at)
         near = model.clearance_of(points[..., 0], group, rows)
         close = near < params.centre_clearance
         rows, chosen, near = rows.compress(close), chosen.compress(close), near.compress(close)
@@ -212,14 +214,14 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
         refused_best = np.arange(0, rows.size * trials, trials) + chosen  # flat (row, trial)
         lower.ravel()[refused_best] = False  # refused already
         energy.ravel()[refused_best] = np.inf
-        pick, at = np.nonzero(lower)  # (row, trial) pairs
+        pick, at = lower.nonzero()  # (row, trial) pairs
         for part in batch_slices(pick.size, CLEARANCE_PAIRS):
             member = rows.take(pick[part])
             clear = model.clearance_of(_trial_points(around, group, trial, member, at[part, None])[..., 0], group,
                                        member)
-            refused = np.flatnonzero((clear < params.centre_clearance) & (clear < stay.take(pick[part])))
+            refused = ((clear < params.centre_clearance) & (clear < stay.take(pick[part]))).nonzero()[0]
             energy.ravel()[pick[part].take(refused) * trials + at[part].take(refused)] = np.inf
-        best[rows] = np.argmin(energy, axis=1)
+        best[rows] = energy.argmin(axis=1)
     return trial.reshape(2, -1).take(np.arange(0, best.size * trials, trials) + best, axis=1)  # (2, M)
 
 
@@ -313,7 +315,7 @@ class Energy:
         scale[0, 0], scale[0, 1], scale[1, 1], scale[1, 2] = s_a2, s_a, s_b, s_b2
         # how d0, dm, d1 of the spans before, own, after move with the member (multiples of it),
         # times the halves counted: E_s = Σ |φ(dm) − φ(d0)| (first half) + |φ(d1) − φ(dm)| (second)
-        first, second = np.moveaxis(keep, 2, 0).astype(float)  # (3, M)
+        first, second = keep.transpose(2, 0, 1).astype(float)  # (3, M)
         slope = np.zeros((3, 3, members.size))
         slope[0, 1], slope[0, 2] = -s_a * first[1], 0.5 * first[2]  # d0 (before: fixed)
         slope[1] = (first - second) * np.stack([np.full(members.size, 0.5), s_a - s_b, np.full(members.size, -0.5)])
@@ -326,9 +328,9 @@ class Energy:
             np.stack([col(self.end[a]), col(self.end[b])]),
             # float32 holds these exactly (0, ±½, ±1 and their products): half the memory of
             # float64 for every slot of every class, the arithmetic still in float64
-            np.moveaxis(keep, 2, 0).astype(np.float32)[..., None],
+            keep.transpose(2, 0, 1).astype(np.float32)[..., None],
             # a compact copy (not a view of the padded rows); float32 holds these exactly
-            np.moveaxis(protected, 2, 0).astype(np.float32)[..., None],
+            protected.transpose(2, 0, 1).astype(np.float32)[..., None],
             scale.astype(np.float32)[:, :, None, :, None], slope.astype(np.float32)[..., None],
         )
 
@@ -347,10 +349,10 @@ class Energy:
         np.divide(m_b, 2.0, out=m_b)
         np.add(c_a2, c_a2_partner, out=points[0, 0])
         np.divide(points[0, 0], 2.0, out=points[0, 0])
-        np.copyto(points[0, 1], m_a)
+        points[0, 1] = m_a
         np.copyto(points[0, 1], c_a, where=ends[0])
         points[1, 0], points[1, 1], points[1, 2] = c_a, trial, c_b
-        np.copyto(points[2, 1], m_b)
+        points[2, 1] = m_b
         np.copyto(points[2, 1], c_b, where=ends[1])
         np.add(c_b2_partner, c_b2, out=points[2, 2])
         np.divide(points[2, 2], 2.0, out=points[2, 2])
@@ -383,7 +385,7 @@ class Energy:
         phi[::3] = fixed
         smooth = _turns(np.subtract(phi[1:], phi[:-1]))  # (3, M, K): before, own, after
         smooth *= g.keep[0] * g.keep[1]
-        one = np.flatnonzero(g.keep[0] != g.keep[1])  # spans (s·M + m) of which one half counts
+        one = (g.keep[0] != g.keep[1]).ravel().nonzero()[0]  # spans (s·M + m) of which one half counts
         if one.size:
             # a half turns from d0 to dm = P2 - P0 or from dm to d1; the spans' end points in a
             # chain too (the span before ends where the own one starts unless a is an open end,
@@ -394,11 +396,11 @@ class Energy:
                 span, member = np.divmod(one, members)
                 has = np.zeros(members, bool)
                 has[member] = True
-                who = np.flatnonzero(has)
+                who = has.nonzero()[0]
                 n = who.size
                 chain = _span_tips(knots.take(who, axis=2), c_a.take(who, axis=1), c_b.take(who, axis=1),
                                    g.ends.take(who, axis=1), trial.take(who, axis=1))
-                rows = span * n + (np.cumsum(has) - 1).take(member)
+                rows = span * n + (has.cumsum() - 1).take(member)
             chord = chain.take(rows + n, axis=1) - chain.take(rows, axis=1)  # dm of those spans
             middle = np.arctan2(chord[1], chord[0])
             flat = phi.reshape(-1, k)
@@ -466,14 +468,15 @@ class Energy:
     def near(self, moved: np.ndarray) -> np.ndarray:
         """(P,) bool: the slots within two slots along their curve of a ``moved`` slot (P,)
         bool, those whose energy a move of theirs changes."""
-        reach = np.append(moved, False)  # index -1 (past an open end) reads False
+        reach = np.zeros(moved.size + 1, bool)  # index -1 (past an open end) reads False
+        reach[:-1] = moved
         for _ in range(2):
             reach[:-1] |= reach.take(self.prev) | reach.take(self.nxt)
         return reach[:-1]
 
     def total(self, ctrl: np.ndarray, anchor: np.ndarray) -> float:
         """The energy of all the curves: E_s of every span plus E_p of every slot."""
-        p = np.flatnonzero(~self.end)
+        p = (~self.end).nonzero()[0]
         a, b = self.prev.take(p), self.nxt.take(p)
         spans = span(ctrl.take(a, axis=0), ctrl.take(p, axis=0), ctrl.take(b, axis=0),
                      self.end.take(a)[:, None], self.end.take(b)[:, None])
@@ -536,4 +539,4 @@ def independent_classes(splines: SplineSet, movable: np.ndarray) -> list[np.ndar
     block = closed & (rest == 2) & (index >= length - 8)  # 0, 1, 2, 3, 0, 1, 2, 3 at the end
     colour = np.where(block, (index - (length - 8)) % 4, colour)
     colour = np.where(closed & (length == 5), index, colour)
-    return [np.flatnonzero(movable & (colour == c)) for c in range(5)]
+    return [(movable & (colour == c)).nonzero()[0] for c in range(5)]

@@ -130,7 +130,7 @@ class _SnapPlan(NamedTuple):
         slot is one): after the first pass only they can still move."""
         snapped = np.zeros(n_slots, bool)
         snapped[self.ends] = True
-        rows = np.flatnonzero(snapped[self.before] | snapped[self.after])
+        rows = (snapped[self.before] | snapped[self.after]).nonzero()[0]
         return _SnapPlan.of(*(field[rows] for field in self[:6]))
 
 
@@ -172,7 +172,8 @@ class SplineSet:
 
     def slot_curve(self) -> np.ndarray:
         """(P,) the curve each slot belongs to."""
-        return np.repeat(np.arange(self.n_curves, dtype=INDEX), np.diff(self.curve_ptr))
+        ptr = self.curve_ptr
+        return np.arange(self.n_curves, dtype=INDEX).repeat(ptr[1:] - ptr[:-1])
 
     def neighbours(self) -> tuple[np.ndarray, np.ndarray]:
         """Previous and next slot of every slot along its curve (-1 past an open end).
@@ -209,9 +210,9 @@ class SplineSet:
         node: ``(ends, through)``, both (T,) slot indices."""
         end = self.is_end()
         where = np.full(len(self.positions), -1, dtype=np.int64)
-        interior = np.flatnonzero(~end)
+        interior = (~end).nonzero()[0]
         where[self.curve_nodes[interior]] = interior
-        ends = np.flatnonzero(end & (where[self.curve_nodes] >= 0))
+        ends = (end & (where[self.curve_nodes] >= 0)).nonzero()[0]
         return ends, where[self.curve_nodes[ends]]
 
     def snap(self, ctrl: np.ndarray) -> np.ndarray:
@@ -290,8 +291,8 @@ class SplineSet:
         before, after = np.maximum(prev, 0), np.maximum(nxt, 0)
         ends = np.stack([np.where(end.take(before), before, 2 * p + before),
                          np.where(end.take(after), after, 2 * p + np.arange(p))]).astype(INDEX)
-        inner = np.flatnonzero(~end)
-        a = np.flatnonzero(nxt >= 0)
+        inner = (~end).nonzero()[0]
+        a = (nxt >= 0).nonzero()[0]
         a = a.compress(~(end.take(a) & end.take(nxt.take(a))))  # an edge between two end points is straight
         b = nxt.take(a)
         a_end, b_end = end.take(a), end.take(b)
@@ -355,7 +356,7 @@ class SplineSet:
         control points ``ctrl`` (P, 2) and the edges drawn curved."""
         prev, nxt = self.neighbours()
         n_edges = len(self.cells.edges)
-        slots = np.flatnonzero(self.slot_edges >= 0)
+        slots = (self.slot_edges >= 0).nonzero()[0]
         edge = self.slot_edges[slots]
         keep = curved[edge]
         edge_slot = np.full(n_edges, -1, dtype=INDEX)
@@ -375,8 +376,8 @@ def extract_splines(cells: CellGraph, params: Params = Params()) -> SplineSet:
     linked = linked_edges(cells)
     visible = visible_edges(cells, linked)
     shading = shading_edges(cells, visible, params)
-    contours = pair_ends(cells, np.flatnonzero(visible), shading)
-    bands = pair_ends(cells, np.flatnonzero(band_edges(cells, linked)), np.zeros(len(cells.edges), bool))
+    contours = pair_ends(cells, visible.nonzero()[0], shading)
+    bands = pair_ends(cells, band_edges(cells, linked).nonzero()[0], np.zeros(len(cells.edges), bool))
     on_contour = np.zeros(len(cells.nodes), dtype=bool)
     on_contour[contours.node] = True
     band_partner = np.where(on_contour[bands.node] | (bands.partner < 0), -1, bands.partner + contours.node.size)

@@ -54,4 +54,4 @@ class SplitMix64:
 
     def permutation(self, n: int) -> np.ndarray:
         """A shuffled ``arange(n)``: the order of ``n`` random keys."""
-        return np.argsort(self.bits(n), kind="stable")
+        return self.bits(n).argsort(kind="stable")
