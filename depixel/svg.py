@@ -154,7 +154,8 @@ PATH_BATCH = 1 << 12
 
 def path_data(outlines: Outlines, precision: int) -> list[str]:
     """The ``d`` attribute of every shape."""
-    segments = np.diff(outlines.loop_ptr[outlines.shape_ptr])  # (S,) segments of each shape
+    loop_ptr = outlines.loop_ptr.take(outlines.shape_ptr)
+    segments = loop_ptr[1:] - loop_ptr[:-1]  # (S,) segments of each shape
     out: list[str] = []
     for a, b in batch_bounds(segments, PATH_BATCH):
         out += _path_data(outlines.shapes(a, b), precision)
@@ -167,9 +168,9 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     cmd, args = _commands(outlines, unit)
     n_cmd = cmd.size
     arity = _ARITY.take(cmd)
-    shape_of_loop = np.arange(len(outlines)).repeat(np.diff(outlines.shape_ptr))
+    shape_of_loop = np.arange(len(outlines)).repeat(outlines.shape_ptr[1:] - outlines.shape_ptr[:-1])
     # every loop is M + segments + Z: the command's shape from its loop
-    loop_len = np.diff(outlines.loop_ptr)
+    loop_len = outlines.loop_ptr[1:] - outlines.loop_ptr[:-1]
     last_line = outlines.kind[outlines.loop_ptr[1:] - 1] == LINE
     per_loop = loop_len - last_line + 2
     shape_of_cmd = shape_of_loop.repeat(per_loop)
@@ -255,7 +256,7 @@ def _commands(outlines: Outlines, unit: float) -> tuple[np.ndarray, np.ndarray]:
     ctrl = (nan_to_zero(outlines.ctrl) * unit).round().astype(np.int64)
     ctrl2 = (nan_to_zero(outlines.ctrl2) * unit).round().astype(np.int64)
     n_loop = outlines.loop_ptr.size - 1
-    loop_len = np.diff(outlines.loop_ptr)
+    loop_len = outlines.loop_ptr[1:] - outlines.loop_ptr[:-1]
     seg_loop = np.arange(n_loop).repeat(loop_len)
     last = outlines.loop_ptr[1:] - 1
     start = end.take(last, axis=0)  # each loop starts where its last segment ends
@@ -282,18 +283,19 @@ def _commands(outlines: Outlines, unit: float) -> tuple[np.ndarray, np.ndarray]:
     # lines and T their end (H its x, V its y), Q control and end, C both controls and end
     quad, cubic = code == Q, code == C
     curve = quad | cubic
-    zero = np.zeros(kind.size, np.int64)
-    columns = [np.where(curve, ctrl[:, 0], np.where(code == V, end[:, 1], end[:, 0])),
-               np.where(curve, ctrl[:, 1], end[:, 1]),
-               np.where(quad, end[:, 0], np.where(cubic, ctrl2[:, 0], zero)),
-               np.where(quad, end[:, 1], np.where(cubic, ctrl2[:, 1], zero)),
-               np.where(cubic, end[:, 0], zero), np.where(cubic, end[:, 1], zero)]
     # interleave: loop l = [M start] + its kept segments + [Z], as rows of one table:
     # the segments' arguments, then each loop's M, then a row of zeros for Z
-    table = np.stack(columns, axis=1)
-    moves = np.zeros((n_loop, _W), np.int64)
-    moves[:, :2] = start
-    table = np.concatenate([table, moves, np.zeros((1, _W), np.int64)])
+    n_seg = kind.size
+    table = np.zeros((n_seg + n_loop + 1, _W), np.int64)
+    segment_args = table[:n_seg]
+    segment_args[:, 0] = np.where(curve, ctrl[:, 0], np.where(code == V, end[:, 1], end[:, 0]))
+    segment_args[:, 1] = np.where(curve, ctrl[:, 1], end[:, 1])
+    segment_args[:, 2] = np.where(quad, end[:, 0], np.where(cubic, ctrl2[:, 0], 0))
+    segment_args[:, 3] = np.where(quad, end[:, 1], np.where(cubic, ctrl2[:, 1], 0))
+    segment_args[:, 4] = np.where(cubic, end[:, 0], 0)
+    segment_args[:, 5] = np.where(cubic, end[:, 1], 0)
+    for c in range(2):
+        table[n_seg : n_seg + n_loop, c] = start[:, c]
     keep = ~drop
     per_loop = np.bincount(seg_loop[keep], minlength=n_loop) + 2
     loop_first = per_loop.cumsum() - per_loop
@@ -334,12 +336,14 @@ def _relative(cmd: np.ndarray, absolute: np.ndarray, shape_of_cmd: np.ndarray) -
     before_y = np.where(new_shape, 0, _prepend(0, y_val.take(y_src[:-1])))
     two = (cmd == Q) | (cmd == C)  # commands with a second and a third point
     three = cmd == C
-    zero = np.zeros(n, np.int64)
-    offset = np.stack([np.where(pair | x_only, before_x, np.where(y_only, before_y, zero)),
-                       np.where(pair, before_y, zero),
-                       np.where(two, before_x, zero), np.where(two, before_y, zero),
-                       np.where(three, before_x, zero), np.where(three, before_y, zero)], axis=1)
-    return absolute - offset
+    relative = absolute.copy()  # (written a column at a time: np.stack of the offsets costs more)
+    relative[:, 0] -= np.where(pair | x_only, before_x, np.where(y_only, before_y, 0))
+    relative[:, 1] -= np.where(pair, before_y, 0)
+    relative[:, 2] -= np.where(two, before_x, 0)
+    relative[:, 3] -= np.where(two, before_y, 0)
+    relative[:, 4] -= np.where(three, before_x, 0)
+    relative[:, 5] -= np.where(three, before_y, 0)
+    return relative
 
 
 class _Flags:
