@@ -37,8 +37,8 @@ def in_sorted(sorted_keys: np.ndarray, keys: np.ndarray) -> np.ndarray:
     binary search each, for integer keys packed from several numbers."""
     if sorted_keys.size == 0:
         return np.zeros(keys.shape, bool)
-    at = np.minimum(sorted_keys.searchsorted(keys), sorted_keys.size - 1)
-    return sorted_keys[at] == keys
+    # a key past the last one finds the last one ("clip"), which differs from it
+    return sorted_keys.take(sorted_keys.searchsorted(keys), mode="clip") == keys
 
 
 def nan_to_zero(values: np.ndarray) -> np.ndarray:
