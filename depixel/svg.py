@@ -18,6 +18,7 @@ The text is assembled with whole-array operations (:mod:`depixel.svgtext`).
 from __future__ import annotations
 
 from collections.abc import Iterable
+from functools import cache
 
 import numpy as np
 
@@ -193,15 +194,18 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     implicit = ((letter == prev_letter) & (cmd != M) & (cmd != Z)) | \
         ((letter == L) & (prev_letter == M)) | ((letter == L + 8) & (prev_letter == M + 8))
     implicit &= ~new_shape
+    explicit = ~implicit
 
     # token stream: per command an optional letter, then its numbers
-    tok_count = (~implicit).astype(np.int64) + n_num
-    tok_start = tok_count.cumsum() - tok_count
-    n_tok = int(tok_count.sum())
+    tok_count = explicit.astype(np.int64)
+    tok_count += n_num
+    tok_end = tok_count.cumsum()
+    tok_start = tok_end - tok_count
+    n_tok = int(tok_end[-1]) if n_cmd else 0
     is_number = np.ones(n_tok, bool)
-    is_number[tok_start[~implicit]] = False
-    letters = Texts.of(list(_LETTERS) + list(_LETTERS.lower()))
-    num_pos = tok_start.take(num_cmd) + (~implicit).take(num_cmd) + num_k
+    letter_pos = tok_start.compress(explicit)
+    is_number[letter_pos] = False
+    num_pos = tok_start.take(num_cmd) + explicit.take(num_cmd) + num_k
     rel_num = use_rel.take(num_cmd)
     # each number's text among the absolute ones (the first half), then the relative ones
     num_text = np.arange(num_cmd.size) + np.where(rel_num, num_cmd.size, 0)
@@ -218,9 +222,10 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     tok_shape = shape_of_cmd.repeat(tok_count)
     sep &= _prepend(False, tok_shape[1:] == tok_shape[:-1])
 
-    table, (letter_row, abs_row, space_row) = stack([letters, texts, Texts.of([" "])])
+    letters, space = _constant_texts()
+    table, (letter_row, abs_row, space_row) = stack([letters, texts, space])
     row = np.empty(n_tok, np.int64)
-    row[tok_start[~implicit]] = letter_row + letter[~implicit]
+    row[letter_pos] = letter_row + letter.compress(explicit)
     row[num_pos] = abs_row + num_text
     # interleave the separators: token i becomes [space] + token
     out_count = 1 + sep.astype(np.int64)
@@ -236,6 +241,12 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     byte_end = pieces.length.cumsum()
     bounds = _prepend(0, byte_end.take(out_end - 1))
     return [text[bounds[i] : bounds[i + 1]] for i in range(len(outlines))]
+
+
+@cache
+def _constant_texts() -> tuple[Texts, Texts]:
+    """The command letters (upper then lower case) and the space, as tables (made once)."""
+    return Texts.of(list(_LETTERS) + list(_LETTERS.lower())), Texts.of([" "])
 
 
 def _prepend(first: int | bool, values: np.ndarray) -> np.ndarray:
