@@ -281,10 +281,11 @@ class FaceTopology:
             idx = ranges(start, count)
             f = owner.repeat(count)
             cand = h.take(idx)
+            cand_key = f * n
+            cand_key += cand
             ok = self.opaque.take(cand) & (self.rank.take(cand) > self.rank.take(f))
-            cand_key = f.compress(ok) * n + cand.compress(ok)
-            fresh = ~in_sorted(keys, cand_key)
-            cand_key, weight = cand_key.compress(fresh), w.take(idx).compress(ok).compress(fresh)
+            ok &= ~in_sorted(keys, cand_key)  # fresh (one filter: fewer calls than filtering twice)
+            cand_key, weight = cand_key.compress(ok), w.take(idx.compress(ok))
             if cand_key.size == 0:
                 return keys
             uniq, shared = sums_by_key(cand_key, weight)
