@@ -37,8 +37,8 @@ def in_sorted(sorted_keys: np.ndarray, keys: np.ndarray) -> np.ndarray:
     binary search each, for integer keys packed from several numbers."""
     if sorted_keys.size == 0:
         return np.zeros(keys.shape, bool)
-    at = np.minimum(sorted_keys.searchsorted(keys), sorted_keys.size - 1)
-    return sorted_keys[at] == keys
+    # a key past the last one finds the last one ("clip"), which differs from it
+    return sorted_keys.take(sorted_keys.searchsorted(keys), mode="clip") == keys
 
 
 def nan_to_zero(values: np.ndarray) -> np.ndarray:
@@ -66,8 +66,9 @@ def ranges(first: np.ndarray | int, count: np.ndarray) -> np.ndarray:
     """``first[i], first[i] + 1, …, first[i] + count[i] - 1`` for every ``i`` in turn (the
     counts ≥ 0): ``np.concatenate([np.arange(f, f + c) for f, c in zip(first, count)])`` in a
     few whole-array calls. ``first`` 0: each item's place within its own run."""
-    start = count.cumsum() - count
-    return np.arange(int(count.sum())) - (start - first).repeat(count)
+    end = count.cumsum()
+    start = end - count
+    return np.arange(int(end[-1]) if end.size else 0) - (start - first).repeat(count)
 
 
 def batch_slices(n: int, batch: int) -> list[slice]:

@@ -4,6 +4,8 @@ Written out rather than taken from ``scipy.sparse.csgraph`` because importing sc
 about 0.3 s of CPU per process, more than converting a sprite. Both kernels are
 label-pointer iterations (hooking and pointer jumping) whose round count grows with the
 logarithm of the component or cycle size, each round a handful of whole-array operations.
+A round's test is ``np.logical_or.reduce(mask)``: ``mask.any()`` goes through a Python
+wrapper in numpy, ~1.5 µs a call more, and a sprite's writer runs ~50 rounds.
 """
 from __future__ import annotations
 
@@ -22,11 +24,12 @@ def component_roots(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     a = np.asarray(a, dtype=np.int64)
     b = np.asarray(b, dtype=np.int64)
     while a.size:
-        ra, rb = root[a], root[b]
+        ra, rb = root.take(a), root.take(b)
         differ = ra != rb
-        if not differ.any():
+        if not np.logical_or.reduce(differ):
             break
-        a, b, ra, rb = a[differ], b[differ], ra[differ], rb[differ]  # settled edges stay settled
+        # settled edges stay settled
+        a, b, ra, rb = a.compress(differ), b.compress(differ), ra.compress(differ), rb.compress(differ)
         np.minimum.at(root, np.maximum(ra, rb), np.minimum(ra, rb))
         root = _jump_to_roots(root)
     return root
@@ -51,7 +54,7 @@ def cycle_leaders(nxt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     jump = nxt.take(nxt)
     while True:
         leader.take(jump, out=ahead, mode="clip")  # every index is valid: "clip" is not buffered
-        if not np.less(ahead, leader, out=moved).any():
+        if not np.logical_or.reduce(np.less(ahead, leader, out=moved)):
             break
         np.minimum(leader, ahead, out=leader)
         jump.take(jump, out=spare, mode="clip")
@@ -65,7 +68,8 @@ def cycle_leaders(nxt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     to_end = np.logical_not(last).astype(index)
     while True:
         succ.take(succ, out=ahead, mode="clip")
-        if not np.not_equal(ahead, succ, out=moved).any():  # everything points at its cycle's last element
+        # done when everything points at its cycle's last element
+        if not np.logical_or.reduce(np.not_equal(ahead, succ, out=moved)):
             break
         to_end.take(succ, out=spare, mode="clip")
         to_end += spare
@@ -80,6 +84,6 @@ def _jump_to_roots(parent: np.ndarray) -> np.ndarray:
     """Pointer jumping until every element points at a root (``parent[r] == r``)."""
     while True:
         grand = parent.take(parent)
-        if not (grand != parent).any():  # np.array_equal's checks cost more than this on a sprite
+        if not np.logical_or.reduce(grand != parent):  # (np.array_equal's checks cost more on a sprite)
             return parent
         parent = grand

@@ -36,7 +36,7 @@ def loops_to_keep(loops: Loops, halfedge_from: np.ndarray, nodes: np.ndarray, pr
     nxt_pos[loops.ptr[1:] - 1] = loops.ptr[:-1]
     p, q = nodes.take(start, axis=0).astype(np.int64), nodes.take(start.take(nxt_pos), axis=0).astype(np.int64)
     cross = p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]
-    loop_of = everything.repeat(np.diff(loops.ptr))
+    loop_of = everything.repeat(loops.ptr[1:] - loops.ptr[:-1])
     area2 = np.bincount(loop_of, weights=cross, minlength=len(loops))  # clockwise on screen > 0
     holes = (area2 < 0).nonzero()[0]
     if holes.size == 0:

@@ -152,7 +152,7 @@ class OutlineShapes:
         """The outlines of the shapes, consecutive batches of about :data:`LOOP_BATCH`
         boundary half-edges (the result does not depend on the batches)."""
         faces, member_ptr = self.faces, self.member_ptr
-        per_member = np.diff(faces.entry_ptr).take(self.member_key % (faces.n_faces + 1))
+        per_member = (faces.entry_ptr[1:] - faces.entry_ptr[:-1]).take(self.member_key % (faces.n_faces + 1))
         entries = np.concatenate(([0], per_member.cumsum()))  # running
         del per_member
         sizes = (entries[member_ptr[1:]] - entries[member_ptr[:-1]])[self.face]
@@ -163,9 +163,10 @@ class OutlineShapes:
     def _outlines(self, first: int, stop: int) -> Outlines:
         """The outlines of shapes ``first:stop``."""
         faces, face = self.faces, self.face[first:stop]
-        lo, hi = self.member_ptr[face], self.member_ptr[face + 1]
-        member = self.member_key[_ranges(lo, hi)] % (faces.n_faces + 1)
-        owner = face.repeat(hi - lo)
+        lo = self.member_ptr.take(face)
+        count = self.member_ptr.take(face + 1) - lo
+        member = self.member_key.take(ranges(lo, count)) % (faces.n_faces + 1)
+        owner = face.repeat(count)
         owner_face, entry = _batch_entries(faces, owner, member, self.member_key)
         u = faces.entry_from.take(entry)
         loops = trace_loops(faces.rank.take(owner_face), u, faces.entry_to.take(entry), points=faces.nodes)
@@ -209,12 +210,6 @@ def _joined(shapes: OutlineShapes, parts: list[Outlines]) -> Outlines:
     )
 
 
-def _ranges(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """The integers of every range [lo, hi), concatenated."""
-    count = hi - lo
-    return (lo - (count.cumsum() - count)).repeat(count) + np.arange(int(count.sum()))
-
-
 def _edge_costs(image: VectorImage, pieces: BoundaryPieces) -> np.ndarray:
     """(E,) what drawing each cell edge in an outline costs, in segments: its piece's
     segments shared out over the piece's edges (a straight edge: a little, since straight
@@ -223,7 +218,7 @@ def _edge_costs(image: VectorImage, pieces: BoundaryPieces) -> np.ndarray:
     curved = pieces.edge_piece >= 0
     piece = pieces.edge_piece[curved]
     edges_in = np.bincount(piece, minlength=len(pieces))
-    cost[curved] = np.diff(pieces.ptr)[piece] / np.maximum(edges_in[piece], 1)
+    cost[curved] = (pieces.ptr[1:] - pieces.ptr[:-1])[piece] / np.maximum(edges_in[piece], 1)
     return cost
 
 
@@ -231,10 +226,11 @@ def _batch_entries(faces: FaceBoundaries, owner: np.ndarray, member: np.ndarray,
                    ) -> tuple[np.ndarray, np.ndarray]:
     """(owner face, boundary entry) of the union of member faces of each owner in some
     (owner, member) pairs; ``member_key`` of all pairs (sorted)."""
-    lo, hi = faces.entry_ptr[member], faces.entry_ptr[member + 1]
-    entry = _ranges(lo, hi)
-    shape_face = owner.repeat(hi - lo)
-    del lo, hi
+    lo = faces.entry_ptr.take(member)
+    count = faces.entry_ptr.take(member + 1) - lo
+    entry = ranges(lo, count)
+    shape_face = owner.repeat(count)
+    del lo, count
     other = faces.entry_other.take(entry)
     # a half-edge bounds the union unless the face across is a member of the same shape
     n = faces.n_faces + 1
@@ -252,7 +248,8 @@ LOOP_BATCH = 1 << 13
 def _segments_in_batches(image: VectorImage, pieces: BoundaryPieces, loops: Loops, keep: np.ndarray,
                          halfedge_edge: np.ndarray, halfedge_from: np.ndarray, grid: float | None):
     """:func:`_loop_segments` of the kept loops, a batch of loops at a time."""
-    bounds = batch_bounds(np.diff(loops.ptr)[keep], LOOP_BATCH) or [(0, 0)]  # no loop: one empty batch
+    sizes = loops.ptr[1:].take(keep) - loops.ptr[:-1].take(keep)
+    bounds = batch_bounds(sizes, LOOP_BATCH) or [(0, 0)]  # no loop: one empty batch
     parts = [_loop_segments(image, pieces, loops, keep[a:b], halfedge_edge, halfedge_from, grid)
              for a, b in bounds]
     if len(parts) == 1:
@@ -269,11 +266,13 @@ def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, kee
     line, a run along a curve is its pieces, each written where the loop enters it, in the
     loop's direction."""
     cells = image.cells
-    counts = np.diff(loops.ptr)[keep]
-    take = (loops.ptr[:-1][keep] - (counts.cumsum() - counts)).repeat(counts) + np.arange(int(counts.sum()))
-    he = loops.halfedges.take(take)
+    first = loops.ptr[:-1].take(keep)
+    counts = loops.ptr[1:].take(keep) - first
+    he = loops.halfedges.take(ranges(first, counts))
     edge, x = halfedge_edge.take(he), halfedge_from.take(he)
-    u, v = cells.edges.take(edge, axis=0).T  # (rows gathered: a column's take copies the whole column first)
+    # edge k's nodes are at 2k and 2k + 1 of the flat (E, 2) array (a column's take copies
+    # the whole column first; gathered rows would leave strided columns)
+    u, v = cells.edges.ravel().take(2 * edge), cells.edges.ravel().take(2 * edge + 1)
     y = np.where(x == u, v, u)
     loop_of = np.arange(keep.size).repeat(counts)
     piece = pieces.edge_piece.take(edge)
@@ -281,7 +280,7 @@ def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, kee
     forward_edge = image.curves.edge_forward.take(edge) if image.curves is not None else np.ones(edge.size, bool)
     along = (x == u) == forward_edge
     enters = curved & np.where(along, pieces.edge_first.take(edge), pieces.edge_last.take(edge))
-    length = np.concatenate((np.diff(pieces.ptr), [0]))  # (a sentinel for images without curves)
+    length = np.concatenate((pieces.ptr[1:] - pieces.ptr[:-1], [0]))  # (a sentinel for images without curves)
     n_seg = np.where(curved, np.where(enters, length.take(np.maximum(piece, 0)), 0), 1)
     total = int(n_seg.sum())
     step = np.arange(edge.size).repeat(n_seg)
@@ -342,7 +341,7 @@ def _merge_lines(kind, ctrl, ctrl2, end, loop_ptr, grid):
     n = kind.size
     if n == 0:
         return kind, ctrl, ctrl2, end, loop_ptr
-    loop_of = np.arange(loop_ptr.size - 1).repeat(np.diff(loop_ptr))
+    loop_of = np.arange(loop_ptr.size - 1).repeat(loop_ptr[1:] - loop_ptr[:-1])
     k = np.arange(n)
     first, last = loop_ptr[:-1][loop_of], loop_ptr[1:][loop_of] - 1
     before = np.where(k == first, last, k - 1)

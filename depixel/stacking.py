@@ -80,7 +80,9 @@ class FaceTopology:
             return np.concatenate([of_right.compress(has_r), of_left.compress(has_l)], dtype=np.int32).take(order)
 
         self.entry_other = entries(left, right)
-        u, v = cells.edges.take(boundary, axis=0).T.copy()  # (a column's take would copy the whole column first)
+        # edge k's nodes are at 2k and 2k + 1 of the flat (E, 2) array (a column's take would
+        # copy the whole column first; gathered rows would leave strided columns)
+        u, v = cells.edges.ravel().take(2 * boundary), cells.edges.ravel().take(2 * boundary + 1)
         self.entry_from, self.entry_to = entries(u, v), entries(v, u)
         if stacked:  # where three faces meet (the outside counted as one), three boundary edges do
             n_nodes = len(cells.nodes)
@@ -134,7 +136,7 @@ class FaceTopology:
         cells = self.cells
         n = self.n_faces
         at_meeting = meeting.take(cells.cell_nodes)
-        face_at = labels.repeat(np.diff(cells.cell_ptr)).compress(at_meeting)
+        face_at = labels.repeat(cells.cell_ptr[1:] - cells.cell_ptr[:-1]).compress(at_meeting)
         drawn_first = self.rank.take(face_at)
         drawn_first += n * ~self.drawn.take(face_at)  # the lowest drawn face first
         del face_at
@@ -152,7 +154,7 @@ class FaceTopology:
         del drawn_first
         start = np.concatenate(([True], node[1:] != node[:-1])).nonzero()[0]
         del node
-        count = np.diff(np.concatenate((start, [face_at.size])))
+        count = np.concatenate((start[1:], [face_at.size])) - start
         lowest = face_at.take(start).repeat(count)  # sorted by rank within each node
         crowded = (count >= 3).repeat(count) & (face_at != lowest)
         corners = np.empty((int(crowded.sum()), 2), np.int32)
@@ -166,14 +168,17 @@ class FaceTopology:
         depth = np.full(n, n + 1, np.int64)
         depth[self.on_border] = 1
         depth[~self.drawn] = 0
-        a, b = pairs[:, 0], pairs[:, 1]
+        a, b = pairs[:, 0].copy(), pairs[:, 1].copy()
+        reach = np.empty(n, np.int64)
         while True:
-            reach = np.full(n, n + 1, np.int64)
-            np.minimum.at(reach, b, depth[a] + 1)
-            better = np.minimum(depth, reach)
-            if np.array_equal(better, depth):
+            reach.fill(n + 1)
+            step = depth.take(a)
+            step += 1
+            np.minimum.at(reach, b, step)
+            # depth only decreases: it is settled when no face's reach is below its depth
+            if not np.logical_or.reduce(np.less(reach, depth)):
                 return depth
-            depth = better
+            np.minimum(depth, reach, out=depth)
 
     def _ranks(self, region: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Drawing rank of every face, and the face of every rank."""
@@ -247,9 +252,9 @@ class FaceTopology:
         count = np.zeros(n, np.int64)
         others: list[np.ndarray] = [np.zeros(0, np.int32)]
         costs: list[np.ndarray] = [np.zeros(0)]
-        for a, b in batch_bounds(np.diff(self.entry_ptr), ABSORB_BATCH):
+        for a, b in batch_bounds(self.entry_ptr[1:] - self.entry_ptr[:-1], ABSORB_BATCH):
             lo, hi = int(self.entry_ptr[a]), int(self.entry_ptr[b])
-            face = np.arange(a, b).repeat(np.diff(self.entry_ptr[a : b + 1]))
+            face = np.arange(a, b).repeat(self.entry_ptr[a + 1 : b + 1] - self.entry_ptr[a:b])
             other = self.entry_other[lo:hi]
             key, cost = sums_by_key(face * (n + 1) + np.where(other >= 0, other, n),
                                     edge_cost.take(self.entry_edge[lo:hi]))
@@ -276,10 +281,11 @@ class FaceTopology:
             idx = ranges(start, count)
             f = owner.repeat(count)
             cand = h.take(idx)
+            cand_key = f * n
+            cand_key += cand
             ok = self.opaque.take(cand) & (self.rank.take(cand) > self.rank.take(f))
-            cand_key = f.compress(ok) * n + cand.compress(ok)
-            fresh = ~in_sorted(keys, cand_key)
-            cand_key, weight = cand_key.compress(fresh), w.take(idx).compress(ok).compress(fresh)
+            ok &= ~in_sorted(keys, cand_key)  # fresh (one filter: fewer calls than filtering twice)
+            cand_key, weight = cand_key.compress(ok), w.take(idx.compress(ok))
             if cand_key.size == 0:
                 return keys
             uniq, shared = sums_by_key(cand_key, weight)
@@ -287,7 +293,8 @@ class FaceTopology:
             add = uniq.compress(gain > 1e-9)
             if add.size == 0:
                 return keys
-            keys = np.sort(np.concatenate((keys, add)))  # none of them among the keys (fresh)
+            keys = np.concatenate((keys, add))  # none of them among the keys (fresh)
+            keys.sort()
             growing = keys.compress(in_sorted(add // n, keys // n))  # (add is sorted: so are its owners)
 
     def _roles(self, pairs: np.ndarray) -> np.ndarray:

@@ -18,6 +18,7 @@ The text is assembled with whole-array operations (:mod:`depixel.svgtext`).
 from __future__ import annotations
 
 from collections.abc import Iterable
+from functools import cache
 
 import numpy as np
 
@@ -154,7 +155,8 @@ PATH_BATCH = 1 << 12
 
 def path_data(outlines: Outlines, precision: int) -> list[str]:
     """The ``d`` attribute of every shape."""
-    segments = np.diff(outlines.loop_ptr[outlines.shape_ptr])  # (S,) segments of each shape
+    loop_ptr = outlines.loop_ptr.take(outlines.shape_ptr)
+    segments = loop_ptr[1:] - loop_ptr[:-1]  # (S,) segments of each shape
     out: list[str] = []
     for a, b in batch_bounds(segments, PATH_BATCH):
         out += _path_data(outlines.shapes(a, b), precision)
@@ -167,9 +169,9 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     cmd, args = _commands(outlines, unit)
     n_cmd = cmd.size
     arity = _ARITY.take(cmd)
-    shape_of_loop = np.arange(len(outlines)).repeat(np.diff(outlines.shape_ptr))
+    shape_of_loop = np.arange(len(outlines)).repeat(outlines.shape_ptr[1:] - outlines.shape_ptr[:-1])
     # every loop is M + segments + Z: the command's shape from its loop
-    loop_len = np.diff(outlines.loop_ptr)
+    loop_len = outlines.loop_ptr[1:] - outlines.loop_ptr[:-1]
     last_line = outlines.kind[outlines.loop_ptr[1:] - 1] == LINE
     per_loop = loop_len - last_line + 2
     shape_of_cmd = shape_of_loop.repeat(per_loop)
@@ -192,15 +194,18 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     implicit = ((letter == prev_letter) & (cmd != M) & (cmd != Z)) | \
         ((letter == L) & (prev_letter == M)) | ((letter == L + 8) & (prev_letter == M + 8))
     implicit &= ~new_shape
+    explicit = ~implicit
 
     # token stream: per command an optional letter, then its numbers
-    tok_count = (~implicit).astype(np.int64) + n_num
-    tok_start = tok_count.cumsum() - tok_count
-    n_tok = int(tok_count.sum())
+    tok_count = explicit.astype(np.int64)
+    tok_count += n_num
+    tok_end = tok_count.cumsum()
+    tok_start = tok_end - tok_count
+    n_tok = int(tok_end[-1]) if n_cmd else 0
     is_number = np.ones(n_tok, bool)
-    is_number[tok_start[~implicit]] = False
-    letters = Texts.of(list(_LETTERS) + list(_LETTERS.lower()))
-    num_pos = tok_start.take(num_cmd) + (~implicit).take(num_cmd) + num_k
+    letter_pos = tok_start.compress(explicit)
+    is_number[letter_pos] = False
+    num_pos = tok_start.take(num_cmd) + explicit.take(num_cmd) + num_k
     rel_num = use_rel.take(num_cmd)
     # each number's text among the absolute ones (the first half), then the relative ones
     num_text = np.arange(num_cmd.size) + np.where(rel_num, num_cmd.size, 0)
@@ -217,9 +222,10 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     tok_shape = shape_of_cmd.repeat(tok_count)
     sep &= _prepend(False, tok_shape[1:] == tok_shape[:-1])
 
-    table, (letter_row, abs_row, space_row) = stack([letters, texts, Texts.of([" "])])
+    letters, space = _constant_texts()
+    table, (letter_row, abs_row, space_row) = stack([letters, texts, space])
     row = np.empty(n_tok, np.int64)
-    row[tok_start[~implicit]] = letter_row + letter[~implicit]
+    row[letter_pos] = letter_row + letter.compress(explicit)
     row[num_pos] = abs_row + num_text
     # interleave the separators: token i becomes [space] + token
     out_count = 1 + sep.astype(np.int64)
@@ -235,6 +241,12 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     byte_end = pieces.length.cumsum()
     bounds = _prepend(0, byte_end.take(out_end - 1))
     return [text[bounds[i] : bounds[i + 1]] for i in range(len(outlines))]
+
+
+@cache
+def _constant_texts() -> tuple[Texts, Texts]:
+    """The command letters (upper then lower case) and the space, as tables (made once)."""
+    return Texts.of(list(_LETTERS) + list(_LETTERS.lower())), Texts.of([" "])
 
 
 def _prepend(first: int | bool, values: np.ndarray) -> np.ndarray:
@@ -255,7 +267,7 @@ def _commands(outlines: Outlines, unit: float) -> tuple[np.ndarray, np.ndarray]:
     ctrl = (nan_to_zero(outlines.ctrl) * unit).round().astype(np.int64)
     ctrl2 = (nan_to_zero(outlines.ctrl2) * unit).round().astype(np.int64)
     n_loop = outlines.loop_ptr.size - 1
-    loop_len = np.diff(outlines.loop_ptr)
+    loop_len = outlines.loop_ptr[1:] - outlines.loop_ptr[:-1]
     seg_loop = np.arange(n_loop).repeat(loop_len)
     last = outlines.loop_ptr[1:] - 1
     start = end.take(last, axis=0)  # each loop starts where its last segment ends
@@ -282,18 +294,19 @@ def _commands(outlines: Outlines, unit: float) -> tuple[np.ndarray, np.ndarray]:
     # lines and T their end (H its x, V its y), Q control and end, C both controls and end
     quad, cubic = code == Q, code == C
     curve = quad | cubic
-    zero = np.zeros(kind.size, np.int64)
-    columns = [np.where(curve, ctrl[:, 0], np.where(code == V, end[:, 1], end[:, 0])),
-               np.where(curve, ctrl[:, 1], end[:, 1]),
-               np.where(quad, end[:, 0], np.where(cubic, ctrl2[:, 0], zero)),
-               np.where(quad, end[:, 1], np.where(cubic, ctrl2[:, 1], zero)),
-               np.where(cubic, end[:, 0], zero), np.where(cubic, end[:, 1], zero)]
     # interleave: loop l = [M start] + its kept segments + [Z], as rows of one table:
     # the segments' arguments, then each loop's M, then a row of zeros for Z
-    table = np.stack(columns, axis=1)
-    moves = np.zeros((n_loop, _W), np.int64)
-    moves[:, :2] = start
-    table = np.concatenate([table, moves, np.zeros((1, _W), np.int64)])
+    n_seg = kind.size
+    table = np.zeros((n_seg + n_loop + 1, _W), np.int64)
+    segment_args = table[:n_seg]
+    segment_args[:, 0] = np.where(curve, ctrl[:, 0], np.where(code == V, end[:, 1], end[:, 0]))
+    segment_args[:, 1] = np.where(curve, ctrl[:, 1], end[:, 1])
+    segment_args[:, 2] = np.where(quad, end[:, 0], np.where(cubic, ctrl2[:, 0], 0))
+    segment_args[:, 3] = np.where(quad, end[:, 1], np.where(cubic, ctrl2[:, 1], 0))
+    segment_args[:, 4] = np.where(cubic, end[:, 0], 0)
+    segment_args[:, 5] = np.where(cubic, end[:, 1], 0)
+    for c in range(2):
+        table[n_seg : n_seg + n_loop, c] = start[:, c]
     keep = ~drop
     per_loop = np.bincount(seg_loop[keep], minlength=n_loop) + 2
     loop_first = per_loop.cumsum() - per_loop
@@ -334,12 +347,14 @@ def _relative(cmd: np.ndarray, absolute: np.ndarray, shape_of_cmd: np.ndarray) -
     before_y = np.where(new_shape, 0, _prepend(0, y_val.take(y_src[:-1])))
     two = (cmd == Q) | (cmd == C)  # commands with a second and a third point
     three = cmd == C
-    zero = np.zeros(n, np.int64)
-    offset = np.stack([np.where(pair | x_only, before_x, np.where(y_only, before_y, zero)),
-                       np.where(pair, before_y, zero),
-                       np.where(two, before_x, zero), np.where(two, before_y, zero),
-                       np.where(three, before_x, zero), np.where(three, before_y, zero)], axis=1)
-    return absolute - offset
+    relative = absolute.copy()  # (written a column at a time: np.stack of the offsets costs more)
+    relative[:, 0] -= np.where(pair | x_only, before_x, np.where(y_only, before_y, 0))
+    relative[:, 1] -= np.where(pair, before_y, 0)
+    relative[:, 2] -= np.where(two, before_x, 0)
+    relative[:, 3] -= np.where(two, before_y, 0)
+    relative[:, 4] -= np.where(three, before_x, 0)
+    relative[:, 5] -= np.where(three, before_y, 0)
+    return relative
 
 
 class _Flags:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from itertools import accumulate
 
 import numpy as np
 
@@ -62,7 +63,7 @@ def stack(tables: Sequence[Texts]) -> tuple[Texts, list[int]]:
         data_offset.append(sum(b.size for b in buffers[:same]))
     start = np.concatenate([t.start + off for t, off in zip(tables, data_offset)])
     length = np.concatenate([t.length for t in tables])
-    first_rows = np.cumsum([0] + [len(t) for t in tables[:-1]]).tolist()
+    first_rows = list(accumulate((len(t) for t in tables[:-1]), initial=0))  # (np.cumsum of a list: ~15 µs)
     return Texts(np.concatenate(buffers), start, length), first_rows
 
 
@@ -103,7 +104,7 @@ class _Decimals:
         self.precision = precision
         self.scaled = (values * 10**precision).round().astype(np.int64)
         self.whole, self.frac = np.divmod(np.abs(self.scaled), 10**precision)
-        self.n_digits = max(len(str(int(self.whole.max(initial=0)))), 1)
+        self.n_digits = max(len(str(int(np.maximum.reduce(self.whole, initial=0)))), 1)
         self.width = 2 + self.n_digits + precision  # characters
 
 
@@ -191,7 +192,7 @@ def _decimal_planes(d: _Decimals, compact: bool = False) -> tuple[np.ndarray, np
 def _copy_segments(data: np.ndarray, start: np.ndarray, length: np.ndarray) -> np.ndarray:
     """``data[start[i] : start[i] + length[i]]`` for every i, concatenated."""
     nonempty = length > 0
-    start, length = start[nonempty], length[nonempty]
+    start, length = start.compress(nonempty), length.compress(nonempty)
     ends = length.cumsum()
     if ends.size == 0:
         return np.zeros(0, dtype=np.uint8)
@@ -203,8 +204,9 @@ def _copy_segments(data: np.ndarray, start: np.ndarray, length: np.ndarray) -> n
             continue
         s, ln = start[a:b], length[a:b]
         # source index: +1 within a segment, a jump to the next segment's start between them
-        step = np.ones(int(ln.sum()), dtype=np.int32 if data.size < 2**31 else np.int64)
-        first = ln.cumsum() - ln
+        run_end = ln.cumsum()
+        step = np.ones(int(run_end[-1]), dtype=np.int32 if data.size < 2**31 else np.int64)
+        first = run_end - ln
         step[0] = s[0]
         step[first[1:]] = s[1:] - (s[:-1] + ln[:-1] - 1)
         parts.append(data[step.cumsum(out=step)])
