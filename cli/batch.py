@@ -161,6 +161,15 @@ def already_done(job: Job) -> Outcome | None:
         return None  # the job itself will report it
 
 
+def written_since(target: Path, begun: int) -> bool:
+    """Whether ``target`` was renamed into place, with its options stamp, at or after
+    ``begun`` (``time.time_ns()``): an output this batch completed."""
+    try:
+        return target.stat().st_mtime_ns >= begun and stamps.read(target) is not None
+    except OSError:
+        return False
+
+
 def abandoned(job: Job, begun: int) -> Outcome:
     """The outcome of a job stopped while running: the outputs it completed (renamed into
     place, with their stamp, since ``begun``) are listed as written; with all of them done,
@@ -168,15 +177,19 @@ def abandoned(job: Job, begun: int) -> Outcome:
     out = Outcome(job.source, job.output, state=INTERRUPTED)
     if job.options.frames == "all" and job.frames == 0:
         return out
-    for _, target in frame_targets(job):
-        try:
-            if target.stat().st_mtime_ns >= begun and stamps.read(target) is not None:
-                out.written.append(target)
-        except OSError:
-            pass
+    out.written = [target for _, target in frame_targets(job) if written_since(target, begun)]
     if len(out.written) == len(frame_targets(job)):
         out.state = DONE
     return out
+
+
+def claim_outputs_of_the_dead(outcome: Outcome, begun: int) -> None:
+    """A retried job's outcome: the outputs its retry found up to date but that were written
+    since ``begun`` were completed by the worker that died (killed after the rename, before it
+    reported), so this batch converted them: listed as written, not as skipped."""
+    claimed = [target for target in outcome.up_to_date if written_since(target, begun)]
+    outcome.up_to_date = [target for target in outcome.up_to_date if target not in claimed]
+    outcome.written.extend(claimed)
 
 
 def remove_temporary_files(job: Job) -> None:

@@ -15,7 +15,16 @@ from pathlib import Path
 from depixel.errors import display_name
 from depixel.limits import PEAK_BYTES_PER_PIXEL, WORKER_BASELINE_BYTES
 
-from .batch import CANCELLED, Job, Outcome, abandoned, already_done, remove_temporary_files, run_job
+from .batch import (
+    CANCELLED,
+    Job,
+    Outcome,
+    abandoned,
+    already_done,
+    claim_outputs_of_the_dead,
+    remove_temporary_files,
+    run_job,
+)
 
 #: The largest image (pixels, from its header) the main process converts itself while its
 #: workers start: ~65 MB at PEAK_BYTES_PER_PIXEL, so a batch holds little more memory than
@@ -45,6 +54,7 @@ def run(jobs: list[Job], workers: int, report, signals, progress: Progress | Non
         else:
             outcome = done.result
             if done.retried:
+                claim_outputs_of_the_dead(outcome, begun)
                 outcome.notes.append(f"{display_name(job.source)}: worker process died ({done.retried}); "
                                      "converted on the retry")
         outcomes[done.index] = outcome

@@ -427,3 +427,30 @@ def test_worker_stopped_while_it_sets_itself_up_exits_quietly():
     """
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert done.stdout.strip() == "quiet" and "Traceback" not in done.stderr, done.stderr
+
+
+def test_an_output_the_dead_worker_completed_counts_as_converted(tmp_path, monkeypatch):
+    """A worker killed after renaming its output into place but before reporting: the retry
+    finds the output up to date; the batch lists it as converted (written since the batch
+    began), not as skipped. An output from before the batch stays up to date."""
+    import depixel
+    from depixel_cli import batch, batch_run, pool
+
+    options = batch.Options(depixel.Params(), "svg", "cells", 1.0, "first", None, None, force=False)
+    (tmp_path / "out").mkdir()
+    jobs = [batch.Job(FIXTURES / name, tmp_path / "out" / f"{name}.svg", options) for name in ("heart.png", "ghost.png")]
+
+    def killed_after_the_rename_then_retried(jobs, workers, fn, report, signals, **_):
+        for index, job in enumerate(jobs):
+            fn(job)  # the worker that died: its output in place, no result sent
+            report(pool.Finished(index, fn(job), retried="SIGKILL"))
+
+    monkeypatch.setattr(pool, "run_jobs", killed_after_the_rename_then_retried)
+    with pool.Signals(raising=False) as signals:
+        outcomes = batch_run.run(jobs, 2, lambda outcome: None, signals)
+    for job, outcome in zip(jobs, outcomes):
+        assert outcome.written == [job.output] and outcome.up_to_date == [], outcome
+        assert "converted on the retry" in outcome.notes[0]
+    retried = batch.run_job(jobs[0])  # up to date now: a batch that begins after it skips it
+    batch.claim_outputs_of_the_dead(retried, time.time_ns())
+    assert retried.up_to_date == [jobs[0].output] and retried.written == []
