@@ -364,19 +364,19 @@ class Energy:
         trial from its ``anchor`` (2, M, 1). E_s from the directions of the spans' legs (no
         points written: only those of the few trials whose clearance is measured are,
         :func:`_trial_points`)."""
-        c_a2, c_a, _, c_b, c_b2, c_a2_partner, c_b2_partner = around
+        c_a, c_b = around[_A], around[_B]
         members, k = trial.shape[1:]
         # the directions of the legs d0, d1 of the spans before, own, after run in a chain, the
         # d1 of one span the d0 of the next: (d0 before: fixed) a → member (d1 before, d0 own),
         # member → b (d1 own, d0 after), (d1 after: fixed); so the three turns are differences
         # of four directions, two arctan2 a trial
         knots = np.empty((2, 4, members, 1))  # P0 of the span before, a, b, P2 of the span after
-        np.add(c_a2, c_a2_partner, out=knots[:, 0])
-        knots[:, 0] /= 2.0
-        np.add(c_b2_partner, c_b2, out=knots[:, 3])
-        knots[:, 3] /= 2.0
-        knots[:, 1], knots[:, 2] = c_a, c_b
-        fixed = np.arctan2(knots[1, 1::2] - knots[1, ::2], knots[0, 1::2] - knots[0, ::2])  # (2, M, 1)
+        by_row = knots.transpose(1, 0, 2, 3)  # (4, 2, M, 1), around's layout
+        np.add(around[_A2::_B2 - _A2], around[_A2_PARTNER:], out=by_row[::3])  # (a2, b2) + their partners
+        by_row[::3] /= 2.0
+        by_row[1:3] = around[_A:_B + 1:_B - _A]
+        chord = knots[:, 1::2] - knots[:, ::2]  # the fixed legs: P0 before → a, b → P2 after
+        fixed = np.arctan2(chord[1], chord[0])  # (2, M, 1)
         legs = np.empty((2, 2, members, k))
         np.subtract(trial, c_a, out=legs[:, 0])
         np.subtract(c_b, trial, out=legs[:, 1])
@@ -427,12 +427,13 @@ class Energy:
         length2 = np.maximum(vec[:, :, 0] ** 2 + vec[:, :, 1] ** 2, _TINY)
         coef = g.slope * turn / length2  # (3, 3, M, 1)
         offset = around[_MEMBER] - anchor
-        push = 4.0 * (offset[0] ** 2 + offset[1] ** 2)  # E_p = |o|^4: gradient 4 |o|^2 o
-        grad = np.empty(offset.shape)
-        np.subtract(push * offset[0], (coef * vec[:, :, 1]).sum(axis=(0, 1)), out=grad[0])
-        np.add(push * offset[1], (coef * vec[:, :, 0]).sum(axis=(0, 1)), out=grad[1])
-        norm = np.sqrt(grad[0] ** 2 + grad[1] ** 2)
-        return -grad / np.where(norm > 0, norm, 1.0)
+        pull = -4.0 * (offset[0] ** 2 + offset[1] ** 2)  # E_p = |o|^4: gradient 4 |o|^2 o
+        down = np.empty(offset.shape)  # minus the gradient, negated exactly term by term
+        np.add(pull * offset[0], (coef * vec[:, :, 1]).sum(axis=(0, 1)), out=down[0])
+        np.subtract(pull * offset[1], (coef * vec[:, :, 0]).sum(axis=(0, 1)), out=down[1])
+        norm = np.sqrt(down[0] ** 2 + down[1] ** 2)
+        down /= np.where(norm > 0, norm, 1.0)
+        return down
 
     def energy(self, ctrl: np.ndarray, anchor: np.ndarray, g: Group, trial: np.ndarray) -> np.ndarray:
         """(M, K) energy of each member at each trial position ``trial`` (M, K, 2)."""
@@ -453,7 +454,7 @@ class Energy:
         flat = _W0 * p0 + _W1 * p1 + _W2 * p2
         flat = np.concatenate([flat[:-1, 0], flat[:, 1], flat[1:, 2]])  # (3n+1, 2, N)
         flat = np.ascontiguousarray(flat.transpose(1, 2, 0))[:, :, None]  # (2, N, 1, 3n+1)
-        d = flat - g.protected.take(rows, axis=1).astype(float)
+        d = flat - g.protected.take(rows, axis=1)  # float32 widened exactly within the subtraction (no copy)
         np.square(d, out=d)  # in place: these are the largest arrays of a step
         np.add(d[0], d[1], out=d[0])
         return np.sqrt(d[0].reshape(rows.size, -1).min(axis=1))
