@@ -25,6 +25,7 @@ draws depend only on array sizes and on the moves made, so a run is reproducible
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -133,12 +134,22 @@ def disc_offsets(rng: SplitMix64, members: int, candidates: int, radius: float) 
     more evenly than by independent draws, so the best of K trials lies lower (docs/design.md).
     One draw per member, not per trial."""
     draws = rng.unit_pairs(members)  # (turn θ / 2π, radial shift u) per member
-    index = np.arange(candidates)
-    turned = np.exp((2j * np.pi) * draws[:, :1]) * np.exp((1j * GOLDEN_ANGLE) * index)  # (M, K) unit
+    index, pattern = _pattern(candidates)
+    turned = np.exp((2j * np.pi) * draws[:, :1]) * pattern  # (M, K) unit
     turned *= radius * np.sqrt((index + draws[:, 1:]) / candidates)
     offsets = np.empty((2, members, candidates))
     offsets[0], offsets[1] = turned.real, turned.imag
     return offsets
+
+
+@functools.cache
+def _pattern(candidates: int) -> tuple[np.ndarray, np.ndarray]:
+    """The trial indices 0..K-1 and the pattern's own turns e^(i·k·golden angle) of
+    :func:`disc_offsets` (the same every step: computed once a K; read only)."""
+    index = np.arange(candidates)
+    pattern = np.exp((1j * GOLDEN_ANGLE) * index)
+    index.flags.writeable = pattern.flags.writeable = False
+    return index, pattern
 
 
 def step(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, offsets: np.ndarray,
