@@ -221,17 +221,15 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
         rows, chosen, stay = rows.compress(closer), chosen.compress(closer), stay.compress(closer)
     if rows.size:
         energy = energy.take(rows, axis=0)  # (R, T)
-        lower = energy < energy[:, :1]
-        refused_best = np.arange(0, rows.size * trials, trials) + chosen  # flat (row, trial)
-        lower.ravel()[refused_best] = False  # refused already
-        energy.ravel()[refused_best] = np.inf
-        pick, at = lower.nonzero()  # (row, trial) pairs
-        for part in batch_slices(pick.size, CLEARANCE_PAIRS):
+        energy.ravel()[np.arange(0, rows.size * trials, trials) + chosen] = np.inf  # the best, refused already
+        pairs = (energy < energy[:, :1]).ravel().nonzero()[0]  # flat (row, trial) of the others lower than staying
+        pick, at = np.divmod(pairs, trials)
+        for part in batch_slices(pairs.size, CLEARANCE_PAIRS):
             member = rows.take(pick[part])
             clear = model.clearance_of(_trial_points(around, group, trial, member, at[part, None])[..., 0], group,
                                        member)
-            refused = ((clear < params.centre_clearance) & (clear < stay.take(pick[part]))).nonzero()[0]
-            energy.ravel()[pick[part].take(refused) * trials + at[part].take(refused)] = np.inf
+            energy.ravel()[pairs[part].compress((clear < params.centre_clearance) & (clear < stay.take(pick[part])))
+                           ] = np.inf
         best[rows] = energy.argmin(axis=1)
     return trial.reshape(2, -1).take(np.arange(0, best.size * trials, trials) + best, axis=1)  # (2, M)
 
