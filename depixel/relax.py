@@ -439,15 +439,20 @@ class Energy:
         np.multiply(edge[:3], g.scale[0], out=d0)  # P1 - P0 of the spans before, own, after
         np.multiply(edge[1:], g.scale[1], out=d1)  # P2 - P1
         np.add(d0, d1, out=vec[1])
-        turn = np.sign(d0[:, 0] * d1[:, 1] - d0[:, 1] * d1[:, 0])  # (3, M, 1) the way each span turns
-        length2 = np.maximum(vec[:, :, 0] ** 2 + vec[:, :, 1] ** 2, _TINY)
+        # x and y together where both are multiplied alike (a call a product, not one a coordinate)
+        cross = d0 * d1[:, ::-1]  # (3, 2, M, 1): x0·y1, y0·x1
+        turn = np.sign(cross[:, 0] - cross[:, 1])  # (3, M, 1) the way each span turns
+        square = np.square(vec)
+        length2 = np.maximum(square[:, :, 0] + square[:, :, 1], _TINY)
         coef = g.slope * turn / length2  # (3, 3, M, 1)
+        along = (coef[:, :, None] * vec[:, :, ::-1]).sum(axis=(0, 1))  # (2, M, 1): Σ coef·y, Σ coef·x
         offset = around[_MEMBER] - anchor
-        pull = -4.0 * (offset[0] ** 2 + offset[1] ** 2)  # E_p = |o|^4: gradient 4 |o|^2 o
-        down = np.empty(offset.shape)  # minus the gradient, negated exactly term by term
-        np.add(pull * offset[0], (coef * vec[:, :, 1]).sum(axis=(0, 1)), out=down[0])
-        np.subtract(pull * offset[1], (coef * vec[:, :, 0]).sum(axis=(0, 1)), out=down[1])
-        norm = np.sqrt(down[0] ** 2 + down[1] ** 2)
+        square = np.square(offset)
+        down = (-4.0 * (square[0] + square[1])) * offset  # E_p = |o|^4: gradient 4 |o|^2 o, negated
+        down[0] += along[0]  # minus the gradient, negated exactly term by term
+        down[1] -= along[1]
+        np.square(down, out=square)
+        norm = np.sqrt(square[0] + square[1])
         down /= np.where(norm > 0, norm, 1.0)
         return down
 
