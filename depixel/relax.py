@@ -25,6 +25,7 @@ draws depend only on array sizes and on the moves made, so a run is reproducible
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -133,12 +134,22 @@ def disc_offsets(rng: SplitMix64, members: int, candidates: int, radius: float) 
     more evenly than by independent draws, so the best of K trials lies lower (docs/design.md).
     One draw per member, not per trial."""
     draws = rng.unit_pairs(members)  # (turn θ / 2π, radial shift u) per member
-    index = np.arange(candidates)
-    turned = np.exp((2j * np.pi) * draws[:, :1]) * np.exp((1j * GOLDEN_ANGLE) * index)  # (M, K) unit
+    index, pattern = _pattern(candidates)
+    turned = np.exp((2j * np.pi) * draws[:, :1]) * pattern  # (M, K) unit
     turned *= radius * np.sqrt((index + draws[:, 1:]) / candidates)
     offsets = np.empty((2, members, candidates))
     offsets[0], offsets[1] = turned.real, turned.imag
     return offsets
+
+
+@functools.cache
+def _pattern(candidates: int) -> tuple[np.ndarray, np.ndarray]:
+    """The trial indices 0..K-1 and the pattern's own turns e^(i·k·golden angle) of
+    :func:`disc_offsets` (the same every step: computed once a K; read only)."""
+    index = np.arange(candidates)
+    pattern = np.exp((1j * GOLDEN_ANGLE) * index)
+    index.flags.writeable = pattern.flags.writeable = False
+    return index, pattern
 
 
 def step(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, offsets: np.ndarray,
@@ -182,7 +193,8 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
     np.add(here, descent * (params.radius * GRADIENT_STEPS), out=trial[:, :, k + 1:grad])
     if repeat is not None:
         np.add(here, repeat, out=trial[:, :, grad:])
-    energy, offset2 = model.evaluate(around, home, group, trial)
+    knots = _knots(around)
+    energy, offset2 = model.evaluate(knots, home, group, trial)
     too_far = offset2 > params.max_offset**2
     too_far[:, 0] = False
     np.putmask(energy, too_far, np.inf)  # never taken
@@ -200,7 +212,7 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
         # the spans at the best trial and at staying, of every member moving (one call)
         at = np.zeros((rows.size, 2), chosen.dtype)  # (R, 2): the best trial, staying
         at[:, 0] = chosen
-        points = _trial_points(around, group, trial, rows, at)
+        points = _trial_points(knots, group, trial, rows, at)
         near = model.clearance_of(points[..., 0], group, rows)
         close = near < params.centre_clearance
         rows, chosen, near = rows.compress(close), chosen.compress(close), near.compress(close)
@@ -210,28 +222,39 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
         rows, chosen, stay = rows.compress(closer), chosen.compress(closer), stay.compress(closer)
     if rows.size:
         energy = energy.take(rows, axis=0)  # (R, T)
-        lower = energy < energy[:, :1]
-        refused_best = np.arange(0, rows.size * trials, trials) + chosen  # flat (row, trial)
-        lower.ravel()[refused_best] = False  # refused already
-        energy.ravel()[refused_best] = np.inf
-        pick, at = lower.nonzero()  # (row, trial) pairs
-        for part in batch_slices(pick.size, CLEARANCE_PAIRS):
+        energy.ravel()[np.arange(0, rows.size * trials, trials) + chosen] = np.inf  # the best, refused already
+        pairs = (energy < energy[:, :1]).ravel().nonzero()[0]  # flat (row, trial) of the others lower than staying
+        pick, at = np.divmod(pairs, trials)
+        for part in batch_slices(pairs.size, CLEARANCE_PAIRS):
             member = rows.take(pick[part])
-            clear = model.clearance_of(_trial_points(around, group, trial, member, at[part, None])[..., 0], group,
+            clear = model.clearance_of(_trial_points(knots, group, trial, member, at[part, None])[..., 0], group,
                                        member)
-            refused = ((clear < params.centre_clearance) & (clear < stay.take(pick[part]))).nonzero()[0]
-            energy.ravel()[pick[part].take(refused) * trials + at[part].take(refused)] = np.inf
+            energy.ravel()[pairs[part].compress((clear < params.centre_clearance) & (clear < stay.take(pick[part])))
+                           ] = np.inf
         best[rows] = energy.argmin(axis=1)
     return trial.reshape(2, -1).take(np.arange(0, best.size * trials, trials) + best, axis=1)  # (2, M)
 
 
-def _trial_points(around: np.ndarray, group: Group, trial: np.ndarray, rows: np.ndarray, at: np.ndarray
+def _trial_points(knots: np.ndarray, group: Group, trial: np.ndarray, rows: np.ndarray, at: np.ndarray
                   ) -> np.ndarray:
     """(3, 3, 2, N, J) :meth:`Energy.points` of the members ``rows`` (N,) at their trials
-    ``at`` (N, J) (columns of ``trial`` (2, M, T)), for ``around`` as in :func:`_best_trials`."""
+    ``at`` (N, J) (columns of ``trial`` (2, M, T)), given the members' :func:`_knots`."""
     flat = rows[:, None] * trial.shape[-1] + at
     chosen = trial.reshape(2, -1).take(flat.ravel(), axis=1).reshape((2,) + flat.shape)
-    return Energy.points(around.take(rows, axis=2), group.ends.take(rows, axis=1), chosen)
+    return Energy.points(knots.take(rows, axis=2), group.ends.take(rows, axis=1), chosen)
+
+
+def _knots(around: np.ndarray) -> np.ndarray:
+    """(2, 4, M, 1) the points of the members' spans that do not move with them, for ``around`` =
+    ``ctrl[g.around]`` as (7, 2, M, 1): P0 of the span before (the midpoint of a2 and its
+    partner), a, b, P2 of the span after (of b2 and its partner); computed once a step for the
+    energy and the clearance's points."""
+    knots = np.empty((2, 4) + around.shape[2:])
+    by_row = knots.transpose(1, 0, 2, 3)  # (4, 2, M, 1), around's layout
+    np.add(around[_A2::_B2 - _A2], around[_A2_PARTNER:], out=by_row[::3])  # (a2, b2) + their partners
+    by_row[::3] /= 2.0
+    by_row[1:3] = around[_A:_B + 1:_B - _A]
+    return knots
 
 
 @dataclass(frozen=True, eq=False)
@@ -335,48 +358,40 @@ class Energy:
         )
 
     @staticmethod
-    def points(around: np.ndarray, ends: np.ndarray, trial: np.ndarray) -> np.ndarray:
-        """The three spans (before, own, after) of each member at ``trial`` (2, M, K), for
-        ``around`` = ``ctrl[g.around]`` as (7, 2, M, 1) and ``ends`` its :attr:`Group.ends`:
-        ``(3, 3, 2, M, K)``, [Bézier point P0-P2, span, coordinate], written in place (no
-        temporaries, no ``np.where``)."""
-        c_a2, c_a, _, c_b, c_b2, c_a2_partner, c_b2_partner = around
+    def points(knots: np.ndarray, ends: np.ndarray, trial: np.ndarray) -> np.ndarray:
+        """The three spans (before, own, after) of each member at ``trial`` (2, M, K), given its
+        :func:`_knots` (2, 4, M, 1) and :attr:`Group.ends`: ``(3, 3, 2, M, K)``, [Bézier point
+        P0-P2, span, coordinate], written in place (no temporaries, no ``np.where``)."""
+        c_a, c_b = knots[:, 1], knots[:, 2]
         points = np.empty((3, 3) + trial.shape)
         m_a, m_b = points[2, 0], points[0, 2]
         np.add(c_a, trial, out=m_a)  # where the span before meets the own span
         np.divide(m_a, 2.0, out=m_a)
         np.add(trial, c_b, out=m_b)  # and the own span the span after
         np.divide(m_b, 2.0, out=m_b)
-        np.add(c_a2, c_a2_partner, out=points[0, 0])
-        np.divide(points[0, 0], 2.0, out=points[0, 0])
+        points[0, 0] = knots[:, 0]
         points[0, 1] = m_a
         np.copyto(points[0, 1], c_a, where=ends[0])
         points[1, 0], points[1, 1], points[1, 2] = c_a, trial, c_b
         points[2, 1] = m_b
         np.copyto(points[2, 1], c_b, where=ends[1])
-        np.add(c_b2_partner, c_b2, out=points[2, 2])
-        np.divide(points[2, 2], 2.0, out=points[2, 2])
+        points[2, 2] = knots[:, 3]
         return points
 
-    def evaluate(self, around: np.ndarray, anchor: np.ndarray, g: Group, trial: np.ndarray
+    def evaluate(self, knots: np.ndarray, anchor: np.ndarray, g: Group, trial: np.ndarray
                  ) -> tuple[np.ndarray, np.ndarray]:
-        """(M, K) energy of each member at ``trial`` (2, M, K), and the squared distance of each
-        trial from its ``anchor`` (2, M, 1). E_s from the directions of the spans' legs (no
+        """(M, K) energy of each member at ``trial`` (2, M, K), given its :func:`_knots`, and the
+        squared distance of each trial from its ``anchor`` (2, M, 1). E_s from the directions of the spans' legs (no
         points written: only those of the few trials whose clearance is measured are,
         :func:`_trial_points`)."""
-        c_a2, c_a, _, c_b, c_b2, c_a2_partner, c_b2_partner = around
+        c_a, c_b = knots[:, 1], knots[:, 2]
         members, k = trial.shape[1:]
         # the directions of the legs d0, d1 of the spans before, own, after run in a chain, the
         # d1 of one span the d0 of the next: (d0 before: fixed) a → member (d1 before, d0 own),
         # member → b (d1 own, d0 after), (d1 after: fixed); so the three turns are differences
         # of four directions, two arctan2 a trial
-        knots = np.empty((2, 4, members, 1))  # P0 of the span before, a, b, P2 of the span after
-        np.add(c_a2, c_a2_partner, out=knots[:, 0])
-        knots[:, 0] /= 2.0
-        np.add(c_b2_partner, c_b2, out=knots[:, 3])
-        knots[:, 3] /= 2.0
-        knots[:, 1], knots[:, 2] = c_a, c_b
-        fixed = np.arctan2(knots[1, 1::2] - knots[1, ::2], knots[0, 1::2] - knots[0, ::2])  # (2, M, 1)
+        chord = knots[:, 1::2] - knots[:, ::2]  # the fixed legs: P0 before → a, b → P2 after
+        fixed = np.arctan2(chord[1], chord[0])  # (2, M, 1)
         legs = np.empty((2, 2, members, k))
         np.subtract(trial, c_a, out=legs[:, 0])
         np.subtract(c_b, trial, out=legs[:, 1])
@@ -416,28 +431,35 @@ class Energy:
 
     def descent(self, around: np.ndarray, anchor: np.ndarray, g: Group) -> np.ndarray:
         """(2, M, 1) unit direction of steepest descent of each member's energy at its place
-        (zero where the gradient vanishes), for ``around`` and ``anchor`` as in :meth:`evaluate`."""
+        (zero where the gradient vanishes), for ``around`` as in :func:`_knots` and ``anchor`` as
+        in :meth:`evaluate`."""
         edge = around[_A:_B2 + 1] - around[_A2:_B2]  # (4, 2, M, 1) along a2, a, member, b, b2
         vec = np.empty((3, 3) + edge.shape[1:])  # (3, 3, 2, M, 1): d0, dm, d1 of each span
         d0, d1 = vec[0], vec[2]
         np.multiply(edge[:3], g.scale[0], out=d0)  # P1 - P0 of the spans before, own, after
         np.multiply(edge[1:], g.scale[1], out=d1)  # P2 - P1
         np.add(d0, d1, out=vec[1])
-        turn = np.sign(d0[:, 0] * d1[:, 1] - d0[:, 1] * d1[:, 0])  # (3, M, 1) the way each span turns
-        length2 = np.maximum(vec[:, :, 0] ** 2 + vec[:, :, 1] ** 2, _TINY)
+        # x and y together where both are multiplied alike (a call a product, not one a coordinate)
+        cross = d0 * d1[:, ::-1]  # (3, 2, M, 1): x0·y1, y0·x1
+        turn = np.sign(cross[:, 0] - cross[:, 1])  # (3, M, 1) the way each span turns
+        square = np.square(vec)
+        length2 = np.maximum(square[:, :, 0] + square[:, :, 1], _TINY)
         coef = g.slope * turn / length2  # (3, 3, M, 1)
+        along = (coef[:, :, None] * vec[:, :, ::-1]).sum(axis=(0, 1))  # (2, M, 1): Σ coef·y, Σ coef·x
         offset = around[_MEMBER] - anchor
-        push = 4.0 * (offset[0] ** 2 + offset[1] ** 2)  # E_p = |o|^4: gradient 4 |o|^2 o
-        grad = np.empty(offset.shape)
-        np.subtract(push * offset[0], (coef * vec[:, :, 1]).sum(axis=(0, 1)), out=grad[0])
-        np.add(push * offset[1], (coef * vec[:, :, 0]).sum(axis=(0, 1)), out=grad[1])
-        norm = np.sqrt(grad[0] ** 2 + grad[1] ** 2)
-        return -grad / np.where(norm > 0, norm, 1.0)
+        square = np.square(offset)
+        down = (-4.0 * (square[0] + square[1])) * offset  # E_p = |o|^4: gradient 4 |o|^2 o, negated
+        down[0] += along[0]  # minus the gradient, negated exactly term by term
+        down[1] -= along[1]
+        np.square(down, out=square)
+        norm = np.sqrt(square[0] + square[1])
+        down /= np.where(norm > 0, norm, 1.0)
+        return down
 
     def energy(self, ctrl: np.ndarray, anchor: np.ndarray, g: Group, trial: np.ndarray) -> np.ndarray:
         """(M, K) energy of each member at each trial position ``trial`` (M, K, 2)."""
         around = ctrl[g.around].transpose(0, 2, 1)[..., None]
-        return self.evaluate(around, anchor[g.members].T[..., None], g, np.moveaxis(trial, -1, 0))[0]
+        return self.evaluate(_knots(around), anchor[g.members].T[..., None], g, np.moveaxis(trial, -1, 0))[0]
 
     def clearance_of(self, points: np.ndarray, g: Group, rows: np.ndarray) -> np.ndarray:
         """(N,) smallest distance from the three spans of the members ``rows`` (N,), one trial
@@ -453,7 +475,7 @@ class Energy:
         flat = _W0 * p0 + _W1 * p1 + _W2 * p2
         flat = np.concatenate([flat[:-1, 0], flat[:, 1], flat[1:, 2]])  # (3n+1, 2, N)
         flat = np.ascontiguousarray(flat.transpose(1, 2, 0))[:, :, None]  # (2, N, 1, 3n+1)
-        d = flat - g.protected.take(rows, axis=1).astype(float)
+        d = flat - g.protected.take(rows, axis=1)  # float32 widened exactly within the subtraction (no copy)
         np.square(d, out=d)  # in place: these are the largest arrays of a step
         np.add(d[0], d[1], out=d[0])
         return np.sqrt(d[0].reshape(rows.size, -1).min(axis=1))
@@ -461,7 +483,7 @@ class Energy:
     def clearance(self, ctrl: np.ndarray, g: Group, trial: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """(R, K) :meth:`clearance_of` the members ``rows`` at trial positions ``trial`` (R, K, 2)."""
         around = ctrl[g.around[:, rows]].transpose(0, 2, 1)[..., None]
-        points = self.points(around, g.ends[:, rows], np.moveaxis(trial, -1, 0))  # (3, 3, 2, R, K)
+        points = self.points(_knots(around), g.ends[:, rows], np.moveaxis(trial, -1, 0))  # (3, 3, 2, R, K)
         return self.clearance_of(points.reshape(points.shape[:3] + (-1,)), g, np.repeat(rows, trial.shape[1])
                                  ).reshape(trial.shape[:2])
 
