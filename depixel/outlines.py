@@ -250,9 +250,9 @@ def _batch_entries(faces: FaceBoundaries, face: np.ndarray, shape: np.ndarray, m
 
 
 #: a batch's members are looked up in a dense (shape, face) table of booleans while it has at
-#: most this many bytes a boundary entry (two int64 arrays' worth; the batch's other arrays
-#: take ~100), else by a binary search of the sorted keys: a paper sprite's ratio is 0.1-17,
-#: a frame batch's up to ~50 (hundreds of shapes among ~1000 faces)
+#: most this many bytes a boundary entry (as much as two of the batch's int64 entry arrays),
+#: else by a binary search of the sorted keys: a paper sprite's ratio is 0.1-17, a frame
+#: batch's 0.1-90 (hundreds of shapes among ~1000 faces)
 DENSE_MEMBERS = 16
 
 
