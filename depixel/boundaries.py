@@ -192,11 +192,11 @@ class _Spans:
         nxt = self.curves.next.take(slot)
         b = np.maximum(nxt, 0)
         joint = leg_joint(self.ctrl(slot), self.ctrl(b))
-        node, point = self.curves.node, self.point
+        # at a curve's end the end point, else before one the next slot's end point: one gather
         at_end = self.end.take(slot)
-        set_rows(joint, at_end.nonzero()[0], point.take(node.take(slot.compress(at_end)), axis=0))
-        before_end = ~at_end & self.end.take(b)
-        set_rows(joint, before_end.nonzero()[0], point.take(node.take(b.compress(before_end)), axis=0))
+        rows = (at_end | self.end.take(b)).nonzero()[0]
+        ending = np.where(at_end, slot, b).take(rows)
+        set_rows(joint, rows, self.point.take(self.curves.node.take(ending), axis=0))
         joint[nxt < 0] = np.nan
         return joint
 

@@ -36,47 +36,44 @@ def component_roots(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def cycle_leaders(nxt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """For a permutation ``nxt``: the smallest index on each element's cycle, and each
-    element's number of steps from that leader along ``nxt`` (both ``(n,)``, int32 when
-    ``n < 2**31``, else int64).
+    """For a permutation ``nxt`` of fewer than 2^31 elements (an image's half-edges): the
+    smallest index on each element's cycle, and each element's number of steps from that
+    leader along ``nxt`` (both ``(n,)`` int32).
 
-    Works on 32-bit indices where they suffice, and in a few buffers reused by every round
-    (a fresh array of a frame's size costs more in page faults than the gather that fills
-    it): the caller's permutation can be as large as every half-edge of an image."""
-    n = nxt.size
-    index = np.int32 if n < 2**31 else np.int64
-    nxt = nxt.astype(index)
-    ahead, spare = np.empty(n, index), np.empty(n, index)
+    One doubling loop on a packed int64 key per element, ``leader << 32 | steps to it``:
+    the key's minimum over a window of the next 2^t elements is the window's smallest
+    element and its first place there, so a round is one gather and one ``np.minimum``
+    (list ranking after finding the leaders took as many rounds again). The round's
+    buffers are reused (a fresh array of a frame's size costs more in page faults than the
+    gather that fills it)."""
+    n = nxt.size  # (< 2**31: an image has at most limits.MAX_INDEXED_PIXELS, ~10 half-edges each)
+    nxt = nxt.astype(np.int32)
+    key = np.arange(n, dtype=np.int64)  # the window of element i alone: itself, 0 steps
+    key <<= 32
+    ahead = np.empty(n, np.int64)
     moved = np.empty(n, bool)
-    # leader: min over the next 2^t elements, doubling t until it stops changing (then
-    # every cycle is shorter than the window)
-    leader = np.minimum(np.arange(n, dtype=index), nxt)
-    jump = nxt.take(nxt)
+    spares = (np.empty(n, np.int32), np.empty(n, np.int32))  # (the jumps of odd and even rounds)
+    jump, window = nxt, 1
     while True:
-        leader.take(jump, out=ahead, mode="clip")  # every index is valid: "clip" is not buffered
-        if not np.logical_or.reduce(np.less(ahead, leader, out=moved)):
+        key.take(jump, out=ahead, mode="clip")  # every index is valid: "clip" is not buffered
+        ahead += window  # (the next window starts that many steps ahead)
+        # the leader stops changing once every cycle is shorter than the window; a smaller
+        # key with the same leader is never ahead (its steps are at least the window's)
+        if not np.logical_or.reduce(np.less(ahead, key, out=moved)):
             break
-        np.minimum(leader, ahead, out=leader)
-        jump.take(jump, out=spare, mode="clip")
-        jump, spare = spare, jump
-    del jump
-    # steps to the cycle's last element (the one before its leader), by list ranking on
-    # the cycle cut open there; position from the leader follows from the cycle length
-    last = np.equal(nxt, leader, out=moved)
-    succ = np.where(last, np.arange(n, dtype=index), nxt)
-    del nxt
-    to_end = np.logical_not(last).astype(index)
-    while True:
-        succ.take(succ, out=ahead, mode="clip")
-        # done when everything points at its cycle's last element
-        if not np.logical_or.reduce(np.not_equal(ahead, succ, out=moved)):
-            break
-        to_end.take(succ, out=spare, mode="clip")
-        to_end += spare
-        succ, ahead = ahead, succ
-    del succ, ahead, spare, moved
-    position = to_end.take(leader)  # the cycle's length - 1, minus the steps to its end
-    position -= to_end
+        np.minimum(key, ahead, out=key)
+        jump = jump.take(jump, out=spares[window.bit_length() % 2], mode="clip")
+        window *= 2
+    del jump, spares, ahead, moved
+    leader = (key >> 32).astype(np.int32)
+    key &= 0xFFFFFFFF
+    to_leader = key.astype(np.int32)
+    del key
+    # the leader's place is 0, the element before it (1 step to it) the cycle's length - 1
+    position = to_leader.take(nxt.take(leader))
+    position += 1
+    position -= to_leader
+    position *= to_leader != 0
     return leader, position
 
 

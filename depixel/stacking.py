@@ -21,6 +21,9 @@ from .vector import VectorImage, faces_and_regions
 ROLES = ("backdrop", "outline", "band", "shape")
 #: member keys grown together in the stacked layout (:meth:`FaceTopology._absorb`)
 ABSORB_BATCH = 1 << 14
+#: :meth:`FaceTopology._grow` keeps a batch's keys as a dense (owner, face) table of booleans
+#: while it spans at most this many keys (a sprite's shapes; a frame's batches search the keys)
+DENSE_ABSORB_BYTES = 1 << 17
 
 
 @dataclass(frozen=True, eq=False)
@@ -236,7 +239,9 @@ class FaceTopology:
         are grown a batch at a time (:data:`ABSORB_BATCH` keys), which bounds the memory of
         the candidate arrays (~40 a face on noise) and changes nothing else."""
         n = self.n_faces
-        neighbours = self._neighbours(edge_cost)
+        ptr, others, costs, perimeter = self._neighbours(edge_cost)
+        # a candidate's rank, -1 if it is not opaque (ranks are 0..F-1)
+        neighbours = (ptr[:-1], ptr[1:] - ptr[:-1], others, costs, perimeter, np.where(self.opaque, self.rank, -1))
         owner = keys // n
         cuts = unique(np.concatenate(([0], owner.searchsorted(owner[ABSORB_BATCH::ABSORB_BATCH]), [keys.size])))
         del owner
@@ -272,19 +277,32 @@ class FaceTopology:
         that grew in the round before (all at first): the others' candidates and sums are
         those of a round that added nothing to them."""
         n = self.n_faces
-        nb_ptr, h, w, perimeter = neighbours
+        nb_start, nb_count, h, w, perimeter, above = neighbours
+        # the keys so far as a dense (owner, face) table of the batch's owners where it is
+        # small (a sprite's), else a binary search of the sorted keys: a lookup instead
+        low = int(keys[0]) // n * n if keys.size else 0
+        size = (int(keys[-1]) // n + 1) * n - low if keys.size else 0
+        dense = 0 < size <= DENSE_ABSORB_BYTES
+        if dense:
+            known = np.zeros(size, bool)
+            known.put(keys - low, True)
         growing = keys  # the keys of the shapes that may grow
         while True:
             owner, member = np.divmod(growing, n)
-            start = nb_ptr.take(member)
-            count = nb_ptr.take(member + 1) - start
+            start, count = nb_start.take(member), nb_count.take(member)
             idx = ranges(start, count)
             f = owner.repeat(count)
             cand = h.take(idx)
             cand_key = f * n
             cand_key += cand
-            ok = self.opaque.take(cand) & (self.rank.take(cand) > self.rank.take(f))
-            ok &= ~in_sorted(keys, cand_key)  # fresh (one filter: fewer calls than filtering twice)
+            ok = np.greater(above.take(cand), self.rank.take(f))
+            # fresh (one filter: fewer calls than filtering twice)
+            if dense:
+                cand_key -= low
+                ok &= ~known.take(cand_key, mode="clip")  # (every key is within the table: "clip" is not buffered)
+                cand_key += low
+            else:
+                ok &= ~in_sorted(keys, cand_key)
             cand_key, weight = cand_key.compress(ok), w.take(idx.compress(ok))
             if cand_key.size == 0:
                 return keys
@@ -295,6 +313,8 @@ class FaceTopology:
                 return keys
             keys = np.concatenate((keys, add))  # none of them among the keys (fresh)
             keys.sort()
+            if dense:
+                known.put(add - low, True)
             growing = keys.compress(in_sorted(add // n, keys // n))  # (add is sorted: so are its owners)
 
     def _roles(self, pairs: np.ndarray) -> np.ndarray:

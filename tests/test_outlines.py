@@ -582,3 +582,23 @@ def test_layers_panel_structure(path):
                          simplify=DEFAULT_SIMPLIFY)
     drawn = [p.get("fill") for p in shapes]
     assert drawn == ["#%02x%02x%02x" % tuple(int(v) for v in c[:3]) for c in out.rgba if c[3] > 0]
+
+
+@pytest.mark.parametrize("name", ["ghost.png", "mushroom.png"])
+def test_the_dense_member_tables_and_the_key_search_give_the_same_outlines(name, monkeypatch):
+    """A sprite's shape members are looked up in dense tables (outlines._batch_entries,
+    stacking._grow), a frame's by a binary search of sorted keys: a speed choice by size
+    that must not show in the result."""
+    import depixel.outlines as outlines
+    import depixel.stacking as stacking
+
+    vector = depixelize(load_image(fixture_pngs_by_name(name))).vector
+    results = []
+    for limit in (0, 1 << 30):  # always the search, always the tables
+        monkeypatch.setattr(outlines, "DENSE_MEMBERS", limit)
+        monkeypatch.setattr(stacking, "DENSE_ABSORB_BYTES", limit)
+        out = build_outlines(vector, "stacked", grid=1e-2)
+        results.append((out.face, out.shape_ptr, out.loop_ptr, out.kind, np.nan_to_num(out.ctrl, nan=-1), out.end))
+    assert len(results[0][0]) > 3
+    for a, b in zip(*results):
+        assert a.shape == b.shape and np.array_equal(a, b)
