@@ -48,6 +48,17 @@ def nan_to_zero(values: np.ndarray) -> np.ndarray:
     return np.where(np.isnan(values), 0.0, values)
 
 
+def both(pairs: np.ndarray) -> np.ndarray:
+    """(...,) bool: both tests of each pair ``pairs`` (..., 2) bool (C-contiguous), read as
+    one 2-byte word (0x0101) instead of a reduction over an axis of two or two strided columns."""
+    return pairs.view(np.uint16)[..., 0] == 0x0101
+
+
+def either(pairs: np.ndarray) -> np.ndarray:
+    """(...,) bool: either test of each pair ``pairs`` (..., 2) bool (C-contiguous), as :func:`both`."""
+    return pairs.view(np.uint16)[..., 0] != 0
+
+
 def set_rows(target: np.ndarray, rows: np.ndarray, values: np.ndarray) -> None:
     """``target[rows] = values`` for an (N, k) ``target``, a column at a time (the same
     result, several times faster than numpy's row-by-row copy)."""

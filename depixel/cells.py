@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .arrays import both
 from .crossings import CrossingResolution
 from .frozen import freeze
 from .similarity import SimilarityGraph
@@ -43,10 +44,7 @@ def link_corners(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     quarter pixel off a lattice point in both x and y: the point the link splits), and the
     nearest lattice point (quarter pixels, float)."""
     lattice = 4 * (q / 4.0).round()
-    off = np.abs(q - lattice) == 1
-    # both coordinates' tests as one 2-byte word (both true: 0x0101), not a reduction over
-    # an axis of two
-    return off.view(np.uint16)[..., 0] == 0x0101, lattice
+    return both(np.abs(q - lattice) == 1), lattice
 
 
 @dataclass(frozen=True, eq=False)

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .arrays import ranges, set_rows
+from .arrays import either, ranges, set_rows
 from .bspline import flatten_edges_planes
 from .cells import CellGraph, link_corners
 from .splines import Drawing, SplineSet
@@ -216,7 +216,7 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
     for round_ in range(rounds):
         if round_:
             current = splines.drawing(positions)  # the same curved edges as the reference, in the same order
-        changed = _either(_differs(current.points, reference.points).take(cells.edges))  # an end moved
+        changed = either(_differs(current.points, reference.points).take(cells.edges))  # an end moved
         changed[current.edges] |= _differs(current.controls, reference.controls)
         # the pixels beside the changed edges (a side without a pixel, -1, marks the extra last entry)
         beside = np.zeros(n_px + 1, bool)
@@ -235,7 +235,7 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
         reference = current
         if ok.all():
             return positions, current
-        bad = _either(np.append(~ok, False).take(cells.edge_pixels))  # a bad cell on either side
+        bad = either(np.append(~ok, False).take(cells.edge_pixels))  # a bad cell on either side
         revert = np.zeros(len(positions), bool)  # the nodes of the edges around a bad cell
         revert[cells.edges.compress(bad, axis=0).ravel()] = True
         # widen to the whole neighbourhood on the curves through those nodes
@@ -247,11 +247,6 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
         nodes = revert.nonzero()[0]
         set_rows(positions, nodes, start.take(nodes, axis=0))
     return positions, splines.drawing(positions)
-
-
-def _either(pairs: np.ndarray) -> np.ndarray:
-    """(n,) bool: either test of each row of ``pairs`` (n, 2) bool, read as one 2-byte word."""
-    return pairs.view(np.uint16).ravel() != 0
 
 
 def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -11,7 +11,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .arrays import set_rows
+from .arrays import either, set_rows
 from .splines import SplineSet
 
 #: unknowns from which the operator sums the neighbours by a padded table (:class:`_NeighbourSums`)
@@ -169,7 +169,7 @@ def follow(display: np.ndarray, before: np.ndarray, after: np.ndarray) -> np.nda
     """(N, 2) the display points of ``after`` from those of ``before`` (``display``), when
     ``after`` moved nodes off the curves alone (as :func:`harmonic_map` does): a moved node
     is shown where it is, the curves and their display points stay."""
-    moved = (after != before).view(np.uint16).ravel().nonzero()[0]  # either coordinate: one 2-byte word
+    moved = either(after != before).nonzero()[0]
     out = display.copy()
     set_rows(out, moved, after.take(moved, axis=0))
     return out

@@ -15,6 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .arrays import both
 from .cells import INDEX, CellGraph
 from .graph import cycle_leaders
 from .params import Params
@@ -88,9 +89,8 @@ def band_edges(cells: CellGraph, linked: np.ndarray | None = None) -> np.ndarray
 
 
 def _both_inside(cells: CellGraph) -> np.ndarray:
-    """(E,) bool: both pixels of each edge are inside the image (neither is -1); an edge's
-    two tests read as one 2-byte word (no strided columns)."""
-    return (cells.edge_pixels >= 0).view(np.uint16).ravel() == 0x0101
+    """(E,) bool: both pixels of each edge are inside the image (neither is -1)."""
+    return both(cells.edge_pixels >= 0)
 
 
 def pair_ends(cells: CellGraph, edges: np.ndarray, shading: np.ndarray) -> HalfEnds:

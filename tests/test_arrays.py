@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from depixel.arrays import (batch_bounds, batch_slices, flat_rows, in_sorted, nan_to_zero, ranges, set_rows,
+from depixel.arrays import (batch_bounds, batch_slices, both, either, flat_rows, in_sorted, nan_to_zero, ranges, set_rows,
                             sums_by_key, unique)
 
 
@@ -80,3 +80,10 @@ def test_nan_to_zero_is_nan_to_num_without_infinities(values):
     array = np.array(values, dtype=np.float64).reshape(-1, 1)
     got, expected = nan_to_zero(array), np.nan_to_num(array)
     assert got.shape == expected.shape and got.tobytes() == expected.tobytes()  # -0.0 stays -0.0
+
+
+@pytest.mark.parametrize("shape", [(0, 2), (7, 2), (3, 5, 2)])
+def test_both_and_either_read_a_pair_of_tests_as_the_reductions_do(shape):
+    pairs = np.random.default_rng(1).integers(0, 2, shape).astype(bool)
+    assert np.array_equal(both(pairs), pairs.all(axis=-1))
+    assert np.array_equal(either(pairs), pairs.any(axis=-1))
