@@ -109,14 +109,6 @@ def linked_edges(cells: CellGraph) -> np.ndarray:
     return link.ravel().take(first) & inside
 
 
-def label_components(n: int, pairs: np.ndarray) -> np.ndarray:
-    """Connected-component labels of n items joined by ``(M, 2)`` pairs, numbered in order
-    of each component's smallest item (so labels are stable, scanline order)."""
-    if n == 0:
-        return np.zeros(0, np.int64)
-    return _labels(component_roots(n, pairs[:, 0], pairs[:, 1]))  # the smallest item of each component
-
-
 def regions(cells: CellGraph) -> np.ndarray:
     """(H*W,) region label per pixel: components of cells joined by invisible edges."""
     region = faces_and_regions(cells)[1]
