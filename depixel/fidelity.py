@@ -250,21 +250,13 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
 
 
 def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(n,) bool: some coordinate of row i of ``a`` and ``b`` (n, ...) differs by more than
-    1e-12. The differences in one array, in place; a row's tests read as whole 2-byte
-    words where a row has an even number of coordinates (the reduction over a short last
-    axis, or a column at a time, costs several calls and passes)."""
+    """(n,) bool: some coordinate of row i of ``a`` and ``b`` (n, ..., 2) differs by more than
+    1e-12. The differences in one array, in place; each (x, y) pair's tests read as one
+    2-byte word (a reduction over a short last axis costs several calls and passes)."""
     difference = np.subtract(a, b)
     far = np.abs(difference, out=difference) > 1e-12
-    k = far.size // len(a) if len(a) else 1
-    if k % 2:
-        far = far.reshape(len(a), k)
-        out = far[:, 0].copy()
-        for column in far.T[1:]:
-            out |= column
-        return out
-    words = far.reshape(len(a), k).view(np.uint16)  # (n, k / 2): two tests a word
-    out = words[:, 0] != 0
-    for column in words.T[1:]:
-        out |= column != 0
+    pairs = either(far.reshape(len(a), far[0:1].size // 2 if len(a) else 1, 2))  # (n, coordinates / 2)
+    out = pairs[:, 0].copy()
+    for column in pairs.T[1:]:
+        out |= column
     return out
