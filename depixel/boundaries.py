@@ -67,16 +67,6 @@ class BoundaryPieces:
                               np.full(kind.size, -1, np.int32), self.curve_ctrl, self.grid, ctrl2)
 
 
-def junction_nodes(image: VectorImage, face: np.ndarray) -> np.ndarray:
-    """(N,) bool: nodes where three or more face boundaries meet (``face``: label per pixel)."""
-    cells = image.cells
-    sides = cells.edge_pixels
-    inner = (sides[:, 0] >= 0) & (sides[:, 1] >= 0)
-    boundary = inner & (face[np.maximum(sides[:, 0], 0)] != face[np.maximum(sides[:, 1], 0)])
-    degree = np.bincount(cells.edges[boundary].ravel(), minlength=len(cells.nodes))
-    return degree >= 3
-
-
 def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = None) -> BoundaryPieces:
     """Cut the curves of ``image`` at the ``junction`` nodes and at their ends into pieces.
 

@@ -40,7 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .arrays import batch_bounds, in_sorted, ranges
-from .boundaries import CUBIC, LINE, QUAD, BoundaryPieces, build_pieces, junction_nodes
+from .boundaries import CUBIC, LINE, QUAD, BoundaryPieces, build_pieces
 from .holes import loops_to_keep, probe_keys
 from .loops import Loops, trace_loops
 from .simplify import simplify_pieces
@@ -128,7 +128,7 @@ class OutlineShapes:
         self.shape = image.cells.shape
         stacked = layout == "stacked"
         topo = FaceTopology(image, stacked)
-        pieces = build_pieces(image, junction_nodes(image, topo.labels), grid)
+        pieces = build_pieces(image, topo.junction, grid)
         if simplify > 0:
             pieces = simplify_pieces(pieces, image, simplify, grid=grid)
         self.pieces = pieces
@@ -214,10 +214,10 @@ def _edge_costs(image: VectorImage, pieces: BoundaryPieces) -> np.ndarray:
     segments shared out over the piece's edges (a straight edge: a little, since straight
     runs merge into one line)."""
     cost = np.full(len(image.cells.edges), 0.25)
-    curved = pieces.edge_piece >= 0
-    piece = pieces.edge_piece[curved]
-    edges_in = np.bincount(piece, minlength=len(pieces))
-    cost[curved] = (pieces.ptr[1:] - pieces.ptr[:-1])[piece] / np.maximum(edges_in[piece], 1)
+    curved = (pieces.edge_piece >= 0).nonzero()[0]
+    piece = pieces.edge_piece.take(curved)
+    per_edge = (pieces.ptr[1:] - pieces.ptr[:-1]) / np.maximum(np.bincount(piece, minlength=len(pieces)), 1)
+    cost.put(curved, per_edge.take(piece))
     return cost
 
 
@@ -357,22 +357,25 @@ def _merge_lines(kind, ctrl, ctrl2, end, loop_ptr, grid):
     n = kind.size
     if n == 0:
         return kind, ctrl, ctrl2, end, loop_ptr
-    loop_of = np.arange(loop_ptr.size - 1).repeat(loop_ptr[1:] - loop_ptr[:-1])
+    n_loops = loop_ptr.size - 1
+    loop_of = np.arange(n_loops).repeat(loop_ptr[1:] - loop_ptr[:-1])
+    first, last = loop_ptr.take(loop_of), loop_ptr.take(loop_of + 1)
+    last -= 1
     k = np.arange(n)
-    first, last = loop_ptr[:-1][loop_of], loop_ptr[1:][loop_of] - 1
+    at_last = k == last
     before = np.where(k == first, last, k - 1)
-    after = np.where(k == last, first, k + 1)
-    start = end.take(before, axis=0)
+    after = np.where(at_last, first, k + 1)
+    start, following = end.take(before, axis=0), end.take(after, axis=0)
     tol = 1e-12 if grid is None else 0.25 * grid * grid
     line = kind == LINE
-    a, b = end - start, end.take(after, axis=0) - end
-    turn = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    merge = line & line[after] & (np.abs(turn) <= tol) & (a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] > 0) & (after != k)
-    if not merge.any():
+    ax, ay = end[:, 0] - start[:, 0], end[:, 1] - start[:, 1]
+    bx, by = following[:, 0] - end[:, 0], following[:, 1] - end[:, 1]
+    merge = line & line.take(after) & (np.abs(ax * by - ay * bx) <= tol) & (ax * bx + ay * by > 0) & (after != k)
+    if not np.logical_or.reduce(merge):
         return kind, ctrl, ctrl2, end, loop_ptr
     keep = ~merge
-    kept_per_loop = np.bincount(loop_of[keep], minlength=loop_ptr.size - 1)
-    keep |= (kept_per_loop[loop_of] == 0) & (k == last)  # never drop every segment of a loop
-    loop_of = loop_of[keep]
-    loop_ptr = loop_of.searchsorted(np.arange(loop_ptr.size)).astype(np.int64)
-    return kind[keep], ctrl.compress(keep, axis=0), ctrl2.compress(keep, axis=0), end.compress(keep, axis=0), loop_ptr
+    kept_per_loop = np.bincount(loop_of.compress(keep), minlength=n_loops)
+    keep |= (kept_per_loop.take(loop_of) == 0) & at_last  # never drop every segment of a loop
+    loop_ptr = loop_of.compress(keep).searchsorted(np.arange(loop_ptr.size)).astype(np.int64)
+    return (kind.compress(keep), ctrl.compress(keep, axis=0), ctrl2.compress(keep, axis=0), end.compress(keep, axis=0),
+            loop_ptr)

@@ -58,8 +58,13 @@ class FaceTopology:
         self.labels = labels
         n = int(labels.max()) + 1
         self.n_faces = n
-        first_pixel = np.full(n, labels.size, np.int64)
-        np.minimum.at(first_pixel, labels, np.arange(labels.size))
+        # the faces are numbered in order of their first pixel (faces_and_regions), so a
+        # face's first pixel is where the running maximum of the labels grows
+        seen = np.maximum.accumulate(labels)
+        grows = np.empty(labels.size, bool)
+        grows[:1] = True
+        np.greater(seen[1:], seen[:-1], out=grows[1:])
+        first_pixel = grows.nonzero()[0]
         self.first_pixel = first_pixel
         self.face_rgba = image.rgba.reshape(-1, 4).take(first_pixel, axis=0)
         self.face_region = region.take(first_pixel)
@@ -87,8 +92,13 @@ class FaceTopology:
         # copy the whole column first; gathered rows would leave strided columns)
         u, v = cells.edges.ravel().take(2 * boundary), cells.edges.ravel().take(2 * boundary + 1)
         self.entry_from, self.entry_to = entries(u, v), entries(v, u)
+        inner = has_l & has_r
+        n_nodes = len(cells.nodes)
+        # where three or more boundaries between faces meet (the image border not counted): where
+        # an outline may turn from one curve onto another, so the curves are cut into pieces there
+        self.junction = (np.bincount(u.compress(inner), minlength=n_nodes)
+                         + np.bincount(v.compress(inner), minlength=n_nodes)) >= 3
         if stacked:  # where three faces meet (the outside counted as one), three boundary edges do
-            n_nodes = len(cells.nodes)
             meeting = (np.bincount(u, minlength=n_nodes) + np.bincount(v, minlength=n_nodes)) >= 3
         del u, v
         self.entry_edge = entries(boundary, boundary)
@@ -96,7 +106,6 @@ class FaceTopology:
         per_face = np.bincount(right[has_r], minlength=n) + np.bincount(left[has_l], minlength=n)
         self.entry_ptr = np.concatenate(([0], per_face.cumsum()))
 
-        inner = has_l & has_r
         lo, hi = np.minimum(left[inner], right[inner]).astype(np.int64), np.maximum(left[inner], right[inner])
         pair_key = _distinct(lo * n + hi)
         lo, hi = np.divmod(pair_key, n)

@@ -123,7 +123,8 @@ def faces(cells: CellGraph, per_cell: bool = False) -> np.ndarray:
 
 def faces_and_regions(cells: CellGraph, per_cell: bool = False,
                       with_regions: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
-    """:func:`faces` and :func:`regions` together, finding the linked edges once."""
+    """:func:`faces` and :func:`regions` together, finding the linked edges once. Both are
+    numbered in order of their first pixel (FaceTopology reads each face's first pixel off it)."""
     n = cells.shape[0] * cells.shape[1]
     linked = linked_edges(cells)
     left, right = cells.edge_pixels[:, 0], cells.edge_pixels[:, 1]

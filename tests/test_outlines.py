@@ -602,3 +602,27 @@ def test_the_dense_member_tables_and_the_key_search_give_the_same_outlines(name,
     assert len(results[0][0]) > 3
     for a, b in zip(*results):
         assert a.shape == b.shape and np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_face_topology_reads_first_pixels_and_junctions(seed):
+    """FaceTopology's first pixel of each face (read off the labels' numbering) is the
+    face's smallest pixel, and its junctions are the nodes where three or more boundary
+    edges between two faces of the image meet (the image border not counted)."""
+    from depixel.stacking import FaceTopology
+
+    rng = np.random.default_rng(seed)
+    rgba = np.zeros((9, 11, 4), np.uint8)
+    rgba[..., :3] = rng.integers(0, 3, (9, 11, 1)) * 120
+    rgba[..., 3] = 255
+    vector = depixelize(rgba, stage="cells").vector
+    topo = FaceTopology(vector, stacked=seed % 2 == 0)
+    labels = topo.labels
+    expected = np.array([np.flatnonzero(labels == f).min() for f in range(topo.n_faces)])
+    assert np.array_equal(topo.first_pixel, expected)
+    sides = vector.cells.edge_pixels
+    face = np.where(sides >= 0, labels[np.maximum(sides, 0)], -1)
+    between = (face[:, 0] >= 0) & (face[:, 1] >= 0) & (face[:, 0] != face[:, 1])
+    degree = np.bincount(vector.cells.edges[between].ravel(), minlength=len(vector.cells.nodes))
+    assert np.array_equal(topo.junction, degree >= 3)
+    assert topo.junction.any()
