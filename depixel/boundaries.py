@@ -139,22 +139,34 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
     steps[is_tail] = length.take(piece.compress(is_tail))
     steps[is_head] = 0
     del offset, head_of
-    slot = _advance(nxt, first_slot.take(piece), steps)
+    # the slot k steps after the piece's first, on its curve's run of consecutive slots (a
+    # closed curve's wraps round; an open curve's is never walked past its end)
+    steps += (first_slot - curve_first).take(piece)
+    steps %= curve_size.take(piece)
+    slot = curve_first.take(piece)
+    slot += steps
     del piece, steps
 
-    spans = _Spans(curves, point, end, grid)
     kind = np.full(total, QUAD, np.uint8)
-    seg_ctrl = spans.ctrl(slot)
-    seg_end = spans.joint(slot)
-    # the halves of a span (de Casteljau at t = ½) have the controls (S0 + C) / 2 and (C + S1) / 2
-    head_slot, tail_slot = slot.compress(is_head), slot.compress(is_tail)
+    seg_ctrl = _ctrl_on_grid(curves.ctrl.take(slot, axis=0), grid)
+    seg_end = _joints(curves, point, end, slot, seg_ctrl, grid)
+    # the halves of a span (de Casteljau at t = ½) have the controls (S0 + C) / 2 and (C + S1) / 2,
+    # S0 the joint before the span, where the segment before ends (the rows are per slot, so
+    # no joint is computed twice): a head's own control and joint, a tail's control and the
+    # end of the segment before it, or of its piece's start (an open curve's end) if none
     heads, tails = is_head.nonzero()[0], is_tail.nonzero()[0]
-    set_rows(seg_ctrl, heads, _on_grid((spans.ctrl(head_slot) + spans.joint(head_slot)) / 2.0, grid))
-    set_rows(seg_ctrl, tails, _on_grid((spans.joint_before(tail_slot) + spans.ctrl(tail_slot)) / 2.0, grid))
-    set_rows(seg_end, tails, point.take(node.take(tail_slot), axis=0))
+    set_rows(seg_ctrl, heads, _on_grid((seg_ctrl.take(heads, axis=0) + seg_end.take(heads, axis=0)) / 2.0, grid))
     start = point.take(node.take(first_slot), axis=0)
-    set_rows(start, seed.nonzero()[0], spans.joint_before(first_slot.compress(seed)))
-    del spans, point, head_slot, tail_slot, is_head, is_tail
+    tail_piece = tail.nonzero()[0]  # (a piece has at most one tail: its last segment)
+    before = seg_end.take(tails - 1, axis=0)
+    alone = (ptr.take(tail_piece) == tails).nonzero()[0]
+    set_rows(before, alone, start.take(tail_piece.take(alone), axis=0))
+    set_rows(seg_ctrl, tails, _on_grid((before + seg_ctrl.take(tails, axis=0)) / 2.0, grid))
+    set_rows(seg_end, tails, point.take(node.take(slot.take(tails)), axis=0))
+    # a seeded closed curve starts at the joint before its seed, where its last span ends
+    seeded = seed.nonzero()[0]
+    set_rows(start, seeded, seg_end.take(ptr.take(seeded + 1) - 1, axis=0))
+    del point, before, is_head, is_tail
     span_slot = slot.astype(np.int32)
     del slot
     _straighten(start, ptr, kind, seg_ctrl, seg_end, grid)
@@ -167,35 +179,21 @@ def _no_cubics(shape: tuple[int, ...]) -> np.ndarray:
     return np.broadcast_to(np.nan, shape)
 
 
-class _Spans:
-    """The control point of each slot's span and the joint after it (between it and the next
-    slot's span; at an end, the end point; NaN past an open end), computed for the slots
-    asked: the pieces read each slot once or twice, so no (P, 2) table is built."""
-
-    def __init__(self, curves: CurveTable, point: np.ndarray, end: np.ndarray, grid: float | None) -> None:
-        self.curves, self.point, self.end, self.grid = curves, point, end, grid
-
-    def ctrl(self, slot: np.ndarray) -> np.ndarray:
-        return _ctrl_on_grid(self.curves.ctrl.take(slot, axis=0), self.grid)
-
-    def joint(self, slot: np.ndarray) -> np.ndarray:
-        nxt = self.curves.next.take(slot)
-        b = np.maximum(nxt, 0)
-        joint = leg_joint(self.ctrl(slot), self.ctrl(b))
-        # at a curve's end the end point, else before one the next slot's end point: one gather
-        at_end = self.end.take(slot)
-        rows = (at_end | self.end.take(b)).nonzero()[0]
-        ending = np.where(at_end, slot, b).take(rows)
-        set_rows(joint, rows, self.point.take(self.curves.node.take(ending), axis=0))
-        joint[nxt < 0] = np.nan
-        return joint
-
-    def joint_before(self, slot: np.ndarray) -> np.ndarray:
-        """The joint before each slot (between the previous slot and it; NaN at an open start)."""
-        prev = self.curves.prev.take(slot)
-        joint = self.joint(np.maximum(prev, 0))
-        joint[prev < 0] = np.nan
-        return joint
+def _joints(curves: CurveTable, point: np.ndarray, end: np.ndarray, slot: np.ndarray, ctrl: np.ndarray,
+            grid: float | None) -> np.ndarray:
+    """(n, 2) the joint after each slot's span (between it and the next slot's span; at an
+    end, the end point; NaN past an open end), ``ctrl`` the slots' control points on the grid:
+    computed for the slots asked (every segment's once), so no (P, 2) table is built."""
+    nxt = curves.next.take(slot)
+    b = np.maximum(nxt, 0)
+    joint = leg_joint(ctrl, _ctrl_on_grid(curves.ctrl.take(b, axis=0), grid))
+    # at a curve's end the end point, else before one the next slot's end point: one gather
+    at_end = end.take(slot)
+    rows = (at_end | end.take(b)).nonzero()[0]
+    ending = np.where(at_end, slot, b).take(rows)
+    set_rows(joint, rows, point.take(curves.node.take(ending), axis=0))
+    joint[nxt < 0] = np.nan
+    return joint
 
 
 def _on_grid(xy: np.ndarray, grid: float | None) -> np.ndarray:
@@ -205,22 +203,6 @@ def _on_grid(xy: np.ndarray, grid: float | None) -> np.ndarray:
 def _ctrl_on_grid(ctrl: np.ndarray, grid: float | None) -> np.ndarray:
     """Control points on twice the grid, so every implied on-curve point (a midpoint) is on it."""
     return ctrl if grid is None else (ctrl / (2 * grid)).round() * (2 * grid)
-
-
-def _advance(nxt: np.ndarray, slot: np.ndarray, steps: np.ndarray) -> np.ndarray:
-    """``nxt`` applied ``steps`` times to each slot (binary lifting; no slot is walked past
-    the end of its curve)."""
-    out = slot.copy()
-    jump = np.empty(nxt.size + 1, np.int32)
-    jump[:-1], jump[-1] = nxt, -1  # the last entry, index -1, keeps -1 at -1
-    steps = steps.copy()
-    while np.logical_or.reduce(steps):  # (steps.any() costs a Python wrapper more a call)
-        odd = (steps & 1) == 1
-        out[odd] = jump.take(out.compress(odd))
-        steps >>= 1
-        if np.logical_or.reduce(steps):
-            jump = jump.take(jump)
-    return out
 
 
 def _seeds(curve: np.ndarray, closed: np.ndarray, anchor: np.ndarray) -> np.ndarray:
