@@ -26,7 +26,7 @@ from .arrays import batch_bounds, nan_to_zero, ranges, set_rows
 from .boundaries import CUBIC, LINE, QUAD
 from .outlines import Outlines, OutlineShapes, outline_shapes
 from .stacking import ROLES
-from .svgtext import Texts, numbers, stack
+from .svgtext import Texts, number, numbers, stack
 from .vector import VectorImage
 
 SVG_HEADER = '<?xml version="1.0" encoding="UTF-8"?>\n'
@@ -83,7 +83,7 @@ def _document(shapes: Outlines | OutlineShapes, batches: Iterable[Outlines], sca
               title: str | None) -> str:
     """The SVG document of ``shapes``, whose outlines are ``batches`` of consecutive shapes."""
     h, w = shapes.shape
-    width, height = numbers(np.array([w * scale, h * scale]), 3).tolist()
+    width, height = number(w * scale, 3), number(h * scale, 3)
     head = (
         f'{SVG_HEADER}<svg xmlns="{"http://www.w3.org/2000/svg"}" xmlns:inkscape="{INKSCAPE_NS}" version="1.1" '
         f'width="{width}" height="{height}" viewBox="0 0 {w} {h}">\n'
@@ -138,7 +138,7 @@ def _elements(outlines: Outlines, first: int, labels: _Labels, precision: int) -
             label = f"shading #{r:02x}{g:02x}{b:02x} ({run_size[run_id[i]]} tones)"
             lines.append(f'<g id="region-{region}-{run_id[i]}" inkscape:label="{label}">\n')
         colour = f"#{r:02x}{g:02x}{b:02x}"
-        opacity = "" if a == 255 else f' fill-opacity="{numbers(np.array([a / 255.0]), 3).tolist()[0]}"'
+        opacity = "" if a == 255 else f' fill-opacity="{number(a / 255.0, 3)}"'
         base = f"{ROLES[role]}-{colour[1:]}"
         ident = base if count == 1 else f"{base}-{count}"
         lines.append(f'<path id="{ident}" inkscape:label="{ROLES[role]} {colour}" fill="{colour}"{opacity} '

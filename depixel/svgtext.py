@@ -95,6 +95,15 @@ def numbers(values: np.ndarray, precision: int, prefix: str = "", compact: bool 
     return Texts(chars.ravel().compress(keep.ravel()), length.cumsum() - length, length)
 
 
+def number(value: float, precision: int) -> str:
+    """:func:`numbers` of one value, in plain Python: for the few numbers of a document's
+    head and attributes (the array path costs ~40 numpy calls, ~80 µs, whatever the count)."""
+    scaled = round(value * 10**precision)  # (half to even, as numpy's round)
+    whole, frac = divmod(abs(scaled), 10**precision)
+    text = f"{whole}.{frac:0{precision}d}".rstrip("0") if frac else str(whole)
+    return "-" + text if scaled < 0 else text
+
+
 class _Decimals:
     """``values`` rounded to ``precision`` decimals: their sign, whole and fraction parts,
     and the characters a number can have (a sign, ``n_digits`` whole digits, a point,

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from depixel.loops import trace_loops
-from depixel.svgtext import Texts, numbers, stack
+from depixel.svgtext import Texts, number, numbers, stack
 
 
 def reference_number(value: float, precision: int) -> str:
@@ -21,6 +21,15 @@ def test_numbers_match_python_formatting(precision):
     values = np.concatenate([rng.normal(0, 300, 2000), rng.integers(-40, 40, 200) / 4,
                              [0.0, -0.0, -0.0004, 0.0004, 1e9, -1e9, 0.5, -0.5]])
     assert numbers(values, precision).tolist() == [reference_number(v, precision) for v in values]
+
+
+@pytest.mark.parametrize("precision", [0, 1, 3, 5])
+def test_number_is_numbers_of_one_value(precision):
+    """The scalar formatter of the document head and attributes writes what numbers() does."""
+    rng = np.random.default_rng(10 + precision)
+    values = np.concatenate([rng.normal(0, 300, 500), rng.integers(-40, 40, 100) / 4, np.arange(256) / 255.0,
+                             [0.0, -0.0, -0.0004, 0.0004, 1e9, -1e9, 0.5, -0.5, 2.5, 0.0125]])
+    assert [number(v, precision) for v in values.tolist()] == numbers(values, precision).tolist()
 
 
 def reference_compact(value: float, precision: int) -> str:
