@@ -108,8 +108,11 @@ class _Labels:
     def __init__(self, shapes: Outlines | OutlineShapes) -> None:
         region = shapes.region
         self.run_start = _prepend(True, region[1:] != region[:-1])
+        self.run_end = np.empty_like(self.run_start)  # the last shape of its run
+        self.run_end[:-1], self.run_end[-1:] = self.run_start[1:], True
         self.run_id = self.run_start.cumsum() - 1
         self.run_size = np.bincount(self.run_id)
+        self.grouped = self.run_size.take(self.run_id) > 1
         rgba = shapes.rgba.astype(np.int64)
         key = (shapes.role.astype(np.int64) << 24) | (rgba[:, 0] << 16) | (rgba[:, 1] << 8) | rgba[:, 2]
         order = key.argsort(kind="stable")
@@ -125,25 +128,25 @@ def _elements(outlines: Outlines, first: int, labels: _Labels, precision: int) -
         return ""
     data = path_data(outlines, precision)
     stop = first + n
-    # Python lists: the loop reads a few numbers per shape (numpy scalars cost ~100 ns apiece)
-    run_id = labels.run_id[first:stop].tolist()
-    run_start = labels.run_start[first : stop + 1].tolist() + [True]  # the shape after the last too
-    run_size = labels.run_size.tolist()
+    # Python lists and strings made for the whole batch at once: the loop reads a few values
+    # per shape (numpy scalars cost ~100 ns apiece; the colours' hex digits in one call)
+    grouped = labels.grouped[first:stop]
+    opens = (grouped & labels.run_start[first:stop]).tolist()
+    closes = (grouped & labels.run_end[first:stop]).tolist()
+    colours = outlines.rgba[:, :3].tobytes().hex(" ", 3).split()  # "rrggbb" each
     lines = []
-    for i, (role, (r, g, b, a), count, region) in enumerate(zip(outlines.role.tolist(), outlines.rgba.tolist(),
-                                                                labels.count[first:stop].tolist(),
-                                                                outlines.region.tolist())):
-        grouped = run_size[run_id[i]] > 1
-        if grouped and run_start[i]:
-            label = f"shading #{r:02x}{g:02x}{b:02x} ({run_size[run_id[i]]} tones)"
-            lines.append(f'<g id="region-{region}-{run_id[i]}" inkscape:label="{label}">\n')
-        colour = f"#{r:02x}{g:02x}{b:02x}"
-        opacity = "" if a == 255 else f' fill-opacity="{number(a / 255.0, 3)}"'
-        base = f"{ROLES[role]}-{colour[1:]}"
-        ident = base if count == 1 else f"{base}-{count}"
-        lines.append(f'<path id="{ident}" inkscape:label="{ROLES[role]} {colour}" fill="{colour}"{opacity} '
-                     f'd="{data[i]}"/>\n')
-        if grouped and run_start[i + 1]:
+    for i, (role, colour, alpha, count, d) in enumerate(zip(outlines.role.tolist(), colours,
+                                                            outlines.rgba[:, 3].tolist(),
+                                                            labels.count[first:stop].tolist(), data)):
+        if opens[i]:
+            run = int(labels.run_id[first + i])
+            lines.append(f'<g id="region-{int(outlines.region[i])}-{run}" '
+                         f'inkscape:label="shading #{colour} ({int(labels.run_size[run])} tones)">\n')
+        name = ROLES[role]
+        opacity = "" if alpha == 255 else f' fill-opacity="{number(alpha / 255.0, 3)}"'
+        ident = f"{name}-{colour}" if count == 1 else f"{name}-{colour}-{count}"
+        lines.append(f'<path id="{ident}" inkscape:label="{name} #{colour}" fill="#{colour}"{opacity} d="{d}"/>\n')
+        if closes[i]:
             lines.append("</g>\n")
     return "".join(lines)
 
