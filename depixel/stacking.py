@@ -82,7 +82,10 @@ class FaceTopology:
         # one entry per face side of a boundary edge, oriented with the face on the right,
         # sorted by face (stable); 32-bit, since an image has far fewer than 2^31 of anything
         has_r, has_l = right >= 0, left >= 0
-        order = np.concatenate([right.compress(has_r), left.compress(has_l)]).argsort(kind="stable")
+        entry_face = np.concatenate([right.compress(has_r), left.compress(has_l)])
+        order = entry_face.argsort(kind="stable")
+        self.entry_ptr = np.concatenate(([0], np.bincount(entry_face, minlength=n).cumsum()))
+        del entry_face
 
         def entries(of_right: np.ndarray, of_left: np.ndarray, order: np.ndarray = order) -> np.ndarray:
             return np.concatenate([of_right.compress(has_r), of_left.compress(has_l)], dtype=np.int32).take(order)
@@ -103,10 +106,9 @@ class FaceTopology:
         del u, v
         self.entry_edge = entries(boundary, boundary)
         del order
-        per_face = np.bincount(right[has_r], minlength=n) + np.bincount(left[has_l], minlength=n)
-        self.entry_ptr = np.concatenate(([0], per_face.cumsum()))
-
-        lo, hi = np.minimum(left[inner], right[inner]).astype(np.int64), np.maximum(left[inner], right[inner])
+        left_in, right_in = left.compress(inner), right.compress(inner)
+        lo, hi = np.minimum(left_in, right_in).astype(np.int64), np.maximum(left_in, right_in)
+        del left_in, right_in
         pair_key = _distinct(lo * n + hi)
         lo, hi = np.divmod(pair_key, n)
         del pair_key
@@ -116,8 +118,7 @@ class FaceTopology:
         del lo, hi
 
         on_border = np.zeros(n, bool)
-        on_border[right[has_r & ~has_l]] = True
-        on_border[left[has_l & ~has_r]] = True
+        on_border[np.maximum(left, right).compress(has_r ^ has_l)] = True  # (the outside is -1)
         self.on_border = on_border
         del left, right, boundary
         self.depth = self._depths(pairs)
@@ -239,8 +240,8 @@ class FaceTopology:
     def _under_keys(self, pairs: np.ndarray) -> np.ndarray:
         """Keys ``a * F + b`` of the (a, b) pairs where b is opaque and drawn above a drawn face a."""
         a, b = pairs[:, 0], pairs[:, 1]
-        under = (self.drawn[a] & self.opaque[b] & (self.rank[b] > self.rank[a])).nonzero()[0]
-        return a[under].astype(np.int64) * self.n_faces + b[under]
+        under = self.drawn.take(a) & self.opaque.take(b) & (self.rank.take(b) > self.rank.take(a))
+        return a.compress(under).astype(np.int64) * self.n_faces + b.compress(under)
 
     def _absorb(self, keys: np.ndarray, edge_cost: np.ndarray) -> np.ndarray:
         """Grow each shape's member set (keys owner * F + member, sorted) by the faces that
@@ -251,6 +252,8 @@ class FaceTopology:
         ptr, others, costs, perimeter = self._neighbours(edge_cost)
         # a candidate's rank, -1 if it is not opaque (ranks are 0..F-1)
         neighbours = (ptr[:-1], ptr[1:] - ptr[:-1], others, costs, perimeter, np.where(self.opaque, self.rank, -1))
+        if 0 < keys.size <= ABSORB_BATCH:  # one batch (a sprite's): no cuts to find
+            return self._grow(keys, neighbours)
         owner = keys // n
         cuts = unique(np.concatenate(([0], owner.searchsorted(owner[ABSORB_BATCH::ABSORB_BATCH]), [keys.size])))
         del owner
@@ -332,15 +335,16 @@ class FaceTopology:
         is an outline; a face sharing its region with others is a shading band."""
         h, w = self.cells.shape
         role = np.full(self.n_faces, ROLES.index("shape"), np.int8)
-        region_faces = np.bincount(self.face_region[self.drawn], minlength=int(self.face_region.max()) + 1)
-        role[region_faces[self.face_region] > 1] = ROLES.index("band")
+        region_faces = np.bincount(self.face_region.compress(self.drawn), minlength=int(self.face_region.max()) + 1)
+        role[region_faces.take(self.face_region) > 1] = ROLES.index("band")
         luma = self.face_rgba[:, :3].astype(np.float64) @ np.array([0.299, 0.587, 0.114])
         a, b = pairs[:, 0], pairs[:, 1]
-        deeper = self.depth[b] > self.depth[a]
+        deeper = self.depth.take(b) > self.depth.take(a)
+        outer = a.compress(deeper)
         encloses = np.zeros(self.n_faces, bool)
-        encloses[a[deeper]] = True
+        encloses[outer] = True
         darkest_inside = np.full(self.n_faces, 1e9)
-        np.minimum.at(darkest_inside, a[deeper], luma[b[deeper]])
+        np.minimum.at(darkest_inside, outer, luma.take(b.compress(deeper)))
         outline = encloses & (luma < darkest_inside) & self.opaque
         role[outline] = ROLES.index("outline")
         drawn = self.face_of_rank[self.drawn[self.face_of_rank]]
