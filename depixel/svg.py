@@ -169,20 +169,17 @@ def path_data(outlines: Outlines, precision: int) -> list[str]:
 def _path_data(outlines: Outlines, precision: int) -> list[str]:
     """:func:`path_data` of one batch of shapes."""
     unit = 10.0**precision
-    cmd, args = _commands(outlines, unit)
+    cmd, args, per_loop = _commands(outlines, unit)
     n_cmd = cmd.size
     arity = _ARITY.take(cmd)
     shape_of_loop = np.arange(len(outlines)).repeat(outlines.shape_ptr[1:] - outlines.shape_ptr[:-1])
-    # every loop is M + segments + Z: the command's shape from its loop
-    loop_len = outlines.loop_ptr[1:] - outlines.loop_ptr[:-1]
-    last_line = outlines.kind[outlines.loop_ptr[1:] - 1] == LINE
-    per_loop = loop_len - last_line + 2
-    shape_of_cmd = shape_of_loop.repeat(per_loop)
+    shape_of_cmd = shape_of_loop.repeat(per_loop)  # (a loop's commands: M, its segments, Z)
+    new_shape = _prepend(True, shape_of_cmd[1:] != shape_of_cmd[:-1])
 
     # relative arguments: from the current point (previous end; for M, the start of the
     # previous loop of the same path, or the origin)
     absolute = args  # (C, 6) int64 units, (x, y) pairs; H has x, V has y in column 0
-    rel = _relative(cmd, absolute, shape_of_cmd)
+    rel = _relative(cmd, absolute, new_shape)
     # the numbers the commands use: command num_cmd's argument column num_k, in order
     n_num = arity
     num_cmd = np.arange(n_cmd).repeat(n_num)
@@ -193,7 +190,6 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     use_rel &= cmd != Z
     letter = np.where(use_rel, cmd + 8, cmd)  # 0-7 upper case, 8-15 lower case
     prev_letter = _prepend(-1, letter[:-1])
-    new_shape = _prepend(True, shape_of_cmd[1:] != shape_of_cmd[:-1])
     implicit = ((letter == prev_letter) & (cmd != M) & (cmd != Z)) | \
         ((letter == L) & (prev_letter == M)) | ((letter == L + 8) & (prev_letter == M + 8))
     implicit &= ~new_shape
@@ -261,31 +257,28 @@ def _prepend(first: int | bool, values: np.ndarray) -> np.ndarray:
     return out
 
 
-def _commands(outlines: Outlines, unit: float) -> tuple[np.ndarray, np.ndarray]:
+def _commands(outlines: Outlines, unit: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Command codes and absolute arguments (``(C, 6)`` int64 in 10^-precision units) of
     every path: per loop M, its segments (the last one left out when it is a line: Z draws
-    it), Z."""
+    it), Z; and the number of commands of each loop."""
     kind = outlines.kind
     end = (outlines.end * unit).round().astype(np.int64)
     ctrl = (nan_to_zero(outlines.ctrl) * unit).round().astype(np.int64)
     ctrl2 = (nan_to_zero(outlines.ctrl2) * unit).round().astype(np.int64)
     n_loop = outlines.loop_ptr.size - 1
     loop_len = outlines.loop_ptr[1:] - outlines.loop_ptr[:-1]
-    seg_loop = np.arange(n_loop).repeat(loop_len)
     last = outlines.loop_ptr[1:] - 1
     start = end.take(last, axis=0)  # each loop starts where its last segment ends
     seg_start = np.empty_like(end)  # the previous segment's end; a loop's first: the loop's start
     seg_start[1:] = end[:-1]
     set_rows(seg_start, outlines.loop_ptr[:-1], start)
-    drop = np.zeros(kind.size, bool)
-    drop[last[kind[last] == LINE]] = True
+    last_line = kind.take(last) == LINE
+    keep = np.ones(kind.size, bool)
+    keep[last.compress(last_line)] = False
     # a quadratic whose control mirrors the previous quadratic's through its start is "T"
-    first = np.zeros(kind.size, bool)
-    first[outlines.loop_ptr[:-1]] = True
     smooth = kind == QUAD
     smooth[1:] &= smooth[:-1].copy()  # after a quadratic (the first of a loop is left out)
-    smooth[:1] = False
-    smooth &= ~first
+    smooth[outlines.loop_ptr[:-1]] = False
     for c in range(2):  # (a test over a short axis is slow)
         smooth[1:] &= ctrl[1:, c] == 2 * seg_start[1:, c] - ctrl[:-1, c]
 
@@ -310,25 +303,28 @@ def _commands(outlines: Outlines, unit: float) -> tuple[np.ndarray, np.ndarray]:
     segment_args[:, 5] = np.where(cubic, end[:, 1], 0)
     for c in range(2):
         table[n_seg : n_seg + n_loop, c] = start[:, c]
-    keep = ~drop
-    per_loop = np.bincount(seg_loop[keep], minlength=n_loop) + 2
-    loop_first = per_loop.cumsum() - per_loop
-    total = int(per_loop.sum())
+    per_loop = loop_len + 2
+    per_loop -= last_line
+    loop_end = per_loop.cumsum()
+    loop_first = loop_end - per_loop
+    total = int(loop_end[-1]) if n_loop else 0
     cmd = np.empty(total, np.int64)
     source = np.full(total, table.shape[0] - 1)  # the table row of every command
     cmd[loop_first] = M
     source[loop_first] = kind.size + np.arange(n_loop)
-    cmd[loop_first + per_loop - 1] = Z
+    cmd[loop_end - 1] = Z
+    # the kept segments are each loop's first ones: segment j of loop l goes after l's M
     seg_index = keep.nonzero()[0]
-    rank_in_loop = ranges(0, per_loop - 2)
-    pos = loop_first.take(seg_loop.take(seg_index)) + 1 + rank_in_loop
+    pos = (loop_first + 1 - outlines.loop_ptr[:-1]).repeat(per_loop - 2)
+    pos += seg_index
     cmd[pos] = code.take(seg_index)
     source[pos] = seg_index
-    return cmd, table.take(source, axis=0)
+    return cmd, table.take(source, axis=0), per_loop
 
 
-def _relative(cmd: np.ndarray, absolute: np.ndarray, shape_of_cmd: np.ndarray) -> np.ndarray:
-    """The arguments relative to the current point before each command."""
+def _relative(cmd: np.ndarray, absolute: np.ndarray, new_shape: np.ndarray) -> np.ndarray:
+    """The arguments relative to the current point before each command (``new_shape``: the
+    command starts a path)."""
     n = cmd.size
     rows = np.arange(n)
     x_only, y_only, close = cmd == H, cmd == V, cmd == Z
@@ -345,7 +341,6 @@ def _relative(cmd: np.ndarray, absolute: np.ndarray, shape_of_cmd: np.ndarray) -
     x_val = np.where(x_only, absolute[:, 0], end_x)
     y_val = np.where(y_only, absolute[:, 0], end_y)
     # the current point before each command (the origin at a new path)
-    new_shape = _prepend(True, shape_of_cmd[1:] != shape_of_cmd[:-1])
     before_x = np.where(new_shape, 0, _prepend(0, x_val.take(x_src[:-1])))
     before_y = np.where(new_shape, 0, _prepend(0, y_val.take(y_src[:-1])))
     two = (cmd == Q) | (cmd == C)  # commands with a second and a third point
