@@ -172,9 +172,12 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     cmd, args, per_loop = _commands(outlines, unit)
     n_cmd = cmd.size
     arity = _ARITY.take(cmd)
-    shape_of_loop = np.arange(len(outlines)).repeat(outlines.shape_ptr[1:] - outlines.shape_ptr[:-1])
-    shape_of_cmd = shape_of_loop.repeat(per_loop)  # (a loop's commands: M, its segments, Z)
-    new_shape = _prepend(True, shape_of_cmd[1:] != shape_of_cmd[:-1])
+    cmd_ptr = np.zeros(per_loop.size + 1, np.int64)  # each shape's commands (a loop's: M, its segments, Z)
+    per_loop.cumsum(out=cmd_ptr[1:])
+    cmd_ptr = cmd_ptr.take(outlines.shape_ptr)
+    new_shape = np.zeros(n_cmd + 1, bool)  # (the place after the last command too)
+    new_shape[cmd_ptr] = True
+    new_shape = new_shape[:-1]
 
     # relative arguments: from the current point (previous end; for M, the start of the
     # previous loop of the same path, or the origin)
@@ -201,9 +204,7 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     tok_end = tok_count.cumsum()
     tok_start = tok_end - tok_count
     n_tok = int(tok_end[-1]) if n_cmd else 0
-    is_number = np.ones(n_tok, bool)
     letter_pos = tok_start.compress(explicit)
-    is_number[letter_pos] = False
     num_pos = tok_start.take(num_cmd) + explicit.take(num_cmd) + num_k
     rel_num = use_rel.take(num_cmd)
     # each number's text among the absolute ones (the first half), then the relative ones
@@ -211,15 +212,13 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     minus, dot_start, has_dot = (f.take(num_text) for f in (flags.minus, flags.dot_start, flags.has_dot))
 
     # separators: a space before a number that follows a number, unless the number starts
-    # with "-", or with "." after a number that has a point
-    tok_has_dot = np.zeros(n_tok, bool)
-    tok_has_dot[num_pos] = has_dot
-    prev_is_number = _prepend(False, is_number[:-1])
+    # with "-", or with "." after a number that has a point. A number follows a number (the
+    # one before it, in the same path) unless it is the first of a command with a letter: an
+    # implicit command repeats one with numbers, and a path starts with its M's letter
+    follows = num_k > 0
+    follows |= implicit.take(num_cmd)
     sep = np.zeros(n_tok, bool)
-    after_dot = _prepend(False, tok_has_dot[:-1]).take(num_pos)
-    sep[num_pos] = prev_is_number.take(num_pos) & ~minus & ~(dot_start & after_dot)
-    tok_shape = shape_of_cmd.repeat(tok_count)
-    sep &= _prepend(False, tok_shape[1:] == tok_shape[:-1])
+    sep[num_pos] = follows & ~minus & ~(dot_start & _prepend(False, has_dot[:-1]))
 
     letters, space = _constant_texts()
     table, (letter_row, abs_row, space_row) = stack([letters, texts, space])
@@ -234,7 +233,7 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     stream[out_start[sep]] = space_row
     pieces = table.take(stream)
     # split per shape
-    shape_tok_end = tok_shape.searchsorted(np.arange(len(outlines)) + 1)
+    shape_tok_end = _prepend(0, tok_end).take(cmd_ptr[1:])
     out_end = np.concatenate((out_start, [stream.size])).take(shape_tok_end)
     text = pieces.tobytes().decode("ascii")
     byte_end = pieces.length.cumsum()
