@@ -52,7 +52,7 @@ def trace_loops(owner: np.ndarray, u: np.ndarray, v: np.ndarray, points: np.ndar
     out_order, in_order = _argsort_pairs(owner, u, v)
     # both orders list the owners sorted: the loops close when the nodes left and the nodes
     # entered agree, owner by owner
-    if not np.array_equal(u.take(out_order), v.take(in_order)):
+    if not np.logical_and.reduce(u.take(out_order) == v.take(in_order)):  # (np.array_equal: a Python wrapper)
         raise ValueError("half-edges do not form closed loops")
     nxt = np.empty(n, np.int64)
     nxt[in_order] = out_order
@@ -82,7 +82,7 @@ def trace_loops(owner: np.ndarray, u: np.ndarray, v: np.ndarray, points: np.ndar
 def _pair_by_angle(nxt: np.ndarray, owner: np.ndarray, u: np.ndarray, v: np.ndarray, out_order: np.ndarray,
                    in_order: np.ndarray, points: np.ndarray) -> None:
     """Re-pair the half-edges at every (owner, node) with several in and out, in place."""
-    key = owner[out_order] * (int(u.max()) + 1) + u[out_order]
+    key = owner.take(out_order) * (int(np.maximum.reduce(u)) + 1) + u.take(out_order)
     crowded = (key[1:] == key[:-1]).nonzero()[0]
     if crowded.size == 0:
         return
@@ -116,9 +116,10 @@ def _assign(cost: np.ndarray) -> tuple[list[int], list[int]]:
 def _argsort_pairs(major: np.ndarray, *minors: np.ndarray) -> list[np.ndarray]:
     """For each of ``minors``: the stable argsort by (major, minor), i.e.
     ``np.lexsort((minor, major))`` (one key of both when it fits in an int64)."""
-    low = min(int(a.min()) for a in (major,) + minors)
-    width = max(int(a.max()) for a in minors) + 1
-    if low >= 0 and int(major.max()) < (2**62) // width:
+    # (ufunc reductions: the array methods go through a Python wrapper)
+    low = min(int(np.minimum.reduce(a)) for a in (major,) + minors)
+    width = max(int(np.maximum.reduce(a)) for a in minors) + 1
+    if low >= 0 and int(np.maximum.reduce(major)) < (2**62) // width:
         base = major * width
         return [(base + minor).argsort(kind="stable") for minor in minors]
     return [np.lexsort((minor, major)) for minor in minors]

@@ -289,15 +289,16 @@ def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, kee
     # edge k's nodes are at 2k and 2k + 1 of the flat (E, 2) array (a column's take copies
     # the whole column first; gathered rows would leave strided columns)
     u, v = cells.edges.ravel().take(2 * edge), cells.edges.ravel().take(2 * edge + 1)
-    y = np.where(x == u, v, u)
+    stored = x == u  # the half-edge runs the way its edge is stored
+    y = np.where(stored, v, u)
     loop_of = np.arange(keep.size).repeat(counts)
     piece = pieces.edge_piece.take(edge)
     curved = piece >= 0
     forward_edge = image.curves.edge_forward.take(edge) if image.curves is not None else np.ones(edge.size, bool)
-    along = (x == u) == forward_edge
+    along = stored == forward_edge
     enters = curved & np.where(along, pieces.edge_first.take(edge), pieces.edge_last.take(edge))
     length = np.concatenate((pieces.ptr[1:] - pieces.ptr[:-1], [0]))  # (a sentinel for images without curves)
-    n_seg = np.where(curved, np.where(enters, length.take(np.maximum(piece, 0)), 0), 1)
+    n_seg = np.where(curved, np.where(enters, length.take(piece), 0), 1)  # (piece -1: the sentinel)
     total = int(n_seg.sum())
     step = np.arange(edge.size).repeat(n_seg)
     index = ranges(0, n_seg)  # within the piece
@@ -308,11 +309,7 @@ def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, kee
     # (``src``) or backwards (``back``, a cubic's controls swapped, ending where the
     # segment before it ends, or at the piece's start)
     point = _on_grid(image.points.take(y.take(step), axis=0), grid)
-    kind = np.full(total, LINE, np.uint8)
-    ctrl = np.full((total, 2), np.nan)
-    ctrl2 = np.full((total, 2), np.nan)
     end = point
-    span = np.full(total, -1, np.int64)
     if pieces.kind.size:  # (no curves: lines only)
         p = np.maximum(piece.take(step), 0)
         first_seg = pieces.ptr.take(p)
@@ -327,12 +324,18 @@ def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, kee
         end_at[line | at_start] = 0
         firsts, seconds = pieces.ctrl.take(src, axis=0), pieces.ctrl2.take(src, axis=0)
         starts, ends = pieces.start.take(p, axis=0), pieces.end.take(end_at, axis=0)
+        ctrl, ctrl2 = np.empty((total, 2)), np.empty((total, 2))
         for c in range(2):
             first, second = firsts[:, c], seconds[:, c]
             ctrl[:, c] = np.where(line, np.nan, np.where(swap, second, first))
             ctrl2[:, c] = np.where(line, np.nan, np.where(swap, first, second))
             end[:, c] = np.where(line, point[:, c], np.where(at_start, starts[:, c], ends[:, c]))
         span = np.where(line, -1, pieces.span_slot.take(src).astype(np.int64))
+    else:
+        kind = np.full(total, LINE, np.uint8)
+        ctrl = np.full((total, 2), np.nan)
+        ctrl2 = np.full((total, 2), np.nan)
+        span = np.full(total, -1, np.int64)
     seg_loop = loop_of.take(step)
     # where a loop goes on along its curve through a junction, the two halves of the span
     # there (the end of one piece, the start of the next) are that one span
