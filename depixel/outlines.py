@@ -138,9 +138,9 @@ class OutlineShapes:
         member_key += member_key // topo.n_faces
         self.member_key = member_key
         self.member_ptr = member_key.searchsorted(np.arange(topo.n_faces + 1) * (topo.n_faces + 1))  # per owner
-        self.face = topo.face_of_rank[topo.drawn[topo.face_of_rank]]
-        self.rgba, self.region = topo.face_rgba[self.face], topo.face_region[self.face]
-        self.role = topo.role[self.face]
+        self.face = topo.face_of_rank.compress(topo.drawn.take(topo.face_of_rank))
+        self.rgba, self.region = topo.face_rgba.take(self.face, axis=0), topo.face_region.take(self.face)
+        self.role = topo.role.take(self.face)
         clear = (~topo.opaque).nonzero()[0]  # a pixel of each transparent or translucent face
         self.probe_key = probe_keys(topo.first_pixel[clear], self.shape[1]) if clear.size else None
         self.faces = topo.boundaries()  # the rest of the topology is dropped here
@@ -155,7 +155,7 @@ class OutlineShapes:
         per_member = (faces.entry_ptr[1:] - faces.entry_ptr[:-1]).take(self.member_key % (faces.n_faces + 1))
         entries = np.concatenate(([0], per_member.cumsum()))  # running
         del per_member
-        sizes = (entries[member_ptr[1:]] - entries[member_ptr[:-1]])[self.face]
+        sizes = (entries.take(member_ptr[1:]) - entries.take(member_ptr[:-1])).take(self.face)
         del entries
         for a, b in batch_bounds(sizes, LOOP_BATCH):
             yield self._outlines(a, b)
@@ -173,7 +173,7 @@ class OutlineShapes:
         keep = loops_to_keep(loops, u, faces.nodes, self.probe_key, self.shape[1], self.layout == "stacked")
         kind, ctrl, ctrl2, end, loop_ptr = _segments_in_batches(self.image, self.pieces, loops, keep,
                                                                 faces.entry_edge.take(entry), u, self.grid)
-        shape_rank = loops.owner[keep]
+        shape_rank = loops.owner.take(keep)
         bounds = np.concatenate((faces.rank.take(face), [np.iinfo(np.int64).max]))
         shape_ptr = np.asarray(shape_rank.searchsorted(bounds), np.int64)
         return Outlines(
