@@ -94,6 +94,7 @@ def relax(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: 
     last = np.zeros_like(ctrl)  # each slot's move in the sweep before
     for sweep in range(params.iterations):
         before = ctrl.copy()
+        tried = []  # the group of each class with a slot to try, in this sweep's random order
         for c in rng.permutation(len(classes)):
             group = classes[c]
             chosen = active.take(group.members)
@@ -101,7 +102,8 @@ def relax(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: 
                 if not chosen.any():
                     continue
                 group = group.part(chosen.nonzero()[0])
-            offsets = disc_offsets(rng, group.members.size, params.candidates, params.radius)
+            tried.append(group)
+        for group, offsets in zip(tried, _sweep_offsets(rng, [g.members.size for g in tried], params)):
             # no last move to repeat in the first sweep
             set_rows(ctrl, group.members, step(model, ctrl, anchor, group, offsets, params, last if sweep else None))
         ctrl = splines.snap(ctrl)  # ends that sit on a moved curve follow it
@@ -124,6 +126,19 @@ def _prepared_classes(model: Energy, classes: list[np.ndarray]) -> list[Group]:
     whole = model.prepare(np.concatenate(classes))
     ends = np.cumsum(sizes).tolist()
     return [whole.part(slice(lo, hi)) for lo, hi in zip([0] + ends[:-1], ends)]
+
+
+def _sweep_offsets(rng: SplitMix64, sizes: list[int], params: Params) -> list[np.ndarray]:
+    """The :func:`disc_offsets` (2, M, K) of each of a sweep's steps of ``sizes`` members, in
+    turn: drawn for the whole sweep in one call when its members are at most
+    :data:`PREPARE_ONCE` (a call is ~25 numpy calls whatever its size, and each member's
+    offsets depend only on its own draw, the next of the stream: the same numbers as a call a
+    step), else a call a step (which bounds their memory on a large image)."""
+    if sum(sizes) > PREPARE_ONCE:
+        return [disc_offsets(rng, size, params.candidates, params.radius) for size in sizes]
+    offsets = disc_offsets(rng, sum(sizes), params.candidates, params.radius)
+    ends = np.cumsum(sizes).tolist()
+    return [offsets[:, lo:hi] for lo, hi in zip([0] + ends[:-1], ends)]
 
 
 def disc_offsets(rng: SplitMix64, members: int, candidates: int, radius: float) -> np.ndarray:
