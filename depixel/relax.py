@@ -26,12 +26,13 @@ draws depend only on array sizes and on the moves made, so a run is reproducible
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 
-from .arrays import batch_slices, flat_rows, set_rows
+from .arrays import batch_slices, set_rows
 from .bspline import Bezier, half_turns, span
 from .fidelity import protected_points, unique_rows
 from .params import Params
@@ -228,11 +229,11 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
         at = np.zeros((rows.size, 2), chosen.dtype)  # (R, 2): the best trial, staying
         at[:, 0] = chosen
         points = _trial_points(knots, group, trial, rows, at)
-        near = model.clearance_of(points[..., 0], group, rows)
+        near = model.clearance_of(points[..., :1], group, rows).ravel()
         close = near < params.centre_clearance
         rows, chosen, near = rows.compress(close), chosen.compress(close), near.compress(close)
     if rows.size:
-        stay = model.clearance_of(points[..., 1].compress(close, axis=-1), group, rows)
+        stay = model.clearance_of(points[..., 1:].compress(close, axis=-2), group, rows).ravel()
         closer = near < stay
         rows, chosen, stay = rows.compress(closer), chosen.compress(closer), stay.compress(closer)
     if rows.size:
@@ -242,8 +243,8 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
         pick, at = np.divmod(pairs, trials)
         for part in batch_slices(pairs.size, CLEARANCE_PAIRS):
             member = rows.take(pick[part])
-            clear = model.clearance_of(_trial_points(knots, group, trial, member, at[part, None])[..., 0], group,
-                                       member)
+            clear = model.clearance_of(_trial_points(knots, group, trial, member, at[part, None]), group, member
+                                       ).ravel()
             energy.ravel()[pairs[part].compress((clear < params.centre_clearance) & (clear < stay.take(pick[part])))
                            ] = np.inf
         best[rows] = energy.argmin(axis=1)
@@ -287,7 +288,8 @@ class Group:
     keep: np.ndarray  # (2, 3, M, 1) 1.0 or 0.0: halves (first, second) of the spans before,
     #                   own, after counted in E_s (0 for the span of an end a or b; float, not
     #                   bool: numpy casts a bool operand through a buffer, slower)
-    protected: np.ndarray  # (2, M, Q, 1) float32 x and y of the points the spans must keep clear of
+    protected: np.ndarray  # (2, Q, M) x and y of the points the spans must keep clear of (float32 beyond
+    #                        PREPARE_ONCE members)
     scale: np.ndarray  # (2, 3, 1, M, 1) d0 and d1 of the spans before, own, after over their control legs
     slope: np.ndarray  # (3, 3, M, 1) ∂E_s/∂φ of d0, dm, d1 of each span, times how fast each turns
     #                    with the member (signs of the turns and lengths left out: Energy.descent)
@@ -297,10 +299,10 @@ class Group:
         gathered with ``take`` (numpy 2's fancy indexing is several times slower here)."""
         if isinstance(members, slice):
             return Group(self.members[members], self.around[:, members], self.ends[:, members],
-                         self.keep[:, :, members], self.protected[:, members], self.scale[..., members, :],
+                         self.keep[:, :, members], self.protected[..., members], self.scale[..., members, :],
                          self.slope[:, :, members])
         return Group(self.members.take(members), self.around.take(members, axis=1), self.ends.take(members, axis=1),
-                     self.keep.take(members, axis=2), self.protected.take(members, axis=1),
+                     self.keep.take(members, axis=2), self.protected.take(members, axis=2),
                      self.scale.take(members, axis=3), self.slope.take(members, axis=2))
 
 
@@ -309,7 +311,12 @@ _A2, _A, _MEMBER, _B, _B2, _A2_PARTNER, _B2_PARTNER = range(7)
 #: t of the points each span is checked at, and the weights of its Bézier points there (on
 #: the leading axis of the points)
 _T = np.arange(CLEARANCE_PIECES + 1) / CLEARANCE_PIECES
-_W0, _W1, _W2 = (w[:, None, None, None] for w in ((1 - _T) ** 2, 2 * _T * (1 - _T), _T**2))
+#: the span (before, own, after) of each of a trial's 3n+1 points, in curve order: the span
+#: before without its last point, the span after without its first (the own span's ends)
+_SAMPLE_SPAN = np.repeat([0, 1, 2], [CLEARANCE_PIECES, CLEARANCE_PIECES + 1, CLEARANCE_PIECES])
+#: (3, 3n+1, 1, 1, 1) the weights of the Bézier points P0-P2 at each of those points
+_SAMPLE_WEIGHTS = np.stack([np.concatenate([w[:-1], w, w[1:]]) for w in ((1 - _T) ** 2, 2 * _T * (1 - _T), _T**2)]
+                           )[..., None, None, None]
 #: the smallest positive float64: a floor for the descent's squared lengths
 _TINY = np.finfo(float).tiny
 
@@ -333,6 +340,10 @@ class Energy:
         self.prev, self.nxt = splines.neighbours()
         self.end = (self.prev < 0) | (self.nxt < 0)
         self.keep = ~excluded  # (P, 2) halves counted in E_s
+        # the clearance's distances, the largest array of a step, in one buffer kept (and grown)
+        # across the steps: a new one each call came from fresh memory on a frame, its page faults
+        # ~10 % of the frame's relaxation (docs/performance.md)
+        self._distances = np.empty(0)
         self.splines = splines  # protected points are found per class, not held for every slot
 
     def prepare(self, members: np.ndarray) -> Group:
@@ -367,8 +378,10 @@ class Energy:
             # float32 holds these exactly (0, ±½, ±1 and their products): half the memory of
             # float64 for every slot of every class, the arithmetic still in float64
             keep.transpose(2, 0, 1).astype(np.float32)[..., None],
-            # a compact copy (not a view of the padded rows); float32 holds these exactly
-            protected.transpose(2, 0, 1).astype(np.float32)[..., None],
+            # a compact copy (not a view of the padded rows); float32 holds these exactly, and
+            # saves their memory on a large image, but a small one's float64 are subtracted
+            # without a cast (its clearance's largest operation, ~1.5x faster)
+            protected.transpose(2, 1, 0).astype(np.float64 if members.size <= PREPARE_ONCE else np.float32),
             scale.astype(np.float32)[:, :, None, :, None], slope.astype(np.float32)[..., None],
         )
 
@@ -413,9 +426,11 @@ class Energy:
         phi = np.empty((4, members, k))  # the four directions
         np.arctan2(legs[1], legs[0], out=phi[1:3])
         phi[::3] = fixed
-        smooth = _turns(np.subtract(phi[1:], phi[:-1]))  # (3, M, K): before, own, after
-        smooth *= g.keep[0] * g.keep[1]
         one = (g.keep[0] != g.keep[1]).ravel().nonzero()[0]  # spans (s·M + m) of which one half counts
+        # the changes of direction of the spans (3, M, K): before, own, after; then of the halves
+        # of the spans with one half counted: both wrapped into turns by one call
+        change = np.empty((3 * members + one.size, k))
+        smooth = np.subtract(phi[1:], phi[:-1], out=change[:3 * members].reshape(3, members, k))
         if one.size:
             # a half turns from d0 to dm = P2 - P0 or from dm to d1; the spans' end points in a
             # chain too (the span before ends where the own one starts unless a is an open end,
@@ -433,16 +448,21 @@ class Energy:
                 rows = span * n + (has.cumsum() - 1).take(member)
             chord = chain.take(rows + n, axis=1) - chain.take(rows, axis=1)  # dm of those spans
             middle = np.arctan2(chord[1], chord[0])
-            flat = phi.reshape(-1, k)
-            half = np.empty((2, one.size, k))
-            np.subtract(middle, flat.take(one, axis=0), out=half[0])
-            np.subtract(flat.take(one + members, axis=0), middle, out=half[1])
-            _turns(half)
-            keep = g.keep.reshape(2, -1).take(one, axis=1)[..., None]
-            smooth.put(flat_rows(one, k), half[0] * keep[0] + half[1] * keep[1])
-        offset = trial - anchor
-        offset2 = offset[0] ** 2 + offset[1] ** 2
-        return smooth[1] + smooth[0] + smooth[2] + offset2**2, offset2
+            # the first half turns from d0 (phi's row s·M + m) to dm, the second from dm to d1
+            # (row (s+1)·M + m); a turn's size does not depend on its sign (a - b is -(b - a) exactly)
+            side = np.where(g.keep[1].ravel().take(one), one + members, one)
+            np.subtract(phi.reshape(-1, k).take(side, axis=0), middle, out=change[3 * members:])
+        _turns(change)
+        smooth *= g.keep[0] * g.keep[1]
+        if one.size:
+            smooth.reshape(-1, k)[one] = change[3 * members:]  # (rows of K: faster than put or set_rows)
+        offset = np.subtract(trial, anchor)
+        np.square(offset, out=offset)
+        offset2 = np.add(offset[0], offset[1])
+        energy = np.add(smooth[1], smooth[0], out=smooth[1])
+        energy += smooth[2]
+        energy += np.square(offset2, out=offset[0])
+        return energy, offset2
 
     def descent(self, around: np.ndarray, anchor: np.ndarray, g: Group) -> np.ndarray:
         """(2, M, 1) unit direction of steepest descent of each member's energy at its place
@@ -477,30 +497,36 @@ class Energy:
         return self.evaluate(_knots(around), anchor[g.members].T[..., None], g, np.moveaxis(trial, -1, 0))[0]
 
     def clearance_of(self, points: np.ndarray, g: Group, rows: np.ndarray) -> np.ndarray:
-        """(N,) smallest distance from the three spans of the members ``rows`` (N,), one trial
-        each, given by their :meth:`points` (3, 3, 2, N), to their protected points (pixel
-        centres beside them, diagonal-link corners)."""
-        # the points at t = 0, ¼, ½, ¾, 1 of each span on a leading axis (5, 3, 2, N); the
-        # before span without its last point, the after span without its first (the own span's
-        # ends); then the 3n+1 points of a trial in one contiguous row, each protected point
-        # broadcast over it (2, N, Q, 3n+1), and the minimum over the Q·(3n+1) distances of a
-        # trial in one contiguous row (a reduction over a middle axis runs as slowly as a
-        # short inner loop; a minimum is exact in any order)
-        p0, p1, p2 = points
-        flat = _W0 * p0 + _W1 * p1 + _W2 * p2
-        flat = np.concatenate([flat[:-1, 0], flat[:, 1], flat[1:, 2]])  # (3n+1, 2, N)
-        flat = np.ascontiguousarray(flat.transpose(1, 2, 0))[:, :, None]  # (2, N, 1, 3n+1)
-        d = flat - g.protected.take(rows, axis=1)  # float32 widened exactly within the subtraction (no copy)
+        """(N, J) smallest distance from the three spans of the members ``rows`` (N,) at J
+        trials each, given by their :meth:`points` (3, 3, 2, N, J), to their protected points
+        (pixel centres beside them, diagonal-link corners)."""
+        # the points at t = 0, ¼, ½, ¾, 1 of the spans in curve order (the before span without
+        # its last point, the after span without its first: the own span's ends), W0·P0 + W1·P1
+        # + W2·P2 as bspline.flatten; their distances to each protected point (2, Q, 3n+1, N, J)
+        # with the trials innermost (an inner loop of N·J, not of 3n+1 with a protected point
+        # broadcast over it: ~2.5x faster on a sprite's step), and the minimum over the two
+        # leading axes (an elementwise minimum of rows; a minimum is exact in any order)
+        weighed = points.take(_SAMPLE_SPAN, axis=1)  # (3, 3n+1, 2, N, J): each point's span
+        weighed *= _SAMPLE_WEIGHTS
+        flat = np.add(weighed[0], weighed[1], out=weighed[0])
+        flat += weighed[2]
+        # float32 protected points widened (exactly) first: a subtraction that casts runs buffered, ~1.4x slower
+        protected = g.protected.take(rows, axis=2).astype(np.float64, copy=False)
+        shape = (2, protected.shape[1]) + flat.shape[:1] + flat.shape[2:]  # (2, Q, 3n+1, N, J)
+        size = math.prod(shape)
+        if self._distances.size < size:
+            self._distances = np.empty(size)
+        d = np.subtract(flat.transpose(1, 0, 2, 3)[:, None], protected[:, :, None, :, None],
+                        out=self._distances[:size].reshape(shape))
         np.square(d, out=d)  # in place: these are the largest arrays of a step
         np.add(d[0], d[1], out=d[0])
-        return np.sqrt(d[0].reshape(rows.size, -1).min(axis=1))
+        return np.sqrt(d[0].min(axis=(0, 1)))
 
     def clearance(self, ctrl: np.ndarray, g: Group, trial: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """(R, K) :meth:`clearance_of` the members ``rows`` at trial positions ``trial`` (R, K, 2)."""
         around = ctrl[g.around[:, rows]].transpose(0, 2, 1)[..., None]
         points = self.points(_knots(around), g.ends[:, rows], np.moveaxis(trial, -1, 0))  # (3, 3, 2, R, K)
-        return self.clearance_of(points.reshape(points.shape[:3] + (-1,)), g, np.repeat(rows, trial.shape[1])
-                                 ).reshape(trial.shape[:2])
+        return self.clearance_of(points, g, rows)
 
     def near(self, moved: np.ndarray) -> np.ndarray:
         """(P,) bool: the slots within two slots along their curve of a ``moved`` slot (P,)
