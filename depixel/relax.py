@@ -26,6 +26,7 @@ draws depend only on array sizes and on the moves made, so a run is reproducible
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -125,7 +126,7 @@ def _prepared_classes(model: Energy, classes: list[np.ndarray]) -> list[Group]:
     if not classes or sum(sizes) > PREPARE_ONCE:
         return [model.prepare(c) for c in classes]
     whole = model.prepare(np.concatenate(classes))
-    ends = np.cumsum(sizes).tolist()
+    ends = list(itertools.accumulate(sizes))
     return [whole.part(slice(lo, hi)) for lo, hi in zip([0] + ends[:-1], ends)]
 
 
@@ -138,7 +139,7 @@ def _sweep_offsets(rng: SplitMix64, sizes: list[int], params: Params) -> list[np
     if sum(sizes) > PREPARE_ONCE:
         return [disc_offsets(rng, size, params.candidates, params.radius) for size in sizes]
     offsets = disc_offsets(rng, sum(sizes), params.candidates, params.radius)
-    ends = np.cumsum(sizes).tolist()
+    ends = list(itertools.accumulate(sizes))
     return [offsets[:, lo:hi] for lo, hi in zip([0] + ends[:-1], ends)]
 
 
@@ -166,6 +167,14 @@ def _pattern(candidates: int) -> tuple[np.ndarray, np.ndarray]:
     pattern = np.exp((1j * GOLDEN_ANGLE) * index)
     index.flags.writeable = pattern.flags.writeable = False
     return index, pattern
+
+
+@functools.cache
+def _gradient_lengths(radius: float) -> np.ndarray:
+    """:data:`GRADIENT_STEPS` times ``radius`` (computed once a radius; read only)."""
+    lengths = radius * GRADIENT_STEPS
+    lengths.flags.writeable = False
+    return lengths
 
 
 def step(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, offsets: np.ndarray,
@@ -206,7 +215,8 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
     trial[:, :, :1] = here
     np.add(here, offsets, out=trial[:, :, 1:k + 1])
     descent = model.descent(around, home, group)
-    np.add(here, descent * (params.radius * GRADIENT_STEPS), out=trial[:, :, k + 1:grad])
+    np.multiply(descent, _gradient_lengths(params.radius), out=trial[:, :, k + 1:grad])
+    trial[:, :, k + 1:grad] += here
     if repeat is not None:
         np.add(here, repeat, out=trial[:, :, grad:])
     knots = _knots(around)
@@ -253,7 +263,7 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
 
 def _trial_points(knots: np.ndarray, group: Group, trial: np.ndarray, rows: np.ndarray, at: np.ndarray
                   ) -> np.ndarray:
-    """(3, 3, 2, N, J) :meth:`Energy.points` of the members ``rows`` (N,) at their trials
+    """(9, 2, N, J) :meth:`Energy.points` of the members ``rows`` (N,) at their trials
     ``at`` (N, J) (columns of ``trial`` (2, M, T)), given the members' :func:`_knots`."""
     flat = rows[:, None] * trial.shape[-1] + at
     chosen = trial.reshape(2, -1).take(flat.ravel(), axis=1).reshape((2,) + flat.shape)
@@ -311,9 +321,11 @@ _A2, _A, _MEMBER, _B, _B2, _A2_PARTNER, _B2_PARTNER = range(7)
 #: t of the points each span is checked at, and the weights of its Bézier points there (on
 #: the leading axis of the points)
 _T = np.arange(CLEARANCE_PIECES + 1) / CLEARANCE_PIECES
-#: the span (before, own, after) of each of a trial's 3n+1 points, in curve order: the span
-#: before without its last point, the span after without its first (the own span's ends)
-_SAMPLE_SPAN = np.repeat([0, 1, 2], [CLEARANCE_PIECES, CLEARANCE_PIECES + 1, CLEARANCE_PIECES])
+#: (3, 3n+1) the row of :meth:`Energy.points` holding Bézier point P0-P2 of the span of each of a
+#: trial's 3n+1 points, in curve order: the span before (without its last point: the own
+#: span's P0), the own span, the span after (without its first point)
+_SAMPLE_ROWS = np.repeat([[0, 7, 6], [1, 4, 2], [5, 8, 3]], [CLEARANCE_PIECES, CLEARANCE_PIECES + 1, CLEARANCE_PIECES],
+                         axis=1)
 #: (3, 3n+1, 1, 1, 1) the weights of the Bézier points P0-P2 at each of those points
 _SAMPLE_WEIGHTS = np.stack([np.concatenate([w[:-1], w, w[1:]]) for w in ((1 - _T) ** 2, 2 * _T * (1 - _T), _T**2)]
                            )[..., None, None, None]
@@ -387,23 +399,18 @@ class Energy:
 
     @staticmethod
     def points(knots: np.ndarray, ends: np.ndarray, trial: np.ndarray) -> np.ndarray:
-        """The three spans (before, own, after) of each member at ``trial`` (2, M, K), given its
-        :func:`_knots` (2, 4, M, 1) and :attr:`Group.ends`: ``(3, 3, 2, M, K)``, [Bézier point
-        P0-P2, span, coordinate], written in place (no temporaries, no ``np.where``)."""
-        c_a, c_b = knots[:, 1], knots[:, 2]
-        points = np.empty((3, 3) + trial.shape)
-        m_a, m_b = points[2, 0], points[0, 2]
-        np.add(c_a, trial, out=m_a)  # where the span before meets the own span
-        np.divide(m_a, 2.0, out=m_a)
-        np.add(trial, c_b, out=m_b)  # and the own span the span after
-        np.divide(m_b, 2.0, out=m_b)
-        points[0, 0] = knots[:, 0]
-        points[0, 1] = m_a
-        np.copyto(points[0, 1], c_a, where=ends[0])
-        points[1, 0], points[1, 1], points[1, 2] = c_a, trial, c_b
-        points[2, 1] = m_b
-        np.copyto(points[2, 1], c_b, where=ends[1])
-        points[2, 2] = knots[:, 3]
+        """The distinct Bézier points of the three spans (before, own, after) of each member at
+        ``trial`` (2, M, K), given its :func:`_knots` (2, 4, M, 1) and :attr:`Group.ends`:
+        ``(9, 2, M, K)``, rows P0 of the span before, a, b, P2 of the span after (the knots),
+        the trial, the midpoints of a and of b with it (P2 of the span before, P0 of the span
+        after), P0 and P2 of the own span; written in place, pairs of rows in one call."""
+        points = np.empty((9,) + trial.shape)
+        points[:4] = knots.transpose(1, 0, 2, 3)
+        points[4] = trial
+        middle = np.add(points[1:3], trial, out=points[5:7])  # where the span before meets the own span, and
+        middle /= 2.0  # the own span the span after (a + t and b + t: a sum is the same either way round)
+        points[7:] = middle
+        np.copyto(points[7:], points[1:3], where=ends[:, None])  # at an open end a (b) itself
         return points
 
     def evaluate(self, knots: np.ndarray, anchor: np.ndarray, g: Group, trial: np.ndarray
@@ -436,15 +443,14 @@ class Energy:
             # chain too (the span before ends where the own one starts unless a is an open end,
             # and then it counts no half; the same for the span after)
             if members < SPANS_OF_FEW:
-                chain, rows, n = _span_tips(knots, c_a, c_b, g.ends, trial), one, members
+                chain, rows, n = _span_tips(knots, g.ends, trial), one, members
             else:  # of the members with such a span alone (~13 % of a frame's)
                 span, member = np.divmod(one, members)
                 has = np.zeros(members, bool)
                 has[member] = True
                 who = has.nonzero()[0]
                 n = who.size
-                chain = _span_tips(knots.take(who, axis=2), c_a.take(who, axis=1), c_b.take(who, axis=1),
-                                   g.ends.take(who, axis=1), trial.take(who, axis=1))
+                chain = _span_tips(knots.take(who, axis=2), g.ends.take(who, axis=1), trial.take(who, axis=1))
                 rows = span * n + (has.cumsum() - 1).take(member)
             chord = chain.take(rows + n, axis=1) - chain.take(rows, axis=1)  # dm of those spans
             middle = np.arctan2(chord[1], chord[0])
@@ -480,7 +486,7 @@ class Energy:
         square = np.square(vec)
         length2 = np.maximum(square[:, :, 0] + square[:, :, 1], _TINY)
         coef = g.slope * turn / length2  # (3, 3, M, 1)
-        along = (coef[:, :, None] * vec[:, :, ::-1]).sum(axis=(0, 1))  # (2, M, 1): Σ coef·y, Σ coef·x
+        along = np.add.reduce(coef[:, :, None] * vec[:, :, ::-1], axis=(0, 1))  # (2, M, 1): Σ coef·y, Σ coef·x
         offset = around[_MEMBER] - anchor
         square = np.square(offset)
         down = (-4.0 * (square[0] + square[1])) * offset  # E_p = |o|^4: gradient 4 |o|^2 o, negated
@@ -498,7 +504,7 @@ class Energy:
 
     def clearance_of(self, points: np.ndarray, g: Group, rows: np.ndarray) -> np.ndarray:
         """(N, J) smallest distance from the three spans of the members ``rows`` (N,) at J
-        trials each, given by their :meth:`points` (3, 3, 2, N, J), to their protected points
+        trials each, given by their :meth:`points` (9, 2, N, J), to their protected points
         (pixel centres beside them, diagonal-link corners)."""
         # the points at t = 0, ¼, ½, ¾, 1 of the spans in curve order (the before span without
         # its last point, the after span without its first: the own span's ends), W0·P0 + W1·P1
@@ -506,7 +512,7 @@ class Energy:
         # with the trials innermost (an inner loop of N·J, not of 3n+1 with a protected point
         # broadcast over it: ~2.5x faster on a sprite's step), and the minimum over the two
         # leading axes (an elementwise minimum of rows; a minimum is exact in any order)
-        weighed = points.take(_SAMPLE_SPAN, axis=1)  # (3, 3n+1, 2, N, J): each point's span
+        weighed = points.take(_SAMPLE_ROWS.ravel(), axis=0).reshape(_SAMPLE_ROWS.shape + points.shape[1:])
         weighed *= _SAMPLE_WEIGHTS
         flat = np.add(weighed[0], weighed[1], out=weighed[0])
         flat += weighed[2]
@@ -525,7 +531,7 @@ class Energy:
     def clearance(self, ctrl: np.ndarray, g: Group, trial: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """(R, K) :meth:`clearance_of` the members ``rows`` at trial positions ``trial`` (R, K, 2)."""
         around = ctrl[g.around[:, rows]].transpose(0, 2, 1)[..., None]
-        points = self.points(_knots(around), g.ends[:, rows], np.moveaxis(trial, -1, 0))  # (3, 3, 2, R, K)
+        points = self.points(_knots(around), g.ends[:, rows], np.moveaxis(trial, -1, 0))  # (9, 2, R, K)
         return self.clearance_of(points, g, rows)
 
     def near(self, moved: np.ndarray) -> np.ndarray:
@@ -547,20 +553,16 @@ class Energy:
         return float(smooth + positional(ctrl, anchor).sum())
 
 
-def _span_tips(knots: np.ndarray, c_a: np.ndarray, c_b: np.ndarray, ends: np.ndarray, trial: np.ndarray
-               ) -> np.ndarray:
+def _span_tips(knots: np.ndarray, ends: np.ndarray, trial: np.ndarray) -> np.ndarray:
     """(2, 4·N, K) the end points P0 of the span before, P0 and P2 of the own span, P2 of the
     span after, of N members at their ``trial`` (2, N, K), given :meth:`Energy.evaluate`'s
-    ``knots`` (2, 4, N, 1), a and b ``c_a``, ``c_b`` (2, N, 1) and :attr:`Group.ends`."""
+    ``knots`` (2, 4, N, 1) and :attr:`Group.ends`; the own span's two as :meth:`Energy.points`'."""
     n, k = trial.shape[1:]
     tips = np.empty((2, 4, n, k))
-    tips[:, 0], tips[:, 3] = knots[:, 0], knots[:, 3]
-    np.add(c_a, trial, out=tips[:, 1])
-    tips[:, 1] /= 2.0
-    np.copyto(tips[:, 1], c_a, where=ends[0])
-    np.add(trial, c_b, out=tips[:, 2])
-    tips[:, 2] /= 2.0
-    np.copyto(tips[:, 2], c_b, where=ends[1])
+    tips[:, ::3] = knots[:, ::3]
+    own = np.add(knots[:, 1:3], trial[:, None], out=tips[:, 1:3])
+    own /= 2.0
+    np.copyto(own, knots[:, 1:3], where=ends)
     return tips.reshape(2, -1, k)
 
 
