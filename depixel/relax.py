@@ -329,6 +329,9 @@ _SAMPLE_ROWS = np.repeat([[0, 7, 6], [1, 4, 2], [5, 8, 3]], [CLEARANCE_PIECES, C
 #: (3, 3n+1, 1, 1, 1) the weights of the Bézier points P0-P2 at each of those points
 _SAMPLE_WEIGHTS = np.stack([np.concatenate([w[:-1], w, w[1:]]) for w in ((1 - _T) ** 2, 2 * _T * (1 - _T), _T**2)]
                            )[..., None, None, None]
+#: the slopes of dm of the own span against the member's place at the members of the span
+#: before and after (the own span's is its legs' shares, a - b): ½ and -½
+_DM_SLOPE = np.array([[0.5], [-0.5]])
 #: the smallest positive float64: a floor for the descent's squared lengths
 _TINY = np.finfo(float).tiny
 
@@ -351,7 +354,7 @@ class Energy:
     def __init__(self, splines: SplineSet, excluded: np.ndarray):
         self.prev, self.nxt = splines.neighbours()
         self.end = (self.prev < 0) | (self.nxt < 0)
-        self.keep = ~excluded  # (P, 2) halves counted in E_s
+        self.halves = ~excluded.T  # (2, P) halves (first, second) of each slot's span counted in E_s
         # the clearance's distances, the largest array of a step, in one buffer kept (and grown)
         # across the steps: a new one each call came from fresh memory on a frame, its page faults
         # ~10 % of the frame's relaxation (docs/performance.md)
@@ -359,37 +362,46 @@ class Energy:
         self.splines = splines  # protected points are found per class, not held for every slot
 
     def prepare(self, members: np.ndarray) -> Group:
-        a, b = self.prev[members], self.nxt[members]
-        has_a, has_b = ~self.end[a], ~self.end[b]
-        a2 = np.where(has_a, self.prev[a], a)
-        b2 = np.where(has_b, self.nxt[b], b)
-        around = np.stack([a2, a, members, b], axis=1)  # (M, 4): the slots whose spans a move changes
-        protected = unique_rows(protected_points(self.splines, around).reshape(members.size, -1, 2))
-        keep = np.stack([self.keep[a] & has_a[:, None], self.keep[members], self.keep[b] & has_b[:, None]])
-
-        def col(x: np.ndarray) -> np.ndarray:
-            return x[:, None]
-
+        a, b = self.prev.take(members), self.nxt.take(members)
+        a2 = np.where(self.end.take(a), a, self.prev.take(a))
+        b2 = np.where(self.end.take(b), b, self.nxt.take(b))
+        slots = np.stack([a2, a, members, b, b2])  # (5, M): the slots whose spans a move changes, and b2
+        end = self.end.take(slots)  # (5, M): which is an open-curve end (never the member)
+        # the protected points of the four slots whose spans a move changes; computed once a slot
+        # where that is no more work (nor memory) than four a member (a sprite's one preparation)
+        if self.splines.n_slots <= 4 * members.size:
+            points = protected_points(self.splines).take(slots[:4].T, axis=0)
+        else:
+            points = protected_points(self.splines, slots[:4].T)
+        protected = unique_rows(points.reshape(members.size, -1, 2))
+        # halves (first, second) of the spans before, own, after counted in E_s (none of the
+        # span of an end a or b)
+        keep = self.halves.take(slots[1:4], axis=1)  # (2, 3, M)
+        keep[:, 0] &= ~end[1]
+        keep[:, 2] &= ~end[3]
         # a leg's share of a span vector: whole at an open-curve end, half otherwise
-        s_a2, s_a, s_b, s_b2 = np.where(self.end[np.stack([a2, a, b, b2])], 1.0, 0.5)
+        share = np.where(end, 1.0, 0.5)  # (5, M)
+        s_a, s_b = share[1], share[3]
         scale = np.full((2, 3, members.size), 0.5)
-        scale[0, 0], scale[0, 1], scale[1, 1], scale[1, 2] = s_a2, s_a, s_b, s_b2
+        scale[0, :2], scale[1, 1:] = share[:2], share[3:]  # (a2, a) and (b, b2)
         # how d0, dm, d1 of the spans before, own, after move with the member (multiples of it),
         # times the halves counted: E_s = Σ |φ(dm) − φ(d0)| (first half) + |φ(d1) − φ(dm)| (second)
-        first, second = keep.transpose(2, 0, 1).astype(float)  # (3, M)
+        first, second = keep.astype(float)  # (3, M)
         slope = np.zeros((3, 3, members.size))
         slope[0, 1], slope[0, 2] = -s_a * first[1], 0.5 * first[2]  # d0 (before: fixed)
-        slope[1] = (first - second) * np.stack([np.full(members.size, 0.5), s_a - s_b, np.full(members.size, -0.5)])
+        dm = np.subtract(first, second, out=slope[1])
+        dm[::2] *= _DM_SLOPE
+        dm[1] *= s_a - s_b
         slope[2, 0], slope[2, 1] = 0.5 * second[0], -s_b * second[1]  # d1 (after: fixed)
 
+        around = np.empty((7, members.size), np.int32)
+        around[:5] = slots
+        around[5:] = np.where(end[::4], slots[::4], slots[1:4:2])  # the partners of a2 and b2
         return Group(
-            members,
-            np.stack([a2, a, members, b, b2, np.where(self.end[a2], a2, a), np.where(self.end[b2], b2, b)]
-                     ).astype(np.int32),
-            np.stack([col(self.end[a]), col(self.end[b])]),
+            members, around, end[1:4:2, :, None],
             # float32 holds these exactly (0, ±½, ±1 and their products): half the memory of
             # float64 for every slot of every class, the arithmetic still in float64
-            keep.transpose(2, 0, 1).astype(np.float32)[..., None],
+            keep.astype(np.float32)[..., None],
             # a compact copy (not a view of the padded rows); float32 holds these exactly, and
             # saves their memory on a large image, but a small one's float64 are subtracted
             # without a cast (its clearance's largest operation, ~1.5x faster)
@@ -549,7 +561,7 @@ class Energy:
         a, b = self.prev.take(p), self.nxt.take(p)
         spans = span(ctrl.take(a, axis=0), ctrl.take(p, axis=0), ctrl.take(b, axis=0),
                      self.end.take(a)[:, None], self.end.take(b)[:, None])
-        smooth = smoothness(spans, self.keep.take(p, axis=0)).sum()
+        smooth = smoothness(spans, self.halves.take(p, axis=1).T).sum()
         return float(smooth + positional(ctrl, anchor).sum())
 
 
