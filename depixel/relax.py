@@ -227,37 +227,37 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
     best = energy.argmin(axis=1)  # ties keep the lower index
     # the trial taken must not bring a curve closer to a protected point than allowed (unless
     # it was closer already), so the clearance is measured only where it can decide: of the
-    # best trial, where it is not staying; of staying, where the best one comes within the
-    # clearance; where the best one is refused, of the trials lower than staying (the others
-    # cannot be taken: staying is always allowed and wins ties), of which the best one allowed
-    # is taken. Each number is the one a clearance of every trial would give (a minimum)
+    # best trial, where it is not staying; where the best one comes within the clearance, of
+    # staying and of the trials lower than staying (the others cannot be taken: staying is
+    # always allowed and wins ties) in one call; where the best one is refused (staying is
+    # not as close), the best one of those allowed is taken. Each number is the one a
+    # clearance of every trial would give (a minimum)
     trials = trial.shape[-1]
     rows = (best > 0).nonzero()[0]
     if rows.size:
         chosen = best.take(rows)
-        # the spans at the best trial and at staying, of every member moving (one call)
-        at = np.zeros((rows.size, 2), chosen.dtype)  # (R, 2): the best trial, staying
-        at[:, 0] = chosen
-        points = _trial_points(knots, group, trial, rows, at)
-        near = model.clearance_of(points[..., :1], group, rows).ravel()
+        near = model.clearance_of(_trial_points(knots, group, trial, rows, chosen[:, None]), group, rows).ravel()
         close = near < params.centre_clearance
         rows, chosen, near = rows.compress(close), chosen.compress(close), near.compress(close)
     if rows.size:
-        stay = model.clearance_of(points[..., 1:].compress(close, axis=-2), group, rows).ravel()
-        closer = near < stay
-        rows, chosen, stay = rows.compress(closer), chosen.compress(closer), stay.compress(closer)
-    if rows.size:
         energy = energy.take(rows, axis=0)  # (R, T)
-        energy.ravel()[np.arange(0, rows.size * trials, trials) + chosen] = np.inf  # the best, refused already
-        pairs = (energy < energy[:, :1]).ravel().nonzero()[0]  # flat (row, trial) of the others lower than staying
+        energy.ravel()[np.arange(0, rows.size * trials, trials) + chosen] = np.inf  # the best, not allowed
+        lower = energy < energy[:, :1]  # the others lower than staying
+        lower[:, 0] = True  # and staying, the first of each row
+        pairs = lower.ravel().nonzero()[0]  # flat (row, trial)
         pick, at = np.divmod(pairs, trials)
+        clear = np.empty(pairs.size)
         for part in batch_slices(pairs.size, CLEARANCE_PAIRS):
             member = rows.take(pick[part])
-            clear = model.clearance_of(_trial_points(knots, group, trial, member, at[part, None]), group, member
-                                       ).ravel()
-            energy.ravel()[pairs[part].compress((clear < params.centre_clearance) & (clear < stay.take(pick[part])))
-                           ] = np.inf
-        best[rows] = energy.argmin(axis=1)
+            clear[part] = model.clearance_of(_trial_points(knots, group, trial, member, at[part, None]), group,
+                                             member).ravel()
+        stay = clear.compress(at == 0)  # (R,)
+        refused = near < stay
+        # of the refused rows, the trials coming closer than allowed and than staying
+        closer = (clear < params.centre_clearance) & (clear < stay.take(pick))
+        closer &= refused.take(pick)
+        energy.ravel()[pairs.compress(closer)] = np.inf
+        best[rows.compress(refused)] = energy.compress(refused, axis=0).argmin(axis=1)
     return trial.reshape(2, -1).take(np.arange(0, best.size * trials, trials) + best, axis=1)  # (2, M)
 
 
