@@ -559,7 +559,10 @@ class Energy:
         """The energy of all the curves: E_s of every span plus E_p of every slot."""
         p = (~self.end).nonzero()[0]
         a, b = self.prev.take(p), self.nxt.take(p)
-        spans = span(ctrl.take(a, axis=0), ctrl.take(p, axis=0), ctrl.take(b, axis=0),
+        # the points gathered from x and y rows: (N, 2) views whose columns are rows, so that the
+        # operations on them (and the sums over their axis of two) run along N, not along pairs
+        planes = np.ascontiguousarray(ctrl.T)
+        spans = span(planes.take(a, axis=1).T, planes.take(p, axis=1).T, planes.take(b, axis=1).T,
                      self.end.take(a)[:, None], self.end.take(b)[:, None])
         smooth = smoothness(spans, self.halves.take(p, axis=1).T).sum()
         return float(smooth + positional(ctrl, anchor).sum())
