@@ -318,8 +318,7 @@ class Group:
 
 #: :attr:`Group.around`'s rows
 _A2, _A, _MEMBER, _B, _B2, _A2_PARTNER, _B2_PARTNER = range(7)
-#: t of the points each span is checked at, and the weights of its Bézier points there (on
-#: the leading axis of the points)
+#: t of the points each span is checked at
 _T = np.arange(CLEARANCE_PIECES + 1) / CLEARANCE_PIECES
 #: (3, 3n+1) the row of :meth:`Energy.points` holding Bézier point P0-P2 of the span of each of a
 #: trial's 3n+1 points, in curve order: the span before (without its last point: the own
@@ -329,8 +328,8 @@ _SAMPLE_ROWS = np.repeat([[0, 7, 6], [1, 4, 2], [5, 8, 3]], [CLEARANCE_PIECES, C
 #: (3, 3n+1, 1, 1, 1) the weights of the Bézier points P0-P2 at each of those points
 _SAMPLE_WEIGHTS = np.stack([np.concatenate([w[:-1], w, w[1:]]) for w in ((1 - _T) ** 2, 2 * _T * (1 - _T), _T**2)]
                            )[..., None, None, None]
-#: the slopes of dm of the own span against the member's place at the members of the span
-#: before and after (the own span's is its legs' shares, a - b): ½ and -½
+#: how dm of the span before and of the span after moves with the member: ½ and -½ (the own
+#: span's dm moves by the difference of its legs' shares, s_a - s_b)
 _DM_SLOPE = np.array([[0.5], [-0.5]])
 #: the smallest positive float64: a floor for the descent's squared lengths
 _TINY = np.finfo(float).tiny
@@ -356,8 +355,8 @@ class Energy:
         self.end = (self.prev < 0) | (self.nxt < 0)
         self.halves = ~excluded.T  # (2, P) halves (first, second) of each slot's span counted in E_s
         # the clearance's distances, the largest array of a step, in one buffer kept (and grown)
-        # across the steps: a new one each call came from fresh memory on a frame, its page faults
-        # ~10 % of the frame's relaxation (docs/performance.md)
+        # across the steps: a new one each call came from freshly grown heap on a frame (the 3
+        # frames' relaxation: 25,000-30,000 page faults, ~8,600 with the buffer; docs/performance.md)
         self._distances = np.empty(0)
         self.splines = splines  # protected points are found per class, not held for every slot
 
