@@ -26,12 +26,14 @@ draws depend only on array sizes and on the moves made, so a run is reproducible
 from __future__ import annotations
 
 import functools
+import itertools
+import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 
-from .arrays import batch_slices, flat_rows, set_rows
+from .arrays import batch_slices, set_rows
 from .bspline import Bezier, half_turns, span
 from .fidelity import protected_points, unique_rows
 from .params import Params
@@ -94,6 +96,7 @@ def relax(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: 
     last = np.zeros_like(ctrl)  # each slot's move in the sweep before
     for sweep in range(params.iterations):
         before = ctrl.copy()
+        tried = []  # the group of each class with a slot to try, in this sweep's random order
         for c in rng.permutation(len(classes)):
             group = classes[c]
             chosen = active.take(group.members)
@@ -101,7 +104,8 @@ def relax(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: 
                 if not chosen.any():
                     continue
                 group = group.part(chosen.nonzero()[0])
-            offsets = disc_offsets(rng, group.members.size, params.candidates, params.radius)
+            tried.append(group)
+        for group, offsets in zip(tried, _sweep_offsets(rng, [g.members.size for g in tried], params)):
             # no last move to repeat in the first sweep
             set_rows(ctrl, group.members, step(model, ctrl, anchor, group, offsets, params, last if sweep else None))
         ctrl = splines.snap(ctrl)  # ends that sit on a moved curve follow it
@@ -122,8 +126,21 @@ def _prepared_classes(model: Energy, classes: list[np.ndarray]) -> list[Group]:
     if not classes or sum(sizes) > PREPARE_ONCE:
         return [model.prepare(c) for c in classes]
     whole = model.prepare(np.concatenate(classes))
-    ends = np.cumsum(sizes).tolist()
+    ends = list(itertools.accumulate(sizes))
     return [whole.part(slice(lo, hi)) for lo, hi in zip([0] + ends[:-1], ends)]
+
+
+def _sweep_offsets(rng: SplitMix64, sizes: list[int], params: Params) -> list[np.ndarray]:
+    """The :func:`disc_offsets` (2, M, K) of each of a sweep's steps of ``sizes`` members, in
+    turn: drawn for the whole sweep in one call when its members are at most
+    :data:`PREPARE_ONCE` (a call is ~25 numpy calls whatever its size, and each member's
+    offsets depend only on its own draw, the next of the stream: the same numbers as a call a
+    step), else a call a step (which bounds their memory on a large image)."""
+    if sum(sizes) > PREPARE_ONCE:
+        return [disc_offsets(rng, size, params.candidates, params.radius) for size in sizes]
+    offsets = disc_offsets(rng, sum(sizes), params.candidates, params.radius)
+    ends = list(itertools.accumulate(sizes))
+    return [offsets[:, lo:hi] for lo, hi in zip([0] + ends[:-1], ends)]
 
 
 def disc_offsets(rng: SplitMix64, members: int, candidates: int, radius: float) -> np.ndarray:
@@ -150,6 +167,14 @@ def _pattern(candidates: int) -> tuple[np.ndarray, np.ndarray]:
     pattern = np.exp((1j * GOLDEN_ANGLE) * index)
     index.flags.writeable = pattern.flags.writeable = False
     return index, pattern
+
+
+@functools.cache
+def _gradient_lengths(radius: float) -> np.ndarray:
+    """:data:`GRADIENT_STEPS` times ``radius`` (computed once a radius; read only)."""
+    lengths = radius * GRADIENT_STEPS
+    lengths.flags.writeable = False
+    return lengths
 
 
 def step(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, offsets: np.ndarray,
@@ -190,7 +215,8 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
     trial[:, :, :1] = here
     np.add(here, offsets, out=trial[:, :, 1:k + 1])
     descent = model.descent(around, home, group)
-    np.add(here, descent * (params.radius * GRADIENT_STEPS), out=trial[:, :, k + 1:grad])
+    np.multiply(descent, _gradient_lengths(params.radius), out=trial[:, :, k + 1:grad])
+    trial[:, :, k + 1:grad] += here
     if repeat is not None:
         np.add(here, repeat, out=trial[:, :, grad:])
     knots = _knots(around)
@@ -201,43 +227,43 @@ def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Gro
     best = energy.argmin(axis=1)  # ties keep the lower index
     # the trial taken must not bring a curve closer to a protected point than allowed (unless
     # it was closer already), so the clearance is measured only where it can decide: of the
-    # best trial, where it is not staying; of staying, where the best one comes within the
-    # clearance; where the best one is refused, of the trials lower than staying (the others
-    # cannot be taken: staying is always allowed and wins ties), of which the best one allowed
-    # is taken. Each number is the one a clearance of every trial would give (a minimum)
+    # best trial, where it is not staying; where the best one comes within the clearance, of
+    # staying and of the trials lower than staying (the others cannot be taken: staying is
+    # always allowed and wins ties) in one call; where the best one is refused (staying is
+    # not as close), the best one of those allowed is taken. Each number is the one a
+    # clearance of every trial would give (a minimum)
     trials = trial.shape[-1]
     rows = (best > 0).nonzero()[0]
     if rows.size:
         chosen = best.take(rows)
-        # the spans at the best trial and at staying, of every member moving (one call)
-        at = np.zeros((rows.size, 2), chosen.dtype)  # (R, 2): the best trial, staying
-        at[:, 0] = chosen
-        points = _trial_points(knots, group, trial, rows, at)
-        near = model.clearance_of(points[..., 0], group, rows)
+        near = model.clearance_of(_trial_points(knots, group, trial, rows, chosen[:, None]), group, rows).ravel()
         close = near < params.centre_clearance
         rows, chosen, near = rows.compress(close), chosen.compress(close), near.compress(close)
     if rows.size:
-        stay = model.clearance_of(points[..., 1].compress(close, axis=-1), group, rows)
-        closer = near < stay
-        rows, chosen, stay = rows.compress(closer), chosen.compress(closer), stay.compress(closer)
-    if rows.size:
         energy = energy.take(rows, axis=0)  # (R, T)
-        energy.ravel()[np.arange(0, rows.size * trials, trials) + chosen] = np.inf  # the best, refused already
-        pairs = (energy < energy[:, :1]).ravel().nonzero()[0]  # flat (row, trial) of the others lower than staying
+        energy.ravel()[np.arange(0, rows.size * trials, trials) + chosen] = np.inf  # the best, not allowed
+        lower = energy < energy[:, :1]  # the others lower than staying
+        lower[:, 0] = True  # and staying, the first of each row
+        pairs = lower.ravel().nonzero()[0]  # flat (row, trial)
         pick, at = np.divmod(pairs, trials)
+        clear = np.empty(pairs.size)
         for part in batch_slices(pairs.size, CLEARANCE_PAIRS):
             member = rows.take(pick[part])
-            clear = model.clearance_of(_trial_points(knots, group, trial, member, at[part, None])[..., 0], group,
-                                       member)
-            energy.ravel()[pairs[part].compress((clear < params.centre_clearance) & (clear < stay.take(pick[part])))
-                           ] = np.inf
-        best[rows] = energy.argmin(axis=1)
+            clear[part] = model.clearance_of(_trial_points(knots, group, trial, member, at[part, None]), group,
+                                             member).ravel()
+        stay = clear.compress(at == 0)  # (R,)
+        refused = near < stay
+        # of the refused rows, the trials coming closer than allowed and than staying
+        closer = (clear < params.centre_clearance) & (clear < stay.take(pick))
+        closer &= refused.take(pick)
+        energy.ravel()[pairs.compress(closer)] = np.inf
+        best[rows.compress(refused)] = energy.compress(refused, axis=0).argmin(axis=1)
     return trial.reshape(2, -1).take(np.arange(0, best.size * trials, trials) + best, axis=1)  # (2, M)
 
 
 def _trial_points(knots: np.ndarray, group: Group, trial: np.ndarray, rows: np.ndarray, at: np.ndarray
                   ) -> np.ndarray:
-    """(3, 3, 2, N, J) :meth:`Energy.points` of the members ``rows`` (N,) at their trials
+    """(9, 2, N, J) :meth:`Energy.points` of the members ``rows`` (N,) at their trials
     ``at`` (N, J) (columns of ``trial`` (2, M, T)), given the members' :func:`_knots`."""
     flat = rows[:, None] * trial.shape[-1] + at
     chosen = trial.reshape(2, -1).take(flat.ravel(), axis=1).reshape((2,) + flat.shape)
@@ -272,7 +298,8 @@ class Group:
     keep: np.ndarray  # (2, 3, M, 1) 1.0 or 0.0: halves (first, second) of the spans before,
     #                   own, after counted in E_s (0 for the span of an end a or b; float, not
     #                   bool: numpy casts a bool operand through a buffer, slower)
-    protected: np.ndarray  # (2, M, Q, 1) float32 x and y of the points the spans must keep clear of
+    protected: np.ndarray  # (2, Q, M) x and y of the points the spans must keep clear of (float32 beyond
+    #                        PREPARE_ONCE members)
     scale: np.ndarray  # (2, 3, 1, M, 1) d0 and d1 of the spans before, own, after over their control legs
     slope: np.ndarray  # (3, 3, M, 1) ∂E_s/∂φ of d0, dm, d1 of each span, times how fast each turns
     #                    with the member (signs of the turns and lengths left out: Energy.descent)
@@ -282,19 +309,28 @@ class Group:
         gathered with ``take`` (numpy 2's fancy indexing is several times slower here)."""
         if isinstance(members, slice):
             return Group(self.members[members], self.around[:, members], self.ends[:, members],
-                         self.keep[:, :, members], self.protected[:, members], self.scale[..., members, :],
+                         self.keep[:, :, members], self.protected[..., members], self.scale[..., members, :],
                          self.slope[:, :, members])
         return Group(self.members.take(members), self.around.take(members, axis=1), self.ends.take(members, axis=1),
-                     self.keep.take(members, axis=2), self.protected.take(members, axis=1),
+                     self.keep.take(members, axis=2), self.protected.take(members, axis=2),
                      self.scale.take(members, axis=3), self.slope.take(members, axis=2))
 
 
 #: :attr:`Group.around`'s rows
 _A2, _A, _MEMBER, _B, _B2, _A2_PARTNER, _B2_PARTNER = range(7)
-#: t of the points each span is checked at, and the weights of its Bézier points there (on
-#: the leading axis of the points)
+#: t of the points each span is checked at
 _T = np.arange(CLEARANCE_PIECES + 1) / CLEARANCE_PIECES
-_W0, _W1, _W2 = (w[:, None, None, None] for w in ((1 - _T) ** 2, 2 * _T * (1 - _T), _T**2))
+#: (3, 3n+1) the row of :meth:`Energy.points` holding Bézier point P0-P2 of the span of each of a
+#: trial's 3n+1 points, in curve order: the span before (without its last point: the own
+#: span's P0), the own span, the span after (without its first point)
+_SAMPLE_ROWS = np.repeat([[0, 7, 6], [1, 4, 2], [5, 8, 3]], [CLEARANCE_PIECES, CLEARANCE_PIECES + 1, CLEARANCE_PIECES],
+                         axis=1)
+#: (3, 3n+1, 1, 1, 1) the weights of the Bézier points P0-P2 at each of those points
+_SAMPLE_WEIGHTS = np.stack([np.concatenate([w[:-1], w, w[1:]]) for w in ((1 - _T) ** 2, 2 * _T * (1 - _T), _T**2)]
+                           )[..., None, None, None]
+#: how dm of the span before and of the span after moves with the member: ½ and -½ (the own
+#: span's dm moves by the difference of its legs' shares, s_a - s_b)
+_DM_SLOPE = np.array([[0.5], [-0.5]])
 #: the smallest positive float64: a floor for the descent's squared lengths
 _TINY = np.finfo(float).tiny
 
@@ -317,65 +353,75 @@ class Energy:
     def __init__(self, splines: SplineSet, excluded: np.ndarray):
         self.prev, self.nxt = splines.neighbours()
         self.end = (self.prev < 0) | (self.nxt < 0)
-        self.keep = ~excluded  # (P, 2) halves counted in E_s
+        self.halves = ~excluded.T  # (2, P) halves (first, second) of each slot's span counted in E_s
+        # the clearance's distances, the largest array of a step, in one buffer kept (and grown)
+        # across the steps: a new one each call came from freshly grown heap on a frame (the 3
+        # frames' relaxation: 25,000-30,000 page faults, ~8,600 with the buffer; docs/performance.md)
+        self._distances = np.empty(0)
         self.splines = splines  # protected points are found per class, not held for every slot
 
     def prepare(self, members: np.ndarray) -> Group:
-        a, b = self.prev[members], self.nxt[members]
-        has_a, has_b = ~self.end[a], ~self.end[b]
-        a2 = np.where(has_a, self.prev[a], a)
-        b2 = np.where(has_b, self.nxt[b], b)
-        around = np.stack([a2, a, members, b], axis=1)  # (M, 4): the slots whose spans a move changes
-        protected = unique_rows(protected_points(self.splines, around).reshape(members.size, -1, 2))
-        keep = np.stack([self.keep[a] & has_a[:, None], self.keep[members], self.keep[b] & has_b[:, None]])
-
-        def col(x: np.ndarray) -> np.ndarray:
-            return x[:, None]
-
+        a, b = self.prev.take(members), self.nxt.take(members)
+        a2 = np.where(self.end.take(a), a, self.prev.take(a))
+        b2 = np.where(self.end.take(b), b, self.nxt.take(b))
+        slots = np.stack([a2, a, members, b, b2])  # (5, M): the slots whose spans a move changes, and b2
+        end = self.end.take(slots)  # (5, M): which is an open-curve end (never the member)
+        # the protected points of the four slots whose spans a move changes; computed once a slot
+        # where that is no more work (nor memory) than four a member (a sprite's one preparation)
+        if self.splines.n_slots <= 4 * members.size:
+            points = protected_points(self.splines).take(slots[:4].T, axis=0)
+        else:
+            points = protected_points(self.splines, slots[:4].T)
+        protected = unique_rows(points.reshape(members.size, -1, 2))
+        # halves (first, second) of the spans before, own, after counted in E_s (none of the
+        # span of an end a or b)
+        keep = self.halves.take(slots[1:4], axis=1)  # (2, 3, M)
+        keep[:, 0] &= ~end[1]
+        keep[:, 2] &= ~end[3]
         # a leg's share of a span vector: whole at an open-curve end, half otherwise
-        s_a2, s_a, s_b, s_b2 = np.where(self.end[np.stack([a2, a, b, b2])], 1.0, 0.5)
+        share = np.where(end, 1.0, 0.5)  # (5, M)
+        s_a, s_b = share[1], share[3]
         scale = np.full((2, 3, members.size), 0.5)
-        scale[0, 0], scale[0, 1], scale[1, 1], scale[1, 2] = s_a2, s_a, s_b, s_b2
+        scale[0, :2], scale[1, 1:] = share[:2], share[3:]  # (a2, a) and (b, b2)
         # how d0, dm, d1 of the spans before, own, after move with the member (multiples of it),
         # times the halves counted: E_s = Σ |φ(dm) − φ(d0)| (first half) + |φ(d1) − φ(dm)| (second)
-        first, second = keep.transpose(2, 0, 1).astype(float)  # (3, M)
+        first, second = keep.astype(float)  # (3, M)
         slope = np.zeros((3, 3, members.size))
         slope[0, 1], slope[0, 2] = -s_a * first[1], 0.5 * first[2]  # d0 (before: fixed)
-        slope[1] = (first - second) * np.stack([np.full(members.size, 0.5), s_a - s_b, np.full(members.size, -0.5)])
+        dm = np.subtract(first, second, out=slope[1])
+        dm[::2] *= _DM_SLOPE
+        dm[1] *= s_a - s_b
         slope[2, 0], slope[2, 1] = 0.5 * second[0], -s_b * second[1]  # d1 (after: fixed)
 
+        around = np.empty((7, members.size), np.int32)
+        around[:5] = slots
+        around[5:] = np.where(end[::4], slots[::4], slots[1:4:2])  # the partners of a2 and b2
         return Group(
-            members,
-            np.stack([a2, a, members, b, b2, np.where(self.end[a2], a2, a), np.where(self.end[b2], b2, b)]
-                     ).astype(np.int32),
-            np.stack([col(self.end[a]), col(self.end[b])]),
+            members, around, end[1:4:2, :, None],
             # float32 holds these exactly (0, ±½, ±1 and their products): half the memory of
             # float64 for every slot of every class, the arithmetic still in float64
-            keep.transpose(2, 0, 1).astype(np.float32)[..., None],
-            # a compact copy (not a view of the padded rows); float32 holds these exactly
-            protected.transpose(2, 0, 1).astype(np.float32)[..., None],
+            keep.astype(np.float32)[..., None],
+            # a compact copy (not a view of the padded rows); float32 holds these exactly, and
+            # saves their memory on a large image, but a small one's float64 are subtracted
+            # without a cast (its clearance's largest operation, ~1.5x faster)
+            protected.transpose(2, 1, 0).astype(np.float64 if members.size <= PREPARE_ONCE else np.float32),
             scale.astype(np.float32)[:, :, None, :, None], slope.astype(np.float32)[..., None],
         )
 
     @staticmethod
     def points(knots: np.ndarray, ends: np.ndarray, trial: np.ndarray) -> np.ndarray:
-        """The three spans (before, own, after) of each member at ``trial`` (2, M, K), given its
-        :func:`_knots` (2, 4, M, 1) and :attr:`Group.ends`: ``(3, 3, 2, M, K)``, [Bézier point
-        P0-P2, span, coordinate], written in place (no temporaries, no ``np.where``)."""
-        c_a, c_b = knots[:, 1], knots[:, 2]
-        points = np.empty((3, 3) + trial.shape)
-        m_a, m_b = points[2, 0], points[0, 2]
-        np.add(c_a, trial, out=m_a)  # where the span before meets the own span
-        np.divide(m_a, 2.0, out=m_a)
-        np.add(trial, c_b, out=m_b)  # and the own span the span after
-        np.divide(m_b, 2.0, out=m_b)
-        points[0, 0] = knots[:, 0]
-        points[0, 1] = m_a
-        np.copyto(points[0, 1], c_a, where=ends[0])
-        points[1, 0], points[1, 1], points[1, 2] = c_a, trial, c_b
-        points[2, 1] = m_b
-        np.copyto(points[2, 1], c_b, where=ends[1])
-        points[2, 2] = knots[:, 3]
+        """The distinct Bézier points of the three spans (before, own, after) of each member at
+        ``trial`` (2, M, K), given its :func:`_knots` (2, 4, M, 1) and :attr:`Group.ends`:
+        ``(9, 2, M, K)``, rows P0 of the span before, a, b, P2 of the span after (the knots),
+        the trial, the midpoints of a and of b with it (P2 of the span before, P0 of the span
+        after), P0 and P2 of the own span; written in place, pairs of rows in one call."""
+        points = np.empty((9,) + trial.shape)
+        points[:4] = knots.transpose(1, 0, 2, 3)
+        points[4] = trial
+        middle = np.add(points[1:3], trial, out=points[5:7])  # where the span before meets the own span, and
+        middle /= 2.0  # the own span the span after (a + t and b + t: a sum is the same either way round)
+        points[7:] = middle
+        np.copyto(points[7:], points[1:3], where=ends[:, None])  # at an open end a (b) itself
         return points
 
     def evaluate(self, knots: np.ndarray, anchor: np.ndarray, g: Group, trial: np.ndarray
@@ -398,36 +444,42 @@ class Energy:
         phi = np.empty((4, members, k))  # the four directions
         np.arctan2(legs[1], legs[0], out=phi[1:3])
         phi[::3] = fixed
-        smooth = _turns(np.subtract(phi[1:], phi[:-1]))  # (3, M, K): before, own, after
-        smooth *= g.keep[0] * g.keep[1]
         one = (g.keep[0] != g.keep[1]).ravel().nonzero()[0]  # spans (s·M + m) of which one half counts
+        # the changes of direction of the spans (3, M, K): before, own, after; then of the halves
+        # of the spans with one half counted: both wrapped into turns by one call
+        change = np.empty((3 * members + one.size, k))
+        smooth = np.subtract(phi[1:], phi[:-1], out=change[:3 * members].reshape(3, members, k))
         if one.size:
             # a half turns from d0 to dm = P2 - P0 or from dm to d1; the spans' end points in a
             # chain too (the span before ends where the own one starts unless a is an open end,
             # and then it counts no half; the same for the span after)
             if members < SPANS_OF_FEW:
-                chain, rows, n = _span_tips(knots, c_a, c_b, g.ends, trial), one, members
+                chain, rows, n = _span_tips(knots, g.ends, trial), one, members
             else:  # of the members with such a span alone (~13 % of a frame's)
                 span, member = np.divmod(one, members)
                 has = np.zeros(members, bool)
                 has[member] = True
                 who = has.nonzero()[0]
                 n = who.size
-                chain = _span_tips(knots.take(who, axis=2), c_a.take(who, axis=1), c_b.take(who, axis=1),
-                                   g.ends.take(who, axis=1), trial.take(who, axis=1))
+                chain = _span_tips(knots.take(who, axis=2), g.ends.take(who, axis=1), trial.take(who, axis=1))
                 rows = span * n + (has.cumsum() - 1).take(member)
             chord = chain.take(rows + n, axis=1) - chain.take(rows, axis=1)  # dm of those spans
             middle = np.arctan2(chord[1], chord[0])
-            flat = phi.reshape(-1, k)
-            half = np.empty((2, one.size, k))
-            np.subtract(middle, flat.take(one, axis=0), out=half[0])
-            np.subtract(flat.take(one + members, axis=0), middle, out=half[1])
-            _turns(half)
-            keep = g.keep.reshape(2, -1).take(one, axis=1)[..., None]
-            smooth.put(flat_rows(one, k), half[0] * keep[0] + half[1] * keep[1])
-        offset = trial - anchor
-        offset2 = offset[0] ** 2 + offset[1] ** 2
-        return smooth[1] + smooth[0] + smooth[2] + offset2**2, offset2
+            # the first half turns from d0 (phi's row s·M + m) to dm, the second from dm to d1
+            # (row (s+1)·M + m); a turn's size does not depend on its sign (a - b is -(b - a) exactly)
+            side = np.where(g.keep[1].ravel().take(one), one + members, one)
+            np.subtract(phi.reshape(-1, k).take(side, axis=0), middle, out=change[3 * members:])
+        _turns(change)
+        smooth *= g.keep[0] * g.keep[1]
+        if one.size:
+            smooth.reshape(-1, k)[one] = change[3 * members:]  # (rows of K: faster than put or set_rows)
+        offset = np.subtract(trial, anchor)
+        np.square(offset, out=offset)
+        offset2 = np.add(offset[0], offset[1])
+        energy = np.add(smooth[1], smooth[0], out=smooth[1])
+        energy += smooth[2]
+        energy += np.square(offset2, out=offset[0])
+        return energy, offset2
 
     def descent(self, around: np.ndarray, anchor: np.ndarray, g: Group) -> np.ndarray:
         """(2, M, 1) unit direction of steepest descent of each member's energy at its place
@@ -445,7 +497,7 @@ class Energy:
         square = np.square(vec)
         length2 = np.maximum(square[:, :, 0] + square[:, :, 1], _TINY)
         coef = g.slope * turn / length2  # (3, 3, M, 1)
-        along = (coef[:, :, None] * vec[:, :, ::-1]).sum(axis=(0, 1))  # (2, M, 1): Σ coef·y, Σ coef·x
+        along = np.add.reduce(coef[:, :, None] * vec[:, :, ::-1], axis=(0, 1))  # (2, M, 1): Σ coef·y, Σ coef·x
         offset = around[_MEMBER] - anchor
         square = np.square(offset)
         down = (-4.0 * (square[0] + square[1])) * offset  # E_p = |o|^4: gradient 4 |o|^2 o, negated
@@ -462,30 +514,36 @@ class Energy:
         return self.evaluate(_knots(around), anchor[g.members].T[..., None], g, np.moveaxis(trial, -1, 0))[0]
 
     def clearance_of(self, points: np.ndarray, g: Group, rows: np.ndarray) -> np.ndarray:
-        """(N,) smallest distance from the three spans of the members ``rows`` (N,), one trial
-        each, given by their :meth:`points` (3, 3, 2, N), to their protected points (pixel
-        centres beside them, diagonal-link corners)."""
-        # the points at t = 0, ¼, ½, ¾, 1 of each span on a leading axis (5, 3, 2, N); the
-        # before span without its last point, the after span without its first (the own span's
-        # ends); then the 3n+1 points of a trial in one contiguous row, each protected point
-        # broadcast over it (2, N, Q, 3n+1), and the minimum over the Q·(3n+1) distances of a
-        # trial in one contiguous row (a reduction over a middle axis runs as slowly as a
-        # short inner loop; a minimum is exact in any order)
-        p0, p1, p2 = points
-        flat = _W0 * p0 + _W1 * p1 + _W2 * p2
-        flat = np.concatenate([flat[:-1, 0], flat[:, 1], flat[1:, 2]])  # (3n+1, 2, N)
-        flat = np.ascontiguousarray(flat.transpose(1, 2, 0))[:, :, None]  # (2, N, 1, 3n+1)
-        d = flat - g.protected.take(rows, axis=1)  # float32 widened exactly within the subtraction (no copy)
+        """(N, J) smallest distance from the three spans of the members ``rows`` (N,) at J
+        trials each, given by their :meth:`points` (9, 2, N, J), to their protected points
+        (pixel centres beside them, diagonal-link corners)."""
+        # the points at t = 0, ¼, ½, ¾, 1 of the spans in curve order (the before span without
+        # its last point, the after span without its first: the own span's ends), W0·P0 + W1·P1
+        # + W2·P2 as bspline.flatten; their distances to each protected point (2, Q, 3n+1, N, J)
+        # with the trials innermost (an inner loop of N·J, not of 3n+1 with a protected point
+        # broadcast over it: ~2.5x faster on a sprite's step), and the minimum over the two
+        # leading axes (an elementwise minimum of rows; a minimum is exact in any order)
+        weighed = points.take(_SAMPLE_ROWS.ravel(), axis=0).reshape(_SAMPLE_ROWS.shape + points.shape[1:])
+        weighed *= _SAMPLE_WEIGHTS
+        flat = np.add(weighed[0], weighed[1], out=weighed[0])
+        flat += weighed[2]
+        # float32 protected points widened (exactly) first: a subtraction that casts runs buffered, ~1.4x slower
+        protected = g.protected.take(rows, axis=2).astype(np.float64, copy=False)
+        shape = (2, protected.shape[1]) + flat.shape[:1] + flat.shape[2:]  # (2, Q, 3n+1, N, J)
+        size = math.prod(shape)
+        if self._distances.size < size:
+            self._distances = np.empty(size)
+        d = np.subtract(flat.transpose(1, 0, 2, 3)[:, None], protected[:, :, None, :, None],
+                        out=self._distances[:size].reshape(shape))
         np.square(d, out=d)  # in place: these are the largest arrays of a step
         np.add(d[0], d[1], out=d[0])
-        return np.sqrt(d[0].reshape(rows.size, -1).min(axis=1))
+        return np.sqrt(d[0].min(axis=(0, 1)))
 
     def clearance(self, ctrl: np.ndarray, g: Group, trial: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """(R, K) :meth:`clearance_of` the members ``rows`` at trial positions ``trial`` (R, K, 2)."""
         around = ctrl[g.around[:, rows]].transpose(0, 2, 1)[..., None]
-        points = self.points(_knots(around), g.ends[:, rows], np.moveaxis(trial, -1, 0))  # (3, 3, 2, R, K)
-        return self.clearance_of(points.reshape(points.shape[:3] + (-1,)), g, np.repeat(rows, trial.shape[1])
-                                 ).reshape(trial.shape[:2])
+        points = self.points(_knots(around), g.ends[:, rows], np.moveaxis(trial, -1, 0))  # (9, 2, R, K)
+        return self.clearance_of(points, g, rows)
 
     def near(self, moved: np.ndarray) -> np.ndarray:
         """(P,) bool: the slots within two slots along their curve of a ``moved`` slot (P,)
@@ -500,26 +558,25 @@ class Energy:
         """The energy of all the curves: E_s of every span plus E_p of every slot."""
         p = (~self.end).nonzero()[0]
         a, b = self.prev.take(p), self.nxt.take(p)
-        spans = span(ctrl.take(a, axis=0), ctrl.take(p, axis=0), ctrl.take(b, axis=0),
+        # the points gathered from x and y rows: (N, 2) views whose columns are rows, so that the
+        # operations on them (and the sums over their axis of two) run along N, not along pairs
+        planes = np.ascontiguousarray(ctrl.T)
+        spans = span(planes.take(a, axis=1).T, planes.take(p, axis=1).T, planes.take(b, axis=1).T,
                      self.end.take(a)[:, None], self.end.take(b)[:, None])
-        smooth = smoothness(spans, self.keep.take(p, axis=0)).sum()
+        smooth = smoothness(spans, self.halves.take(p, axis=1).T).sum()
         return float(smooth + positional(ctrl, anchor).sum())
 
 
-def _span_tips(knots: np.ndarray, c_a: np.ndarray, c_b: np.ndarray, ends: np.ndarray, trial: np.ndarray
-               ) -> np.ndarray:
+def _span_tips(knots: np.ndarray, ends: np.ndarray, trial: np.ndarray) -> np.ndarray:
     """(2, 4·N, K) the end points P0 of the span before, P0 and P2 of the own span, P2 of the
     span after, of N members at their ``trial`` (2, N, K), given :meth:`Energy.evaluate`'s
-    ``knots`` (2, 4, N, 1), a and b ``c_a``, ``c_b`` (2, N, 1) and :attr:`Group.ends`."""
+    ``knots`` (2, 4, N, 1) and :attr:`Group.ends`; the own span's two as :meth:`Energy.points`'."""
     n, k = trial.shape[1:]
     tips = np.empty((2, 4, n, k))
-    tips[:, 0], tips[:, 3] = knots[:, 0], knots[:, 3]
-    np.add(c_a, trial, out=tips[:, 1])
-    tips[:, 1] /= 2.0
-    np.copyto(tips[:, 1], c_a, where=ends[0])
-    np.add(trial, c_b, out=tips[:, 2])
-    tips[:, 2] /= 2.0
-    np.copyto(tips[:, 2], c_b, where=ends[1])
+    tips[:, ::3] = knots[:, ::3]
+    own = np.add(knots[:, 1:3], trial[:, None], out=tips[:, 1:3])
+    own /= 2.0
+    np.copyto(own, knots[:, 1:3], where=ends)
     return tips.reshape(2, -1, k)
 
 

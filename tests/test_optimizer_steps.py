@@ -515,9 +515,43 @@ def test_the_clearance_of_the_trials_weighed_in_batches_moves_the_same(monkeypat
     assert np.array_equal(single.ctrl, whole.ctrl) and single.energy_after == whole.energy_after
 
 
+def test_the_clearance_is_the_distance_of_the_three_spans_points_to_the_protected_points():
+    # Energy.clearance against the spans drawn by bspline.span with the trial in place, their
+    # points at t = 0, 1/4, ..., 1 and the protected points of the four slots around (interior
+    # members: the spans before and after are ordinary spans); a call after a larger one (its
+    # distances buffer grown) gives what a fresh model gives
+    splines, corners, excluded = _blob_cut_at_its_corners()
+    model = Energy(splines, excluded)
+    prev, nxt = splines.neighbours()
+    end = splines.is_end()
+    members = np.flatnonzero(~end & ~end[np.maximum(prev, 0)] & ~end[np.maximum(nxt, 0)])
+    group, ctrl = model.prepare(members), splines.controls_for(splines.positions)
+    rng = np.random.default_rng(3)
+    trial = ctrl[members][:, None] + rng.uniform(-0.4, 0.4, (members.size, 5, 2))  # (R, K, 2)
+    got = model.clearance(ctrl, group, trial, np.arange(members.size))
+    t = np.arange(5) / 4
+    for m, slot in enumerate(members):
+        around = np.array([prev[prev[slot]], prev[slot], slot, nxt[slot]])
+        protected = protected_points(splines, around).reshape(-1, 2)
+        for k in range(trial.shape[1]):
+            moved = ctrl.copy()
+            moved[slot] = trial[m, k]
+            spans = [(moved[prev[s]], moved[s], moved[nxt[s]]) for s in (prev[slot], slot, nxt[slot])]
+            spans = [((a + c) / 2 if not end[prev[s]] else a, c, (c + b) / 2 if not end[nxt[s]] else b)
+                     for s, (a, c, b) in zip((prev[slot], slot, nxt[slot]), spans)]
+            points = np.concatenate([evaluate(*(p[None] for p in bez), t[:, None]) for bez in spans])
+            want = np.sqrt(((points[:, None] - protected[None]) ** 2).sum(axis=-1)).min()
+            assert got[m, k] == pytest.approx(want, rel=1e-12, abs=1e-12)
+    few = np.array([3, 1])
+    assert np.array_equal(model.clearance(ctrl, group, trial[few, :2], few),
+                          Energy(splines, excluded).clearance(ctrl, group, trial[few, :2], few))
+
+
 def test_a_small_drawing_is_prepared_once_and_moves_as_when_prepared_class_by_class(monkeypatch):
     # up to PREPARE_ONCE movable slots, one Energy.prepare of them all, each colour class a
-    # slice of it; above, one a class: the same moves either way (each member's numbers are its own)
+    # slice of it, its protected points in float64 and each sweep's random offsets drawn in
+    # one call; above, one a class (float32 above PREPARE_ONCE members) and the offsets a
+    # call a step: the same moves either way (each member's numbers are its own)
     splines, corners, excluded = _blob_cut_at_its_corners()
     calls: list[int] = []
     prepare = Energy.prepare
@@ -529,6 +563,9 @@ def test_a_small_drawing_is_prepared_once_and_moves_as_when_prepared_class_by_cl
     by_class = relax(splines, splines.positions, corners, excluded)
     assert len(calls) >= 3 and sum(calls) == once.movable.sum()
     assert np.array_equal(by_class.ctrl, once.ctrl) and by_class.energy_after == once.energy_after
+    monkeypatch.setattr(relax_module, "PREPARE_ONCE", 1)
+    compact = relax(splines, splines.positions, corners, excluded)
+    assert np.array_equal(compact.ctrl, once.ctrl) and compact.energy_after == once.energy_after
 
 
 def test_the_chords_of_half_counted_spans_are_the_same_from_the_members_that_have_them(monkeypatch):
