@@ -149,7 +149,8 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
             x_at = q0_x + rel_y * seg_x / seg_y
         crossings = np.bincount(p.compress(straddle & (x_at > x)), minlength=n_px)
         length2 = np.maximum(seg_x**2 + seg_y**2, 1e-12)
-        along = ((rel_x * seg_x + rel_y * seg_y) / length2).clip(0.0, 1.0)
+        along = np.divide(rel_x * seg_x + rel_y * seg_y, length2, out=length2)  # then clipped into [0, 1]
+        np.minimum(np.maximum(along, 0.0, out=along), 1.0, out=along)
         dx, dy = rel_x - along * seg_x, rel_y - along * seg_y
         nearest2 = np.full(n_px, np.inf)
         np.minimum.at(nearest2, p, dx * dx + dy * dy)
@@ -222,18 +223,18 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
         beside = np.zeros(n_px + 1, bool)
         beside[cells.edge_pixels.compress(changed, axis=0).ravel()] = True
         pixels = beside[:-1]
-        if not pixels.any():
+        if not np.logical_or.reduce(pixels):
             return positions, current
         clearance = _clearance(cells, current, pixels, below=margin)
         # a clearance of at least the margin passes whatever the initial clearance: only
         # the centres below it are measured in the initial drawing
         low = pixels & (clearance < margin - 1e-9)
         missing = low & np.isnan(floor)
-        if missing.any():
+        if np.logical_or.reduce(missing):
             floor[missing] = np.minimum(_clearance(cells, initial, missing, below=margin)[missing], margin)
         ok = ~low | (clearance >= floor - 1e-9)
         reference = current
-        if ok.all():
+        if np.logical_and.reduce(ok):
             return positions, current
         bad = either(np.append(~ok, False).take(cells.edge_pixels))  # a bad cell on either side
         revert = np.zeros(len(positions), bool)  # the nodes of the edges around a bad cell

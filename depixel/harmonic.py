@@ -62,7 +62,7 @@ def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
         rest = ~(near_u | near_v)
         open_u, open_v = open_u.compress(rest), open_v.compress(rest)
     free = ~(on_curve | border | corners) & near
-    if not free.any():
+    if not np.logical_or.reduce(free):
         return positions
     degree = np.bincount(u, minlength=n) + np.bincount(v, minlength=n)
     # the system on the free nodes only: compact indices, free–free edges for the operator,

@@ -121,7 +121,7 @@ class _SnapPlan(NamedTuple):
         np.copyto(start, before, where=self.before_is_end)
         np.copyto(stop, after, where=self.after_is_end)
         snapped = midpoint(start, through, stop)
-        moved = check and not (snapped == rows[3 * t:]).all()
+        moved = check and not np.logical_and.reduce(snapped == rows[3 * t:], axis=None)
         ctrl.put(self.flat, snapped)
         return moved
 
@@ -395,7 +395,7 @@ def split_at(splines: SplineSet, breaks: np.ndarray) -> SplineSet:
     pairing is reused and only re-chained; without a break the SplineSet itself."""
     half_ends = splines.half_ends
     cut = breaks[half_ends.node]
-    if not cut.any():
+    if not np.logical_or.reduce(cut):
         return splines
     partner = half_ends.partner.copy()
     partner[cut] = -1
