@@ -79,7 +79,8 @@ def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
         at, fixed = index.take(a.compress(edge)), b.compress(edge)
         for i, moved in enumerate((moved_x, moved_y)):
             rhs[i] += np.bincount(at, moved.take(fixed), minlength=m)
-    diagonal = np.tile(degree[free].astype(np.float64), 2)
+    diagonal = degree.compress(free).astype(np.float64)
+    diagonal = np.concatenate([diagonal, diagonal])  # both rows (np.tile is a Python function)
     if m >= TABLE_UNKNOWNS:
         table = _NeighbourSums(fu, fv, m)
 

@@ -114,7 +114,7 @@ def pair_ends(cells: CellGraph, edges: np.ndarray, shading: np.ndarray) -> HalfE
 
     three = starts[counts == 3]
     if three.size:
-        h = np.stack([order[three], order[three + 1], order[three + 2]], axis=1)  # (T, 3)
+        h = order.take(three[:, None] + np.arange(3))  # (T, 3)
         a, b = _t_junction_pairs(cells, node, h, shading[edges[h >> 1]])
         partner[a] = b
         partner[b] = a
@@ -125,21 +125,35 @@ def _t_junction_pairs(cells: CellGraph, node: np.ndarray, h: np.ndarray,
                       is_shading: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The two half-ends of each T-junction ``h`` (T, 3) that continue each other: the
     contour edges when exactly one of the three is a shading edge (``is_shading`` (T, 3)),
-    else the pair closest to a straight line (the first such pair on a tie)."""
-    here = node[h[:, 0]]
-    other = node.take(h ^ 1)  # the far node of each edge
-    direction = cells.nodes.take(other, axis=0).astype(np.float64) - cells.nodes.take(here, axis=0)[:, None, :]
-    direction /= np.linalg.norm(direction, axis=2, keepdims=True)
-    pairs = np.array([(0, 1), (0, 2), (1, 2)])
-    cosine = np.einsum("tpk,tpk->tp", direction[:, pairs[:, 0]], direction[:, pairs[:, 1]])
+    else the pair closest to a straight line (the first such pair on a tie).
+
+    The unit directions as x and y planes (T, 3): the same numbers as ``np.linalg.norm``
+    over an (T, 3, 2) array and the sums of ``np.einsum`` over its last axis (two products
+    added), without their Python wrappers and inner loops of two."""
+    t = h.shape[0]
+    here = cells.nodes.take(node.take(h[:, 0]), axis=0)  # rows gathered: a column's take copies it whole
+    other = cells.nodes.take(node.take(h ^ 1).reshape(-1), axis=0)  # the far node of each edge
+    dx = other[:, 0].reshape(t, 3) - here[:, :1].astype(np.float64)
+    dy = other[:, 1].reshape(t, 3) - here[:, 1:].astype(np.float64)
+    norm = np.sqrt(dx * dx + dy * dy)
+    dx /= norm
+    dy /= norm
+    first, second = _PAIRS  # the pairs (0, 1), (0, 2), (1, 2)
+    cosine = dx.take(first, axis=1) * dx.take(second, axis=1)
+    cosine += dy.take(first, axis=1) * dy.take(second, axis=1)
     # contour-over-shading rule: exactly one shading edge → join the other two
-    one_shading = is_shading.sum(axis=1) == 1
+    one_shading = np.add.reduce(is_shading, axis=1) == 1
     lone = is_shading.argmax(axis=1)  # index of the shading edge
     by_rule = 2 - lone  # the pair not containing `lone`: (1,2)→idx 2, (0,2)→1, (0,1)→0
     straightest = cosine.argmin(axis=1)  # closest to 180° (first on ties)
     choice = np.where(one_shading, by_rule, straightest)
-    rows = np.arange(h.shape[0])
-    return h[rows, pairs[choice, 0]], h[rows, pairs[choice, 1]]
+    row = np.arange(0, 3 * t, 3)
+    flat = h.reshape(-1)
+    return flat.take(row + first.take(choice)), flat.take(row + second.take(choice))
+
+
+#: the three pairs of a T-junction's ends: first and second members
+_PAIRS = np.array([(0, 0, 1), (1, 2, 2)])
 
 
 def chain_curves(half_ends: HalfEnds) -> Chains:

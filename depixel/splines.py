@@ -183,12 +183,12 @@ class SplineSet:
 
     @cached_property
     def _links(self) -> tuple[np.ndarray, np.ndarray]:
-        p = np.arange(self.curve_nodes.size, dtype=INDEX)
-        curve = self.slot_curve()
-        first, last = self.curve_ptr[:-1][curve], self.curve_ptr[1:][curve] - 1
-        closed = self.curve_closed[curve]
-        prev = np.where(p == first, np.where(closed, last, -1), p - 1)
-        nxt = np.where(p == last, np.where(closed, first, -1), p + 1)
+        p = self.curve_nodes.size
+        prev, nxt = np.arange(-1, p - 1, dtype=INDEX), np.arange(1, p + 1, dtype=INDEX)
+        # then each curve's first and last slot (per curve, not per slot)
+        first, last = self.curve_ptr[:-1], self.curve_ptr[1:] - 1
+        prev[first] = np.where(self.curve_closed, last, -1)
+        nxt[last] = np.where(self.curve_closed, first, -1)
         prev.setflags(write=False)
         nxt.setflags(write=False)
         return prev, nxt
@@ -289,8 +289,9 @@ class SplineSet:
         end = self.is_end()
         p = end.size
         before, after = np.maximum(prev, 0), np.maximum(nxt, 0)
-        ends = np.stack([np.where(end.take(before), before, 2 * p + before),
-                         np.where(end.take(after), after, 2 * p + np.arange(p))]).astype(INDEX)
+        ends = np.empty((2, p), INDEX)  # rows written in place (np.stack is a Python function)
+        ends[0] = np.where(end.take(before), before, 2 * p + before)
+        ends[1] = np.where(end.take(after), after, 2 * p + np.arange(p))
         inner = (~end).nonzero()[0]
         a = (nxt >= 0).nonzero()[0]
         a = a.compress(~(end.take(a) & end.take(nxt.take(a))))  # an edge between two end points is straight
@@ -298,8 +299,12 @@ class SplineSet:
         a_end, b_end = end.take(a), end.take(b)
         near_a, near_b = np.where(b_end, p + a, a), np.where(a_end, p + b, b)  # C, or S where the other is the end
         forward = self.slot_forward.take(a)
-        operands = np.stack([2 * p + a, np.where(forward, near_a, near_b), np.where(forward, near_b, near_a),
-                             np.where(a_end, a, p + a), np.where(b_end, b, p + b)]).astype(INDEX)
+        operands = np.empty((5, a.size), INDEX)
+        operands[0] = 2 * p + a
+        operands[1] = np.where(forward, near_a, near_b)
+        operands[2] = np.where(forward, near_b, near_a)
+        operands[3] = np.where(a_end, a, p + a)
+        operands[4] = np.where(b_end, b, p + b)
         # int32 indices: the plan lives as long as the SplineSet (a frame's peak memory)
         return _DrawPlan(after, ends, end[:, None], inner.astype(INDEX),
                          flat_rows(self.curve_nodes.take(inner), 2).astype(INDEX), operands,
