@@ -15,7 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .arrays import both
+from .arrays import both, ranges
 from .cells import INDEX, CellGraph
 from .graph import cycle_leaders
 from .params import Params
@@ -230,3 +230,88 @@ def chain_curves(half_ends: HalfEnds) -> Chains:
     closed = np.zeros(counts.size, dtype=bool)
     closed[n_open:] = True
     return Chains(ptr, nodes, closed, edges, forward)
+
+
+def cut_chains(chains: Chains, curve_edges: np.ndarray, n_edges: int, breaks: np.ndarray) -> Chains:
+    """:func:`chain_curves` of the same pairing with every pair at a node of ``breaks`` (N,)
+    bool undone, read off ``chains`` (the chains of the whole pairing, whose curve edges are
+    ``curve_edges``, the :class:`HalfEnds` ``edges``, of ``n_edges`` cell edges) instead of
+    walked again.
+
+    Every curve through a break is cut there into pieces: an open curve between its ends and
+    its slots at a break, a closed one between its slots at a break, around (one break: one
+    piece from that slot all the way round to it). A piece is an open curve; as
+    :func:`chain_curves` orders them, it runs from the lower of its two end half-ends (half-end
+    ``2k`` is the ``u`` end of ``curve_edges[k]``, ``2k + 1`` its ``v`` end: reversed where the
+    far end's is the lower) and the pieces, the open curves no break touches among them, come
+    in the order of those half-ends; the closed curves no break touches follow, in their order.
+    """
+    ptr, nodes, closed, edges, forward = chains
+    n_curves = closed.size
+    size = ptr[1:] - ptr[:-1]
+    first_slot, last_slot = ptr[:-1], ptr[1:] - 1
+    curve = np.arange(n_curves, dtype=INDEX).repeat(size)  # of each slot
+    cut = breaks.take(nodes)
+    cut_closed = closed & (np.bincount(curve.compress(cut), minlength=n_curves) > 0)
+    # the slots that bound the pieces: a break, and an open curve's two ends
+    is_open = ~closed
+    bound = cut.copy()
+    bound[first_slot.compress(is_open)] = True
+    bound[last_slot.compress(is_open)] = True
+    at = bound.nonzero()[0]  # by curve, then along it
+    owner = curve.take(at)
+    curve_last = np.empty(at.size, dtype=bool)  # the last bound of its curve
+    curve_last[-1:] = True
+    np.not_equal(owner[1:], owner[:-1], out=curve_last[:-1])
+    # each bound starts a piece reaching the next bound of its curve, except an open curve's
+    # far end; the last bound of a closed curve reaches round to its first (its place + size)
+    curve_first = np.empty(at.size, dtype=bool)
+    curve_first[:1] = True
+    curve_first[1:] = curve_last[:-1]
+    first_bound = at.take(np.maximum.accumulate(np.where(curve_first, np.arange(at.size), 0)))
+    end = np.empty(at.size, dtype=np.int64)
+    end[:-1] = at[1:]
+    end = np.where(curve_last, first_bound + size.take(owner), end)  # only closed curves' are used
+    starts = ~(curve_last & is_open.take(owner))
+    start, end, owner = at.compress(starts), end.compress(starts), owner.compress(starts)
+    # the half-end leaving each slot along its edge; a piece's far end is the other end of
+    # the edge arriving there (a place past its curve's last slot is a closed curve's, round)
+    half = np.zeros(n_edges, dtype=np.int64)
+    half[curve_edges] = np.arange(0, 2 * curve_edges.size, 2)
+
+    def round_(place: np.ndarray, of: np.ndarray) -> np.ndarray:
+        return place - size.take(of) * (place > last_slot.take(of))
+
+    def leaving(slot: np.ndarray) -> np.ndarray:
+        return half.take(edges.take(slot)) + ~forward.take(slot)
+
+    near, far = leaving(start), leaving(round_(end - 1, owner)) ^ 1
+    reverse = far < near
+    order = np.minimum(near, far).argsort()
+    start, end, owner, reverse = start.take(order), end.take(order), owner.take(order), reverse.take(order)
+    kept = (closed & ~cut_closed).nonzero()[0]  # the closed curves no break touches
+    counts = np.concatenate([end - start + 1, size.take(kept)])
+    new_ptr = np.zeros(counts.size + 1, dtype=INDEX)
+    counts.cumsum(out=new_ptr[1:])
+    # the pieces' slots: from their start forwards, or from their end backwards, where an
+    # edge leaving a slot backwards is the one arriving there, the other way round
+    n_pieces = start.size
+    step = ranges(0, counts[:n_pieces])
+    piece = np.arange(n_pieces).repeat(counts[:n_pieces])
+    backwards = reverse.take(piece)
+    place = np.where(backwards, end.take(piece) - step, start.take(piece) + step)
+    of = owner.take(piece)
+    slot = round_(place, of)
+    edge_slot = round_(place - backwards, of)  # the last slot's is overwritten below
+    whole = ranges(first_slot.take(kept), size.take(kept))
+    slot = np.concatenate([slot, whole])
+    edge_slot = np.concatenate([edge_slot, whole])
+    new_edges = edges.take(edge_slot)
+    new_forward = forward.take(edge_slot)
+    new_forward[:backwards.size] ^= backwards
+    last = new_ptr[1:n_pieces + 1] - 1  # a piece's far end: no edge leaves it
+    new_edges[last] = -1
+    new_forward[last] = True
+    new_closed = np.zeros(counts.size, dtype=bool)
+    new_closed[n_pieces:] = True
+    return Chains(new_ptr, nodes.take(slot), new_closed, new_edges.astype(INDEX, copy=False), new_forward)

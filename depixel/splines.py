@@ -26,7 +26,7 @@ edges carry curves and of what kind; :func:`pair_ends` applies the rules above a
 :func:`chain_curves` walks the pairs into curves. This module holds the product,
 :class:`SplineSet` (the curves, their control points and their drawing), and
 :func:`extract_splines`, which runs those steps. The optimizer cuts curves at corners with
-:meth:`SplineSet.split_at`, which re-chains the same pairing (nothing is extracted twice).
+:func:`split_at`, which cuts the chains themselves (nothing is extracted or walked twice).
 The curve maths is in :mod:`depixel.bspline`.
 """
 from __future__ import annotations
@@ -41,7 +41,7 @@ from .arrays import batch_slices, flat_rows
 from .bspline import Bezier, between_curve_points, joint, midpoint, slot_spans
 from .cells import INDEX, CellGraph
 from .frozen import freeze
-from .pairing import HalfEnds, band_edges, chain_curves, pair_ends, shading_edges, visible_edges
+from .pairing import Chains, HalfEnds, band_edges, chain_curves, cut_chains, pair_ends, shading_edges, visible_edges
 from .params import Params
 from .vector import CurveTable, VectorImage, linked_edges
 
@@ -397,14 +397,17 @@ def extract_splines(cells: CellGraph, params: Params = Params()) -> SplineSet:
 def split_at(splines: SplineSet, breaks: np.ndarray) -> SplineSet:
     """The same curves cut at the nodes ``breaks`` (N,) bool: every curve through such a
     node ends there (both pieces are clamped, so the outline keeps a true kink). The
-    pairing is reused and only re-chained; without a break the SplineSet itself."""
+    curves are cut as they are (:func:`depixel.pairing.cut_chains`: the chains
+    :func:`depixel.pairing.chain_curves` gives the pairing with the pairs at the breaks
+    undone, which ``half_ends`` records); without a break the SplineSet itself."""
     half_ends = splines.half_ends
     cut = breaks[half_ends.node]
     if not np.logical_or.reduce(cut):
         return splines
     partner = half_ends.partner.copy()
     partner[cut] = -1
-    half_ends = half_ends._replace(partner=partner)
-    return replace(splines, **chain_curves(half_ends)._asdict(), half_ends=half_ends)
+    chains = cut_chains(Chains(splines.curve_ptr, splines.curve_nodes, splines.curve_closed, splines.slot_edges,
+                               splines.slot_forward), half_ends.edges, len(splines.cells.edges), breaks)
+    return replace(splines, **chains._asdict(), half_ends=half_ends._replace(partner=partner))
 
 
