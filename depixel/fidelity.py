@@ -228,17 +228,19 @@ def _clearances(cells: CellGraph, drawings: tuple[Drawing, ...], pixels: np.ndar
 
 
 def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.ndarray, margin: float,
-                        rounds: int = 8, drawing: Drawing | None = None) -> tuple[np.ndarray, Drawing]:
+                        rounds: int = 8, drawing: Drawing | None = None,
+                        initial: Drawing | None = None) -> tuple[np.ndarray, Drawing]:
     """Undo moves around any cell whose pixel centre came closer than ``margin`` to its
     boundary (or left it), until none does. Moves made elsewhere on a curve (a T-junction
     end follows the curve it ends on) can reach a cell the relaxation did not check.
     Only cells next to an edge whose geometry changed are measured.
 
     Returns the positions and their drawing (the last one measured, or a new one when
-    the rounds ran out); ``drawing``: that of ``positions``, when the caller has it."""
+    the rounds ran out); ``drawing``: that of ``positions``, ``initial`` that of ``start``,
+    when the caller has them."""
     cells = splines.cells
     positions = positions.copy()
-    initial = splines.drawing(start)
+    initial = splines.drawing(start) if initial is None else initial
     prev, nxt = splines.neighbours()
     n_px = cells.shape[0] * cells.shape[1]
     floor = np.full(n_px, np.nan)  # min(margin, initial clearance), filled in where needed
