@@ -25,11 +25,12 @@ from .vector import VectorImage
 #: stands for "no protected point" (far from every curve)
 FAR = 1e6
 
-#: pixels to check up to which the revert's first round measures the initial drawing at all
-#: of them in the same pass as the current one: one call's fixed cost (~0.3 ms, most of a
-#: sprite's) against the work on pixels whose initial clearance is never read (a frame's
-#: ~10^4 pixels: +15 % on its whole stage outside the relaxation)
-TOGETHER_PIXELS = 2048
+#: image pixels up to which the revert's first round measures the initial drawing at every
+#: pixel it checks in the same pass as the current drawing (:func:`_clearances`): one call's
+#: fixed cost (~0.3 ms, most of a sprite's) against the work on pixels whose initial
+#: clearance is never read (a frame's ~10^4: +15 % on its stage outside the relaxation) and
+#: the drawings' points and controls copied side by side (on a 512² image, +1 % peak memory)
+TOGETHER_PIXELS = 4096
 
 
 def protected_points(splines: SplineSet, slots: np.ndarray | slice = slice(None)) -> np.ndarray:
@@ -140,9 +141,12 @@ def _clearances(cells: CellGraph, drawings: tuple[Drawing, ...], pixels: np.ndar
     # (N, 2) array two elements at a time
     start, stop = cells.edges.take(edge, axis=0).T.copy()
     bent = curved_edge.take(edge)
-    control = control_row.take(edge)  # (meaningful where bent)
     if k == 1:
         points, controls = first_drawing.points, first_drawing.controls
+
+        def control(pairs: np.ndarray) -> np.ndarray:
+            """The rows of ``controls`` of the curved pairs ``pairs`` (no pair table: a frame's peak)."""
+            return control_row.take(edge.take(pairs))
     else:  # the drawings' points and controls one after another, the pairs repeated for each
         n_nodes, n_curved = len(first_drawing.points), first_drawing.edges.size
         points = np.concatenate([d.points for d in drawings])
@@ -150,8 +154,13 @@ def _clearances(cells: CellGraph, drawings: tuple[Drawing, ...], pixels: np.ndar
         pix = np.concatenate([pix + i * n_px for i in range(k)])
         start = np.concatenate([start + i * n_nodes for i in range(k)])
         stop = np.concatenate([stop + i * n_nodes for i in range(k)])
-        control = np.concatenate([control + i * n_curved for i in range(k)])
         cx, cy, bent = np.concatenate([cx] * k), np.concatenate([cy] * k), np.concatenate([bent] * k)
+        rows = control_row.take(edge)  # (meaningful where bent)
+        control_rows = np.concatenate([rows + i * n_curved for i in range(k)])
+
+        def control(pairs: np.ndarray) -> np.ndarray:
+            """The rows of ``controls`` of the curved pairs ``pairs``."""
+            return control_rows.take(pairs)
     ax, ay = points.take(start, axis=0).T.copy()
     bx, by = points.take(stop, axis=0).T.copy()
     n_all = k * n_px
@@ -164,7 +173,7 @@ def _clearances(cells: CellGraph, drawings: tuple[Drawing, ...], pixels: np.ndar
         is_bent = bent.take(pairs)
         curved, straight = pairs.compress(is_bent), pairs.compress(~is_bent)
         poly_x, poly_y = flatten_edges_planes(points.take(start.take(curved), axis=0),  # (2 * samples + 1, C)
-                                              controls.take(control.take(curved), axis=0),
+                                              controls.take(control(curved), axis=0),
                                               points.take(stop.take(curved), axis=0), samples)
         q0_x = np.concatenate([ax.take(straight), poly_x[:-1].ravel()])
         q0_y = np.concatenate([ay.take(straight), poly_y[:-1].ravel()])
@@ -191,7 +200,7 @@ def _clearances(cells: CellGraph, drawings: tuple[Drawing, ...], pixels: np.ndar
         # against it; the boxes are dropped before the near pairs are measured
         curved = bent.nonzero()[0]
         if curved.size:  # x and y of c0, of c1, of c2
-            c = controls.take(control.take(curved), axis=0).reshape(-1, 6).T
+            c = controls.take(control(curved), axis=0).reshape(-1, 6).T
         # one side of the boxes at a time in one buffer (the side, then its distance beyond
         # the centre): a pair table a frame's size costs more in fresh pages than in arithmetic
         side = np.empty(ax.size)
@@ -257,7 +266,7 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
         pixels = beside[:-1]
         if not np.logical_or.reduce(pixels):
             return positions, current
-        if round_ == 0 and int(np.add.reduce(pixels)) <= TOGETHER_PIXELS:
+        if round_ == 0 and n_px <= TOGETHER_PIXELS:
             # the initial drawing is measured with the first at the same pixels (one pass
             # over their pairs: most sprites have a centre below the margin, whose initial
             # clearance is then needed; a pixel's clearance does not depend on the others')
