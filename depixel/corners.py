@@ -201,7 +201,7 @@ def detect_run_corners(splines: SplineSet, params: Params = Params()) -> np.ndar
         """Angle between directions u and v (0 = straight on)."""
         norms = np.sqrt(ux * ux + uy * uy) * np.sqrt(vx * vx + vy * vy)
         cos = (ux * vx + uy * vy) / np.maximum(norms, 1e-12)
-        np.maximum(cos, -1.0, out=cos)  # clipped into [-1, 1] (`ndarray.clip` is a Python wrapper)
+        np.maximum(cos, -1.0, out=cos)  # clipped into [-1, 1] in place, the angle too (no fresh arrays)
         return np.arccos(np.minimum(cos, 1.0, out=cos), out=cos)
 
     # both directions in one walk: index j + P is slot j walking ahead

@@ -121,6 +121,10 @@ def pair_ends(cells: CellGraph, edges: np.ndarray, shading: np.ndarray) -> HalfE
     return HalfEnds(edges.astype(INDEX), node, partner)
 
 
+#: the three pairs of a T-junction's ends: first and second members
+_PAIRS = np.array([(0, 0, 1), (1, 2, 2)])
+
+
 def _t_junction_pairs(cells: CellGraph, node: np.ndarray, h: np.ndarray,
                       is_shading: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The two half-ends of each T-junction ``h`` (T, 3) that continue each other: the
@@ -150,10 +154,6 @@ def _t_junction_pairs(cells: CellGraph, node: np.ndarray, h: np.ndarray,
     row = np.arange(0, 3 * t, 3)
     flat = h.reshape(-1)
     return flat.take(row + first.take(choice)), flat.take(row + second.take(choice))
-
-
-#: the three pairs of a T-junction's ends: first and second members
-_PAIRS = np.array([(0, 0, 1), (1, 2, 2)])
 
 
 def chain_curves(half_ends: HalfEnds) -> Chains:
