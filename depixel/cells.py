@@ -86,7 +86,7 @@ class CellGraph:
 def build_cell_graph(resolved: CrossingResolution | SimilarityGraph) -> CellGraph:
     """Build the reshaped cell graph of a planar similarity graph."""
     graph = resolved.graph if isinstance(resolved, CrossingResolution) else resolved
-    if (graph.diag_main & graph.diag_anti).any():
+    if np.logical_or.reduce(graph.diag_main & graph.diag_anti, axis=None):
         raise ValueError("similarity graph still has crossing diagonals; resolve them first")
     h, w = graph.shape
     split_main = np.zeros((h + 1, w + 1), dtype=bool)

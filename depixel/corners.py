@@ -115,8 +115,8 @@ def detect_square_corners(splines: SplineSet) -> np.ndarray:
     c_o = lattice[:, 0] // 4 - (sx > 0)
     valid = match & (r_k >= 0) & (r_k < h) & (c_k >= 0) & (c_k < w) & (r_o >= 0) & (r_o < h) & (c_o >= 0) & (c_o < w)
     rk, ck, ro, co = (np.where(valid, x, 0) for x in (r_k, c_k, r_o, c_o))
-    across = g.right[ro, np.minimum(co, ck).clip(0, max(w - 2, 0))] if w > 1 else np.zeros_like(valid)
-    along = g.down[np.minimum(ro, rk).clip(0, max(h - 2, 0)), co] if h > 1 else np.zeros_like(valid)
+    across = g.right[ro, np.minimum(np.minimum(co, ck), max(w - 2, 0))] if w > 1 else np.zeros_like(valid)
+    along = g.down[np.minimum(np.minimum(ro, rk), max(h - 2, 0)), co] if h > 1 else np.zeros_like(valid)
     match = valid & across & along
     corners = np.zeros(len(q), dtype=bool)
     corners[node[slot[match]]] = True
@@ -182,7 +182,7 @@ def detect_run_corners(splines: SplineSet, params: Params = Params()) -> np.ndar
                 length = np.sqrt(candidate_x * candidate_x + candidate_y * candidate_y)
                 # every node passed must stay near the new chord
                 cross = np.abs(candidate_x * geo[3:2 + 2 * i:2] - candidate_y * geo[2:2 + 2 * i:2])
-                ok = (cross <= tolerance * np.maximum(length, 1e-9)).all(axis=0)
+                ok = np.logical_and.reduce(cross <= tolerance * np.maximum(length, 1e-9), axis=0)
                 far_slot[rows.compress(ok)] = walk.compress(ok)  # the run reaches this far (so far)
                 ids[:, 1] = step.take(walk)  # the next step, if the run goes on
                 go = (ok & (length < params.run_reach) & (ids[:, 1] >= 0)).nonzero()[0]
@@ -201,7 +201,8 @@ def detect_run_corners(splines: SplineSet, params: Params = Params()) -> np.ndar
         """Angle between directions u and v (0 = straight on)."""
         norms = np.sqrt(ux * ux + uy * uy) * np.sqrt(vx * vx + vy * vy)
         cos = (ux * vx + uy * vy) / np.maximum(norms, 1e-12)
-        return np.arccos(cos.clip(-1.0, 1.0))
+        np.maximum(cos, -1.0, out=cos)  # clipped into [-1, 1] in place, the angle too (no fresh arrays)
+        return np.arccos(np.minimum(cos, 1.0, out=cos), out=cos)
 
     # both directions in one walk: index j + P is slot j walking ahead
     p = node.size

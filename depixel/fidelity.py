@@ -25,6 +25,13 @@ from .vector import VectorImage
 #: stands for "no protected point" (far from every curve)
 FAR = 1e6
 
+#: image pixels up to which the revert's first round measures the initial drawing at every
+#: pixel it checks in the same pass as the current drawing (:func:`_clearances`): one call's
+#: fixed cost (~0.3 ms, most of a sprite's) against the work on pixels whose initial
+#: clearance is never read (a frame's ~10^4: +15 % on its stage outside the relaxation) and
+#: the drawings' points and controls copied side by side (on a 512² image, +1 % peak memory)
+TOGETHER_PIXELS = 4096
+
 
 def protected_points(splines: SplineSet, slots: np.ndarray | slice = slice(None)) -> np.ndarray:
     """(..., 3, 2) the points the spans at each slot of ``slots`` (an index array of any
@@ -91,7 +98,16 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
                below: float = np.inf) -> np.ndarray:
     """:func:`centre_clearance` of a :class:`depixel.splines.Drawing` of ``cells``, exact
     where it is below ``below``; a centre inside its cell by at least ``below`` gets some
-    value ≥ ``below``.
+    value ≥ ``below`` (:func:`_clearances` of the one drawing)."""
+    return _clearances(cells, (drawing,), pixels, samples, below)[0]
+
+
+def _clearances(cells: CellGraph, drawings: tuple[Drawing, ...], pixels: np.ndarray | None, samples: int = 3,
+                below: float = np.inf) -> np.ndarray:
+    """(K, H*W) :func:`_clearance` of each of K drawings of the same curves (the same
+    curved edges, as every drawing of one SplineSet has), measured together: the pairs of
+    wanted pixels and edges are read once, and each step below is one call over the pairs
+    of all drawings (a drawing's pixels are numbered after the ones before).
 
     Each edge is paired with the wanted pixels on its two sides. An edge whose bounding box
     (its end points and Bézier controls) lies more than ``below`` from the centre is not
@@ -101,11 +117,13 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
     per-pixel minimum of the squared distances, then one square root: the same numbers as a
     minimum of square roots). The far edges of the centres found outside are measured
     after all."""
+    k = len(drawings)
+    first_drawing = drawings[0]
     n_edges = len(cells.edges)
     curved_edge = np.zeros(n_edges, bool)
-    curved_edge[drawing.edges] = True
+    curved_edge[first_drawing.edges] = True
     control_row = np.zeros(n_edges, np.int64)  # where each curved edge's controls are
-    control_row[drawing.edges] = np.arange(drawing.edges.size)
+    control_row[first_drawing.edges] = np.arange(first_drawing.edges.size)
     h, w = cells.shape
     n_px = h * w
     wanted = np.ones(n_px, bool) if pixels is None else pixels
@@ -122,20 +140,41 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
     # everything below as x and y columns, a pair at a time: numpy runs the rows of an
     # (N, 2) array two elements at a time
     start, stop = cells.edges.take(edge, axis=0).T.copy()
-    ax, ay = drawing.points.take(start, axis=0).T.copy()
-    bx, by = drawing.points.take(stop, axis=0).T.copy()
     bent = curved_edge.take(edge)
+    if k == 1:
+        points, controls = first_drawing.points, first_drawing.controls
+
+        def control(pairs: np.ndarray) -> np.ndarray:
+            """The rows of ``controls`` of the curved pairs ``pairs`` (no pair table: a frame's peak)."""
+            return control_row.take(edge.take(pairs))
+    else:  # the drawings' points and controls one after another, the pairs repeated for each
+        n_nodes, n_curved = len(first_drawing.points), first_drawing.edges.size
+        points = np.concatenate([d.points for d in drawings])
+        controls = np.concatenate([d.controls for d in drawings])
+        pix = np.concatenate([pix + i * n_px for i in range(k)])
+        start = np.concatenate([start + i * n_nodes for i in range(k)])
+        stop = np.concatenate([stop + i * n_nodes for i in range(k)])
+        cx, cy, bent = np.concatenate([cx] * k), np.concatenate([cy] * k), np.concatenate([bent] * k)
+        rows = control_row.take(edge)  # (meaningful where bent)
+        control_rows = np.concatenate([rows + i * n_curved for i in range(k)])
+
+        def control(pairs: np.ndarray) -> np.ndarray:
+            """The rows of ``controls`` of the curved pairs ``pairs``."""
+            return control_rows.take(pairs)
+    ax, ay = points.take(start, axis=0).T.copy()
+    bx, by = points.take(stop, axis=0).T.copy()
+    n_all = k * n_px
 
     def measure(pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Ray crossings and squared nearest distance (H*W,) of the pairs ``pairs``,
+        """Ray crossings and squared nearest distance (K*H*W,) of the pairs ``pairs``,
         segment by segment: a straight edge is one, a curve 2 * samples (the order of the
         segments does not matter: a count and a minimum per pixel). A curved edge beside
         two wanted pixels is flattened for each: the same numbers twice."""
         is_bent = bent.take(pairs)
         curved, straight = pairs.compress(is_bent), pairs.compress(~is_bent)
-        poly_x, poly_y = flatten_edges_planes(drawing.points.take(start.take(curved), axis=0),  # (2 * samples + 1, C)
-                                              drawing.controls.take(control_row.take(edge.take(curved)), axis=0),
-                                              drawing.points.take(stop.take(curved), axis=0), samples)
+        poly_x, poly_y = flatten_edges_planes(points.take(start.take(curved), axis=0),  # (2 * samples + 1, C)
+                                              controls.take(control(curved), axis=0),
+                                              points.take(stop.take(curved), axis=0), samples)
         q0_x = np.concatenate([ax.take(straight), poly_x[:-1].ravel()])
         q0_y = np.concatenate([ay.take(straight), poly_y[:-1].ravel()])
         q1_x = np.concatenate([bx.take(straight), poly_x[1:].ravel()])
@@ -147,11 +186,12 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
         straddle = (q0_y > y) != (q1_y > y)
         with np.errstate(divide="ignore", invalid="ignore"):
             x_at = q0_x + rel_y * seg_x / seg_y
-        crossings = np.bincount(p.compress(straddle & (x_at > x)), minlength=n_px)
+        crossings = np.bincount(p.compress(straddle & (x_at > x)), minlength=n_all)
         length2 = np.maximum(seg_x**2 + seg_y**2, 1e-12)
-        along = ((rel_x * seg_x + rel_y * seg_y) / length2).clip(0.0, 1.0)
+        along = np.divide(rel_x * seg_x + rel_y * seg_y, length2, out=length2)  # then clipped into [0, 1]
+        np.minimum(np.maximum(along, 0.0, out=along), 1.0, out=along)
         dx, dy = rel_x - along * seg_x, rel_y - along * seg_y
-        nearest2 = np.full(n_px, np.inf)
+        nearest2 = np.full(n_all, np.inf)
         np.minimum.at(nearest2, p, dx * dx + dy * dy)
         return crossings, nearest2
 
@@ -160,12 +200,12 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
         # against it; the boxes are dropped before the near pairs are measured
         curved = bent.nonzero()[0]
         if curved.size:  # x and y of c0, of c1, of c2
-            c = drawing.controls.take(control_row.take(edge.take(curved)), axis=0).reshape(-1, 6).T
+            c = controls.take(control(curved), axis=0).reshape(-1, 6).T
         # one side of the boxes at a time in one buffer (the side, then its distance beyond
         # the centre): a pair table a frame's size costs more in fresh pages than in arithmetic
-        side = np.empty(edge.size)
-        beyond = np.empty(edge.size, bool)
-        far = np.zeros(edge.size, bool)
+        side = np.empty(ax.size)
+        beyond = np.empty(ax.size, bool)
+        far = np.zeros(ax.size, bool)
         for axis, (a, b, centre) in enumerate(((ax, bx, cx), (ay, by, cy))):
             for extreme in (np.minimum, np.maximum):
                 extreme(a, b, out=side)
@@ -180,7 +220,7 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
                 if axis == 0 and extreme is np.minimum:
                     right = beyond.copy()  # the box lies right of the centre
         del side, beyond, curved
-        count = np.bincount(pix.compress(right & ((ay > cy) != (by > cy))), minlength=n_px)
+        count = np.bincount(pix.compress(right & ((ay > cy) != (by > cy))), minlength=n_all)
         del right
         near_count, nearest2 = measure((~far).nonzero()[0])
         count += near_count
@@ -189,25 +229,27 @@ def _clearance(cells: CellGraph, drawing: Drawing, pixels: np.ndarray | None, sa
         if again.size:
             nearest2 = np.minimum(nearest2, measure(again)[1])
     else:
-        count, nearest2 = measure(np.arange(edge.size))
-    nearest = np.sqrt(nearest2, out=nearest2)  # in place: nearest2 is this call's own
-    np.negative(nearest, out=nearest, where=count % 2 == 0)  # outside
+        count, nearest2 = measure(np.arange(ax.size))
+    nearest = np.sqrt(nearest2, out=nearest2).reshape(k, n_px)  # in place: nearest2 is this call's own
+    np.negative(nearest, out=nearest, where=(count % 2 == 0).reshape(k, n_px))  # outside
     np.copyto(nearest, np.inf, where=~wanted)
     return nearest
 
 
 def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.ndarray, margin: float,
-                        rounds: int = 8, drawing: Drawing | None = None) -> tuple[np.ndarray, Drawing]:
+                        rounds: int = 8, drawing: Drawing | None = None,
+                        initial: Drawing | None = None) -> tuple[np.ndarray, Drawing]:
     """Undo moves around any cell whose pixel centre came closer than ``margin`` to its
     boundary (or left it), until none does. Moves made elsewhere on a curve (a T-junction
     end follows the curve it ends on) can reach a cell the relaxation did not check.
     Only cells next to an edge whose geometry changed are measured.
 
     Returns the positions and their drawing (the last one measured, or a new one when
-    the rounds ran out); ``drawing``: that of ``positions``, when the caller has it."""
+    the rounds ran out); ``drawing``: that of ``positions``, ``initial`` that of ``start``,
+    when the caller has them."""
     cells = splines.cells
     positions = positions.copy()
-    initial = splines.drawing(start)
+    initial = splines.drawing(start) if initial is None else initial
     prev, nxt = splines.neighbours()
     n_px = cells.shape[0] * cells.shape[1]
     floor = np.full(n_px, np.nan)  # min(margin, initial clearance), filled in where needed
@@ -222,18 +264,27 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
         beside = np.zeros(n_px + 1, bool)
         beside[cells.edge_pixels.compress(changed, axis=0).ravel()] = True
         pixels = beside[:-1]
-        if not pixels.any():
+        if not np.logical_or.reduce(pixels):
             return positions, current
-        clearance = _clearance(cells, current, pixels, below=margin)
+        if round_ == 0 and n_px <= TOGETHER_PIXELS:
+            # the initial drawing is measured with the first at the same pixels (one pass
+            # over their pairs: most sprites have a centre below the margin, whose initial
+            # clearance is then needed; a pixel's clearance does not depend on the others')
+            clearance, before = _clearances(cells, (current, initial), pixels, below=margin)
+            floor = np.where(pixels, np.minimum(before, margin), np.nan)
+            del before
+        else:
+            clearance = _clearance(cells, current, pixels, below=margin)
         # a clearance of at least the margin passes whatever the initial clearance: only
-        # the centres below it are measured in the initial drawing
+        # the centres below it are compared with their initial clearance, measured in a
+        # later round if the first did not
         low = pixels & (clearance < margin - 1e-9)
         missing = low & np.isnan(floor)
-        if missing.any():
+        if np.logical_or.reduce(missing):
             floor[missing] = np.minimum(_clearance(cells, initial, missing, below=margin)[missing], margin)
         ok = ~low | (clearance >= floor - 1e-9)
         reference = current
-        if ok.all():
+        if np.logical_and.reduce(ok):
             return positions, current
         bad = either(np.append(~ok, False).take(cells.edge_pixels))  # a bad cell on either side
         revert = np.zeros(len(positions), bool)  # the nodes of the edges around a bad cell

@@ -62,7 +62,7 @@ def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
         rest = ~(near_u | near_v)
         open_u, open_v = open_u.compress(rest), open_v.compress(rest)
     free = ~(on_curve | border | corners) & near
-    if not free.any():
+    if not np.logical_or.reduce(free):
         return positions
     degree = np.bincount(u, minlength=n) + np.bincount(v, minlength=n)
     # the system on the free nodes only: compact indices, free–free edges for the operator,
@@ -79,7 +79,8 @@ def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
         at, fixed = index.take(a.compress(edge)), b.compress(edge)
         for i, moved in enumerate((moved_x, moved_y)):
             rhs[i] += np.bincount(at, moved.take(fixed), minlength=m)
-    diagonal = np.tile(degree[free].astype(np.float64), 2)
+    diagonal = degree.compress(free).astype(np.float64)
+    diagonal = np.concatenate([diagonal, diagonal])  # both rows (np.tile is a Python function)
     if m >= TABLE_UNKNOWNS:
         table = _NeighbourSums(fu, fv, m)
 

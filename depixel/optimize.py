@@ -68,10 +68,11 @@ def optimize_splines(splines: SplineSet, corners: Corners, params: Params = Para
     energy_before, energy_after = relaxed.energy_before, relaxed.energy_after
     del relaxed  # the control points live on in the positions; free them for the steps below
     # the relaxed curves are drawn once: the harmonic map needs their display points, the
-    # revert's first round the whole drawing (the harmonic map moves no curve node)
-    drawing = splines.drawing(positions)
+    # revert's first round the whole drawing (the harmonic map moves no curve node); the
+    # revert's initial drawing is drawn with them (one pass for both on a sprite)
+    drawing, initial = splines.drawings(positions, start)
     mapped = harmonic_map(splines, start, positions, corners.nodes, params.harmonic_reach, drawing.points)
     drawing = drawing._replace(points=follow(drawing.points, positions, mapped))
     positions, drawing = keep_centres_inside(splines, start, mapped, params.centre_clearance / 2,
-                                             params.revert_rounds, drawing)
+                                             params.revert_rounds, drawing, initial)
     return OptimizedSplines(splines, corners, start, positions, energy_before, energy_after, drawing)

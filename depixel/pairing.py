@@ -15,7 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .arrays import both
+from .arrays import both, ranges
 from .cells import INDEX, CellGraph
 from .graph import cycle_leaders
 from .params import Params
@@ -114,32 +114,46 @@ def pair_ends(cells: CellGraph, edges: np.ndarray, shading: np.ndarray) -> HalfE
 
     three = starts[counts == 3]
     if three.size:
-        h = np.stack([order[three], order[three + 1], order[three + 2]], axis=1)  # (T, 3)
+        h = order.take(three[:, None] + np.arange(3))  # (T, 3)
         a, b = _t_junction_pairs(cells, node, h, shading[edges[h >> 1]])
         partner[a] = b
         partner[b] = a
     return HalfEnds(edges.astype(INDEX), node, partner)
 
 
+#: the three pairs of a T-junction's ends: first and second members
+_PAIRS = np.array([(0, 0, 1), (1, 2, 2)])
+
+
 def _t_junction_pairs(cells: CellGraph, node: np.ndarray, h: np.ndarray,
                       is_shading: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The two half-ends of each T-junction ``h`` (T, 3) that continue each other: the
     contour edges when exactly one of the three is a shading edge (``is_shading`` (T, 3)),
-    else the pair closest to a straight line (the first such pair on a tie)."""
-    here = node[h[:, 0]]
-    other = node.take(h ^ 1)  # the far node of each edge
-    direction = cells.nodes.take(other, axis=0).astype(np.float64) - cells.nodes.take(here, axis=0)[:, None, :]
-    direction /= np.linalg.norm(direction, axis=2, keepdims=True)
-    pairs = np.array([(0, 1), (0, 2), (1, 2)])
-    cosine = np.einsum("tpk,tpk->tp", direction[:, pairs[:, 0]], direction[:, pairs[:, 1]])
+    else the pair closest to a straight line (the first such pair on a tie).
+
+    The unit directions as x and y planes (T, 3): the same numbers as ``np.linalg.norm``
+    over an (T, 3, 2) array and the sums of ``np.einsum`` over its last axis (two products
+    added), without their Python wrappers and inner loops of two."""
+    t = h.shape[0]
+    here = cells.nodes.take(node.take(h[:, 0]), axis=0)  # rows gathered: a column's take copies it whole
+    other = cells.nodes.take(node.take(h ^ 1).reshape(-1), axis=0)  # the far node of each edge
+    dx = other[:, 0].reshape(t, 3) - here[:, :1].astype(np.float64)
+    dy = other[:, 1].reshape(t, 3) - here[:, 1:].astype(np.float64)
+    norm = np.sqrt(dx * dx + dy * dy)
+    dx /= norm
+    dy /= norm
+    first, second = _PAIRS  # the pairs (0, 1), (0, 2), (1, 2)
+    cosine = dx.take(first, axis=1) * dx.take(second, axis=1)
+    cosine += dy.take(first, axis=1) * dy.take(second, axis=1)
     # contour-over-shading rule: exactly one shading edge → join the other two
-    one_shading = is_shading.sum(axis=1) == 1
+    one_shading = np.add.reduce(is_shading, axis=1) == 1
     lone = is_shading.argmax(axis=1)  # index of the shading edge
     by_rule = 2 - lone  # the pair not containing `lone`: (1,2)→idx 2, (0,2)→1, (0,1)→0
     straightest = cosine.argmin(axis=1)  # closest to 180° (first on ties)
     choice = np.where(one_shading, by_rule, straightest)
-    rows = np.arange(h.shape[0])
-    return h[rows, pairs[choice, 0]], h[rows, pairs[choice, 1]]
+    row = np.arange(0, 3 * t, 3)
+    flat = h.reshape(-1)
+    return flat.take(row + first.take(choice)), flat.take(row + second.take(choice))
 
 
 def chain_curves(half_ends: HalfEnds) -> Chains:
@@ -162,11 +176,19 @@ def chain_curves(half_ends: HalfEnds) -> Chains:
     leader, position = cycle_leaders(nxt)
     del nxt
     length = np.bincount(leader, minlength=n).astype(INDEX)  # of the cycle each state leads
-    free = (partner < 0).nonzero()[0]
-    open_lead, first = np.unique(leader.take(free), return_index=True)
-    open_start = free.take(first)  # each open curve's first free end (``free`` is ascending)
-    by_start = open_start.argsort()
-    open_lead, open_start = open_lead.take(by_start), open_start.take(by_start)
+    free = (partner < 0).nonzero()[0]  # ascending
+    # each open curve's first free end, in the order of those ends: the free ends whose
+    # leader no earlier free end has (a stable sort by leader; no np.unique, a Python
+    # function of ~10 calls, and no sort by start)
+    free_lead = leader.take(free)
+    by_lead = free_lead.argsort(kind="stable")
+    led = free_lead.take(by_lead)
+    run_start = np.empty(free.size, dtype=bool)
+    run_start[:1] = True
+    np.not_equal(led[1:], led[:-1], out=run_start[1:])
+    first = np.empty(free.size, dtype=bool)
+    first.put(by_lead, run_start)  # from the sorted order back to the order of the free ends
+    open_lead, open_start = free_lead.compress(first), free.compress(first)
     is_open = np.zeros(n, dtype=bool)
     is_open[open_lead] = True
     closed_lead = ((leader == state) & (state % 2 == 0) & ~is_open).nonzero()[0]
@@ -208,3 +230,88 @@ def chain_curves(half_ends: HalfEnds) -> Chains:
     closed = np.zeros(counts.size, dtype=bool)
     closed[n_open:] = True
     return Chains(ptr, nodes, closed, edges, forward)
+
+
+def cut_chains(chains: Chains, curve_edges: np.ndarray, n_edges: int, breaks: np.ndarray) -> Chains:
+    """:func:`chain_curves` of the same pairing with every pair at a node of ``breaks`` (N,)
+    bool undone, read off ``chains`` (the chains of the whole pairing, whose curve edges are
+    ``curve_edges``, the :class:`HalfEnds` ``edges``, of ``n_edges`` cell edges) instead of
+    walked again.
+
+    Every curve through a break is cut there into pieces: an open curve between its ends and
+    its slots at a break, a closed one between its slots at a break, around (one break: one
+    piece from that slot all the way round to it). A piece is an open curve; as
+    :func:`chain_curves` orders them, it runs from the lower of its two end half-ends (half-end
+    ``2k`` is the ``u`` end of ``curve_edges[k]``, ``2k + 1`` its ``v`` end: reversed where the
+    far end's is the lower) and the pieces, the open curves no break touches among them, come
+    in the order of those half-ends; the closed curves no break touches follow, in their order.
+    """
+    ptr, nodes, closed, edges, forward = chains
+    n_curves = closed.size
+    size = ptr[1:] - ptr[:-1]
+    first_slot, last_slot = ptr[:-1], ptr[1:] - 1
+    curve = np.arange(n_curves, dtype=INDEX).repeat(size)  # of each slot
+    cut = breaks.take(nodes)
+    cut_closed = closed & (np.bincount(curve.compress(cut), minlength=n_curves) > 0)
+    # the slots that bound the pieces: a break, and an open curve's two ends
+    is_open = ~closed
+    bound = cut.copy()
+    bound[first_slot.compress(is_open)] = True
+    bound[last_slot.compress(is_open)] = True
+    at = bound.nonzero()[0]  # by curve, then along it
+    owner = curve.take(at)
+    curve_last = np.empty(at.size, dtype=bool)  # the last bound of its curve
+    curve_last[-1:] = True
+    np.not_equal(owner[1:], owner[:-1], out=curve_last[:-1])
+    # each bound starts a piece reaching the next bound of its curve, except an open curve's
+    # far end; the last bound of a closed curve reaches round to its first (its place + size)
+    curve_first = np.empty(at.size, dtype=bool)
+    curve_first[:1] = True
+    curve_first[1:] = curve_last[:-1]
+    first_bound = at.take(np.maximum.accumulate(np.where(curve_first, np.arange(at.size), 0)))
+    end = np.empty(at.size, dtype=np.int64)
+    end[:-1] = at[1:]
+    end = np.where(curve_last, first_bound + size.take(owner), end)  # only closed curves' are used
+    starts = ~(curve_last & is_open.take(owner))
+    start, end, owner = at.compress(starts), end.compress(starts), owner.compress(starts)
+    # the half-end leaving each slot along its edge; a piece's far end is the other end of
+    # the edge arriving there (a place past its curve's last slot is a closed curve's, round)
+    half = np.zeros(n_edges, dtype=np.int64)
+    half[curve_edges] = np.arange(0, 2 * curve_edges.size, 2)
+
+    def round_(place: np.ndarray, of: np.ndarray) -> np.ndarray:
+        return place - size.take(of) * (place > last_slot.take(of))
+
+    def leaving(slot: np.ndarray) -> np.ndarray:
+        return half.take(edges.take(slot)) + ~forward.take(slot)
+
+    near, far = leaving(start), leaving(round_(end - 1, owner)) ^ 1
+    reverse = far < near
+    order = np.minimum(near, far).argsort()
+    start, end, owner, reverse = start.take(order), end.take(order), owner.take(order), reverse.take(order)
+    kept = (closed & ~cut_closed).nonzero()[0]  # the closed curves no break touches
+    counts = np.concatenate([end - start + 1, size.take(kept)])
+    new_ptr = np.zeros(counts.size + 1, dtype=INDEX)
+    counts.cumsum(out=new_ptr[1:])
+    # the pieces' slots: from their start forwards, or from their end backwards, where an
+    # edge leaving a slot backwards is the one arriving there, the other way round
+    n_pieces = start.size
+    step = ranges(0, counts[:n_pieces])
+    piece = np.arange(n_pieces).repeat(counts[:n_pieces])
+    backwards = reverse.take(piece)
+    place = np.where(backwards, end.take(piece) - step, start.take(piece) + step)
+    of = owner.take(piece)
+    slot = round_(place, of)
+    edge_slot = round_(place - backwards, of)  # the last slot's is overwritten below
+    whole = ranges(first_slot.take(kept), size.take(kept))
+    slot = np.concatenate([slot, whole])
+    edge_slot = np.concatenate([edge_slot, whole])
+    new_edges = edges.take(edge_slot)
+    new_forward = forward.take(edge_slot)
+    new_forward[:backwards.size] ^= backwards
+    last = new_ptr[1:n_pieces + 1] - 1  # a piece's far end: no edge leaves it
+    new_edges[last] = -1
+    new_forward[last] = True
+    new_closed = np.zeros(counts.size, dtype=bool)
+    new_closed[n_pieces:] = True
+    return Chains(new_ptr, nodes.take(slot), new_closed, new_edges.astype(INDEX, copy=False), new_forward)

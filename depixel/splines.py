@@ -26,7 +26,7 @@ edges carry curves and of what kind; :func:`pair_ends` applies the rules above a
 :func:`chain_curves` walks the pairs into curves. This module holds the product,
 :class:`SplineSet` (the curves, their control points and their drawing), and
 :func:`extract_splines`, which runs those steps. The optimizer cuts curves at corners with
-:meth:`SplineSet.split_at`, which re-chains the same pairing (nothing is extracted twice).
+:func:`split_at`, which cuts the chains themselves (nothing is extracted or walked twice).
 The curve maths is in :mod:`depixel.bspline`.
 """
 from __future__ import annotations
@@ -41,13 +41,17 @@ from .arrays import batch_slices, flat_rows
 from .bspline import Bezier, between_curve_points, joint, midpoint, slot_spans
 from .cells import INDEX, CellGraph
 from .frozen import freeze
-from .pairing import HalfEnds, band_edges, chain_curves, pair_ends, shading_edges, visible_edges
+from .pairing import Chains, HalfEnds, band_edges, chain_curves, cut_chains, pair_ends, shading_edges, visible_edges
 from .params import Params
 from .vector import CurveTable, VectorImage, linked_edges
 
 #: slots whose curve geometry is computed together: bounds the temporaries of the spans and
 #: Béziers (a few hundred bytes a slot) whatever the number of slots
 GEOMETRY_BATCH = 1 << 15
+
+#: slots up to which :meth:`SplineSet.drawings` draws several position sets in one pass (a
+#: sprite's few thousand); above, one at a time, which keeps a frame's temporaries as they were
+TOGETHER_SLOTS = 8192
 
 
 class Geometry(NamedTuple):
@@ -121,8 +125,11 @@ class _SnapPlan(NamedTuple):
         np.copyto(start, before, where=self.before_is_end)
         np.copyto(stop, after, where=self.after_is_end)
         snapped = midpoint(start, through, stop)
-        moved = check and not (snapped == rows[3 * t:]).all()
-        ctrl.put(self.flat, snapped)
+        moved = check and not np.logical_and.reduce(snapped == rows[3 * t:], axis=None)
+        if ctrl.shape[1] == 2:
+            ctrl.put(self.flat, snapped)
+        else:  # several position sets side by side (SplineSet.drawings)
+            ctrl[self.ends] = snapped
         return moved
 
     def chained(self, n_slots: int) -> _SnapPlan:
@@ -183,12 +190,12 @@ class SplineSet:
 
     @cached_property
     def _links(self) -> tuple[np.ndarray, np.ndarray]:
-        p = np.arange(self.curve_nodes.size, dtype=INDEX)
-        curve = self.slot_curve()
-        first, last = self.curve_ptr[:-1][curve], self.curve_ptr[1:][curve] - 1
-        closed = self.curve_closed[curve]
-        prev = np.where(p == first, np.where(closed, last, -1), p - 1)
-        nxt = np.where(p == last, np.where(closed, first, -1), p + 1)
+        p = self.curve_nodes.size
+        prev, nxt = np.arange(-1, p - 1, dtype=INDEX), np.arange(1, p + 1, dtype=INDEX)
+        # then each curve's first and last slot (per curve, not per slot)
+        first, last = self.curve_ptr[:-1], self.curve_ptr[1:] - 1
+        prev[first] = np.where(self.curve_closed, last, -1)
+        nxt[last] = np.where(self.curve_closed, first, -1)
         prev.setflags(write=False)
         nxt.setflags(write=False)
         return prev, nxt
@@ -264,7 +271,7 @@ class SplineSet:
         :data:`GEOMETRY_BATCH` slots at a time (the spans' ends are twice the result)."""
         plan = self._draw_plan
         p = ctrl.shape[0]
-        table = np.empty((3 * p, 2))
+        table = np.empty((3 * p, ctrl.shape[1]))  # (two columns a position set)
         c, s, j = table[:p], table[p:2 * p], table[2 * p:]
         c[...] = ctrl
         parts = batch_slices(p, GEOMETRY_BATCH)
@@ -289,8 +296,9 @@ class SplineSet:
         end = self.is_end()
         p = end.size
         before, after = np.maximum(prev, 0), np.maximum(nxt, 0)
-        ends = np.stack([np.where(end.take(before), before, 2 * p + before),
-                         np.where(end.take(after), after, 2 * p + np.arange(p))]).astype(INDEX)
+        ends = np.empty((2, p), INDEX)  # rows written in place (np.stack is a Python function)
+        ends[0] = np.where(end.take(before), before, 2 * p + before)
+        ends[1] = np.where(end.take(after), after, 2 * p + np.arange(p))
         inner = (~end).nonzero()[0]
         a = (nxt >= 0).nonzero()[0]
         a = a.compress(~(end.take(a) & end.take(nxt.take(a))))  # an edge between two end points is straight
@@ -298,8 +306,12 @@ class SplineSet:
         a_end, b_end = end.take(a), end.take(b)
         near_a, near_b = np.where(b_end, p + a, a), np.where(a_end, p + b, b)  # C, or S where the other is the end
         forward = self.slot_forward.take(a)
-        operands = np.stack([2 * p + a, np.where(forward, near_a, near_b), np.where(forward, near_b, near_a),
-                             np.where(a_end, a, p + a), np.where(b_end, b, p + b)]).astype(INDEX)
+        operands = np.empty((5, a.size), INDEX)
+        operands[0] = 2 * p + a
+        operands[1] = np.where(forward, near_a, near_b)
+        operands[2] = np.where(forward, near_b, near_a)
+        operands[3] = np.where(a_end, a, p + a)
+        operands[4] = np.where(b_end, b, p + b)
         # int32 indices: the plan lives as long as the SplineSet (a frame's peak memory)
         return _DrawPlan(after, ends, end[:, None], inner.astype(INDEX),
                          flat_rows(self.curve_nodes.take(inner), 2).astype(INDEX), operands,
@@ -324,6 +336,28 @@ class SplineSet:
     def drawing(self, positions: np.ndarray) -> Drawing:
         """:meth:`geometry` with the controls of the curved edges alone."""
         return self._drawing(self.controls_for(positions), positions)
+
+    def drawings(self, *positions: np.ndarray) -> list[Drawing]:
+        """:meth:`drawing` of each of several node positions (N, 2), the sets side by side as
+        the columns of one (N, 2K) array while there are at most :data:`TOGETHER_SLOTS` slots:
+        every operation of a drawing runs once for all of them (a sprite's drawing is its
+        ~40 numpy calls' fixed cost), on the same numbers in the same order."""
+        if len(positions) == 1 or self.n_slots > TOGETHER_SLOTS:
+            return [self.drawing(one) for one in positions]
+        wide = np.concatenate(positions, axis=1)
+        ctrl = self._snap_in_place(wide.take(self.curve_nodes, axis=0))
+        plan = self._draw_plan
+        p = ctrl.shape[0]
+        table = self._table(ctrl)  # [C; S; J]
+        controls = np.empty((plan.edges.size, 3, wide.shape[1]), dtype=np.float64)
+        mid, near_a, near_b, start, stop = table.take(plan.operands, axis=0)
+        between_curve_points(mid, near_a, near_b, start, stop, plan.split, controls)
+        out = []
+        for i, one in enumerate(positions):
+            columns = slice(2 * i, 2 * i + 2)
+            out.append(Drawing(self._display(table[p:2 * p, columns], one), plan.edges,
+                               np.ascontiguousarray(controls[:, :, columns]), ctrl[:, columns].copy()))
+        return out
 
     def _geometry(self, ctrl: np.ndarray, positions: np.ndarray) -> Geometry:
         points, edge, trio, _ = self._drawing(ctrl, positions)
@@ -392,14 +426,17 @@ def extract_splines(cells: CellGraph, params: Params = Params()) -> SplineSet:
 def split_at(splines: SplineSet, breaks: np.ndarray) -> SplineSet:
     """The same curves cut at the nodes ``breaks`` (N,) bool: every curve through such a
     node ends there (both pieces are clamped, so the outline keeps a true kink). The
-    pairing is reused and only re-chained; without a break the SplineSet itself."""
+    curves are cut as they are (:func:`depixel.pairing.cut_chains`: the chains
+    :func:`depixel.pairing.chain_curves` gives the pairing with the pairs at the breaks
+    undone, which ``half_ends`` records); without a break the SplineSet itself."""
     half_ends = splines.half_ends
     cut = breaks[half_ends.node]
-    if not cut.any():
+    if not np.logical_or.reduce(cut):
         return splines
     partner = half_ends.partner.copy()
     partner[cut] = -1
-    half_ends = half_ends._replace(partner=partner)
-    return replace(splines, **chain_curves(half_ends)._asdict(), half_ends=half_ends)
+    chains = cut_chains(Chains(splines.curve_ptr, splines.curve_nodes, splines.curve_closed, splines.slot_edges,
+                               splines.slot_forward), half_ends.edges, len(splines.cells.edges), breaks)
+    return replace(splines, **chains._asdict(), half_ends=half_ends._replace(partner=partner))
 
 

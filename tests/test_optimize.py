@@ -12,7 +12,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 from hypothesis.extra.numpy import arrays
 
 from depixel.image import load_image
-from depixel.fidelity import _clearance, centre_clearance
+from depixel.fidelity import _clearance, _clearances, centre_clearance
 from depixel.params import Params
 from depixel.pipeline import depixelize
 from depixel.raster import render_rgba
@@ -194,6 +194,23 @@ def test_the_clearance_bounded_below_is_exact_under_the_bound(rgba, seed):
         low = exact < below
         assert np.array_equal(bounded[low], exact[low])
         assert (bounded[~low] >= below).all()
+
+
+@settings(max_examples=12, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@given(images(), st.integers(0, 2**32 - 1))
+def test_clearances_of_several_drawings_are_each_drawings_own(rgba, seed):
+    """The revert's first round measures the current and the initial drawing in one pass
+    (``_clearances``): each row must be that drawing's own clearance to the bit, at the
+    same wanted pixels, bounded or not (centres pushed out of their cells included)."""
+    optimized = depixelize(rgba).optimized
+    splines, rng = optimized.splines, np.random.default_rng(seed)
+    drawings = tuple(splines.drawing(optimized.positions + rng.normal(0.0, scale, optimized.positions.shape))
+                     for scale in (0.0, 0.3))
+    wanted = rng.random(splines.cells.shape[0] * splines.cells.shape[1]) < 0.7
+    for below in (np.inf, 0.075):
+        together = _clearances(splines.cells, drawings, wanted, below=below)
+        for row, drawing in zip(together, drawings):
+            assert np.array_equal(row, _clearance(splines.cells, drawing, wanted, below=below))
 
 
 # --- switching it off ---------------------------------------------------------------------------

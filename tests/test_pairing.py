@@ -7,9 +7,10 @@ import numpy as np
 from depixel.cells import DIAGONAL, build_cell_graph
 from depixel.crossings import resolve_crossings
 from depixel.image import rgb_to_yuv
-from depixel.pairing import band_edges, shading_edges, visible_edges
+from depixel.pairing import Chains, band_edges, chain_curves, cut_chains, shading_edges, visible_edges
 from depixel.params import Params
 from depixel.similarity import build_similarity_graph
+from depixel.splines import extract_splines
 from depixel.vector import linked_edges
 
 
@@ -61,3 +62,27 @@ def test_curve_edges_match_a_per_edge_reading():
         near = np.linalg.norm(yuv[np.maximum(left, 0)] - yuv[np.maximum(right, 0)], axis=1) <= params.shading_distance
         same_clarity = (a[:, 3] == 0) == (b[:, 3] == 0)
         assert np.array_equal(shading_edges(cells, visible, params), visible & near & same_clarity)
+
+
+def test_cut_chains_are_the_walk_of_the_cut_pairing():
+    """Cutting the chains at break nodes gives exactly the chains walked from the pairing
+    with the pairs at those nodes undone: the same curves, slots, order, directions and
+    dtypes (open pieces of open and closed curves, a closed curve cut once, none cut, all)."""
+    rng = np.random.default_rng(12)
+    params = Params()
+    cut_closed = 0
+    for _ in range(300):
+        splines = extract_splines(_random_cells(rng, params), params)
+        half_ends = splines.half_ends
+        chains = Chains(splines.curve_ptr, splines.curve_nodes, splines.curve_closed, splines.slot_edges,
+                        splines.slot_forward)
+        n = len(splines.positions)
+        for breaks in (rng.random(n) < 0.15, rng.random(n) < 0.6, np.zeros(n, bool), np.ones(n, bool)):
+            partner = half_ends.partner.copy()
+            partner[breaks[half_ends.node]] = -1
+            want = chain_curves(half_ends._replace(partner=partner))
+            got = cut_chains(chains, half_ends.edges, len(splines.cells.edges), breaks)
+            for name, a, b in zip(Chains._fields, want, got):
+                assert a.dtype == b.dtype and np.array_equal(a, b), name
+            cut_closed += int(splines.curve_closed.sum() - want.curve_closed.sum())
+    assert cut_closed > 50  # closed curves were cut, not only open ones

@@ -427,3 +427,20 @@ def test_drawing_is_the_spans_of_the_control_points_to_the_bit(case):
                     split_half(*(part[j] for part in spans))[0].p1]
         trio = np.array(trio) if splines.slot_forward[i] else np.array(trio)[::-1]
         assert np.array_equal(controls[k], trio), f"edge {splines.slot_edges[i]}"
+
+
+@pytest.mark.parametrize("case", ["heart.png", "mushroom.png", "chip.png"])
+def test_drawings_side_by_side_are_each_drawing_to_the_bit(case):
+    """Several position sets drawn in one pass (``SplineSet.drawings``) give each set's own
+    drawing exactly: display points, edges, controls and the snapped control points (the
+    T-junction ends snapped until every set stops moving)."""
+    splines = fixture_result(case, "optimized").optimized.splines
+    rng = np.random.default_rng(5)
+    sets = [splines.positions + rng.normal(0, scale, splines.positions.shape) for scale in (0.0, 0.05, 0.3)]
+    assert splines.snap_pairs()[0].size  # T-junction ends to snap
+    together = splines.drawings(*sets)
+    for one, drawn in zip(sets, together):
+        alone = splines.drawing(one)
+        for name, a, b in zip(alone._fields, alone, drawn):
+            assert a.shape == b.shape and np.array_equal(a, b), name
+            assert b.flags.c_contiguous, name
