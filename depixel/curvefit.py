@@ -296,18 +296,21 @@ class _Samples:
     Points are ``(2, S)`` x and y planes, the ranges' end points ``(2, R)`` too (:func:`_planes`)."""
 
     def __init__(self, exact: Exact, lo: np.ndarray, hi: np.ndarray) -> None:
-        count = hi - lo
-        seg = ranges(lo, count)
-        self.count = count * _T_ORIG.size  # samples of each range, which start at first
+        # every sample of a range but its first, the range's start point (parameter 0): a
+        # candidate starts there, so that sample's distance to it is 0 (its Newton steps stay
+        # at 0) and its least-squares terms are 0, whatever the candidate; without it the
+        # verdicts and the cubics are the same, with a sample fewer a range to compute
+        self.count = (hi - lo) * _T_ORIG.size - 1  # samples of each range, which start at first
         self.first = self.count.cumsum() - self.count
+        sample = ranges(lo * _T_ORIG.size + 1, self.count)  # flat (segment, sample) of Exact's
         before = exact.arc_before.take(lo)
-        arc = (exact.arc_before.take(seg)[:, None] + exact.arc.take(seg, axis=0)).ravel() \
+        arc = exact.arc_before.take(sample // _T_ORIG.size) + exact.arc.ravel().take(sample) \
             - before.repeat(self.count)
         self.total = exact.arc_before[hi - 1] + exact.length[hi - 1] - before
         #: (5, S) every range's samples: x, y, their parameters u, (1 - u)³ and u³ (every
         #: candidate's first Newton step uses the cubes); one table, so one gather picks them
-        self.table = np.empty((5, arc.size))
-        exact.part_start.take(seg, axis=1, out=self.table[:2].reshape(2, seg.size, _T_ORIG.size))
+        self.table = np.empty((5, sample.size))
+        exact.part_start.reshape(2, -1).take(sample, axis=1, out=self.table[:2])
         u = np.divide(arc, np.maximum(self.total, 1e-300).repeat(self.count), out=self.table[2])
         self.table[3], self.table[4] = _cube(1 - u), _cube(u)
         self.p0, self.p3 = _planes(exact.start.take(lo, axis=0)), _planes(exact.end.take(hi - 1, axis=0))
@@ -363,7 +366,7 @@ class _Samples:
         off = _cube(s) * q0 + 3 * u * s**2 * q1 + 3 * u**2 * s * q2 + _cube(u) * q3 - points  # evaluate_cubic
         d = np.sqrt(off[0] ** 2 + off[1] ** 2)
         worst = np.zeros(rows.size)
-        if cand.size:  # at least 4 samples a candidate
+        if cand.size:  # at least 7 samples a candidate (2 segments and more, less the first)
             worst[cand] = np.maximum.reduceat(d, start)
         return ok & (worst <= tolerance), curve
 
@@ -447,17 +450,20 @@ def _keeps_sides(exact: Exact, prot: Protected, lo, hi, curves: np.ndarray, clea
     q = xy.repeat(ab.shape[2], axis=1).reshape(2, *ab.shape[1:])
     d_new = _segment_distance(q, ab[:2], ab[2:]).min(axis=1)
     too_near = d_new < np.minimum(np.abs(prot.dist[idx]), clearance) - 1e-9
-    crossed = _between(xy, owner, ab, lo, hi, exact)
+    crossed = _between(xy, q[1], owner, ab, lo, hi, exact)
     ok[owner[too_near | crossed]] = False
     return ok
 
 
-def _between(xy: np.ndarray, owner: np.ndarray, ab: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-             exact: Exact) -> np.ndarray:
+def _between(xy: np.ndarray, heights: np.ndarray, owner: np.ndarray, ab: np.ndarray, lo: np.ndarray,
+             hi: np.ndarray, exact: Exact) -> np.ndarray:
     """Whether each point (``xy``: (2, N) planes) lies between its candidate curve and the
     exact run it replaces (inside the closed polygon of the two, which share their end
     points): the curve has passed over the point, which changes side. ``ab``: (4, N, V) the
-    starts and the ends (x, y, x, y) of the V parts of each point's candidate's polyline.
+    starts and the ends (x, y, x, y) of the V parts of each point's candidate's polyline,
+    ``heights`` (N, V) each point's y beside them: the same shape, so no broadcast (numpy 2
+    runs an operation that broadcasts over a 2-d operand through its buffered iterator, which
+    copies the broadcast operand into buffers first: several times the cost on these pairs).
     Even-odd ray casting towards +x."""
     n_points, n_curve = xy.shape[1], ab.shape[2]
     qy = xy[1]
@@ -465,7 +471,7 @@ def _between(xy: np.ndarray, owner: np.ndarray, ab: np.ndarray, lo: np.ndarray, 
     # the exact run, consecutive in Exact's part table from the run's first one. Only the
     # pairs whose edge straddles the point's height can count: found on the heights alone,
     # the rest of the test runs on those
-    curve_pair = np.flatnonzero((ab[1] > qy[:, None]) != (ab[3] > qy[:, None]))  # flat (point, part)
+    curve_pair = np.flatnonzero((ab[1] > heights) != (ab[3] > heights))  # flat (point, part)
     n_exact = (hi - lo).take(owner) * _T_ORIG.size
     exact_part = ranges(lo.take(owner) * _T_ORIG.size, n_exact)
     table = exact.parts.reshape(4, -1)
@@ -499,7 +505,9 @@ def _segment_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray
     length2 += np.multiply(ab[1], ab[1], out=qa[1])
     t /= np.maximum(length2, 1e-300, out=length2)
     np.minimum(np.maximum(t, 0.0, out=t), 1.0, out=t)  # np.clip without its Python overhead
-    off = np.subtract(q, np.add(a, np.multiply(ab, t, out=ab), out=ab), out=ab)
+    for axis in range(2):  # a plane at a time: no broadcast of t over the two (see _between)
+        np.multiply(ab[axis], t, out=ab[axis])
+    off = np.subtract(q, np.add(a, ab, out=ab), out=ab)
     dist = np.multiply(off[0], off[0], out=t)
     dist += np.multiply(off[1], off[1], out=off[1])
     return np.sqrt(dist, out=dist)

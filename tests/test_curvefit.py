@@ -114,3 +114,72 @@ def test_piece_tolerance_is_the_tolerance_or_a_sixteenth_of_the_pieces_sample_bo
             expected += [min(tolerance, _RELATIVE_TOLERANCE * size)] * (b - a)
         np.testing.assert_allclose(exact.tolerance, expected, rtol=1e-15)
         assert (exact.tolerance < tolerance).any()  # the small pieces
+
+
+def _plain_worst_distances(exact, lo, hi, c1, c2):
+    """Each candidate cubic's largest distance to the samples of its range [lo, hi), every
+    sample (the range's start point too), by the distance test's formulas one candidate at
+    a time: the chord-length parameter, two Newton steps, the distance to the point there."""
+    worst = []
+    for a, b, k1, k2 in zip(lo.tolist(), hi.tolist(), c1, c2):
+        points = exact.part_start[:, a:b].reshape(2, -1)
+        before = exact.arc_before[a]
+        arc = (exact.arc_before[a:b, None] + exact.arc[a:b]).ravel() - before
+        u = arc / max(exact.arc_before[b - 1] + exact.length[b - 1] - before, 1e-300)
+        q0, q1, q2, q3 = exact.start[a][:, None], k1[:, None], k2[:, None], exact.end[b - 1][:, None]
+        d10, d21, d32, e1, e2 = q1 - q0, q2 - q1, q3 - q2, q2 - 2 * q1 + q0, q3 - 2 * q2 + q1
+        for _ in range(2):
+            s = 1 - u
+            s2, t2 = s**2, u**2
+            point = s2 * s * q0 + 3 * u * s2 * q1 + 3 * t2 * s * q2 + t2 * u * q3
+            d1 = 3 * (s2 * d10 + 2 * u * s * d21 + t2 * d32)
+            d2 = 6 * (s * e1 + u * e2)
+            off = point - points
+            num = off[0] * d1[0] + off[1] * d1[1]
+            den = (d1[0] * d1[0] + d1[1] * d1[1]) + (off[0] * d2[0] + off[1] * d2[1])
+            u = np.minimum(np.maximum(u - num / np.where(np.abs(den) > 1e-12, den, 1e-12), 0.0), 1.0)
+        s = 1 - u
+        off = s * s * s * q0 + 3 * u * s**2 * q1 + 3 * u**2 * s * q2 + u * u * u * q3 - points
+        d = np.sqrt(off[0] ** 2 + off[1] ** 2)
+        assert d[0] == 0.0  # the start point: what the distance test leaves out
+        worst.append(d.max())
+    return np.array(worst)
+
+
+def test_distance_test_is_every_samples_distance_within_the_tolerance_to_the_bit():
+    """The distance test of the fits (:meth:`_Samples.within`) leaves out each range's start
+    point and computes every candidate's samples at once: its verdicts are those of the plain
+    formulas over every sample of the range, at each candidate's worst distance exactly and
+    just below it."""
+    from conftest import FIXTURES
+
+    from depixel import depixelize, load_image
+    from depixel.bspline import elevate
+    from depixel.curvefit import Exact, _cubic_controls, _quadratic_control, _Samples
+    from depixel.outlines import OutlineShapes
+    from depixel.simplify import _chunks, _halves
+
+    vector = depixelize(load_image(FIXTURES / "mushroom.png")).vector
+    pieces = OutlineShapes(vector, "stacked", grid=0.01, simplify=0.0).pieces
+    exact = Exact(pieces, 0.25)
+    lo, hi = _chunks(pieces.ptr, 8)
+    half_lo, half_hi = _halves(lo, hi)
+    lo, hi = np.concatenate([lo, half_lo]), np.concatenate([hi, half_hi])
+    samples = _Samples(exact, lo, hi)
+    q, has_q = _quadratic_control(exact, samples.p0.T, samples.p3.T, lo, hi, None)
+    q1, q2 = elevate(samples.p0.T, q, samples.p3.T)
+    r1, r2 = _cubic_controls(exact, samples, None, lo, hi, None)
+    quads = has_q.nonzero()[0]
+    # the quadratics, the least-squares cubics and those cubics with their controls moved
+    # (their worst samples anywhere along the range)
+    rng = np.random.default_rng(11)
+    rows = np.concatenate([quads, np.arange(lo.size), np.arange(lo.size)])
+    c1 = np.concatenate([q1[quads], r1, r1 + rng.normal(0.0, 0.5, r1.shape)])
+    c2 = np.concatenate([q2[quads], r2, r2 + rng.normal(0.0, 0.5, r2.shape)])
+    worst = _plain_worst_distances(exact, lo[rows], hi[rows], c1, c2)
+    shape_ok, _ = samples.within(rows, c1, c2, np.full(rows.size, np.inf))
+    assert rows.size > 100 and 0 < shape_ok.sum() < rows.size
+    ok_at, _ = samples.within(rows, c1, c2, worst)
+    ok_below, _ = samples.within(rows, c1, c2, np.nextafter(worst, -1.0))
+    assert np.array_equal(ok_at, shape_ok)
+    assert not ok_below.any()
