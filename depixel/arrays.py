@@ -27,9 +27,8 @@ def sums_by_key(keys: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.n
     first = np.empty(ranked.size, bool)
     first[:1] = True
     np.not_equal(ranked[1:], ranked[:-1], out=first[1:])
-    group = first.cumsum()
-    group -= 1
-    return ranked.compress(first), np.bincount(group, weights=weights.take(order))
+    group = first.cumsum()  # (from 1: the sums are bincount's bins from 1, no subtraction)
+    return ranked.compress(first), np.bincount(group, weights=weights.take(order))[1:]
 
 
 def in_sorted(sorted_keys: np.ndarray, keys: np.ndarray) -> np.ndarray:

@@ -290,44 +290,49 @@ class FaceTopology:
         those of a round that added nothing to them."""
         n = self.n_faces
         nb_start, nb_count, h, w, perimeter, above = neighbours
-        # the keys so far as a dense (owner, face) table of the batch's owners where it is
-        # small (a sprite's), else a binary search of the sorted keys: a lookup instead
-        low = int(keys[0]) // n * n if keys.size else 0
-        size = (int(keys[-1]) // n + 1) * n - low if keys.size else 0
-        dense = 0 < size <= DENSE_ABSORB_BYTES
-        if dense:
-            known = np.zeros(size, bool)
-            known.put(keys - low, True)
+        # where the batch's owners span a small (owner, face) table (a sprite's): whether a
+        # face may join an owner's shape (opaque, drawn above the owner, not a member yet),
+        # one look-up a candidate instead of the two rank gathers and a test of the keys so
+        # far; the keys are then counted from the table's first (a multiple of n); else a
+        # binary search of the sorted keys
+        first_owner = int(keys[0]) // n if keys.size else 0
+        n_owners = int(keys[-1]) // n + 1 - first_owner if keys.size else 0
+        low = first_owner * n
+        allowed = None
+        if 0 < n_owners * n <= DENSE_ABSORB_BYTES:
+            allowed = np.less.outer(self.rank[first_owner : first_owner + n_owners], above).ravel()
+            keys = keys - low
+            allowed.put(keys, False)
         growing = keys  # the keys of the shapes that may grow
         while True:
             owner, member = np.divmod(growing, n)
             start, count = nb_start.take(member), nb_count.take(member)
             idx = ranges(start, count)
-            f = owner.repeat(count)
             cand = h.take(idx)
-            cand_key = f * n
-            cand_key += cand
-            ok = np.greater(above.take(cand), self.rank.take(f))
-            # fresh (one filter: fewer calls than filtering twice)
-            if dense:
-                cand_key -= low
-                ok &= ~known.take(cand_key, mode="clip")  # (every key is within the table: "clip" is not buffered)
-                cand_key += low
+            if allowed is not None:
+                cand_key = (growing - member).repeat(count)
+                cand_key += cand
+                ok = allowed.take(cand_key, mode="clip")  # (every key is within the table: "clip" is not buffered)
             else:
+                f = owner.repeat(count)
+                cand_key = f * n
+                cand_key += cand
+                ok = np.greater(above.take(cand), self.rank.take(f))
                 ok &= ~in_sorted(keys, cand_key)
             cand_key, weight = cand_key.compress(ok), w.take(idx.compress(ok))
             if cand_key.size == 0:
-                return keys
+                break
             uniq, shared = sums_by_key(cand_key, weight)
-            gain = 2 * shared - perimeter.take(uniq % n)
+            gain = 2 * shared - perimeter.take(uniq % n)  # (low is a multiple of n)
             add = uniq.compress(gain > 1e-9)
             if add.size == 0:
-                return keys
+                break
             keys = np.concatenate((keys, add))  # none of them among the keys (fresh)
             keys.sort()
-            if dense:
-                known.put(add - low, True)
+            if allowed is not None:
+                allowed.put(add, False)
             growing = keys.compress(in_sorted(add // n, keys // n))  # (add is sorted: so are its owners)
+        return keys + low if allowed is not None else keys
 
     def _roles(self, pairs: np.ndarray) -> np.ndarray:
         """(F,) int8 role of each face's shape: the lowest shape, when it covers most of the

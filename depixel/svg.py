@@ -26,7 +26,7 @@ from .arrays import batch_bounds, nan_to_zero, ranges, set_rows
 from .boundaries import CUBIC, LINE, QUAD
 from .outlines import Outlines, OutlineShapes, outline_shapes
 from .stacking import ROLES
-from .svgtext import Texts, number, numbers, stack
+from .svgtext import Decimals, Texts, number, stack
 from .vector import VectorImage
 
 SVG_HEADER = '<?xml version="1.0" encoding="UTF-8"?>\n'
@@ -188,9 +188,7 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     num_cmd = np.arange(n_cmd).repeat(n_num)
     num_k = ranges(0, n_num)
     flat = num_cmd * _W + num_k  # the number's place in (C, 6) argument tables
-    texts, flags = _format(absolute.ravel().take(flat), rel.ravel().take(flat), num_cmd, num_k, n_cmd, precision)
-    use_rel = flags.length[n_cmd:] < flags.length[:n_cmd]
-    use_rel &= cmd != Z
+    texts, use_rel, glued = _format(absolute, rel, flat, num_cmd, num_k, n_cmd, precision)
     letter = np.where(use_rel, cmd + 8, cmd)  # 0-7 upper case, 8-15 lower case
     prev_letter = _prepend(-1, letter[:-1])
     implicit = ((letter == prev_letter) & (cmd != M) & (cmd != Z)) | \
@@ -206,25 +204,21 @@ def _path_data(outlines: Outlines, precision: int) -> list[str]:
     n_tok = int(tok_end[-1]) if n_cmd else 0
     letter_pos = tok_start.compress(explicit)
     num_pos = tok_start.take(num_cmd) + explicit.take(num_cmd) + num_k
-    rel_num = use_rel.take(num_cmd)
-    # each number's text among the absolute ones (the first half), then the relative ones
-    num_text = np.arange(num_cmd.size) + np.where(rel_num, num_cmd.size, 0)
-    minus, dot_start, has_dot = (f.take(num_text) for f in (flags.minus, flags.dot_start, flags.has_dot))
 
-    # separators: a space before a number that follows a number, unless the number starts
-    # with "-", or with "." after a number that has a point. A number follows a number (the
-    # one before it, in the same path) unless it is the first of a command with a letter: an
-    # implicit command repeats one with numbers, and a path starts with its M's letter
+    # separators: a space before a number that follows a number, unless it is glued to it.
+    # A number follows a number (the one before it, in the same path) unless it is the first
+    # of a command with a letter: an implicit command repeats one with numbers, and a path
+    # starts with its M's letter
     follows = num_k > 0
     follows |= implicit.take(num_cmd)
     sep = np.zeros(n_tok, bool)
-    sep[num_pos] = follows & ~minus & ~(dot_start & _prepend(False, has_dot[:-1]))
+    sep[num_pos] = follows & ~glued
 
     letters, space = _constant_texts()
     table, (letter_row, abs_row, space_row) = stack([letters, texts, space])
     row = np.empty(n_tok, np.int64)
     row[letter_pos] = letter_row + letter.compress(explicit)
-    row[num_pos] = abs_row + num_text
+    row[num_pos] = np.arange(abs_row, abs_row + num_cmd.size)
     # interleave the separators: token i becomes [space] + token
     out_count = 1 + sep.astype(np.int64)
     out_start = out_count.cumsum() - out_count
@@ -354,30 +348,44 @@ def _relative(cmd: np.ndarray, absolute: np.ndarray, new_shape: np.ndarray) -> n
     return relative
 
 
-class _Flags:
-    """Per number: starts with "-", starts with ".", holds a "."; per command: the length of
-    its numbers with their separators."""
+def _format(absolute: np.ndarray, relative: np.ndarray, flat: np.ndarray, num_cmd: np.ndarray, num_k: np.ndarray,
+            n_cmd: int, precision: int) -> tuple[Texts, np.ndarray, np.ndarray]:
+    """The compact text of the numbers the commands use (command ``num_cmd``'s argument
+    column ``num_k``, at ``flat`` in the ``(C, 6)`` tables in 10^-precision units), each
+    command's written relative where that makes its numbers shorter (absolute on a tie);
+    which commands are relative; and which numbers are glued to the number before them
+    (no space: it starts with "-", or with "." after a number with a point).
 
-    def __init__(self, minus: np.ndarray, dot_start: np.ndarray, has_dot: np.ndarray, length: np.ndarray):
-        self.minus, self.dot_start, self.has_dot, self.length = minus, dot_start, has_dot, length
+    The lengths of both forms are counted from their digits (no text), and only the chosen
+    numbers are formatted: on a sprite's few thousand numbers the numpy calls cost about
+    as much as the arithmetic, so both forms are measured in one table of 2N."""
+    n = num_cmd.size
+    values = np.empty((2, n), np.int64)
+    absolute.ravel().take(flat, out=values[0])
+    relative.ravel().take(flat, out=values[1])
+    decimals = Decimals(values.ravel(), precision)
+    n_whole, n_frac = decimals.digit_counts()
+    minus = decimals.scaled < 0
+    has_dot = decimals.frac != 0
+    dot_start = decimals.whole == 0  # compact: "-.25", ".25"
+    dot_start &= has_dot
+    length = n_whole - dot_start  # the characters of each number's text
+    length += minus
+    length += has_dot
+    length += n_frac
+    dot_start &= ~minus
+    glued = _glued(minus, dot_start, has_dot)  # (the first relative number's flag is not read)
+    cost = length.reshape(2, n)
+    cost += (num_k > 0) & ~glued.reshape(2, n)  # with the space before it, in its command
+    use_rel = np.bincount(num_cmd, weights=cost[1] - cost[0], minlength=n_cmd) < 0  # (Z: no numbers)
+    pick = np.arange(n)
+    pick += use_rel.take(num_cmd) * n
+    return (decimals.take(pick).texts(compact=True), use_rel,
+            _glued(minus.take(pick), dot_start.take(pick), has_dot.take(pick)))
 
 
-def _format(absolute: np.ndarray, relative: np.ndarray, num_cmd: np.ndarray, num_k: np.ndarray, n_cmd: int,
-            precision: int) -> tuple[Texts, _Flags]:
-    """Compact text of the numbers the commands use, ``absolute`` then ``relative`` (each in
-    10^-precision units, of the commands ``num_cmd``, argument columns ``num_k``), and their
-    flags; the lengths are per command, the ``n_cmd`` absolute then the relative ones. Both
-    forms at once: the numpy calls cost more than the arithmetic on a sprite's few hundred
-    commands."""
-    values = np.concatenate([absolute, relative])
-    texts = numbers(values / 10.0**precision, precision, compact=True)
-    scale = 10**precision
-    minus = values < 0
-    has_dot = (values % scale) != 0
-    dot_start = (values > 0) & (values < scale)  # "0.…": a whole part of 0 and a fraction
-    # a space between two numbers of one command unless the second starts with "-", or with
-    # "." after a number with a point
-    later = num_k > 0
-    sep = ~minus & ~(dot_start & _prepend(False, has_dot[:-1])) & np.concatenate([later, later])
-    length = np.bincount(np.concatenate([num_cmd, num_cmd + n_cmd]), weights=texts.length + sep, minlength=2 * n_cmd)
-    return texts, _Flags(minus, dot_start, has_dot, length)
+def _glued(minus: np.ndarray, dot_start: np.ndarray, has_dot: np.ndarray) -> np.ndarray:
+    """Which numbers need no space after the number before them in order."""
+    glued = minus.copy()
+    glued[1:] |= dot_start[1:] & has_dot[:-1]
+    return glued

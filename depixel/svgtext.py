@@ -8,6 +8,7 @@ concatenating columns and writing a token sequence are whole-array numpy operati
 from __future__ import annotations
 
 from collections.abc import Sequence
+from copy import copy
 from dataclasses import dataclass
 from itertools import accumulate
 
@@ -78,9 +79,14 @@ def numbers(values: np.ndarray, precision: int, prefix: str = "", compact: bool 
     values = np.asarray(values, dtype=np.float64)
     n = len(values)
     k = int(np.prod(values.shape[1:], dtype=np.int64)) if values.ndim > 1 else 1
-    decimals = _Decimals(values.ravel(), precision)
-    if k == 1 and not prefix and max(decimals.n_digits, precision) <= _TABLE_DIGITS:  # the path data's
-        return _packed(decimals, compact)
+    decimals = Decimals.rounded(values.ravel(), precision)
+    if k == 1 and not prefix:
+        return decimals.texts(compact)
+    return _rows(decimals, n, k, prefix, compact)
+
+
+def _rows(decimals: Decimals, n: int, k: int, prefix: str, compact: bool) -> Texts:
+    """:func:`numbers` by character planes: ``n`` strings of ``k`` numbers after ``prefix``."""
     digit_planes, keep_planes = _decimal_planes(decimals, compact)  # (W, n*k)
     digits, digits_keep = digit_planes.T, keep_planes.T  # (n*k, W)
     lead, width = len(prefix), digits.shape[1] + 1  # each number: a space, then its digits
@@ -104,17 +110,52 @@ def number(value: float, precision: int) -> str:
     return "-" + text if scaled < 0 else text
 
 
-class _Decimals:
-    """``values`` rounded to ``precision`` decimals: their sign, whole and fraction parts,
-    and the characters a number can have (a sign, ``n_digits`` whole digits, a point,
-    ``precision`` fraction digits)."""
+class Decimals:
+    """Decimals of ``precision`` places given as integers ``scaled`` in 10^-precision units:
+    their whole and fraction parts, and the characters a number can have (a sign,
+    ``n_digits`` whole digits, a point, ``precision`` fraction digits). The SVG writer
+    measures the texts of numbers (:meth:`digit_counts`) before it picks which to format."""
 
-    def __init__(self, values: np.ndarray, precision: int) -> None:
+    def __init__(self, scaled: np.ndarray, precision: int) -> None:
         self.precision = precision
-        self.scaled = (values * 10**precision).round().astype(np.int64)
-        self.whole, self.frac = np.divmod(np.abs(self.scaled), 10**precision)
+        self.scaled = scaled  # (n,) int64
+        self.whole, self.frac = np.divmod(np.abs(scaled), 10**precision)
         self.n_digits = max(len(str(int(np.maximum.reduce(self.whole, initial=0)))), 1)
-        self.width = 2 + self.n_digits + precision  # characters
+
+    @classmethod
+    def rounded(cls, values: np.ndarray, precision: int) -> Decimals:
+        """``values`` rounded to ``precision`` decimals (half to even)."""
+        return cls((values * 10**precision).round().astype(np.int64), precision)
+
+    @property
+    def width(self) -> int:
+        return 2 + self.n_digits + self.precision  # characters
+
+    def take(self, index: np.ndarray) -> Decimals:
+        """The numbers at ``index`` (``n_digits`` kept: a bound, the texts do not change)."""
+        picked = copy(self)
+        picked.scaled, picked.whole, picked.frac = (a.take(index) for a in (self.scaled, self.whole, self.frac))
+        return picked
+
+    def digit_counts(self) -> tuple[np.ndarray, np.ndarray]:
+        """Each number's whole digits (1 for 0) and fraction digits up to its last nonzero
+        one (0 without a fraction): its text is a sign, those, and a point between."""
+        if self.n_digits <= _TABLE_DIGITS:
+            n_whole = _digit_tables(self.n_digits)[1].take(self.whole)
+        else:
+            n_whole = 1 + sum((self.whole >= 10**i for i in range(1, self.n_digits)), np.int64(0))
+        p, frac = self.precision, self.frac
+        if p <= _TABLE_DIGITS:
+            n_frac = _digit_tables(p)[2].take(frac) if p else np.zeros(frac.size, np.int64)
+        else:  # the places less the fraction's trailing zeros
+            n_frac = np.where(frac != 0, p - sum((frac % 10**i == 0 for i in range(1, p)), np.int64(0)), 0)
+        return n_whole, n_frac
+
+    def texts(self, compact: bool = False) -> Texts:
+        """:func:`numbers` of these numbers, one a string."""
+        if max(self.n_digits, self.precision) <= _TABLE_DIGITS:  # the path data's
+            return _packed(self, compact)
+        return _rows(self, self.scaled.size, 1, "", compact)
 
 
 #: numbers whose whole and fraction parts have at most this many digits are formatted by
@@ -140,7 +181,7 @@ def _digit_tables(k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return _tables[k]
 
 
-def _packed(d: _Decimals, compact: bool) -> Texts:
+def _packed(d: Decimals, compact: bool) -> Texts:
     """:func:`numbers` of one number a string, without a prefix, when its whole and fraction
     parts have at most :data:`_TABLE_DIGITS` digits: each number's characters in one
     little-endian 8-byte integer, a character a byte in the places of :func:`_decimal_planes`'
@@ -171,7 +212,7 @@ def _packed(d: _Decimals, compact: bool) -> Texts:
                  last - first + 1)
 
 
-def _decimal_planes(d: _Decimals, compact: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def _decimal_planes(d: Decimals, compact: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Characters ``(W, n) uint8`` of the formatted values, a plane per character position
     (contiguous rows: numpy writes and sums those several times faster than the columns of
     an (n, W) table), and which of them to keep (``compact``: no units digit "0" before a

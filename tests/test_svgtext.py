@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from depixel.loops import trace_loops
-from depixel.svgtext import Texts, number, numbers, stack
+from depixel.svgtext import Decimals, Texts, number, numbers, stack
 
 
 def reference_number(value: float, precision: int) -> str:
@@ -164,18 +164,35 @@ def test_trace_loops_with_points_keeps_touching_loops_apart(cells, areas):
     assert got == areas
 
 
-def test_path_numbers_of_both_tables_are_formatted_in_one_table_with_their_flags():
-    """svg._format formats the absolute and the relative arguments together: the texts of
-    the first table's arguments, then the second's; per command the length of its numbers
-    with the separators SVG needs."""
-    from depixel.svg import _format
+def test_path_numbers_written_relative_only_where_shorter():
+    """svg._format measures the absolute and the relative numbers of each command, with the
+    separators SVG needs, and formats only the shorter form (absolute on a tie); it says
+    which numbers are glued to the one before (no space)."""
+    from depixel.svg import _W, _format
 
-    # the used arguments (hundredths) of two commands: 2 of the first, 3 of the second
-    num_cmd, num_k = np.array([0, 0, 1, 1, 1]), np.array([0, 1, 0, 1, 2])
-    absolute, relative = np.array([-50, 25, 100, 7, 300]), np.array([-50, -25, 0, 0, 0])
-    texts, flags = _format(absolute, relative, num_cmd, num_k, 2, 2)
-    assert texts.tolist() == ["-.5", ".25", "1", ".07", "3", "-.5", "-.25", "0", "0", "0"]
-    # "-.5.25": no space before ".25" after a number with a point; "1 .07 3"; "-.5-.25"; "0 0 0"
-    assert flags.length.tolist() == [6, 7, 7, 5]
-    assert flags.minus.tolist() == [True, False, False, False, False, True, True, False, False, False]
-    assert flags.dot_start.tolist()[:5] == [False, True, False, True, False]
+    # the used arguments (hundredths) of three commands: 2 of the first, 3 of the second, 1 of the third
+    num_cmd, num_k = np.array([0, 0, 1, 1, 1, 2]), np.array([0, 1, 0, 1, 2, 0])
+    absolute, relative = np.zeros((3, _W), np.int64), np.zeros((3, _W), np.int64)
+    flat = num_cmd * _W + num_k
+    absolute.ravel()[flat] = [-50, 25, 100, 7, 300, 1000]
+    relative.ravel()[flat] = [-50, -25, 0, 0, 0, 2000]
+    texts, use_rel, glued = _format(absolute, relative, flat, num_cmd, num_k, 3, 2)
+    # "-.5.25" (6) against "-.5-.25" (7); "1 .07 3" (7) against "0 0 0" (5); "10" against "20"
+    assert use_rel.tolist() == [False, True, False]
+    assert texts.tolist() == ["-.5", ".25", "0", "0", "0", "10"]
+    assert glued.tolist() == [True, True, False, False, False, False]
+
+
+@pytest.mark.parametrize("precision", [0, 1, 3, 4, 6, 12])
+def test_decimals_digit_counts_measure_the_texts(precision):
+    """The digits counted without formatting add up to each number's text length, by the
+    tables (at most 3 digits) and by the loops (more)."""
+    rng = np.random.default_rng(20 + precision)
+    values = np.concatenate([rng.uniform(-990, 990, 1000), rng.uniform(-1.2, 1.2, 300),
+                             rng.integers(-4000, 4000, 200) / 8, [0.0, 0.0004, -0.5, 99.99, 1.25]])
+    for extra in ([], [123456.5]):
+        decimals = Decimals.rounded(np.append(values, extra), precision)
+        n_whole, n_frac = decimals.digit_counts()
+        counted = (decimals.scaled < 0) + n_whole + (n_frac > 0) + n_frac
+        assert counted.tolist() == decimals.texts().length.tolist()
+        assert decimals.take(np.arange(5)).texts().tolist() == decimals.texts().tolist()[:5]
