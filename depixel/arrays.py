@@ -9,6 +9,9 @@ the rows of an (N, k) array one at a time under fancy-index assignment (``a[i] =
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
+from itertools import accumulate
+
 import numpy as np
 
 
@@ -85,6 +88,13 @@ def batch_slices(n: int, batch: int) -> list[slice]:
     """Consecutive slices of ``n`` like items, ``batch`` at a time (the last one shorter): to
     bound the temporary memory of work done a batch at a time. No items, no slices."""
     return [slice(lo, lo + batch) for lo in range(0, n, batch)]
+
+
+def consecutive_slices(sizes: Iterable[int]) -> list[slice]:
+    """One slice for each of ``sizes``, end to end from 0: the parts of a table whose rows
+    hold several pieces one after another."""
+    ends = list(accumulate(sizes))
+    return [slice(lo, hi) for lo, hi in zip([0] + ends[:-1], ends)]
 
 
 def batch_bounds(sizes: np.ndarray, batch: int) -> list[tuple[int, int]]:

@@ -26,14 +26,13 @@ draws depend only on array sizes and on the moves made, so a run is reproducible
 from __future__ import annotations
 
 import functools
-import itertools
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 
-from .arrays import batch_slices, set_rows
+from .arrays import batch_slices, consecutive_slices, set_rows
 from .bspline import Bezier, half_turns, span
 from .fidelity import protected_points, unique_rows
 from .params import Params
@@ -126,8 +125,7 @@ def _prepared_classes(model: Energy, classes: list[np.ndarray]) -> list[Group]:
     if not classes or sum(sizes) > PREPARE_ONCE:
         return [model.prepare(c) for c in classes]
     whole = model.prepare(np.concatenate(classes))
-    ends = list(itertools.accumulate(sizes))
-    return [whole.part(slice(lo, hi)) for lo, hi in zip([0] + ends[:-1], ends)]
+    return [whole.part(part) for part in consecutive_slices(sizes)]
 
 
 def _sweep_offsets(rng: SplitMix64, sizes: list[int], params: Params) -> list[np.ndarray]:
@@ -139,8 +137,7 @@ def _sweep_offsets(rng: SplitMix64, sizes: list[int], params: Params) -> list[np
     if sum(sizes) > PREPARE_ONCE:
         return [disc_offsets(rng, size, params.candidates, params.radius) for size in sizes]
     offsets = disc_offsets(rng, sum(sizes), params.candidates, params.radius)
-    ends = list(itertools.accumulate(sizes))
-    return [offsets[:, lo:hi] for lo, hi in zip([0] + ends[:-1], ends)]
+    return [offsets[:, part] for part in consecutive_slices(sizes)]
 
 
 def disc_offsets(rng: SplitMix64, members: int, candidates: int, radius: float) -> np.ndarray:

@@ -14,6 +14,8 @@ from itertools import accumulate
 
 import numpy as np
 
+from .arrays import consecutive_slices
+
 #: segments are copied in chunks of about this many bytes, to bound temporary memory
 _CHUNK = 1 << 22
 
@@ -47,8 +49,7 @@ class Texts:
 
     def tolist(self) -> list[str]:
         text = self.tobytes().decode("ascii")
-        ends = self.length.cumsum().tolist()
-        return [text[a:b] for a, b in zip([0] + ends[:-1], ends)]
+        return [text[part] for part in consecutive_slices(self.length.tolist())]
 
 
 def stack(tables: Sequence[Texts]) -> tuple[Texts, list[int]]:

@@ -6,8 +6,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from depixel.arrays import (batch_bounds, batch_slices, both, either, flat_rows, in_sorted, nan_to_zero, ranges, set_rows,
-                            sums_by_key, unique)
+from depixel.arrays import (batch_bounds, batch_slices, both, consecutive_slices, either, flat_rows, in_sorted, nan_to_zero,
+                            ranges, set_rows, sums_by_key, unique)
 
 
 @given(st.lists(st.integers(0, 50), max_size=60), st.integers(1, 120))
@@ -24,6 +24,13 @@ def test_slices_cover_every_item_once_in_order_in_full_batches(n, batch):
     parts = batch_slices(n, batch)
     assert [i for part in parts for i in range(n)[part]] == list(range(n))
     assert all(len(range(n)[part]) == batch for part in parts[:-1])
+
+
+@given(st.lists(st.integers(0, 9), max_size=20))
+def test_consecutive_slices_cut_a_table_into_its_pieces_in_order(sizes):
+    table = [i for i, size in enumerate(sizes) for _ in range(size)]  # piece i: size rows of i
+    parts = consecutive_slices(sizes)
+    assert [table[part] for part in parts] == [[i] * size for i, size in enumerate(sizes)]
 
 
 def test_unique_is_numpys():
