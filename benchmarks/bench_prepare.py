@@ -26,7 +26,7 @@ import numpy as np  # noqa: E402
 from PIL import Image  # noqa: E402
 
 from depixel import Params, depixelize, load_image, to_svg  # noqa: E402
-from depixel.prepare import prepare  # noqa: E402
+from depixel.prepare.inputs import prepare  # noqa: E402
 
 DEFAULT_CORPUS = Path(__file__).resolve().parents[1].parent / "shared" / "corpus"
 

@@ -1,4 +1,4 @@
-"""Time the smooth renderer (:func:`depixel.shading.render_smooth`, paper §3.5).
+"""Time the smooth renderer (:func:`depixel.render.shading.render_smooth`, paper §3.5).
 
     python benchmarks/bench_render.py              # targets of issue 8, median of 5 runs
     python benchmarks/bench_render.py --runs 9
@@ -31,10 +31,10 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from depixel.image import load_image  # noqa: E402
 from depixel.pipeline import depixelize  # noqa: E402
-from depixel.shading import render_smooth  # noqa: E402
-from depixel.svg import to_svg  # noqa: E402
+from depixel.prepare.image import load_image  # noqa: E402
+from depixel.render.shading import render_smooth  # noqa: E402
+from depixel.svg.writer import to_svg  # noqa: E402
 
 DEFAULT_CORPUS = Path(__file__).resolve().parents[1].parent / "shared" / "corpus"
 

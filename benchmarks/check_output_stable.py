@@ -24,8 +24,8 @@ import numpy as np
 
 import depixel
 from depixel import Params, depixelize, load_image, to_svg
-from depixel.outlines import LAYOUTS
-from depixel.svg import DEFAULT_SIMPLIFY
+from depixel.svg.outlines import LAYOUTS
+from depixel.svg.writer import DEFAULT_SIMPLIFY
 
 ROOT = Path(__file__).resolve().parents[1]
 HASHES = ROOT / "benchmarks" / "output_hashes.json"

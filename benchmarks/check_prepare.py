@@ -1,4 +1,4 @@
-"""Zero false positives and detection rates of the input preparation (depixel/prepare.py).
+"""Zero false positives and detection rates of the input preparation (depixel/prepare/inputs.py).
 
 1. False positives: for every bundled fixture (every frame), every paper sprite, every game
    frame and the crops of the frames that ``check_output_stable.py`` uses, the SVG written
@@ -29,8 +29,8 @@ from check_output_stable import DEFAULT_CORPUS, ROOT, corpus_images  # noqa: E40
 
 import depixel  # noqa: E402
 from depixel import load_image  # noqa: E402
-from depixel.image import frame_count  # noqa: E402
-from depixel.prepare import prepare  # noqa: E402
+from depixel.prepare.image import frame_count  # noqa: E402
+from depixel.prepare.inputs import prepare  # noqa: E402
 
 FACTORS = [(k, k) for k in range(2, 9)] + [(12, 12), (16, 16), (2, 3), (4, 3), (3, 5)]
 QUALITIES = (70, 80, 90, 95)

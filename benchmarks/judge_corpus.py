@@ -26,8 +26,8 @@ import tempfile
 from pathlib import Path
 
 from depixel import STAGES, depixelize, load_image, to_svg
-from depixel.outlines import LAYOUTS
-from depixel.svg import DEFAULT_SIMPLIFY
+from depixel.svg.outlines import LAYOUTS
+from depixel.svg.writer import DEFAULT_SIMPLIFY
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared"
 RENDERERS = ("cairosvg", "rsvg", "resvg", "chromium", "inkscape")

@@ -40,7 +40,7 @@ from PIL import Image
 
 import depixel
 from depixel import load_image
-from depixel.prepare import lossy_format, prepare
+from depixel.prepare.inputs import lossy_format, prepare
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared"
 VARIANTS = ("x3", "x5crop", "x4q90", "q85", "q70", "q95", "q85-422", "q85-444", "key")

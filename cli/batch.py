@@ -19,12 +19,13 @@ from functools import partial
 from pathlib import Path
 
 from depixel import api
-from depixel import stamp as stamps
 from depixel.errors import DepixelError, display_name
-from depixel.image import frame_count, load_frames
+from depixel.files import convert as files
+from depixel.files import stamp as stamps
 from depixel.params import Params
-from depixel.prepare import PreparedImage
-from depixel.svg import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
+from depixel.prepare.image import frame_count, load_frames
+from depixel.prepare.inputs import PreparedImage
+from depixel.svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
 
 from .options import error_message
 
@@ -48,7 +49,7 @@ class Options:
     width: int | None = None  # output width in pixels (instead of scale)
     height: int | None = None
     max_output_pixels: int | None = None
-    pixel_size: str | tuple[int, int] = "auto"  # input preparation (depixel/prepare.py)
+    pixel_size: str | tuple[int, int] = "auto"  # input preparation (depixel/prepare/inputs.py)
     denoise: bool | None = None
     transparent: str | tuple[int, int, int] | None = None
 
@@ -89,7 +90,7 @@ def frame_targets(job: Job) -> list[tuple[int, Path]]:
     """(frame index, output path) of every output of a job."""
     opt = job.options
     if opt.frames == "all":
-        return list(enumerate(api.frame_outputs(job.output, job.frames)))
+        return list(enumerate(files.frame_outputs(job.output, job.frames)))
     return [(0 if opt.frames == "first" else int(opt.frames), job.output)]
 
 
@@ -109,7 +110,7 @@ def run_job(job: Job) -> Outcome:
             for frame, rgba in frames:
                 if frame in todo:
                     target, options = todo[frame]
-                    api.write_converted(rgba, job.source, target, options, max_pixels=opt.max_pixels,
+                    files.write_converted(rgba, job.source, target, options, max_pixels=opt.max_pixels,
                                         max_output_pixels=opt.max_output_pixels,
                                         on_prepared=partial(record_prepared, out, source=job.source, target=target))
                     out.written.append(target)
@@ -135,12 +136,12 @@ def _outputs_to_make(job: Job, out: Outcome) -> dict[int, tuple[Path, dict]]:
     opt = job.options
     todo = {}
     for frame, target in frame_targets(job):
-        options = api.file_options(target, opt.params, fmt=opt.fmt, stage=opt.stage, scale=opt.scale,
+        options = files.file_options(target, opt.params, fmt=opt.fmt, stage=opt.stage, scale=opt.scale,
                                    frame=frame, background=opt.background, shading=opt.shading,
                                    precision=opt.precision, width=opt.width, height=opt.height,
                                    layout=opt.layout, simplify=opt.simplify, pixel_size=opt.pixel_size,
                                    denoise=opt.denoise, transparent=opt.transparent)
-        if not opt.force and api.is_up_to_date(job.source, target, options):
+        if not opt.force and files.is_up_to_date(job.source, target, options):
             out.up_to_date.append(target)
         else:
             todo[frame] = (target, options)

@@ -10,7 +10,7 @@ import glob
 from pathlib import Path
 
 from depixel.errors import DepixelError, display_name
-from depixel.image import frame_count
+from depixel.prepare.image import frame_count
 
 from .batch import Job, Options, Outcome, frame_targets
 from .options import error_message

@@ -11,13 +11,14 @@ from pathlib import Path
 
 from depixel import api
 from depixel.errors import DepixelError, OutputError, display_name
-from depixel.image import frame_count, read_source
+from depixel.files import convert as files
+from depixel.files.output import write_atomic
 from depixel.limits import DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
-from depixel.outlines import LAYOUTS
-from depixel.output import write_atomic
 from depixel.pipeline import STAGES
-from depixel.prepare import lossy_format
-from depixel.svg import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
+from depixel.prepare.image import frame_count, read_source
+from depixel.prepare.inputs import lossy_format
+from depixel.svg.outlines import LAYOUTS
+from depixel.svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
 
 from .batch import CANCELLED, DONE, Job, Options, Outcome, current_traceback, record_prepared, summary
 from .batch_inputs import expand_inputs, make_folders, plan
@@ -156,7 +157,7 @@ def run_convert(args: argparse.Namespace) -> int:
     if args.dask is not None and args.out_dir is None:
         parser.error("--dask converts batches: use it with --out-dir DIR")
     try:
-        fmt = api.output_format(args.output, args.format) if args.output not in (None, "-") else args.format or "svg"
+        fmt = files.output_format(args.output, args.format) if args.output not in (None, "-") else args.format or "svg"
     except OutputError as exc:
         parser.error(str(exc).replace("the format", "--format").replace("give --format", "use --format"))
     options = Options(params_from_args(args), fmt, args.stage, args.scale, args.frames, args.background,
@@ -220,13 +221,13 @@ def _convert_stream(source: str, output: str, options: Options) -> Outcome:
     """Convert stdin and/or to stdout (all in this process); never raises."""
     out = Outcome(Path(source))
     try:
-        data = read_source(sys.stdin.buffer) if source == "-" else api.read_input(source)
+        data = read_source(sys.stdin.buffer) if source == "-" else files.read_input(source)
         name = "<stdin>" if source == "-" else display_name(source)
         protect = () if source == "-" else (Path(source),)
         targets: list[tuple[int, str | Path]]
         if options.frames == "all":
             n = frame_count(data)  # data was read, so only decoding can fail: name it below
-            targets = list(enumerate(api.frame_outputs(output, n)))
+            targets = list(enumerate(files.frame_outputs(output, n)))
         else:
             targets = [(0 if options.frames == "first" else int(options.frames), output)]
         for frame, target in targets:

@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 
 from depixel.errors import OutputError, display_name
-from depixel.output import write_atomic
+from depixel.files.output import write_atomic
 
 from .options import Exit
 

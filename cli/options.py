@@ -56,7 +56,7 @@ def non_negative_float(text: str) -> float:
 
 def tolerance(text: str) -> float:
     """A simplification tolerance in pixels: 0 (none) up to MAX_SIMPLIFY."""
-    from depixel.svg import MAX_SIMPLIFY  # noqa: PLC0415
+    from depixel.svg.writer import MAX_SIMPLIFY  # noqa: PLC0415
 
     value = non_negative_float(text)
     if value > MAX_SIMPLIFY:
@@ -89,7 +89,7 @@ def unit_float(text: str) -> float:
 
 
 def colour(text: str) -> tuple[int, int, int]:
-    from depixel.api import parse_colour  # noqa: PLC0415
+    from depixel.colour import parse_colour  # noqa: PLC0415
 
     try:
         return parse_colour(text)
@@ -100,7 +100,7 @@ def colour(text: str) -> tuple[int, int, int]:
 def pixel_size(text: str) -> str | tuple[int, int]:
     """``--pixel-size``: auto, N or NxM."""
     from depixel.errors import ParameterError  # noqa: PLC0415
-    from depixel.prepare import parse_pixel_size  # noqa: PLC0415
+    from depixel.prepare.inputs import parse_pixel_size  # noqa: PLC0415
 
     try:
         return parse_pixel_size(text)
@@ -114,7 +114,7 @@ def transparent_colour(text: str) -> str | tuple[int, int, int]:
 
 
 def add_input_options(parser: argparse.ArgumentParser) -> None:
-    """The options that prepare pixel art as people have it (depixel/prepare.py)."""
+    """The options that prepare pixel art as people have it (depixel/prepare/inputs.py)."""
     group = parser.add_argument_group("input (pixel art saved upscaled, as JPEG or on a backdrop; docs/inputs.md)")
     group.add_argument("--pixel-size", type=pixel_size, default="auto", metavar="auto|N|NxM",
                        help="input pixels per art pixel: auto detects nearest-neighbour upscaling (default), "

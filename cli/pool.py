@@ -35,6 +35,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from .worker import serve
+
 #: Seconds running jobs get to stop after SIGTERM before they are killed.
 GRACE_SECONDS = 1.0
 #: Times a job whose worker died is tried again, each time in a fresh worker.
@@ -44,9 +46,9 @@ DEPTH = 2
 #: What the main process (Linux) or the fork server imports before the workers are forked, so
 #: that no worker imports it: the job code, the modules a conversion imports on first use
 #: (~0.1 s of each worker's first file otherwise) and the worker loop (this module, and
-#: ctypes for ``_die_with_parent``).
-PRELOAD = ["depixel_cli.batch", "PIL.PngImagePlugin", "depixel.splines", "depixel.optimize", "tempfile",
-           "depixel_cli.pool", "ctypes"]
+#: ctypes for ``worker.die_with_parent``).
+PRELOAD = ["depixel_cli.batch", "PIL.PngImagePlugin", "depixel.curves.splines", "depixel.optimize.stage", "tempfile",
+           "depixel_cli.pool", "depixel_cli.worker", "ctypes"]
 #: How workers start: ``fork`` from the main process on Linux; elsewhere (where a forked
 #: process may not use some system libraries) a ``forkserver``, else ``spawn``.
 START_METHOD = "fork" if sys.platform.startswith("linux") else "forkserver"
@@ -146,7 +148,7 @@ class _Worker:
         """A started worker; forked from this process, it closes the pipes of ``others``."""
         parent, child = context.Pipe()
         inherited = [w.conn for w in others] + [parent] if context.get_start_method() == "fork" else []
-        self.process = context.Process(target=_serve, args=(child, function, inherited), daemon=True)
+        self.process = context.Process(target=serve, args=(child, function, inherited), daemon=True)
         # SIGINT and SIGTERM stay blocked from here until the worker has its own handlers (a
         # forked worker inherits the mask, and this process's handlers until then)
         # (multiprocessing flushes stdout and stderr before it forks: nothing is written twice)
@@ -380,68 +382,3 @@ def _signal(worker: _Worker, signum: int) -> None:
         os.kill(worker.process.pid, signum)
     except (ProcessLookupError, TypeError):
         pass
-
-
-# --- the worker process --------------------------------------------------------------------------
-
-class _Stop(BaseException):
-    """SIGTERM in a worker: abandon the job (files being written remove their temporary file)."""
-
-
-def _stop(signum: int, frame: object) -> None:
-    raise _Stop()
-
-
-def _unraisable(hook: Any) -> None:
-    """A :class:`_Stop` raised in a finalizer (a generator closed by the collector) is
-    swallowed there, with "Exception ignored" on stderr: stop again 10 ms later (SIGALRM),
-    out of it, quietly (swallowed again, it tries again)."""
-    if isinstance(hook.exc_value, _Stop):
-        signal.signal(signal.SIGALRM, _stop)
-        signal.setitimer(signal.ITIMER_REAL, 0.01)
-        return
-    sys.__unraisablehook__(hook)
-
-
-def _serve(conn, function: Callable, inherited: Sequence[Any] = ()) -> None:
-    """A worker's life: ignore SIGINT, stop on SIGTERM or when the main process is gone.
-    ``inherited``: the main process's ends of pipes, closed (a forked worker)."""
-    for other in inherited:
-        other.close()
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, _stop)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
-    try:  # from here on SIGTERM raises _Stop: the set-up too (a stop request may come at once)
-        sys.unraisablehook = _unraisable
-        _die_with_parent()
-        while True:
-            try:
-                job = conn.recv()
-            except (EOFError, OSError):
-                return
-            if job is None:
-                return
-            result = function(job)
-            try:
-                conn.send(result)
-            except (BrokenPipeError, OSError):
-                return
-    except (_Stop, KeyboardInterrupt):
-        return
-    finally:
-        sys.stdout.flush()
-
-
-def _die_with_parent() -> None:
-    """Linux: ask the kernel for SIGTERM when the main process dies (even by SIGKILL)."""
-    if not sys.platform.startswith("linux"):
-        return
-    try:
-        import ctypes  # noqa: PLC0415
-
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        pass
-    if os.getppid() == 1:  # the parent died before prctl took effect
-        raise SystemExit(0)

@@ -9,10 +9,11 @@ from pathlib import Path
 
 from depixel import api
 from depixel.errors import OutputError, display_name
-from depixel.image import read_source
+from depixel.files import convert as files
+from depixel.files.output import write_atomic
 from depixel.limits import DEFAULT_MAX_DIFF_PIXELS, DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
-from depixel.output import write_atomic
 from depixel.pipeline import STAGES
+from depixel.prepare.image import read_source
 
 from .options import (
     Exit,
@@ -157,10 +158,10 @@ def _write(target: str, data: bytes, protect: tuple[Path, ...] = ()) -> None:
 
 
 def run_render(args: argparse.Namespace) -> int:
-    from depixel.raster import render  # noqa: PLC0415
+    from depixel.render.raster import render  # noqa: PLC0415
 
     try:
-        fmt = args.format or "png" if args.output == "-" else api.output_format(args.output, args.format)
+        fmt = args.format or "png" if args.output == "-" else files.output_format(args.output, args.format)
     except OutputError:
         fmt = None
     if fmt not in ("png", "pdf"):
@@ -170,7 +171,7 @@ def run_render(args: argparse.Namespace) -> int:
     if args.input == "-":
         svg, name, protect = read_source(sys.stdin.buffer), "<stdin>", ()
     else:
-        svg, name, protect = api.read_input(args.input), display_name(args.input), (Path(args.input),)
+        svg, name, protect = files.read_input(args.input), display_name(args.input), (Path(args.input),)
     data = render(svg, str(fmt), scale=args.scale, width=args.width, height=args.height, background=args.background,
                   name=name, max_output_pixels=args.max_output_pixels)
     _write(args.output, data, protect)
@@ -178,7 +179,7 @@ def run_render(args: argparse.Namespace) -> int:
 
 
 def run_diff(args: argparse.Namespace) -> int:
-    from depixel.diff import diff_files, within  # noqa: PLC0415
+    from depixel.diff.compare import diff_files, within  # noqa: PLC0415
 
     comparison, background = diff_files(args.a, args.b, scale=args.scale, threshold=args.threshold,
                                         background=args.background, allow_size_mismatch=args.allow_size_mismatch,
@@ -204,16 +205,16 @@ def run_diff(args: argparse.Namespace) -> int:
 
 
 def run_inspect(args: argparse.Namespace) -> int:
-    from depixel.figure import check_figure_size, compose, panel_count, stage_panels  # noqa: PLC0415
     from depixel.pipeline import depixelize  # noqa: PLC0415
+    from depixel.render.figure import check_figure_size, compose, panel_count, stage_panels  # noqa: PLC0415
 
     if args.output is None and args.out_dir is None:
         args.parser.error("say where to write: -o PNG and/or --out-dir DIR")
-    from depixel.prepare import lossy_format  # noqa: PLC0415
+    from depixel.prepare.inputs import lossy_format  # noqa: PLC0415
 
     rgba = api.load(args.input, frame=args.frame, background=args.background, max_pixels=args.max_pixels)
     prepared = api.prepare_input(rgba, pixel_size=args.pixel_size, denoise=args.denoise,
-                                 transparent=args.transparent, lossy=lossy_format(api.read_input(args.input)))
+                                 transparent=args.transparent, lossy=lossy_format(files.read_input(args.input)))
     check_figure_size(prepared.rgba.shape[:2], args.zoom, panel_count(args.stage) + prepared.changed,
                       args.max_output_pixels)
     result = depixelize(prepared.rgba, params_from_args(args), stage=args.stage)

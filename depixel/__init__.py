@@ -1,19 +1,21 @@
 """depixel: turn pixel art into smooth, resolution-independent SVG.
 
 Implements Kopf & Lischinski, "Depixelizing Pixel Art" (SIGGRAPH 2011). The pipeline is
-in :mod:`depixel.pipeline`; each stage has its own module.
+in :mod:`depixel.pipeline`; each stage is a subpackage (:mod:`depixel.prepare`,
+:mod:`depixel.graph`, :mod:`depixel.curves`, :mod:`depixel.optimize`, :mod:`depixel.svg`,
+:mod:`depixel.render`), with files in and out in :mod:`depixel.files`.
 """
 from __future__ import annotations
 
-__version__ = "0.1.0"
-
-from .api import convert, convert_bytes, convert_file, flatten, prepare_input, render_file
+from .api import convert, convert_bytes, flatten, prepare_input
 from .errors import DepixelError, InputError, OutputError, ParameterError, RenderError
-from .image import load_image
+from .files.convert import convert_file, render_file
 from .params import Params
 from .pipeline import STAGES, Result, depixelize
-from .prepare import PreparedImage
-from .svg import to_svg
+from .prepare.image import load_image
+from .prepare.inputs import PreparedImage
+from .svg.writer import to_svg
+from .version import __version__
 
 __all__ = [
     "__version__",

@@ -19,7 +19,7 @@ MAX_INDEXED_PIXELS = 2**31 // 16
 #: ``--max-output-pixels``. 8192 × 4096: a 128 MiB RGBA image; ``diff`` needs ~140 bytes a pixel.
 DEFAULT_MAX_OUTPUT_PIXELS = 1 << 25
 #: Pixels of each image ``diff`` compares (input rasters and renders); ``max_pixels`` of
-#: :func:`depixel.diff.diff_files`, ``diff --max-pixels``. Comparing costs ~140 bytes a
+#: :func:`depixel.diff.compare.diff_files`, ``diff --max-pixels``. Comparing costs ~140 bytes a
 #: pixel: 4096 × 4096 stays under 2.5 GB.
 DEFAULT_MAX_DIFF_PIXELS = 1 << 24
 #: Bytes of an input file or stream, and of a compressed SVG (.svgz) once decompressed.

@@ -75,14 +75,14 @@ class Params:
     run_reach: float = 4.0  # not in paper: runs are followed at most this far (px); longer ones are no straighter
 
     # --- §3.4 relaxation -------------------------------------------------------------------
-    # not in paper ("at each iteration"): with the gradient trials (depixel/relax.py), 4 sweeps reach the
+    # not in paper ("at each iteration"): with the gradient trials (depixel/optimize/relax.py), 4 sweeps reach the
     # energy of 10 sweeps of random trials alone (docs/design.md, Optimization)
     iterations: int = 4
     candidates: int = 8  # not in paper ("several random offsets"): trial positions per node and sweep
     radius: float = 0.2  # not in paper ("a small radius"): trial offsets within 1/5 pixel
     max_offset: float = 0.5  # not in paper: hard bound on a node's move from its initial place (pixels)
     centre_clearance: float = 0.15  # not in paper: curves keep this far (pixels) from the centres of their pixels
-    seed: int = 0  # not in paper: all randomness comes from SplitMix64 seeded with this (depixel/splitmix.py)
+    seed: int = 0  # not in paper: all randomness comes from SplitMix64 seeded with this (depixel/optimize/splitmix.py)
 
     # --- §3.4 harmonic map and the fidelity guard --------------------------------------------
     # not in paper: the harmonic map is solved within this many edges of a moved curve node (decayed beyond)

@@ -1,6 +1,6 @@
 """The whole pipeline on one screen: image → similarity graph → resolved crossings →
 reshaped cells → splines → corners → optimized splines → VectorImage (export with
-:mod:`depixel.svg`).
+:mod:`depixel.svg.writer`).
 
 Each stage is a function of the previous stage's immutable result; :func:`depixelize`
 calls them in order, stops at the requested stage and times each one.
@@ -11,16 +11,16 @@ import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from .cells import CellGraph, build_cell_graph
-from .crossings import CrossingResolution, resolve_crossings
-from .image import as_rgba
+from .graph.cells import CellGraph, build_cell_graph
+from .graph.crossings import CrossingResolution, resolve_crossings
+from .graph.similarity import SimilarityGraph, build_similarity_graph
 from .params import Params
-from .similarity import SimilarityGraph, build_similarity_graph
+from .prepare.image import as_rgba
 from .vector import VectorImage, straight_image
 
 if TYPE_CHECKING:  # the spline stages are imported only when a run reaches them
-    from .optimize import OptimizedSplines
-    from .splines import SplineSet
+    from .curves.splines import SplineSet
+    from .optimize.stage import OptimizedSplines
 
 #: Output stages, in pipeline order. "optimized" is the paper's final result.
 STAGES = ("cells", "splines", "optimized")
@@ -62,7 +62,7 @@ def depixelize(image, params: Params = Params(), stage: str = "optimized") -> Re
     if stage == "cells":
         return Result(similarity, resolution, cells, straight_image(cells), timings=timings)
 
-    from .splines import extract_splines, split_at  # noqa: PLC0415 (keeps the cells stage light)
+    from .curves.splines import extract_splines, split_at  # noqa: PLC0415 (keeps the cells stage light)
 
     t = clock()
     splines = extract_splines(cells, params)  # §3.3
@@ -70,8 +70,8 @@ def depixelize(image, params: Params = Params(), stage: str = "optimized") -> Re
     if stage == "splines":
         return Result(similarity, resolution, cells, splines.vector_image(), splines=splines, timings=timings)
 
-    from .corners import detect_corners  # noqa: PLC0415
-    from .optimize import optimize_splines  # noqa: PLC0415
+    from .optimize.corners import detect_corners  # noqa: PLC0415
+    from .optimize.stage import optimize_splines  # noqa: PLC0415
 
     t = clock()
     corners = detect_corners(splines, params)  # §3.4, Figure 7

@@ -16,16 +16,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .cells import DIAGONAL, HORIZONTAL, VERTICAL, CellGraph
 from .frozen import freeze
-from .graph import component_roots
+from .graph.cells import DIAGONAL, HORIZONTAL, VERTICAL, CellGraph
+from .graph.components import component_roots
 
 
 @dataclass(frozen=True, eq=False)
 class CurveTable:
     """The quadratic B-splines behind the curved edges of a :class:`VectorImage`, slot by
     slot (a slot is one place of one curve in the flat curve arrays of
-    :class:`depixel.splines.SplineSet`; an open curve has a slot for each end node).
+    :class:`depixel.curves.splines.SplineSet`; an open curve has a slot for each end node).
 
     Span j of a curve (interior slot j) is the quadratic Bézier ``(P0_j, C_j, P2_j)`` with
     ``C_j = ctrl[j]`` and ``P0_j``/``P2_j`` the midpoints of its control legs, or the

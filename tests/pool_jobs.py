@@ -27,7 +27,7 @@ def crash(job: tuple[str, str]) -> str:
 def crash_holding_next(job: tuple[str, str]) -> str:
     name, folder = job
     if name == "once" and not (Path(folder) / f"{name}.tried").exists():
-        conn = sys._getframe(1).f_locals["conn"]  # the pipe of the worker loop (pool._serve)
+        conn = sys._getframe(1).f_locals["conn"]  # the pipe of the worker loop (worker.serve)
         deadline = time.monotonic() + 10
         while not conn.poll() and time.monotonic() < deadline:
             time.sleep(0.01)

@@ -9,12 +9,11 @@ import sys
 
 import numpy as np
 import pytest
-
-import depixel
-from depixel.image import load_image
-
 from conftest import FIXTURES, JUDGE, art
 from robust import STAGE, assert_centres_kept, convert, fills, parse, paths, render, visible_colours
+
+import depixel
+from depixel.prepare.image import load_image
 
 TRANSPARENT_FIXTURES = ["ghost_rgba.png", "heart_trns.png", "leaf_la.png", "potion_rgba.png"]
 

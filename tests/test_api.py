@@ -1,4 +1,4 @@
-"""The Python API (depixel.api) and SVG rasterizing (depixel.raster)."""
+"""The Python API (depixel.api) and SVG rasterizing (depixel.render.raster)."""
 from __future__ import annotations
 
 import io
@@ -9,13 +9,14 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
+from conftest import FIXTURES, ROOT, art
 from PIL import Image
 
 import depixel
-from depixel import api, raster
+from depixel.colour import parse_colour
 from depixel.errors import InputError, OutputError, RenderError
-
-from conftest import FIXTURES, ROOT, art
+from depixel.files import convert as files
+from depixel.render import raster
 
 SPRITE = art("""
     .##.
@@ -63,16 +64,16 @@ def test_unknown_format_is_refused():
     with pytest.raises(ValueError, match="jpg"):
         depixel.convert_bytes(SPRITE, "jpg")
     with pytest.raises(OutputError, match="extension"):
-        api.output_format("x.jpg")
-    assert api.output_format("x.JPG", "pdf") == "pdf" and api.output_format("a/b.PNG") == "png"
+        files.output_format("x.jpg")
+    assert files.output_format("x.JPG", "pdf") == "pdf" and files.output_format("a/b.PNG") == "png"
 
 
 def test_parse_colour_and_flatten():
-    assert api.parse_colour("#f00") == (255, 0, 0)
-    assert api.parse_colour("white") == (255, 255, 255)
-    assert api.parse_colour(" #102030 ") == (16, 32, 48)
+    assert parse_colour("#f00") == (255, 0, 0)
+    assert parse_colour("white") == (255, 255, 255)
+    assert parse_colour(" #102030 ") == (16, 32, 48)
     with pytest.raises(ValueError, match="unknown colour"):
-        api.parse_colour("not-a-colour")
+        parse_colour("not-a-colour")
     img = np.array([[[200, 100, 0, 128], [10, 20, 30, 0], [1, 2, 3, 255]]], np.uint8)
     flat = depixel.flatten(img, "#0000ff")
     assert flat[..., 3].tolist() == [[255, 255, 255]]
@@ -96,9 +97,9 @@ def test_convert_file_writes_atomically_and_protects_the_input(tmp_path):
 
 
 def test_frames_of_an_animation(tmp_path):
-    names = api.frame_outputs(tmp_path / "beat.svg", 2)
+    names = files.frame_outputs(tmp_path / "beat.svg", 2)
     assert [p.name for p in names] == ["beat-000.svg", "beat-001.svg"]
-    assert api.frame_outputs("x.png", 1234)[-1].name == "x-1233.png"
+    assert files.frame_outputs("x.png", 1234)[-1].name == "x-1233.png"
     for i, out in enumerate(names):
         depixel.convert_file(FIXTURES / "heart_beat.gif", out, frame=i, stage="cells")
     assert names[0].read_bytes() != names[1].read_bytes()

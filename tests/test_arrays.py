@@ -6,8 +6,20 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from depixel.arrays import (batch_bounds, batch_slices, both, consecutive_slices, either, flat_rows, in_sorted, nan_to_zero,
-                            ranges, set_rows, sums_by_key, unique)
+from depixel.arrays import (
+    batch_bounds,
+    batch_slices,
+    both,
+    consecutive_slices,
+    either,
+    flat_rows,
+    in_sorted,
+    nan_to_zero,
+    ranges,
+    set_rows,
+    sums_by_key,
+    unique,
+)
 
 
 @given(st.lists(st.integers(0, 50), max_size=60), st.integers(1, 120))

@@ -3,16 +3,16 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from conftest import art, corpus_pngs, fixture_pngs
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from depixel.cells import build_cell_graph
-from depixel.crossings import resolve_crossings
-from depixel.image import load_image
-from depixel.loops import trace_loops
-from depixel.similarity import build_similarity_graph
-
-from conftest import art, corpus_pngs, fixture_pngs
+from depixel.graph.cells import build_cell_graph
+from depixel.graph.crossings import resolve_crossings
+from depixel.graph.similarity import build_similarity_graph
+from depixel.prepare.image import load_image
+from depixel.svg.loops import trace_loops
 
 
 def cells_of(rgba):
@@ -135,7 +135,7 @@ def test_cell_polygons_are_the_traced_loops(indices):
 
 
 def test_link_corners_are_the_nodes_a_quarter_pixel_off_a_lattice_point_in_x_and_y():
-    from depixel.cells import link_corners
+    from depixel.graph.cells import link_corners
 
     q = np.stack(np.meshgrid(np.arange(-9, 10), np.arange(-9, 10)), axis=-1).reshape(-1, 2).astype(np.int32)
     split, lattice = link_corners(q)

@@ -1,4 +1,4 @@
-"""Undoing chroma subsampling on lossy 1× pixel art (depixel/chroma.py, chroma_unmix.py): the decoder's model,
+"""Undoing chroma subsampling on lossy 1× pixel art (depixel/prepare/chroma.py, chroma_unmix.py): the decoder's model,
 its detection from the pixels, and the joint labelling."""
 from __future__ import annotations
 
@@ -6,15 +6,14 @@ import io
 
 import numpy as np
 import pytest
+from conftest import FIXTURES, corpus_pngs, needs_corpus
 from PIL import Image
 
 from depixel import load_image
-from depixel.chroma import ChromaGrid, chroma_grid, yuv_to_rgb
-from depixel.chroma_unmix import unmix
-from depixel.image import rgb_to_yuv
-from depixel.prepare import prepare
-
-from conftest import FIXTURES, corpus_pngs, needs_corpus
+from depixel.colour import rgb_to_yuv
+from depixel.prepare.chroma import ChromaGrid, chroma_grid, yuv_to_rgb
+from depixel.prepare.chroma_unmix import unmix
+from depixel.prepare.inputs import prepare
 
 GRIDS = [ChromaGrid((2, 2)), ChromaGrid((2, 2), smooth=False), ChromaGrid((1, 2)), ChromaGrid((1, 2), smooth=False)]
 #: saturated colours; red, green and blue of one luma (97): only chroma tells them apart, the hard
@@ -214,7 +213,7 @@ def test_a_4_4_4_jpeg_keeps_the_nearest_colour():
     pixels = jpeg_pixels(ghost, 85, 0)
     prepared = prepare(pixels, lossy="JPEG")
     assert prepared.subsampling is None and prepared.summary()["subsampling"] is None
-    from depixel.prepare import snap_colours  # noqa: PLC0415
+    from depixel.prepare.inputs import snap_colours  # noqa: PLC0415
 
     np.testing.assert_array_equal(prepared.rgba, snap_colours(pixels)[0])
 
@@ -223,7 +222,7 @@ def test_a_4_4_4_jpeg_keeps_the_nearest_colour():
 def test_paper_sprites_as_4_2_0_jpegs_come_back_better_than_by_nearest_colour():
     """A sample of the paper sprites at q85: pixels within 16 of the truth (the judge's centre
     test). Measured on all 54: median 0.88 (nearest colour: 0.74), docs/inputs.md."""
-    from depixel.prepare import snap_colours  # noqa: PLC0415
+    from depixel.prepare.inputs import snap_colours  # noqa: PLC0415
 
     joint, nearest = [], []
     for path in corpus_pngs()[::6]:

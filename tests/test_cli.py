@@ -10,13 +10,12 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
+from conftest import FIXTURES
 from PIL import Image
 
 from depixel import api
 from depixel_cli.main import main
 from depixel_cli.options import Exit
-
-from conftest import FIXTURES
 
 SMALL = ["heart.png", "leaf.png", "potion_rgba.png", "leaf_la.png"]  # the quickest fixtures
 
@@ -305,14 +304,14 @@ def test_svg_conversion_loads_only_what_it_needs(tmp_path, name):
     numpy 2's ``np.unique`` would import ``numpy.ma`` (~45 ms; depixel/arrays.py), neither
     the atomic write nor the spelling hints need ``tempfile`` or ``difflib`` (~3 and ~2 ms),
     a PNG needs no JPEG reader (~7 ms with the ``subprocess`` module it imports), and the
-    relaxation draws from depixel/splitmix.py, not ``numpy.random`` (~13 ms); the options
+    relaxation draws from depixel/optimize/splitmix.py, not ``numpy.random`` (~13 ms); the options
     stamp takes CPython's own SHA-256, not OpenSSL's through ``hashlib`` (~4 ms); only the
     command run has its arguments and module (``depixel_cli.tools``, ``depixel_cli.inkscape``),
     and the help width does not need ``shutil`` (~4 ms)."""
     unneeded = ("cairosvg", "cairocffi", "scipy", "numpy.ma", "tempfile", "difflib", "numpy.random", "_hashlib",
                 "shutil", "depixel_cli.tools", "depixel_cli.inkscape")
     if name.endswith(".png"):  # nor the JPEG decoder's chroma model (~3 ms)
-        unneeded += ("PIL.JpegImagePlugin", "subprocess", "depixel.chroma", "depixel.chroma_unmix")
+        unneeded += ("PIL.JpegImagePlugin", "subprocess", "depixel.prepare.chroma", "depixel.prepare.chroma_unmix")
     code = (
         "import sys; from depixel_cli.main import main; "
         f"rc = main(['convert', {str(FIXTURES / name)!r}, '-o', {str(tmp_path / 'h.svg')!r}, '-q']); "

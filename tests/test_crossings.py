@@ -2,14 +2,14 @@
 from __future__ import annotations
 
 import numpy as np
-from hypothesis import given, settings, strategies as st
+from conftest import art
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from depixel.crossings import resolve_crossings
+from depixel.graph.crossings import resolve_crossings
+from depixel.graph.similarity import build_similarity_graph
 from depixel.params import Params
-from depixel.similarity import build_similarity_graph
-
-from conftest import art
 
 
 def resolve(text, **params):

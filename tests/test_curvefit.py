@@ -1,11 +1,12 @@
-"""depixel/curvefit.py's numerics that the speed work reshaped: they must give the very
+"""depixel/svg/curvefit.py's and reference.py's numerics that the speed work reshaped: they must give the very
 numbers of the plain formulas (the output is compared byte for byte)."""
 from __future__ import annotations
 
 import numpy as np
 
-from depixel.bspline import evaluate_cubic
-from depixel.curvefit import _T_FIT, _cube, _flatten, _per_sample
+from depixel.curves.bspline import evaluate_cubic
+from depixel.svg.curvefit import _T_FIT, _cube, _flatten
+from depixel.svg.reference import per_sample
 
 
 def test_flatten_is_evaluate_cubic_at_the_fit_parameters_to_the_bit():
@@ -19,7 +20,7 @@ def test_flatten_is_evaluate_cubic_at_the_fit_parameters_to_the_bit():
 def test_per_sample_repeats_each_item_like_a_gather():
     planes = np.arange(2 * 3 * 5, dtype=float).reshape(2, 3, 5)
     count = np.array([2, 0, 3])
-    out = _per_sample(planes, count)
+    out = per_sample(planes, count)
     assert out.shape == (2, 5, 5)
     assert np.array_equal(out, planes.take([0, 0, 2, 2, 2], axis=1))
 
@@ -36,15 +37,15 @@ def test_exact_samples_are_flatten_cubics_to_the_bit():
     from conftest import FIXTURES
 
     from depixel import depixelize, load_image
-    from depixel.bspline import flatten_cubic
-    from depixel.curvefit import _T_ORIG, Exact, _as_cubic
-    from depixel.outlines import OutlineShapes
+    from depixel.curves.bspline import flatten_cubic
+    from depixel.svg.outlines import OutlineShapes
+    from depixel.svg.reference import T_ORIG, Exact, _as_cubic
 
     vector = depixelize(load_image(FIXTURES / "mushroom.png")).vector
     pieces = OutlineShapes(vector, "stacked", grid=0.01, simplify=0.0).pieces
     exact = Exact(pieces, 0.25)
     c1, c2 = _as_cubic(exact.start, pieces.kind, pieces.ctrl, pieces.ctrl2, exact.end)
-    samples = flatten_cubic(exact.start, c1, c2, exact.end, _T_ORIG).transpose(2, 0, 1)  # (2, K, 4)
+    samples = flatten_cubic(exact.start, c1, c2, exact.end, T_ORIG).transpose(2, 0, 1)  # (2, K, 4)
     assert samples.shape[1] > 50
     assert np.array_equal(exact.part_start, samples)
     assert np.array_equal(exact.part_end[:, :, :-1], samples[:, :, 1:])
@@ -58,8 +59,8 @@ def test_segments_of_edges_are_the_segments_of_each_span_in_the_edges_piece():
     from conftest import FIXTURES
 
     from depixel import depixelize, load_image
-    from depixel.curvefit import _SegmentsOfEdges
-    from depixel.outlines import OutlineShapes
+    from depixel.svg.outlines import OutlineShapes
+    from depixel.svg.reference import _SegmentsOfEdges
 
     vector = depixelize(load_image(FIXTURES / "mushroom.png")).vector
     pieces = OutlineShapes(vector, "stacked", grid=0.01, simplify=0.0).pieces
@@ -83,7 +84,7 @@ def test_segments_of_edges_are_the_segments_of_each_span_in_the_edges_piece():
 
 
 def test_tangent_is_the_unit_leg_or_chord_of_the_plain_formula_to_the_bit():
-    from depixel.curvefit import _tangent
+    from depixel.svg.reference import _tangent
 
     rng = np.random.default_rng(7)
     leg, chord = rng.uniform(-3, 3, (200, 2)), rng.uniform(-3, 3, (200, 2))
@@ -100,8 +101,8 @@ def test_piece_tolerance_is_the_tolerance_or_a_sixteenth_of_the_pieces_sample_bo
     from conftest import FIXTURES
 
     from depixel import depixelize, load_image
-    from depixel.curvefit import _RELATIVE_TOLERANCE, Exact
-    from depixel.outlines import OutlineShapes
+    from depixel.svg.outlines import OutlineShapes
+    from depixel.svg.reference import _RELATIVE_TOLERANCE, Exact
 
     vector = depixelize(load_image(FIXTURES / "mushroom.png")).vector
     pieces = OutlineShapes(vector, "stacked", grid=0.01, simplify=0.0).pieces
@@ -154,10 +155,11 @@ def test_distance_test_is_every_samples_distance_within_the_tolerance_to_the_bit
     from conftest import FIXTURES
 
     from depixel import depixelize, load_image
-    from depixel.bspline import elevate
-    from depixel.curvefit import Exact, _cubic_controls, _quadratic_control, _Samples
-    from depixel.outlines import OutlineShapes
-    from depixel.simplify import _chunks, _halves
+    from depixel.curves.bspline import elevate
+    from depixel.svg.curvefit import _cubic_controls, _quadratic_control, _Samples
+    from depixel.svg.outlines import OutlineShapes
+    from depixel.svg.reference import Exact
+    from depixel.svg.simplify import _chunks, _halves
 
     vector = depixelize(load_image(FIXTURES / "mushroom.png")).vector
     pieces = OutlineShapes(vector, "stacked", grid=0.01, simplify=0.0).pieces

@@ -11,12 +11,11 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import FIXTURES
+from test_faults import batch_folder, wait_for_outputs
 
 from depixel_cli.main import main
 from depixel_cli.options import Exit
-
-from conftest import FIXTURES
-from test_faults import batch_folder, wait_for_outputs
 
 distributed = pytest.importorskip("distributed", reason="the dask extra is not installed")
 

@@ -5,14 +5,20 @@ import json
 
 import numpy as np
 import pytest
+from conftest import FIXTURES, art
 from PIL import Image
 
-from depixel.diff import (MAX_YIQ_DELTA, SizeMismatchError, compare, diff_files, luma, pick_background,
-                          yiq_distance)
+from depixel.diff.compare import (
+    MAX_YIQ_DELTA,
+    SizeMismatchError,
+    compare,
+    diff_files,
+    luma,
+    pick_background,
+    yiq_distance,
+)
 from depixel_cli.main import main
 from depixel_cli.options import Exit
-
-from conftest import FIXTURES, art
 
 
 def opaque(rgb_rows) -> np.ndarray:

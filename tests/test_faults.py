@@ -17,11 +17,10 @@ import time
 from pathlib import Path
 
 import pytest
+from conftest import FIXTURES
 
 from depixel_cli import pool
 from depixel_cli.pool import Finished, Signals, run_jobs
-
-from conftest import FIXTURES
 
 #: generous on a loaded 2-core machine; the measured time is ~0.1-1.2 s (docs/cli.md)
 STOP_SECONDS = 6.0
@@ -384,10 +383,10 @@ def test_worker_stop_swallowed_by_a_finalizer_stops_again(tmp_path):
     prints "Exception ignored") is raised again outside it, with nothing printed."""
     code = """if True:
         import os, signal, sys, time
-        from depixel_cli import pool
-        signal.signal(signal.SIGTERM, pool._stop)
+        from depixel_cli import worker
+        signal.signal(signal.SIGTERM, worker.raise_stop)
         if sys.argv[1] == "hook":
-            sys.unraisablehook = pool._unraisable
+            sys.unraisablehook = worker.unraisable
         def frames():
             try:
                 yield 1
@@ -400,7 +399,7 @@ def test_worker_stop_swallowed_by_a_finalizer_stops_again(tmp_path):
             del gen
             time.sleep(5)
             print("went on")
-        except pool._Stop:
+        except worker.Stop:
             print("stopped")
     """
     done = subprocess.run([sys.executable, "-c", code, "hook"], capture_output=True, text=True, timeout=60)
@@ -416,13 +415,13 @@ def test_worker_stopped_while_it_sets_itself_up_exits_quietly():
     code = """if True:
         import os, signal
         from multiprocessing import Pipe
-        from depixel_cli import pool
+        from depixel_cli import worker
         def slow_setup():
             os.kill(os.getpid(), signal.SIGTERM)  # as if it arrived during the set-up
             signal.pause()  # SIGTERM raised _Stop before this returns
-        pool._die_with_parent = slow_setup
+        worker.die_with_parent = slow_setup
         here, there = Pipe()
-        pool._serve(there, print)
+        worker.serve(there, print)
         print("quiet")
     """
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)

@@ -5,15 +5,15 @@ output is deterministic, and every pixel centre keeps its colour and opacity."""
 from __future__ import annotations
 
 import numpy as np
-from hypothesis import HealthCheck, given, settings, strategies as st
+from conftest import FIXTURES
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
+from robust import STAGE, centre_errors, parse
 
 import depixel
 from depixel.errors import InputError
-from depixel.image import load_image
-
-from conftest import FIXTURES
-from robust import STAGE, centre_errors, parse
+from depixel.prepare.image import load_image
 
 # Channel levels close together (hqx-similar) and far apart, so random palettes produce
 # similar pairs, shading edges and crossings, not only all-different colours.

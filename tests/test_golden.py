@@ -20,14 +20,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import fixture_pngs
 from PIL import Image
 
-from depixel.image import load_image
 from depixel.pipeline import depixelize
-from depixel.raster import render_rgba
-from depixel.svg import to_svg
-
-from conftest import fixture_pngs
+from depixel.prepare.image import load_image
+from depixel.render.raster import render_rgba
+from depixel.svg.writer import to_svg
 
 GOLDEN = Path(__file__).resolve().parent / "golden"
 SCALE = 4

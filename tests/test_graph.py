@@ -5,7 +5,7 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from depixel.graph import component_roots, cycle_leaders
+from depixel.graph.components import component_roots, cycle_leaders
 
 
 def test_component_roots_match_scipy():

@@ -15,15 +15,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-import depixel
-from depixel.errors import InputError, OutputError, ParameterError
-from depixel.image import load_image
-from depixel.output import write_atomic
-
 from conftest import FIXTURES
 from robust import STAGE, convert, parse, png_bytes, png_chunk
 
+import depixel
+from depixel.errors import InputError, OutputError, ParameterError
+from depixel.files.output import write_atomic
+from depixel.prepare.image import load_image
 
 
 def _permissions_enforced() -> bool:
@@ -132,9 +130,9 @@ def test_path_with_nul_byte():
 
 
 def test_file_over_the_byte_limit_is_refused_before_decoding(tmp_path, monkeypatch):
-    import depixel.image
+    import depixel.prepare.image
 
-    monkeypatch.setattr(depixel.image, "MAX_FILE_BYTES", 100)
+    monkeypatch.setattr(depixel.prepare.image, "MAX_FILE_BYTES", 100)
     path = tmp_path / "big.png"
     path.write_bytes(SPRITE.read_bytes())
     with pytest.raises(InputError, match="too large for pixel art"):

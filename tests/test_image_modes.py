@@ -7,12 +7,11 @@ import io
 
 import numpy as np
 import pytest
-from PIL import Image
-
-from depixel.image import as_rgba, load_image
-
 from conftest import FIXTURES
+from PIL import Image
 from robust import assert_centres_kept, convert, fills, parse, png_bytes, png_chunk, visible_colours
+
+from depixel.prepare.image import as_rgba, load_image
 
 # a small sprite drawn with four indices; each mode below gives the four values in its own
 # terms and the RGBA they mean

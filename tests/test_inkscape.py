@@ -24,8 +24,8 @@ from conftest import FIXTURES
 from lxml import etree
 from PIL import Image
 
-from depixel.raster import render_rgba
-from depixel.svg import DEFAULT_SIMPLIFY
+from depixel.render.raster import render_rgba
+from depixel.svg.writer import DEFAULT_SIMPLIFY
 from depixel_cli import inkscape as installer
 from depixel_cli.main import main
 from depixel_cli.options import Exit
@@ -47,7 +47,7 @@ class Runtime:
     pythonpath: str | None = None
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def inkscape_runtime() -> Runtime | None:
     """Inkscape's inkex (``inkscape --system-data-directory``/extensions) with the first
     Python that imports it, as Inkscape's own ``python3`` would; None without Inkscape."""

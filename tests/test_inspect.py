@@ -1,17 +1,16 @@
-"""``depixel inspect`` and the stage figure (depixel.figure)."""
+"""``depixel inspect`` and the stage figure (depixel.render.figure)."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import FIXTURES, art
 from PIL import Image
 
 import depixel
-from depixel import figure
-from depixel.image import load_image
+from depixel.prepare.image import load_image
+from depixel.render import figure
 from depixel_cli.main import main
 from depixel_cli.options import Exit
-
-from conftest import FIXTURES, art
 
 ALL_STAGES = ["input", "similarity graph", "crossings resolved", "reshaped cells", "splines",
               "optimized splines", "final render"]

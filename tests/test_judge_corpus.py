@@ -13,10 +13,9 @@ import subprocess
 import sys
 
 import pytest
+from conftest import CORPUS, JUDGE, needs_corpus
 
 from depixel import Params, depixelize, load_image, to_svg
-
-from conftest import CORPUS, JUDGE, needs_corpus
 
 SAMPLE = ["gaxe2_axbattler_01", "mana_salamando", "sbm4_02", "win31_386", "smw_boo", "smw2_yoshi_01",
           "sma_toad", "invaders_01", "vikings_baelog"]

@@ -16,17 +16,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import FIXTURES
 from PIL import Image
 
 import depixel
 from depixel import api
 from depixel.errors import InputError, OutputError, ParameterError
-from depixel.image import load_image
-from depixel.output import write_atomic
+from depixel.files.output import write_atomic
+from depixel.prepare.image import load_image
 from depixel_cli.main import main
 from depixel_cli.options import Exit
-
-from conftest import FIXTURES
 
 #: address space of a limited subprocess: enough for Python, numpy and cairo, far less than any bomb
 LIMIT = 1536 * 2**20
@@ -131,10 +130,10 @@ def test_rendered_outputs_are_bounded(tmp_path, argv, fragment):
 
 def test_arrays_have_a_pixel_limit():
     """17.9: depixel.convert of a 5000x5000 array is refused before any copy (it took 24 GB)."""
-    code = ("import resource; resource.setrlimit(resource.RLIMIT_AS, ({0}, {0})); "
+    code = (f"import resource; resource.setrlimit(resource.RLIMIT_AS, ({LIMIT}, {LIMIT})); "
             "import numpy as np, depixel\n"
             "a = np.zeros((5000, 5000), np.uint8)\n"
-            "try:\n    depixel.convert(a)\nexcept depixel.InputError as e:\n    print(e.parameter, e)\n").format(LIMIT)
+            "try:\n    depixel.convert(a)\nexcept depixel.InputError as e:\n    print(e.parameter, e)\n")
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert run.stdout.startswith("max_pixels <image>: 5000x5000 is 25000000 pixels, over the limit"), run.stderr
     assert depixel.convert(np.zeros((5000, 5000), np.uint8)[:10, :10]).startswith("<?xml")
@@ -161,7 +160,7 @@ def test_params_validate_themselves(change, match):
 
 def test_pdf_is_byte_identical_and_dated_reproducibly(tmp_path, monkeypatch):
     """17.10: the creation date is fixed (or SOURCE_DATE_EPOCH), so runs give the same bytes."""
-    from depixel.raster import render
+    from depixel.render.raster import render
 
     svg = depixel.convert(api.load(FIXTURES / "heart.png"), stage="cells")
     monkeypatch.delenv("SOURCE_DATE_EPOCH", raising=False)
@@ -208,7 +207,7 @@ def test_over_long_names_are_one_line(tmp_path, capsys):
 
 def test_frames_all_reads_the_file_once(tmp_path, monkeypatch):
     """17.12: every frame decoded once, in order, from one read of the file."""
-    from depixel import image
+    from depixel.prepare import image
     from depixel_cli.batch import Job, Options, run_job
 
     frames = [Image.new("RGB", (8, 8), (8 * i, 255 - 8 * i, 0)) for i in range(30)]

@@ -3,27 +3,26 @@ corners stay sharp, staircases round off, pixel centres stay in their cells, see
 from __future__ import annotations
 
 import re
-
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings, strategies as st
+from conftest import FIXTURES, fixture_pngs
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from depixel.image import load_image
-from depixel.fidelity import _clearance, _clearances, centre_clearance
+from depixel.optimize.fidelity import _clearance, _clearances, centre_clearance
 from depixel.params import Params
 from depixel.pipeline import depixelize
-from depixel.raster import render_rgba
-from depixel.svg import to_svg
-
-from conftest import FIXTURES, art, fixture_pngs
+from depixel.prepare.image import load_image
+from depixel.render.raster import render_rgba
+from depixel.svg.writer import to_svg
 
 FIXTURES_NAMES = [p.name for p in fixture_pngs()]
 
 
-@lru_cache(maxsize=None)
+@cache
 def fixture_run(name: str, seed: int = 0):
     return depixelize(load_image(FIXTURES / name), Params(seed=seed))
 

@@ -5,23 +5,24 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import art
 
-from depixel.bspline import evaluate, flatten_edges, flatten_edges_planes, half_turns, midpoint
-from depixel.corners import detect_corners, detect_square_corners, excluded_halves
-from depixel.fidelity import FAR, centre_clearance, keep_centres_inside, protected_points, unique_rows
-from depixel.harmonic import conjugate_gradients, follow, harmonic_map, row_dots
+from depixel.curves.bspline import evaluate, flatten_edges, flatten_edges_planes, half_turns, midpoint
+from depixel.curves.splines import SplineSet, split_at
+from depixel.optimize import harmonic as harmonic_module
+from depixel.optimize import relax as relax_module
+from depixel.optimize.corners import detect_corners, detect_square_corners, excluded_halves
+from depixel.optimize.fidelity import FAR, centre_clearance, keep_centres_inside, protected_points, unique_rows
+from depixel.optimize.harmonic import conjugate_gradients, follow, harmonic_map, row_dots
+from depixel.optimize import energy as energy_module
+from depixel.optimize.energy import Energy, Group, smoothness
+from depixel.optimize.relax import GRADIENT_STEPS, disc_offsets, independent_classes, relax, step
+from depixel.optimize.splitmix import SplitMix64
 from depixel.params import Params
 from depixel.pipeline import depixelize
-from depixel.raster import render_rgba
-from depixel import harmonic as harmonic_module
-from depixel import relax as relax_module
-from depixel.relax import GRADIENT_STEPS, Energy, Group, disc_offsets, independent_classes, relax, smoothness, step
-from depixel.splines import SplineSet, split_at
-from depixel.splitmix import SplitMix64
-from depixel.svg import to_svg
+from depixel.render.raster import render_rgba
+from depixel.svg.writer import to_svg
 from depixel.vector import faces
-
-from conftest import art
 
 RED, PINK, ORANGE, WHITE = (200, 40, 40, 255), (255, 110, 110, 255), (230, 80, 40, 255), (255, 255, 255, 255)
 
@@ -559,11 +560,13 @@ def test_a_small_drawing_is_prepared_once_and_moves_as_when_prepared_class_by_cl
     once = relax(splines, splines.positions, corners, excluded)
     assert len(calls) == 1 and calls[0] == once.movable.sum()
     calls.clear()
-    monkeypatch.setattr(relax_module, "PREPARE_ONCE", int(once.movable.sum()) - 1)
+    for module in (relax_module, energy_module):
+        monkeypatch.setattr(module, "PREPARE_ONCE", int(once.movable.sum()) - 1)
     by_class = relax(splines, splines.positions, corners, excluded)
     assert len(calls) >= 3 and sum(calls) == once.movable.sum()
     assert np.array_equal(by_class.ctrl, once.ctrl) and by_class.energy_after == once.energy_after
-    monkeypatch.setattr(relax_module, "PREPARE_ONCE", 1)
+    for module in (relax_module, energy_module):
+        monkeypatch.setattr(module, "PREPARE_ONCE", 1)
     compact = relax(splines, splines.positions, corners, excluded)
     assert np.array_equal(compact.ctrl, once.ctrl) and compact.energy_after == once.energy_after
 
@@ -574,12 +577,12 @@ def test_the_chords_of_half_counted_spans_are_the_same_from_the_members_that_hav
     optimized = depixelize(art(BLOB)).optimized
     splines, corners = optimized.splines, optimized.corners
     excluded, start = excluded_halves(splines, corners.nodes), corners.place(splines)
-    span_tips = relax_module._span_tips
+    span_tips = energy_module._span_tips
     results, written = {}, {}
     for path, few in (("all", 1 << 10), ("some", 0)):
         sizes: list[int] = []  # members whose end points are written, call by call
-        monkeypatch.setattr(relax_module, "SPANS_OF_FEW", few)
-        monkeypatch.setattr(relax_module, "_span_tips", lambda *a, sizes=sizes: sizes.append(a[-1].shape[1])
+        monkeypatch.setattr(energy_module, "SPANS_OF_FEW", few)
+        monkeypatch.setattr(energy_module, "_span_tips", lambda *a, sizes=sizes: sizes.append(a[-1].shape[1])
                             or span_tips(*a))
         results[path], written[path] = relax(splines, start, corners.nodes, excluded), sum(sizes)
     assert 0 < written["some"] < written["all"]

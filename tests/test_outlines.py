@@ -1,4 +1,4 @@
-"""The outline product (depixel/outlines.py): which area each shape covers, in which order,
+"""The outline product (depixel/svg/outlines.py): which area each shape covers, in which order,
 and the segments of its boundary — checked on the geometry itself, without parsing SVG."""
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ import pytest
 from conftest import art, corpus_pngs, fixture_pngs
 
 from depixel import depixelize, load_image
-from depixel.boundaries import CUBIC, LINE, QUAD
-from depixel.outlines import build_outlines
-from depixel.stacking import ROLES
+from depixel.svg.boundaries import CUBIC, LINE, QUAD
+from depixel.svg.outlines import build_outlines
+from depixel.svg.stacking import ROLES
 
 SQUARE_IN_SQUARE = """
 ......
@@ -160,7 +160,7 @@ def _holes_test_images():
 def test_the_row_by_row_hole_test_matches_the_pairwise_test_on_random_polygons():
     """Random closed polygons on the quarter-pixel grid (any slope, so crossings fall
     between probe columns; self-intersecting ones too) against random pixel centres."""
-    from depixel.holes import holds_a_probe, probe_keys
+    from depixel.svg.holes import holds_a_probe, probe_keys
 
     rng = np.random.default_rng(7)
     held = 0
@@ -186,7 +186,7 @@ def test_the_row_by_row_hole_test_matches_the_pairwise_test_on_random_polygons()
 def test_holes_holding_a_transparent_pixel_match_the_pairwise_test(monkeypatch):
     """The row-by-row hole test (linear) decides exactly like testing every pair of hole
     edge and transparent-face centre (quadratic: a lattice of rings took 4.8 GB at 384²)."""
-    import depixel.holes as holes
+    import depixel.svg.holes as holes
 
     fast = holes.holds_a_probe
     seen = []
@@ -319,7 +319,7 @@ def _render_shapes(out, shapes, scale=4):
     import cairosvg
     from PIL import Image
 
-    from depixel.svg import path_data
+    from depixel.svg.writer import path_data
 
     h, w = out.shape
     data = path_data(out, 3)
@@ -393,7 +393,7 @@ def test_path_data_reads_back_as_the_outlines(layout, simplify, precision):
     segments of the outline product (to the output precision)."""
     import svgpath
 
-    from depixel.svg import path_data
+    from depixel.svg.writer import path_data
 
     grid = 10.0**-precision
     for name in ("mushroom.png", "potion_rgba.png"):
@@ -453,7 +453,7 @@ def test_the_one_pass_and_the_two_pass_fit_give_the_same_curves(name, monkeypatc
     """curvefit.fit tests a range's quadratic and cubic in one pass when there are few
     ranges, the cubic only where the quadratic failed when there are many: a speed choice
     that must not show in the result."""
-    import depixel.curvefit as curvefit
+    import depixel.svg.curvefit as curvefit
 
     vector = depixelize(load_image(fixture_pngs_by_name(name))).vector
     results = []
@@ -564,7 +564,7 @@ def test_layers_panel_structure(path):
     from robust import SVG_NS
 
     import depixel
-    from depixel.svg import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
+    from depixel.svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
 
     label = "{http://www.inkscape.org/namespaces/inkscape}label"
     rgba = load_image(path)
@@ -589,8 +589,8 @@ def test_the_dense_member_tables_and_the_key_search_give_the_same_outlines(name,
     """A sprite's shape members are looked up in dense tables (outlines._batch_entries,
     stacking._grow), a frame's by a binary search of sorted keys: a speed choice by size
     that must not show in the result."""
-    import depixel.outlines as outlines
-    import depixel.stacking as stacking
+    import depixel.svg.outlines as outlines
+    import depixel.svg.stacking as stacking
 
     vector = depixelize(load_image(fixture_pngs_by_name(name))).vector
     results = []
@@ -609,7 +609,7 @@ def test_face_topology_reads_first_pixels_and_junctions(seed):
     """FaceTopology's first pixel of each face (read off the labels' numbering) is the
     face's smallest pixel, and its junctions are the nodes where three or more boundary
     edges between two faces of the image meet (the image border not counted)."""
-    from depixel.stacking import FaceTopology
+    from depixel.svg.stacking import FaceTopology
 
     rng = np.random.default_rng(seed)
     rgba = np.zeros((9, 11, 4), np.uint8)

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from depixel.cells import DIAGONAL, build_cell_graph
-from depixel.crossings import resolve_crossings
-from depixel.image import rgb_to_yuv
-from depixel.pairing import Chains, band_edges, chain_curves, cut_chains, shading_edges, visible_edges
+from depixel.colour import rgb_to_yuv
+from depixel.curves.pairing import Chains, band_edges, chain_curves, cut_chains, shading_edges, visible_edges
+from depixel.curves.splines import extract_splines
+from depixel.graph.cells import DIAGONAL, build_cell_graph
+from depixel.graph.crossings import resolve_crossings
+from depixel.graph.similarity import build_similarity_graph
 from depixel.params import Params
-from depixel.similarity import build_similarity_graph
-from depixel.splines import extract_splines
 from depixel.vector import linked_edges
 
 

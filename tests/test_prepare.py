@@ -1,22 +1,28 @@
-"""Input preparation (depixel/prepare.py): upscale detection, denoising, backdrop keying."""
+"""Input preparation (depixel/prepare/inputs.py): upscale detection, denoising, backdrop keying."""
 from __future__ import annotations
 
 import io
 
 import numpy as np
 import pytest
+from conftest import FIXTURES, art, corpus_pngs, fixture_pngs, needs_corpus
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from PIL import Image
 
 import depixel
 from depixel import load_image
+from depixel.colour import rgb_to_yuv
 from depixel.errors import ParameterError
-from depixel.image import rgb_to_yuv
-from depixel.prepare import (PreparedImage, find_grid, lossy_format, parse_pixel_size, parse_transparent,
-                             prepare, snap_colours)
-
-from conftest import FIXTURES, art, corpus_pngs, fixture_pngs, needs_corpus
+from depixel.prepare.inputs import (
+    PreparedImage,
+    find_grid,
+    lossy_format,
+    parse_pixel_size,
+    parse_transparent,
+    prepare,
+    snap_colours,
+)
 
 PALETTE = np.array([[255, 255, 255, 255], [0, 0, 0, 255], [220, 30, 30, 255], [30, 60, 220, 255],
                     [0, 0, 0, 0]], dtype=np.uint8)
@@ -137,7 +143,7 @@ def slow_fit_axis(change: np.ndarray, off_grid: float) -> tuple[int, int] | None
 def test_the_lossy_grid_fit_agrees_with_the_slow_reference():
     """Every factor at once (pixelgrid._fit_axis) against one factor at a time: random edge
     shares, on a k-grid plus stray edges off it."""
-    from depixel.pixelgrid import LOSSY_OFF_GRID, _fit_axis  # noqa: PLC0415
+    from depixel.prepare.pixelgrid import LOSSY_OFF_GRID, _fit_axis  # noqa: PLC0415
 
     rng = np.random.default_rng(7)
     for trial in range(60):
@@ -158,7 +164,7 @@ def slow_palette(yuv: np.ndarray, rgb: np.ndarray, counts: np.ndarray, min_count
     becomes their mean colour, unless (with shadows) a colour chosen before of nearly the
     same luma has at least twice its pixels. Candidates: cells with min_count pixels around
     them at the start."""
-    from depixel.palette import _CELL, _REACH, SHADOW_LUMA, SHADOW_RATIO  # noqa: PLC0415
+    from depixel.prepare.palette import _CELL, _REACH, SHADOW_LUMA, SHADOW_RATIO  # noqa: PLC0415
 
     cell_of = [tuple(c) for c in np.floor(yuv / _CELL).astype(int)]
     cells = sorted(set(cell_of))
@@ -196,7 +202,7 @@ def slow_palette(yuv: np.ndarray, rgb: np.ndarray, counts: np.ndarray, min_count
 
 @pytest.mark.parametrize("shadows", [True, False])
 def test_palette_mode_seeking_agrees_with_the_slow_reference(shadows):
-    from depixel.palette import _palette  # noqa: PLC0415
+    from depixel.prepare.palette import _palette  # noqa: PLC0415
 
     rng = np.random.default_rng(11)
     for trial in range(8):

@@ -8,16 +8,17 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
+from conftest import FIXTURES
 from PIL import Image
 
 import depixel
-from depixel import api, figure, load_image
+from depixel import api, load_image
 from depixel.errors import ParameterError
-from depixel.raster import render_rgba
+from depixel.files import convert as files
+from depixel.render import figure
+from depixel.render.raster import render_rgba
 from depixel_cli.main import main
 from depixel_cli.options import Exit
-
-from conftest import FIXTURES
 
 GHOST = load_image(FIXTURES / "ghost.png")  # 18×16 on an opaque blue backdrop (92, 148, 252)
 HEART = load_image(FIXTURES / "heart.png")  # 10×10 on white
@@ -104,14 +105,14 @@ def test_convert_file_denoises_jpeg_by_default_and_reports(tmp_path):
     source = tmp_path / "ghost_x4.jpg"
     Image.fromarray(upscale(GHOST, 4, 4)[..., :3]).save(source, quality=90)
     seen = []
-    out = api.convert_file(source, tmp_path / "g.svg", on_prepared=seen.append)
+    out = files.convert_file(source, tmp_path / "g.svg", on_prepared=seen.append)
     assert seen[0].lossy == "JPEG" and seen[0].denoised and seen[0].pixel_size == (4, 4)
     assert root_of(out.read_text()).get("width") == "72"
-    api.convert_file(source, tmp_path / "h.svg", denoise=False, on_prepared=seen.append)
+    files.convert_file(source, tmp_path / "h.svg", denoise=False, on_prepared=seen.append)
     assert not seen[1].denoised
     png = tmp_path / "ghost.png"
     Image.fromarray(GHOST).save(png)
-    api.convert_file(png, tmp_path / "i.svg", on_prepared=seen.append)
+    files.convert_file(png, tmp_path / "i.svg", on_prepared=seen.append)
     assert not seen[2].changed
 
 

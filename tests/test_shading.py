@@ -1,19 +1,19 @@
 """Stage 7: the smooth renderer of paper §3.5 — shading within regions, sharp contours."""
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 import pytest
+from conftest import FIXTURES, art, fixture_pngs
 
-from depixel import shading
-from depixel.image import load_image, rgb_to_yuv
+from depixel.colour import rgb_to_yuv
+from depixel.graph.similarity import similar
 from depixel.params import Params
 from depixel.pipeline import depixelize
-from depixel.shading import cell_centroids, render_smooth
-from depixel.similarity import similar
-
-from conftest import FIXTURES, art, fixture_pngs
+from depixel.prepare.image import load_image
+from depixel.render import shading
+from depixel.render.shading import cell_centroids, render_smooth
 
 STAGES = ("cells", "optimized")
 
@@ -22,7 +22,7 @@ def vector(rgba: np.ndarray, stage: str = "optimized"):
     return depixelize(rgba, stage=stage).vector
 
 
-@lru_cache(maxsize=None)
+@cache
 def fixture_vector(name: str, stage: str):
     return vector(load_image(FIXTURES / name), stage)
 

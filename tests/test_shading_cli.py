@@ -6,13 +6,12 @@ import io
 
 import numpy as np
 import pytest
+from conftest import FIXTURES
 from PIL import Image
 
 from depixel import Params, depixelize, load_image
-from depixel.shading import render_smooth
+from depixel.render.shading import render_smooth
 from depixel_cli.main import main
-
-from conftest import FIXTURES
 
 
 def test_png_defaults_to_smooth_shading(tmp_path):

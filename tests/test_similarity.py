@@ -4,9 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from depixel.image import rgb_to_yuv
+from depixel.colour import rgb_to_yuv
+from depixel.graph.similarity import build_similarity_graph, similar
 from depixel.params import Params
-from depixel.similarity import build_similarity_graph, similar
 
 YUV_TO_RGB = np.linalg.inv(np.array([[0.299, 0.587, 0.114], [-0.169, -0.331, 0.5], [0.5, -0.419, -0.081]]))
 

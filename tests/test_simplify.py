@@ -1,4 +1,4 @@
-"""depixel/simplify.py's driver: which ranges of exact segments are fitted, and that fitting
+"""depixel/svg/simplify.py's driver: which ranges of exact segments are fitted, and that fitting
 some of them ahead of time (a speed choice) never shows in the result."""
 from __future__ import annotations
 
@@ -8,10 +8,10 @@ from conftest import FIXTURES
 from hypothesis import given
 from hypothesis import strategies as st
 
-import depixel.simplify as simplify
+import depixel.svg.simplify as simplify
 from depixel import depixelize, load_image
-from depixel.outlines import build_outlines
-from depixel.simplify import _descendants, _first_merges, _halves, _next_merges, _range_keys
+from depixel.svg.outlines import build_outlines
+from depixel.svg.simplify import _descendants, _first_merges, _halves, _next_merges, _range_keys
 
 
 def _pairs(lo, hi):

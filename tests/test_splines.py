@@ -3,23 +3,23 @@ the exact Bézier form of the B-splines, end snapping, shape counts, determinism
 from __future__ import annotations
 
 import re
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 import pytest
-from scipy.interpolate import BSpline
-
-from depixel.bspline import between_curve_points, joint, midpoint, split_half
-from depixel.image import load_image, rgb_to_yuv
-from depixel.fidelity import centre_clearance
-from depixel.params import Params
-from depixel.pipeline import depixelize
-from depixel.similarity import similar
-from depixel.splines import SplineSet
-from depixel.svg import to_svg
-
 import svgpath
 from conftest import FIXTURES, art, corpus_pngs, needs_corpus
+from scipy.interpolate import BSpline
+
+from depixel.colour import rgb_to_yuv
+from depixel.curves.bspline import between_curve_points, joint, midpoint, split_half
+from depixel.curves.splines import SplineSet
+from depixel.graph.similarity import similar
+from depixel.optimize.fidelity import centre_clearance
+from depixel.params import Params
+from depixel.pipeline import depixelize
+from depixel.prepare.image import load_image
+from depixel.svg.writer import to_svg
 
 # The same 6×6 T: block A top-left, block B top-right, C across the bottom. The junction is
 # the image centre, lattice point (3, 3) = (12, 12) in quarter pixels, whatever symmetry
@@ -129,7 +129,7 @@ def chain_errors(splines: SplineSet, positions: np.ndarray, vector) -> tuple[flo
     return worst, checked
 
 
-@lru_cache(maxsize=None)
+@cache
 def fixture_result(name: str, stage: str):
     return depixelize(load_image(FIXTURES / name), stage=stage)
 

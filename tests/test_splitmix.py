@@ -1,10 +1,10 @@
-"""The relaxation's random numbers (depixel/splitmix.py): SplitMix64, continued across calls,
+"""The relaxation's random numbers (depixel/optimize/splitmix.py): SplitMix64, continued across calls,
 spread evenly, and a fair shuffle."""
 from __future__ import annotations
 
 import numpy as np
 
-from depixel.splitmix import SplitMix64
+from depixel.optimize.splitmix import SplitMix64
 
 #: the first draws of SplitMix64 seeded with 1234567, as published with the generator's
 #: reference C code (Vigna, prng.di.unimi.it) and on Rosetta Code

@@ -5,7 +5,7 @@ import hashlib
 import json
 
 import depixel
-from depixel.stamp import options_stamp
+from depixel.files.stamp import options_stamp
 
 
 def test_options_stamp_is_the_sha256_of_the_sorted_options():

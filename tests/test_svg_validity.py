@@ -11,12 +11,11 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 
 import pytest
+import svgpath
+from conftest import fixture_pngs
 from svgwrite.validator2 import get_validator
 
 from depixel import Params, depixelize, load_image, to_svg
-
-import svgpath
-from conftest import fixture_pngs
 
 SVG_NS = "{http://www.w3.org/2000/svg}"
 

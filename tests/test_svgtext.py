@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from depixel.loops import trace_loops
-from depixel.svgtext import Decimals, Texts, number, numbers, stack
+from depixel.svg.loops import trace_loops
+from depixel.svg.svgtext import Decimals, Texts, number, numbers, stack
 
 
 def reference_number(value: float, precision: int) -> str:
@@ -168,7 +168,7 @@ def test_path_numbers_written_relative_only_where_shorter():
     """svg._format measures the absolute and the relative numbers of each command, with the
     separators SVG needs, and formats only the shorter form (absolute on a tie); it says
     which numbers are glued to the one before (no space)."""
-    from depixel.svg import _W, _format
+    from depixel.svg.writer import _W, _format
 
     # the used arguments (hundredths) of three commands: 2 of the first, 3 of the second, 1 of the third
     num_cmd, num_k = np.array([0, 0, 1, 1, 1, 2]), np.array([0, 1, 0, 1, 2, 0])

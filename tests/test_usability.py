@@ -13,6 +13,7 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import FIXTURES
 from PIL import Image
 
 import depixel
@@ -20,8 +21,6 @@ from depixel import api
 from depixel.errors import DepixelError, ParameterError
 from depixel_cli.main import main
 from depixel_cli.options import Exit
-
-from conftest import FIXTURES
 
 
 def one_line(err: str) -> str:

@@ -16,8 +16,8 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 import depixel
-from depixel.image import load_image
-from depixel.raster import render_rgba
+from depixel.prepare.image import load_image
+from depixel.render.raster import render_rgba
 
 HERE = Path(__file__).resolve().parent
 FIXTURES = HERE.parent.parent / "fixtures"

@@ -15,10 +15,10 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw
 
-from depixel.image import load_image
 from depixel.pipeline import depixelize
-from depixel.shading import render_smooth
-from depixel.svg import to_svg
+from depixel.prepare.image import load_image
+from depixel.render.shading import render_smooth
+from depixel.svg.writer import to_svg
 
 HERE = Path(__file__).resolve().parent
 FIXTURES = HERE.parent.parent / "fixtures"

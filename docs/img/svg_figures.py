@@ -27,8 +27,8 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from depixel import depixelize, load_image, to_svg  # noqa: E402
-from depixel.outlines import build_outlines  # noqa: E402
-from depixel.svg import DEFAULT_SIMPLIFY, path_data  # noqa: E402
+from depixel.svg.outlines import build_outlines  # noqa: E402
+from depixel.svg.writer import DEFAULT_SIMPLIFY, path_data  # noqa: E402
 
 OUT = Path(__file__).resolve().parent
 INK = (40, 40, 40, 255)

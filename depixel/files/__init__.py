@@ -1,0 +1,5 @@
+"""Files in, files out — an image file → an SVG, PNG or PDF file, written safely and stamped.
+
+:mod:`.convert` converts and renders file to file, :mod:`.output` writes atomically (never a
+partial file, never over an input), :mod:`.stamp` records the options that made an output.
+"""

@@ -1,0 +1,6 @@
+"""Paper §3.4 — splines → optimized splines: corners kept, staircasing relaxed away.
+
+:mod:`.corners` finds the corners of Figure 7, :mod:`.relax` moves the control points to lower
+|curvature| + ‖p − p̂‖⁴, :mod:`.harmonic` lets the other nodes follow, :mod:`.fidelity` keeps
+pixel centres inside their cells; :mod:`.stage` runs them (:class:`~depixel.optimize.stage.OptimizedSplines`).
+"""

@@ -1,0 +1,308 @@
+"""Stage 0 — input: any image Pillow reads → RGBA uint8 array (the YUV space is in
+:mod:`depixel.colour`)."""
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import stat
+import warnings
+from pathlib import Path
+from typing import BinaryIO
+
+import numpy as np
+
+from ..errors import InputError, display_name
+from ..limits import DEFAULT_MAX_PIXELS, MAX_FILE_BYTES, MAX_INDEXED_PIXELS  # noqa: F401 (DEFAULT_MAX_PIXELS: re-exported)
+
+#: Modes with more than 8 bits per grey sample, scaled by hand (Pillow's convert clips them).
+_WIDE_GREY = ("I;16", "I;16B", "I;16L", "I;16N", "I", "F")
+
+ImageSource = str | os.PathLike | bytes | bytearray | memoryview | BinaryIO
+
+def _describe(source: ImageSource) -> str:
+    if isinstance(source, (str, os.PathLike)):
+        return display_name(source)
+    return "<bytes>" if isinstance(source, (bytes, bytearray, memoryview)) else "<stdin>"
+
+
+def load_image(source: ImageSource, max_pixels: int | None = DEFAULT_MAX_PIXELS, frame: int = 0) -> np.ndarray:
+    """Read one frame of an image into an ``(H, W, 4) uint8`` RGBA array, alpha kept.
+
+    ``source`` is a path, raw file bytes or a binary file object. Every Pillow mode is
+    accepted (docs/colour.md, "Input modes"): palette and grey images with a tRNS
+    transparency key keep it as alpha, 16-bit and 32-bit data are scaled to 8 bits.
+    The size of the frame (or page) decoded is checked against ``max_pixels`` (``None``:
+    only Pillow's decompression-bomb guard) from its header, before any pixel is decoded.
+    Anything unreadable raises :class:`InputError` with a one-line message naming the file.
+    """
+    from ..validate import number  # noqa: PLC0415
+
+    number("frame", frame, low=0, integer=True)
+    for _, rgba in _frames(source, max_pixels, only=int(frame)):
+        return rgba
+    raise AssertionError("unreachable: _frames yields the frame or raises")
+
+
+def load_frames(source: ImageSource, max_pixels: int | None = DEFAULT_MAX_PIXELS):
+    """Every frame of an (animated) image in order, each decoded once: yields ``(index,
+    (H, W, 4) uint8 RGBA)``. The file is read once and the frames are decoded sequentially,
+    so the cost is linear in the number of frames; each is checked against ``max_pixels``."""
+    yield from _frames(source, max_pixels, only=None)
+
+
+def _frames(source: ImageSource, max_pixels: int | None, only: int | None):
+    """Frames ``only`` (one index) or all of them, as :func:`load_frames` describes."""
+    from ..validate import limit  # noqa: PLC0415
+
+    max_pixels = limit("max_pixels", max_pixels)
+    name = _describe(source)
+    data = read_source(source)
+    with _quiet_pillow(), _open(data, name) as img:
+        width, height = img.size
+        check_pixels(name, width, height, max_pixels)
+        try:
+            n_frames = int(getattr(img, "n_frames", 1))
+        except Exception:
+            raise InputError(f"{name}: truncated or corrupt image data") from None
+        if only is not None and only >= n_frames:
+            raise InputError(f"{name}: has {n_frames} frame(s), no frame {only}")
+        for index in range(n_frames) if only is None else (only,):
+            try:
+                with _mute_stderr_fd(img.format == "TIFF"):  # libtiff prints its complaints there
+                    if index:
+                        img.seek(index)  # the next frame after the previous one: no re-reading
+                    # a page of a TIFF (or a frame of an APNG) has its own size: check it too
+                    width, height = img.size
+                    check_pixels(name, width, height, max_pixels)
+                    img.load()
+            except InputError:
+                raise
+            except MemoryError:
+                raise InputError(f"{name}: not enough memory to decode a {img.size[0]}x{img.size[1]} image") from None
+            except Exception as exc:  # Pillow raises OSError, SyntaxError, ValueError, zlib.error, ...
+                if _is_bomb(exc):
+                    raise _bomb_error(name) from None
+                raise InputError(f"{name}: truncated or corrupt image data") from None
+            yield index, _to_rgba(img, name)
+
+
+def check_pixels(name: str, width: int, height: int, max_pixels: int | None) -> None:
+    """Refuse an image of more than ``max_pixels`` pixels, naming the parameter."""
+    if max_pixels is not None and width * height > max_pixels:
+        raise InputError(
+            f"{name}: {width}x{height} is {width * height} pixels, over the limit of "
+            f"{max_pixels} (depixel is for pixel art; raise it with max_pixels)",
+            parameter="max_pixels",
+        )
+
+
+def frame_count(source: ImageSource) -> int:
+    """Number of frames in an (animated) image; 1 for still images."""
+    name = _describe(source)
+    data = read_source(source)
+    with _quiet_pillow(), _open(data, name) as img:
+        try:
+            return int(getattr(img, "n_frames", 1))
+        except Exception:
+            raise InputError(f"{name}: truncated or corrupt image data") from None
+
+
+def read_source(source: ImageSource) -> bytes:
+    """All bytes of a path, bytes or binary file object; :class:`InputError` for a missing,
+    empty or unreadable file, a folder, a device, or more than MAX_FILE_BYTES (so an endless
+    stream such as ``cat /dev/zero |`` fails fast instead of filling the memory)."""
+    name = _describe(source)
+    try:
+        if isinstance(source, (bytes, bytearray, memoryview)):
+            data = bytes(source)
+        elif isinstance(source, (str, os.PathLike)):
+            path = Path(source)
+            try:
+                mode = path.stat().st_mode
+            except FileNotFoundError:
+                raise InputError(f"{name}: no such file") from None
+            if stat.S_ISDIR(mode):
+                raise InputError(f"{name}: is a directory, not a file")
+            if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+                raise InputError(f"{name}: is a device, not a file")
+            with path.open("rb") as fh:  # pipes (e.g. <(cat sprite.png)) are read like files
+                data = fh.read(MAX_FILE_BYTES + 1)
+        elif hasattr(source, "read"):
+            data = source.read(MAX_FILE_BYTES + 1)
+        else:
+            raise TypeError(f"expected a path, bytes or a binary file object, not {type(source).__name__}")
+    except InputError:
+        raise
+    except PermissionError:
+        raise InputError(f"{name}: permission denied") from None
+    except (OSError, ValueError) as exc:  # ValueError: a NUL byte in the path, a closed file
+        reason = getattr(exc, "strerror", None) or str(exc)
+        raise InputError(f"{name}: cannot read ({reason})") from None
+    if not isinstance(data, bytes):
+        raise InputError(f"{name}: not a binary file object")
+    if not data:
+        raise InputError(f"{name}: empty file")
+    if len(data) > MAX_FILE_BYTES:
+        raise InputError(f"{name}: over {MAX_FILE_BYTES // 2**20} MiB, too large for pixel art")
+    return data
+
+
+@contextlib.contextmanager
+def _quiet_pillow():
+    """Pillow's warnings (corrupt EXIF, odd chunks) are not shown: the file either loads or
+    fails with one line. Its decompression-bomb warning, given from MAX_IMAGE_PIXELS on (it
+    only raises at twice that), becomes an error."""
+    from PIL import Image
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        warnings.simplefilter("error", Image.DecompressionBombWarning)
+        yield
+
+
+@contextlib.contextmanager
+def _mute_stderr_fd(active: bool):
+    """Point file descriptor 2 at the null device for the duration (C libraries that print
+    directly there); a no-op when not ``active`` or when fd 2 cannot be duplicated."""
+    try:
+        saved = os.dup(2) if active else None
+    except OSError:
+        saved = None
+    if saved is None:
+        yield
+        return
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
+def _is_bomb(exc: BaseException) -> bool:
+    from PIL import Image
+
+    return isinstance(exc, (Image.DecompressionBombError, Image.DecompressionBombWarning))
+
+
+def _bomb_error(name: str) -> InputError:
+    from PIL import Image
+
+    return InputError(f"{name}: header claims an absurd size, over {Image.MAX_IMAGE_PIXELS} pixels "
+                      "(decompression bomb guard)")
+
+
+def _open(data: bytes, name: str):
+    """Pillow image over ``data`` (header read, pixels not yet decoded); use as a context,
+    inside :func:`_quiet_pillow`."""
+    from PIL import Image  # Pillow is imported lazily: `depixel --help` should stay fast
+
+    try:
+        img = _open_png(data) if data.startswith(_PNG_SIGNATURE) else Image.open(io.BytesIO(data))
+    except Exception as exc:  # UnidentifiedImageError, or a header Pillow chokes on
+        if _is_bomb(exc):
+            raise _bomb_error(name) from None
+        raise InputError(f"{name}: not an image (no format Pillow reads recognises it)") from None
+    width, height = img.size
+    if width <= 0 or height <= 0:
+        img.close()
+        raise InputError(f"{name}: image has zero size")
+    return img
+
+
+_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def _open_png(data: bytes):
+    """A PNG opened by Pillow's PNG reader itself: ``Image.open`` first imports the BMP, GIF,
+    JPEG and PPM readers too (~9 ms of every conversion process, most of it the ``subprocess``
+    module the JPEG reader imports). The same decompression-bomb guard as ``Image.open`` under
+    :func:`_quiet_pillow`: over ``MAX_IMAGE_PIXELS`` is refused."""
+    from PIL import Image, PngImagePlugin
+
+    img = PngImagePlugin.PngImageFile(io.BytesIO(data))
+    width, height = img.size
+    if Image.MAX_IMAGE_PIXELS is not None and width * height > Image.MAX_IMAGE_PIXELS:
+        img.close()
+        raise Image.DecompressionBombError(f"{width * height} pixels")
+    return img
+
+
+def _to_rgba(img, name: str = "<image>") -> np.ndarray:
+    """Convert any Pillow mode to RGBA uint8 (see docs/colour.md for the rules)."""
+    mode = img.mode
+    if mode in _WIDE_GREY:
+        raw = np.asarray(img)
+        arr = np.nan_to_num(raw.astype(np.float64), nan=0.0, posinf=0.0, neginf=0.0)
+        if mode == "F":
+            top = 1.0 if arr.max(initial=0) <= 1.0 else 255.0
+        else:
+            top = 65535.0 if mode.startswith("I;16") or arr.max(initial=0) > 255 else 255.0
+        grey = np.clip(np.round(arr / top * 255.0), 0, 255).astype(np.uint8)
+        alpha = np.full(grey.shape, 255, np.uint8)
+        key = img.info.get("transparency")
+        if isinstance(key, (int, float)) and not isinstance(key, bool):
+            alpha[raw == key] = 0  # a 16-bit grey PNG's tRNS key
+        return np.stack([grey, grey, grey, alpha], axis=-1)
+    if mode == "P" and "transparency" in img.info:
+        img = img.convert("PA")
+    elif mode == "La":  # premultiplied; Pillow only converts it to LA
+        img = img.convert("LA")
+    try:
+        return np.ascontiguousarray(np.asarray(img.convert("RGBA"), dtype=np.uint8))
+    except ValueError:
+        raise InputError(f"{name}: image mode {mode} cannot be converted to RGBA") from None
+
+
+def check_indexable(name: str, width: int, height: int) -> None:
+    """Refuse an image too large for the pipeline's 32-bit indices (``limits.MAX_INDEXED_PIXELS``),
+    whatever ``max_pixels`` allows."""
+    if width * height > MAX_INDEXED_PIXELS:
+        raise InputError(f"{name}: {width}x{height} is {width * height} pixels, over the "
+                         f"{MAX_INDEXED_PIXELS} that depixel's 32-bit indices can address")
+
+
+def as_rgba(image) -> np.ndarray:
+    """Accept a numpy array or a PIL image; return ``(H, W, 4) uint8`` RGBA.
+
+    Arrays are ``(H, W)`` grey, ``(H, W, 2)`` grey + alpha, ``(H, W, 3)`` RGB or
+    ``(H, W, 4)`` RGBA. ``uint8`` is taken as is, ``uint16`` is scaled from 0-65535,
+    ``bool`` maps to 0/255, floats are on a 0-1 scale when none exceeds 1 (else 0-255, like
+    other integer types), and everything is clipped to 0-255 (NaN counts as 0).
+    """
+    if hasattr(image, "mode") and hasattr(image, "size"):  # a PIL image
+        check_indexable("<image>", *image.size)
+        try:
+            image.load()
+        except Exception:
+            raise InputError("<image>: truncated or corrupt image data") from None
+        return _to_rgba(image)
+    arr = np.asarray(image)
+    if arr.ndim == 2:
+        arr = arr[..., None]
+    if arr.ndim != 3 or arr.shape[2] not in (1, 2, 3, 4):
+        raise InputError(f"array of shape {arr.shape}: expected (H, W), (H, W, 2), (H, W, 3) or (H, W, 4)")
+    if arr.shape[0] == 0 or arr.shape[1] == 0:
+        raise InputError(f"array of shape {arr.shape}: image has zero size")
+    check_indexable(f"array of shape {arr.shape}", arr.shape[1], arr.shape[0])
+    if arr.dtype.kind not in "biuf":
+        raise InputError(f"array of dtype {arr.dtype}: expected integer, float or bool pixels")
+    if arr.dtype == np.bool_:
+        arr = arr.astype(np.uint8) * 255
+    elif arr.dtype == np.uint16:
+        arr = np.round(arr / 257.0)
+    elif arr.dtype.kind == "f":
+        arr = np.nan_to_num(arr.astype(np.float64), nan=0.0, posinf=255.0, neginf=0.0)
+        arr = np.round(arr * 255.0) if arr.max() <= 1.0 else np.round(arr)
+    if arr.dtype != np.uint8:
+        arr = np.clip(arr, 0, 255).astype(np.uint8)
+    channels = arr.shape[2]
+    if channels == 1:
+        arr = np.concatenate([arr, arr, arr, np.full_like(arr, 255)], axis=2)
+    elif channels == 2:
+        arr = np.concatenate([arr[..., :1]] * 3 + [arr[..., 1:]], axis=2)
+    elif channels == 3:
+        arr = np.concatenate([arr, np.full(arr.shape[:2] + (1,), 255, np.uint8)], axis=2)
+    return np.ascontiguousarray(arr)

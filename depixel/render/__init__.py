@@ -1,0 +1,6 @@
+"""Paper §3.5 and pictures — vector images → pixels.
+
+:mod:`.shading` is the paper's smooth renderer (truncated Gaussians per region), :mod:`.raster`
+renders any SVG through cairosvg, :mod:`.overlay` lays a conversion over its upscaled input and
+:mod:`.figure` draws every stage in one picture (``depixel inspect``).
+"""

@@ -1,0 +1,6 @@
+"""Output — a :class:`~depixel.vector.VectorImage` → SVG text of stacked or cut-out shapes.
+
+:mod:`.outlines` builds the shapes (:mod:`.boundaries`, :mod:`.loops`, :mod:`.holes`,
+:mod:`.stacking`), :mod:`.simplify` and :mod:`.curvefit` replace the exact spline by fewer
+cubics within a tolerance, :mod:`.writer` and :mod:`.svgtext` write the text.
+"""
