@@ -308,3 +308,25 @@ def test_images_beyond_32_bit_indices_are_refused():
         "    except InputError as error:\n"
         "        print(error)\n").splitlines()
     assert len(lines) == 3 and all("32-bit indices can address" in line for line in lines), lines
+
+
+@pytest.mark.parametrize("width, height", [(12, 10), (120, 1), (1, 120)])
+def test_the_pixel_limit_accepts_an_image_of_exactly_the_limit_and_refuses_one_more(width, height, tmp_path):
+    """max_pixels is inclusive: width × height == max_pixels converts, one pixel more is
+    refused (file, array and command line)."""
+    limit = width * height
+    exact = np.zeros((height, width, 4), np.uint8)
+    exact[..., 3] = 255
+    over = np.zeros((height, width + 1, 4), np.uint8)
+    path, bigger = tmp_path / "exact.png", tmp_path / "over.png"
+    Image.fromarray(exact).save(path)
+    Image.fromarray(over).save(bigger)
+    assert load_image(path, max_pixels=limit).shape == (height, width, 4)
+    assert depixel.convert(exact, max_pixels=limit).startswith("<?xml")
+    assert main(["convert", str(path), "-o", str(tmp_path / "exact.svg"), "--max-pixels", str(limit)]) == 0
+    with pytest.raises(InputError, match="over the limit"):
+        load_image(bigger, max_pixels=limit)
+    with pytest.raises(InputError, match="over the limit"):
+        depixel.convert(over, max_pixels=limit)
+    assert main(["convert", str(bigger), "-o", str(tmp_path / "over.svg"), "--max-pixels", str(limit)]) != 0
+    assert not (tmp_path / "over.svg").exists()

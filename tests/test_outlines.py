@@ -99,6 +99,47 @@ def test_drawing_order_puts_the_enclosing_shape_first_and_labels_it():
     assert ROLES[out.role[0]] == "backdrop"
 
 
+SMALL_ONES_IN_NOTCHES_OF_A_BIG_ONE = """
+    .........
+    .#######.
+    .#######.
+    .#####rr.
+    .#####rr.
+    .#######.
+    .#######.
+    .#dd####.
+    .#dd####.
+    .........
+    """
+DARK = {"d": (30, 30, 30, 255)}  # similar to black (|ΔY| = 30): a face of black's region
+
+
+@pytest.mark.parametrize("stage", ["cells", "optimized"])
+def test_small_shapes_in_notches_of_a_big_one_are_drawn_after_it_and_it_continues_under_them(stage):
+    """A red square (another region) and a dark grey one (another face of black's region)
+    sit in notches of a black square, each also touching the backdrop (all at depth 1).
+    Larger regions and, within a region, larger faces are drawn first, so the black shape is
+    drawn before both and, stacked, fills the notches under them (hiding a small square
+    leaves no hole): in the shapes the writer writes (outline_shapes' batches) as in
+    build_outlines. The picture drawn shows the small squares on top."""
+    from depixel.render.raster import render_rgba
+    from depixel.svg.outlines import outline_shapes
+    from depixel.svg.writer import to_svg
+
+    vector = depixelize(art(SMALL_ONES_IN_NOTCHES_OF_A_BIG_ONE, DARK), stage=stage).vector
+    written = [tuple(int(v) for v in colour[:3]) for batch in outline_shapes(vector).batches()
+               for colour in batch.rgba]
+    assert written[:2] == [(255, 255, 255), (0, 0, 0)]
+    assert sorted(written[2:]) == [(30, 30, 30), (220, 30, 30)]
+    stacked = build_outlines(vector, "stacked")
+    assert [tuple(int(v) for v in c[:3]) for c in stacked.rgba] == written
+    black = stacked.loops_of(1)
+    assert len(black) == 1 and loop_area(*black[0]) > 34 + 6  # its 34 pixels and most of both notches
+    drawn = render_rgba(to_svg(vector), scale=4)
+    assert tuple(drawn[4 * 4, 4 * 7, :3]) == (220, 30, 30)  # the red square shows at its centre
+    assert tuple(drawn[4 * 8, 4 * 3, :3]) == (30, 30, 30)  # and the dark grey one
+
+
 def test_image_border_and_straight_runs_are_one_segment_each():
     out = outlines_of(TWO_HALVES, "cutout")
     for s in range(len(out)):

@@ -363,6 +363,23 @@ def test_transparent_auto_keys_the_corner_colour():
     assert (prepared.rgba[backdrop, 3] == 0).all() and (prepared.rgba[~backdrop, 3] == 255).all()
 
 
+@pytest.mark.parametrize("corner", [(0, 0), (0, -1), (-1, 0), (-1, -1)], ids=["tl", "tr", "bl", "br"])
+def test_transparent_auto_needs_all_four_corners(corner):
+    """"auto" is the colour all four corners share: one corner of another colour, whichever
+    it is, and nothing is made transparent."""
+    sprite = art("""
+    ......
+    .####.
+    .#rr#.
+    .####.
+    ......
+    """)
+    assert prepare(sprite, transparent="auto").transparent == (255, 255, 255)
+    sprite[corner] = (30, 60, 220, 255)
+    prepared = prepare(sprite, transparent="auto")
+    assert prepared.transparent is None and not prepared.changed and (prepared.rgba[..., 3] == 255).all()
+
+
 def test_transparent_auto_does_nothing_when_the_corners_differ():
     leaf = load_image(FIXTURES / "leaf.png")
     prepared = prepare(leaf, transparent="auto")

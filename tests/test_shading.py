@@ -268,3 +268,22 @@ def test_output_size_and_bad_arguments():
         render_smooth(image, 0)
     with pytest.raises(ValueError):
         render_smooth(image, 2, supersample=0)
+
+
+def test_ramp_across_a_two_tone_band_follows_the_papers_truncated_gaussian():
+    # §3.5: a Gaussian of σ = 1 pixel, truncated at 2 pixels (lowered by its value there,
+    # docs/rendering.md), at every cell centroid; here the cells are the pixels, so the
+    # colour at a point is the weighted average of the pixel colours around it. The
+    # constants are the paper's, written here: a change of Params' σ or radius is caught.
+    sigma, radius, scale = 1.0, 2.0, 8
+    columns = np.array([100] * 6 + [140] * 6, dtype=float)
+    image = vector(art("\n".join(["000000111111"] * 7), grey(100, 140)), "cells")
+    out = render_smooth(image, scale, supersample=1)[3 * scale + scale // 2, :, 0].astype(float)  # middle row
+    xs = (np.arange(out.size) + 0.5) / scale
+    centres_x, centres_y = np.meshgrid(np.arange(12) + 0.5, np.arange(7) + 0.5)
+    d2 = (centres_x.ravel()[None, :] - xs[:, None]) ** 2 + (centres_y.ravel()[None, :] - 3.5) ** 2
+    weight = np.where(d2 < radius**2, np.exp(-d2 / (2 * sigma**2)) - np.exp(-radius**2 / (2 * sigma**2)), 0.0)
+    expected = weight @ np.tile(columns, 7) / weight.sum(axis=1)
+    near_seam = np.abs(xs - 6) < 2.5  # where the two tones blend
+    assert np.abs(out - expected).max() <= 1.0, np.abs(out - expected).max()
+    assert np.ptp(expected[near_seam]) > 30  # the profile the test pins is a real ramp
