@@ -12,7 +12,6 @@ jobs (how many workers, the run loop, the progress bar) is :mod:`depixel_cli.bat
 """
 from __future__ import annotations
 
-import glob
 import os
 from dataclasses import dataclass, field
 from functools import partial
@@ -21,6 +20,7 @@ from pathlib import Path
 from depixel import api
 from depixel.errors import DepixelError, display_name
 from depixel.files import convert as files
+from depixel.files import output as written
 from depixel.files import stamp as stamps
 from depixel.params import Params
 from depixel.prepare.image import frame_count, load_frames
@@ -52,6 +52,9 @@ class Options:
     pixel_size: str | tuple[int, int] = "auto"  # input preparation (depixel/prepare/inputs.py)
     denoise: bool | None = None
     transparent: str | tuple[int, int, int] | None = None
+    #: the run's token, in the name of every temporary file its jobs write, wherever they run
+    #: (depixel.files.output): cleanup removes those names and no others
+    token: str = field(default_factory=written.run_token)
 
 
 @dataclass(frozen=True, eq=False)
@@ -111,7 +114,7 @@ def run_job(job: Job) -> Outcome:
                 if frame in todo:
                     target, options = todo[frame]
                     files.write_converted(rgba, job.source, target, options, max_pixels=opt.max_pixels,
-                                        max_output_pixels=opt.max_output_pixels,
+                                        max_output_pixels=opt.max_output_pixels, token=opt.token,
                                         on_prepared=partial(record_prepared, out, source=job.source, target=target))
                     out.written.append(target)
         if opt.frames == "first" and out.written and (n := frame_count(job.source)) > 1:
@@ -194,15 +197,11 @@ def claim_outputs_of_the_dead(outcome: Outcome, begun: int) -> None:
 
 
 def remove_temporary_files(job: Job) -> None:
-    """Remove what an abandoned job may have left: the atomic writer's temporary files of
-    each of its outputs (``.NAME.XXXXXXXX.tmp`` beside it)."""
+    """Remove what an abandoned job may have left: the temporary files this run's processes
+    made for each of its outputs (``.NAME.depixel-PID-TOKEN.tmp`` with this run's token,
+    :mod:`depixel.files.output`), and no other file."""
     for _, target in frame_targets(job) if job.options.frames != "all" or job.frames else [(0, job.output)]:
-        try:
-            real = Path(os.path.realpath(target))
-            for leftover in real.parent.glob(glob.escape(f".{real.name[:64]}.") + "*.tmp"):
-                leftover.unlink(missing_ok=True)
-        except (OSError, ValueError):
-            pass
+        written.remove_temporary(target, job.options.token)
 
 
 def record_prepared(out: Outcome, prepared: PreparedImage, source: Path | str, target: Path | str) -> None:

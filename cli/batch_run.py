@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 from depixel.errors import display_name
+from depixel.files.output import remove_created
 from depixel.limits import PEAK_BYTES_PER_PIXEL, WORKER_BASELINE_BYTES
 
 from .batch import (
@@ -76,6 +77,7 @@ def run(jobs: list[Job], workers: int, report, signals, progress: Progress | Non
             return run_job(job)
         except Interrupted:
             remove_temporary_files(job)
+            remove_created()
             return None
         finally:
             signals.raising = False

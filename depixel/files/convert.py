@@ -109,10 +109,11 @@ def file_options(output: str | os.PathLike, params: Params = Params(), *, fmt: s
 def write_converted(rgba: np.ndarray, source: str | os.PathLike, output: str | os.PathLike, options: dict, *,
                     max_pixels: int | None = DEFAULT_MAX_PIXELS,
                     max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS,
-                    on_prepared: Callable[[PreparedImage], None] | None = None) -> None:
+                    on_prepared: Callable[[PreparedImage], None] | None = None, token: str | None = None) -> None:
     """Convert decoded pixels of ``source`` with :func:`file_options` and write ``output``
     atomically (the file's own format says whether it is lossy: JPEG and lossy WebP are
-    denoised unless ``denoise`` says otherwise)."""
+    denoised unless ``denoise`` says otherwise). ``token``: the run's, in the name of the
+    temporary file (:func:`depixel.files.output.write_atomic`)."""
     blob = conversion_bytes(rgba, options["fmt"], options["params"], stage=options["stage"], scale=options["scale"],
                           background=options["background"], title=Path(source).name, shading=options["shading"],
                           name=display_name(source), precision=options["precision"], width=options["width"],
@@ -121,7 +122,7 @@ def write_converted(rgba: np.ndarray, source: str | os.PathLike, output: str | o
                           denoise=options["denoise"], transparent=options["transparent"],
                           lossy=lossy_format(read_source(source)), keywords=f"{stamps.KEY}:{options['stamp']}",
                             on_prepared=on_prepared)
-    write_atomic(output, stamps.embed(blob, options["fmt"], options["stamp"]), protect=(Path(source),))
+    write_atomic(output, stamps.embed(blob, options["fmt"], options["stamp"]), protect=(Path(source),), token=token)
 
 
 def is_up_to_date(source: str | os.PathLike, output: str | os.PathLike, options: dict) -> bool:

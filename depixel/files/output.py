@@ -4,24 +4,108 @@ A failure at any point leaves no partial or empty output, and an existing file a
 target is only replaced once the new content is complete (and flushed to disk). A symbolic
 link at the target keeps pointing where it did; the file it points to gets the content.
 Devices and pipes (``/dev/null``, ``/dev/stdout``) are written directly, never replaced.
+
+Temporary files have a name only this run can have, in one fixed pattern:
+``.NAME.depixel-PID-TOKEN.tmp`` beside the output (NAME: the output's name, cut to 64 bytes;
+PID: the writing process; TOKEN: the run's random token, :func:`run_token`, which a batch
+passes to every worker it starts, including Dask's). Cleanup removes only such names:
+a process's own by its registry (:func:`remove_created`), another process's (a worker that
+was killed) by the pattern with this run's token (:func:`remove_temporary`), never by a
+glob that a user's ``.big.svg.mine.tmp`` could match.
 """
 from __future__ import annotations
 
 import errno
 import os
+import re
 import stat
 from pathlib import Path
 
-from ..errors import OutputError, display_name
+from ..errors import OutputError, ParameterError, display_name
+
+#: Bytes of the output's name kept in a temporary file's name (NAME_MAX is 255 bytes).
+NAME_BYTES = 64
+_TOKEN = re.compile(r"[0-9a-f]{8,32}")
+_run_token: str | None = None
+#: The temporary files this process created and has not yet renamed or removed.
+_created: set[Path] = set()
 
 
-def write_atomic(path: str | os.PathLike, data: bytes | str, protect: tuple[Path, ...] = ()) -> None:
-    """Write ``data`` (str is UTF-8 encoded) to ``path`` atomically.
+def run_token() -> str:
+    """This run's token: 12 random hex digits drawn on first use (a forked worker inherits
+    it; other workers are given it, e.g. ``write_atomic(..., token=...)``)."""
+    global _run_token
+    if _run_token is None:
+        _run_token = os.urandom(6).hex()
+    return _run_token
+
+
+def temporary_path(target: str | os.PathLike, token: str | None = None, pid: int | None = None) -> Path:
+    """The temporary file that process ``pid`` (this one by default) of run ``token`` (this
+    run's by default) writes ``target`` through: ``.NAME.depixel-PID-TOKEN.tmp`` beside it
+    (symbolic links resolved, as :func:`write_atomic` does)."""
+    real = Path(os.path.realpath(target))
+    return real.parent / f"{_prefix(real.name)}{os.getpid() if pid is None else int(pid)}-{_token(token)}.tmp"
+
+
+def remove_temporary(target: str | os.PathLike, token: str, pid: int | None = None) -> list[Path]:
+    """Remove the temporary files of ``target`` left by run ``token`` (by its process ``pid``,
+    or by any of its processes): only names in the fixed pattern with that token, which no
+    other run and no user file has. Returns what was removed; never raises."""
+    try:
+        real = Path(os.path.realpath(target))
+        mine = re.compile(re.escape(_prefix(real.name)) + (str(int(pid)) if pid is not None else r"[0-9]+")
+                          + "-" + _token(token) + r"(?:-[0-9]+)?\.tmp")
+        with os.scandir(real.parent) as entries:
+            names = [entry.name for entry in entries if mine.fullmatch(entry.name)]
+    except (OSError, ValueError):  # ParameterError (a bad token) included: nothing is ours
+        return []
+    return [real.parent / name for name in names if _remove(real.parent / name)]
+
+
+def remove_created() -> list[Path]:
+    """Remove every temporary file this process created and has not renamed into place yet
+    (its registry: e.g. after an interrupt that came between creating one and the ``try``
+    that removes it). Returns what was removed."""
+    return [tmp for tmp in list(_created) if _remove(tmp)]
+
+
+def _remove(tmp: Path) -> bool:
+    """Remove a temporary file; it leaves the registry once it is gone. Whether it was removed."""
+    try:
+        os.unlink(tmp)
+    except FileNotFoundError:
+        _created.discard(tmp)
+        return False
+    except OSError:
+        return False
+    _created.discard(tmp)
+    return True
+
+
+def _prefix(name: str) -> str:
+    """``.NAME.depixel-``: the start of every temporary name of the output ``name``."""
+    cut = os.fsdecode(os.fsencode(name)[:NAME_BYTES])
+    return f".{cut}.depixel-"
+
+
+def _token(token: str | None) -> str:
+    token = run_token() if token is None else token
+    if not isinstance(token, str) or not _TOKEN.fullmatch(token):
+        raise ParameterError(f"a run token is 8 to 32 lowercase hex digits, not {token!r}", parameter="token")
+    return token
+
+
+def write_atomic(path: str | os.PathLike, data: bytes | str, protect: tuple[Path, ...] = (),
+                 token: str | None = None) -> None:
+    """Write ``data`` (str is UTF-8 encoded) to ``path`` atomically, through the temporary
+    file :func:`temporary_path` names (run ``token``, this run's by default).
 
     Refuses, with a one-line :class:`OutputError`, to overwrite any file in ``protect``
     (the inputs; symbolic and hard links to them included), a folder, or a read-only file,
     and reports a missing or unwritable output folder.
     """
+    token = _token(token)
     name = display_name(path)
     if isinstance(data, str):
         data = data.encode("utf-8")
@@ -44,7 +128,7 @@ def write_atomic(path: str | os.PathLike, data: bytes | str, protect: tuple[Path
             raise OutputError(f"{name}: output folder {shown} does not exist")
         if not folder.is_dir():
             raise OutputError(f"{name}: {shown} is not a folder")
-        fd, tmp = _temporary_file(folder, target.name)
+        fd, tmp = _temporary_file(target, token)
     except OutputError:
         raise
     except PermissionError:
@@ -58,28 +142,30 @@ def write_atomic(path: str | os.PathLike, data: bytes | str, protect: tuple[Path
             os.fsync(fh.fileno())
         os.chmod(tmp, stat.S_IMODE(current.st_mode) if current is not None else 0o666 & ~_umask())
         os.replace(tmp, target)
+        _created.discard(tmp)
     except BaseException as exc:  # KeyboardInterrupt included: never leave the temporary file
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
+        _remove(tmp)
         if isinstance(exc, OSError):
             raise OutputError(f"{name}: cannot write ({exc.strerror or exc})") from None
         raise
 
 
-def _temporary_file(folder: Path, name: str) -> tuple[int, Path]:
-    """A new, empty ``.<name>.<random>.tmp`` in ``folder``, open for writing with mode 0600:
-    what ``tempfile.mkstemp`` makes, without importing ``tempfile`` (with ``shutil``, ``random``
-    and the compression modules it brings, a few ms of every conversion process)."""
+def _temporary_file(target: Path, token: str) -> tuple[int, Path]:
+    """A new, empty temporary file for ``target`` (:func:`temporary_path`), open for writing
+    with mode 0600 and in the registry. The name is taken only when this process already
+    writes ``target`` (threads): then ``-1``, ``-2``, … is added to it. (``tempfile.mkstemp``
+    is not used: importing it costs a few ms of every conversion process.)"""
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
-    for _ in range(100):
-        tmp = folder / f".{name[:64]}.{os.urandom(6).hex()}.tmp"
+    first = temporary_path(target, token)
+    for attempt in range(100):
+        tmp = first if not attempt else first.with_name(f"{first.name[:-4]}-{attempt}.tmp")
         try:
-            return os.open(tmp, flags, 0o600), tmp
+            fd = os.open(tmp, flags, 0o600)
         except FileExistsError:
             continue
-    raise FileExistsError(errno.EEXIST, "no free temporary file name", str(folder))
+        _created.add(tmp)
+        return fd, tmp
+    raise FileExistsError(errno.EEXIST, "no free temporary file name", str(target.parent))
 
 
 def _umask() -> int:
