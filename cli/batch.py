@@ -3,9 +3,10 @@
 Every file is one :class:`Job`, converted by :func:`run_job` in a worker process
 (:mod:`depixel_cli.pool`), in this process for ``-j 1``, or as a Dask task
 (:mod:`depixel_cli.dask_batch`). A job never raises: it returns an :class:`Outcome` with
-the files written, those already up to date and, on failure, a one-line reason, so one bad
-file never stops the batch. Each file's output depends only on the file and the options,
-so the results are the same whatever runs them.
+the files written, those already up to date, those kept (not depixel's, or edited since
+depixel wrote them: never overwritten without ``--force``) and, on failure, a one-line
+reason, so one bad file never stops the batch. Each file's output depends only on the file
+and the options, so the results are the same whatever runs them.
 
 Finding the inputs and naming the outputs is :mod:`depixel_cli.batch_inputs`; running the
 jobs (how many workers, the run loop, the progress bar) is :mod:`depixel_cli.batch_run`.
@@ -14,16 +15,15 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
-from functools import partial
 from pathlib import Path
 
-from depixel import api
-from depixel.errors import DepixelError, display_name
+from depixel.errors import DepixelError, OutputError, display_name
 from depixel.files import convert as files
 from depixel.files import output as written
 from depixel.files import stamp as stamps
+from depixel.limits import DEFAULT_MAX_FRAMES
 from depixel.params import Params
-from depixel.prepare.image import frame_count, load_frames
+from depixel.prepare.image import frame_count
 from depixel.prepare.inputs import PreparedImage
 from depixel.svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
 
@@ -41,7 +41,7 @@ class Options:
     frames: str | int  # "first", "all" or a frame index
     background: tuple[int, int, int] | None
     max_pixels: int | None
-    force: bool  # reconvert outputs that are up to date
+    force: bool  # reconvert outputs that are up to date, and overwrite those that are not depixel's or edited
     shading: str = "smooth"  # PNG: the paper's smooth renderer, or "flat" (the SVG rasterized)
     precision: int = DEFAULT_PRECISION  # decimals of SVG coordinates
     layout: str = "stacked"  # SVG: shapes stacked (each continues under those above) or cut out
@@ -52,6 +52,10 @@ class Options:
     pixel_size: str | tuple[int, int] = "auto"  # input preparation (depixel/prepare/inputs.py)
     denoise: bool | None = None
     transparent: str | tuple[int, int, int] | None = None
+    max_frames: int | None = DEFAULT_MAX_FRAMES
+    #: an output named by ``-o``: converted even when up to date; one that is not depixel's
+    #: (or was edited) is an error without ``force``, not a note
+    explicit: bool = False
     #: the run's token, in the name of every temporary file its jobs write, wherever they run
     #: (depixel.files.output): cleanup removes those names and no others
     token: str = field(default_factory=written.run_token)
@@ -75,8 +79,14 @@ class Outcome:
     output: Path | None = None  # the planned output (the base of the frame names)
     written: list[Path] = field(default_factory=list)
     up_to_date: list[Path] = field(default_factory=list)
+    kept: list[Path] = field(default_factory=list)  # existing outputs depixel did not write (no stamp)
+    edited: list[Path] = field(default_factory=list)  # existing outputs changed since depixel wrote them
+    planned: list[Path] = field(default_factory=list)  # --dry-run: the outputs that would be written
+    seconds: dict[Path, float] = field(default_factory=dict)  # each written output's share of the work
+    sizes: dict[Path, int] = field(default_factory=dict)  # bytes of each written output
     notes: list[str] = field(default_factory=list)
     prepared: list[dict] = field(default_factory=list)  # what preparing each frame found, when anything
+    changed: str | None = None  # the input changed while converted: the one-line report
     error: str | None = None
     traceback: str | None = None
     state: str = DONE  # or INTERRUPTED (running when stopped) or CANCELLED (never started)
@@ -98,28 +108,34 @@ def frame_targets(job: Job) -> list[tuple[int, Path]]:
 
 
 def run_job(job: Job) -> Outcome:
-    """Convert one file (every frame of it with ``frames="all"``, each decoded once); outputs
-    that are newer than the input and carry the same options stamp are left alone unless
-    ``force``. Never raises."""
+    """Convert one file (every frame of it with ``frames="all"``, each decoded once, their
+    outputs written all or none); outputs made from this input with the same options are
+    left alone, and existing outputs that depixel did not write or that were edited are
+    kept, unless ``force``. Never raises."""
     out = Outcome(job.source, job.output)
     opt = job.options
     try:
         if opt.frames == "all" and job.frames == 0:  # not counted when planned (a single -o)
-            job = Job(job.source, job.output, opt, frame_count(job.source))
+            job = Job(job.source, job.output, opt, frame_count(job.source, opt.max_frames))
         todo = _outputs_to_make(job, out)
         if todo:
-            frames = load_frames(job.source, opt.max_pixels) if opt.frames == "all" else \
-                [(frame, api.load(job.source, frame=frame, max_pixels=opt.max_pixels)) for frame in todo]
-            for frame, rgba in frames:
-                if frame in todo:
-                    target, options = todo[frame]
-                    files.write_converted(rgba, job.source, target, options, max_pixels=opt.max_pixels,
-                                        max_output_pixels=opt.max_output_pixels, token=opt.token,
-                                        on_prepared=partial(record_prepared, out, source=job.source, target=target))
-                    out.written.append(target)
-        if opt.frames == "first" and out.written and (n := frame_count(job.source)) > 1:
-            out.notes.append(f"{display_name(job.source)}: has {n} frames, converted the first "
-                             "(--frames all converts each)")
+            source = files.InputFile.read(job.source)
+            result = files.convert_frames(
+                source, todo, every_frame=opt.frames == "all", max_pixels=opt.max_pixels,
+                max_output_pixels=opt.max_output_pixels, max_frames=opt.max_frames, token=opt.token,
+                overwrite=opt.force, on_prepared=lambda frame, target, prepared:
+                    record_prepared(out, prepared, source=job.source, target=target))
+            out.written, out.seconds, out.sizes = result.written, result.seconds, result.sizes
+            for target, now in result.kept.items():
+                (out.edited if now == stamps.EDITED else out.kept).append(target)
+            if result.changed:
+                out.changed = f"{display_name(job.source)}: {files.CHANGED}"
+            if opt.frames == "first" and out.written and \
+                    (n := frame_count(source.data, name=display_name(job.source))) > 1:
+                out.notes.append(f"{display_name(job.source)}: has {n} frames, converted the first "
+                                 "(--frames all converts each)")
+        if opt.explicit and (out.kept or out.edited):
+            out.error = kept_lines(out)[0][1]
     except DepixelError as exc:
         out.error, out.traceback = error_message(exc), current_traceback()
     except MemoryError:
@@ -133,9 +149,26 @@ def run_job(job: Job) -> Outcome:
     return out
 
 
+#: Why an existing output is kept, by what it is (a stamp.UNSTAMPED or EDITED output).
+KEPT_BECAUSE = {"kept": "not written by depixel (it has no depixel stamp)",
+                "edited": "edited since depixel wrote it (it no longer matches its stamp)"}
+
+
+def kept_line(kind: str, target: Path) -> str:
+    """Why the output ``target`` was kept (``kind``: kept or edited) and what overwrites it."""
+    return f"{display_name(target)}: {KEPT_BECAUSE[kind]}; kept, --force overwrites it"
+
+
+def kept_lines(out: Outcome) -> list[tuple[str, str]]:
+    """(kind, :func:`kept_line`) for every output of ``out`` that was kept."""
+    return [(kind, kept_line(kind, target)) for kind, targets in (("kept", out.kept), ("edited", out.edited))
+            for target in targets]
+
+
 def _outputs_to_make(job: Job, out: Outcome) -> dict[int, tuple[Path, dict]]:
-    """{frame: (output, file options)} of the outputs not up to date; the others are added
-    to ``out.up_to_date``."""
+    """{frame: (output, file options)} of the outputs to convert; the others are added to
+    ``out.up_to_date`` (made from this input with these options), ``out.kept`` (not
+    depixel's) or ``out.edited`` (changed since depixel wrote them)."""
     opt = job.options
     todo = {}
     for frame, target in frame_targets(job):
@@ -144,17 +177,46 @@ def _outputs_to_make(job: Job, out: Outcome) -> dict[int, tuple[Path, dict]]:
                                    precision=opt.precision, width=opt.width, height=opt.height,
                                    layout=opt.layout, simplify=opt.simplify, pixel_size=opt.pixel_size,
                                    denoise=opt.denoise, transparent=opt.transparent)
-        if not opt.force and files.is_up_to_date(job.source, target, options):
+        if _same_file(target, job.source):  # said as the writer says it, before any work
+            raise OutputError(f"{display_name(target)}: is the input file; refusing to overwrite it")
+        now = stamps.NEW if opt.force else files.output_status(job.source, target, options)
+        if now == stamps.CURRENT and not opt.explicit:
             out.up_to_date.append(target)
+        elif now == stamps.UNSTAMPED:
+            out.kept.append(target)
+        elif now == stamps.EDITED:
+            out.edited.append(target)
         else:
             todo[frame] = (target, options)
     return todo
 
 
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):
+        return False
+
+
+def preview(job: Job) -> Outcome:
+    """``--dry-run``: what :func:`run_job` would do, writing nothing (the outputs it would
+    write are ``planned``)."""
+    out = Outcome(job.source, job.output)
+    try:
+        if job.options.frames == "all" and job.frames == 0:
+            job = Job(job.source, job.output, job.options, frame_count(job.source, job.options.max_frames))
+        out.planned = [target for target, _ in _outputs_to_make(job, out).values()]
+        if job.options.explicit and (out.kept or out.edited):
+            out.error = kept_lines(out)[0][1]
+    except DepixelError as exc:
+        out.error = error_message(exc)
+    return out
+
+
 def already_done(job: Job) -> Outcome | None:
     """The outcome of a job whose outputs are all up to date (checked here, without a
     worker: a rerun of an unchanged batch starts no process), else None."""
-    if job.options.force or (job.options.frames == "all" and job.frames == 0):
+    if job.options.force or job.options.explicit or (job.options.frames == "all" and job.frames == 0):
         return None
     if not all(os.path.exists(target) for _, target in frame_targets(job)):
         return None  # not made yet (a first run): no options stamp to compute (~0.5 ms a file)
@@ -214,26 +276,67 @@ def record_prepared(out: Outcome, prepared: PreparedImage, source: Path | str, t
 
 
 
-def summary(outcomes: list[Outcome], seconds: float, interrupted: bool = False) -> dict:
+def category(outcome: Outcome) -> str:
+    """What became of one input, as the summary counts it: failed, changed (during its
+    conversion), edited, kept, converted (to convert, in a dry run), up to date; or its
+    state when the batch was stopped (interrupted, cancelled)."""
+    if outcome.error:
+        return "failed"
+    if outcome.state != DONE:
+        return outcome.state
+    for name, found in (("changed", outcome.changed), ("edited", outcome.edited), ("kept", outcome.kept),
+                        ("converted", outcome.written or outcome.planned)):
+        if found:
+            return name
+    return "up to date"
+
+
+def summary(outcomes: list[Outcome], seconds: float, interrupted: bool = False, dry_run: bool = False) -> dict:
     """The ``--json`` report of a batch: counts, failures, and every output with its status
-    (converted, up-to-date, failed, interrupted or cancelled)."""
+    (converted, up-to-date, kept, edited, changed, failed, interrupted or cancelled; in a dry
+    run, to-convert), the written ones with their bytes and seconds."""
     failed = [o for o in outcomes if o.error]
-    outputs: list[dict[str, str | None]] = []
+    outputs: list[dict[str, object]] = []
     for o in outcomes:
-        outputs += [{"output": str(p), "input": str(o.source), "status": "converted"} for p in o.written]
+        done = "changed" if o.changed else "converted"
+        outputs += [{"output": str(p), "input": str(o.source), "status": done, "bytes": o.sizes.get(p),
+                     "seconds": round(o.seconds.get(p, 0.0), 3), **({"reason": o.changed} if o.changed else {})}
+                    for p in o.written]
+        outputs += [{"output": str(p), "input": str(o.source), "status": "to-convert"} for p in o.planned]
         outputs += [{"output": str(p), "input": str(o.source), "status": "up-to-date"} for p in o.up_to_date]
+        outputs += [{"output": str(p), "input": str(o.source), "status": kind, "reason": KEPT_BECAUSE[kind]}
+                    for kind, targets in (("kept", o.kept), ("edited", o.edited)) for p in targets]
         if o.error or o.state != DONE:
             status = "failed" if o.error else o.state
             outputs.append({"output": None if o.output is None else str(o.output), "input": str(o.source),
                             "status": status})
+    counts = [category(o) for o in outcomes]
     return {
         "files": len(outcomes),
-        "ok": sum(1 for o in outcomes if not o.error and o.written),
-        "skipped": sum(1 for o in outcomes if not o.error and o.up_to_date and not o.written),
+        "ok": counts.count("converted"),
+        "skipped": counts.count("up to date"),
+        "kept": counts.count("kept"),
+        "edited": counts.count("edited"),
+        "changed": counts.count("changed"),
         "failed": [{"input": str(o.source), "error": o.error} for o in failed],
         "interrupted": interrupted,
         "not_done": sum(1 for o in outcomes if o.state != DONE),
+        **({"dry_run": True} if dry_run else {}),
         "outputs": outputs,
         "prepared": [entry for o in outcomes for entry in o.prepared],
         "seconds": round(seconds, 3),
     }
+
+
+def totals_line(outcomes: list[Outcome], seconds: float, interrupted: bool = False, dry_run: bool = False) -> str:
+    """The summary line every batch ends with: ``N files: a converted, b up to date, c kept,
+    d failed in S s``, with the edited, changed, abandoned and not started ones when there are."""
+    counts = [category(o) for o in outcomes]
+    parts = [f"{counts.count('converted')} {'to convert' if dry_run else 'converted'}",
+             f"{counts.count('up to date')} up to date", f"{counts.count('kept')} kept"]
+    parts += [f"{counts.count(name)} {name}" for name in ("edited", "changed") if name in counts]
+    parts.append(f"{counts.count('failed')} failed")
+    if interrupted:
+        parts.append(f"{counts.count(INTERRUPTED)} abandoned, {counts.count(CANCELLED)} not started (interrupted)")
+    tail = " (dry run: nothing written)" if dry_run else ""
+    return f"{len(outcomes)} files: {', '.join(parts)}{tail} in {seconds:.1f} s"

@@ -101,7 +101,7 @@ def plan(found: list[tuple[Path, Path]], out_dir: Path, options: Options) -> tup
         n_frames = 1
         if options.frames == "all":
             try:
-                n_frames = frame_count(path)
+                n_frames = frame_count(path, options.max_frames)
             except DepixelError as exc:
                 failed.append(Outcome(path, output, error=error_message(exc)))
                 continue

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import argparse
-import io
 import json
 import sys
 import time
@@ -12,15 +11,26 @@ from pathlib import Path
 from depixel import api
 from depixel.errors import DepixelError, OutputError, display_name
 from depixel.files import convert as files
-from depixel.files.output import write_atomic
-from depixel.limits import DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
+from depixel.files import stamp as stamps
+from depixel.limits import DEFAULT_MAX_FRAMES, DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
 from depixel.pipeline import STAGES
-from depixel.prepare.image import frame_count, read_source
+from depixel.prepare.image import frame_count, load_image, read_source
 from depixel.prepare.inputs import lossy_format
 from depixel.svg.outlines import LAYOUTS
 from depixel.svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
 
-from .batch import CANCELLED, DONE, Job, Options, Outcome, current_traceback, record_prepared, summary
+from .batch import (
+    DONE,
+    Job,
+    Options,
+    Outcome,
+    current_traceback,
+    kept_lines,
+    preview,
+    record_prepared,
+    summary,
+    totals_line,
+)
 from .batch_inputs import expand_inputs, make_folders, plan
 from .batch_run import Progress, auto_jobs, cores, run
 from .options import (
@@ -51,9 +61,12 @@ Upscaled pixel art is detected and converted at 1x, the SVG laid over the input 
 width/height); JPEG noise is snapped to a palette (see the input options and docs/inputs.md).
 The format comes from the output's extension (--format for a name without .svg/.png/.pdf;
 a format that contradicts the extension is refused). With --out-dir, outputs keep the
-inputs' relative folders; an output newer than its input and made with the same options is
-up to date and skipped (--force reconverts it); a failed file is reported and the rest go
-on; the exit code is 1 if any file failed. Ctrl-C (or SIGTERM) stops: no new file is
+inputs' relative folders; an output made from the same input with the same options is up
+to date and skipped (--force reconverts it). An existing output that depixel did not write
+(no stamp) is kept, and one edited since depixel wrote it is kept and reported as an error,
+unless --force (-o FILE too: it overwrites only what depixel wrote). A failed file is
+reported and the rest go on; the exit code is 1 if any file failed, was edited or changed
+while converted; a batch ends with a summary line on stderr. Ctrl-C (or SIGTERM) stops: no new file is
 started, files being converted are abandoned without leaving partial files, what was done
 is reported (exit 130, or 143 for SIGTERM); a second Ctrl-C exits at once.
 """
@@ -121,11 +134,18 @@ def add_parser(sub, name: str, help: str) -> None:
                      help=f"refuse larger images, frames or pages (default {DEFAULT_MAX_PIXELS}; pixel art is small)")
     out.add_argument("--max-output-pixels", type=positive_int, default=DEFAULT_MAX_OUTPUT_PIXELS, metavar="N",
                      help=f"refuse larger PNG outputs (default {DEFAULT_MAX_OUTPUT_PIXELS})")
+    out.add_argument("--max-frames", type=positive_int, default=DEFAULT_MAX_FRAMES, metavar="N",
+                     help=f"refuse animations of more frames with --frames all, and frame numbers from N on "
+                          f"(default {DEFAULT_MAX_FRAMES}); --max-pixels counts the frames' pixels in all")
     batch = p.add_argument_group("many files")
     batch.add_argument("-r", "--recursive", action="store_true", help="also convert the images in subfolders")
     batch.add_argument("--force", action="store_true",
-                       help="reconvert every file "
-                            "(default: skip outputs newer than their input made with the same options)")
+                       help="reconvert every file, and overwrite outputs that depixel did not write or that were "
+                            "edited since (default: skip outputs made from the same input with the same options, "
+                            "keep the others)")
+    batch.add_argument("-n", "--dry-run", action="store_true",
+                       help="list what would be converted, what is up to date and what would be kept, on stdout; "
+                            "write nothing")
     batch.add_argument("-j", "--jobs", type=jobs_option, default="auto", metavar="N|auto",
                        help=f"files converted in parallel (default auto: one per core, {cores()} here, fewer when "
                             "the largest image would not fit in the available memory)")
@@ -152,6 +172,8 @@ def run_convert(args: argparse.Namespace) -> int:
         parser.error("- (stdin) must be the only input, with -o FILE or -o -")
     if args.output == "-" and (args.frames == "all" or args.json):
         parser.error("-o - writes one image to stdout: no --frames all or --json with it")
+    if args.dry_run and (args.output == "-" or "-" in args.inputs):
+        parser.error("--dry-run looks at output files: not with - (stdin or stdout)")
     if args.out_dir is not None and args.out_dir.exists() and not args.out_dir.is_dir():
         parser.error(f"--out-dir {display_name(args.out_dir)}: is a file, not a folder")
     if args.dask is not None and args.out_dir is None:
@@ -164,7 +186,7 @@ def run_convert(args: argparse.Namespace) -> int:
                       args.max_pixels, force=args.force, shading=args.shading, precision=args.precision,
                       width=args.width, height=args.height, max_output_pixels=args.max_output_pixels,
                       layout=args.layout, simplify=args.simplify, pixel_size=args.pixel_size, denoise=args.denoise,
-                      transparent=args.transparent)
+                      transparent=args.transparent, max_frames=args.max_frames)
 
     start = time.perf_counter()
     signals = args.signals
@@ -177,26 +199,34 @@ def run_convert(args: argparse.Namespace) -> int:
         if problems or len(found) != 1:
             parser.error(problems[0][1] if problems else
                          f"-o takes one input, not {len(found)}; use --out-dir DIR for several")
-        # an explicitly named output is always written; its frames are counted by the job
-        job = Job(found[0][0], Path(args.output), replace(options, force=True), frames=0)
-        outcomes = run([job], 1, lambda o: _report(o, Progress(0), args), signals)
+        # an explicitly named output is written even when up to date; its frames are counted by the job
+        job = Job(found[0][0], Path(args.output), replace(options, explicit=True), frames=0)
+        if args.dry_run:
+            outcomes = [preview(job)]
+            _list_planned(outcomes, args)
+        else:
+            outcomes = run([job], 1, lambda o: _report(o, Progress(0), args), signals)
     else:
         outcomes = _convert_batch(args, options)
     seconds = time.perf_counter() - start
     interrupted = signals.signum is not None
     if args.json:
-        print(json.dumps(summary(outcomes, seconds, interrupted), indent=2))
-    elif interrupted or (len(outcomes) >= 2 and sys.stderr.isatty()):  # like the progress bar: quiet in logs
-        _print_totals(outcomes, seconds, interrupted)
+        print(json.dumps(summary(outcomes, seconds, interrupted, args.dry_run), indent=2))
+    if (args.out_dir is not None and not args.quiet) or interrupted:  # every batch, in a terminal or a log
+        print(f"depixel: {totals_line(outcomes, seconds, interrupted, args.dry_run)}", file=sys.stderr)
     if interrupted:
         return 128 + signals.signum
-    return Exit.FAILED if any(o.error for o in outcomes) else Exit.OK
+    return Exit.FAILED if any(o.error or o.edited or o.changed for o in outcomes) else Exit.OK
 
 
 def _convert_batch(args: argparse.Namespace, options: Options) -> list[Outcome]:
     """Every input under --out-dir: plan, make folders, run the pool with a progress bar."""
     found, problems = expand_inputs(args.inputs, args.recursive, exclude=args.out_dir)
     jobs, failed = plan(found, args.out_dir, options)
+    if args.dry_run:  # no folder made, nothing written
+        outcomes = failed + [Outcome(Path(arg), error=text) for arg, text in problems] + [preview(j) for j in jobs]
+        _list_planned(outcomes, args)
+        return outcomes
     jobs, unmade = make_folders(jobs)
     failed += unmade + [Outcome(Path(arg), error=text) for arg, text in problems]
     progress = Progress(len(jobs))
@@ -218,44 +248,72 @@ def _convert_batch(args: argparse.Namespace, options: Options) -> list[Outcome]:
 
 
 def _convert_stream(source: str, output: str, options: Options) -> Outcome:
-    """Convert stdin and/or to stdout (all in this process); never raises."""
+    """Convert stdin and/or to stdout (all in this process); never raises. Files written
+    from stdin are stamped (without an input identity: never up to date) and, like any
+    ``-o FILE``, overwrite only what depixel wrote unless ``--force``."""
     out = Outcome(Path(source))
     try:
-        data = read_source(sys.stdin.buffer) if source == "-" else files.read_input(source)
-        name = "<stdin>" if source == "-" else display_name(source)
-        protect = () if source == "-" else (Path(source),)
-        targets: list[tuple[int, str | Path]]
-        if options.frames == "all":
-            n = frame_count(data)  # data was read, so only decoding can fail: name it below
-            targets = list(enumerate(files.frame_outputs(output, n)))
+        data = files.InputFile(None, read_source(sys.stdin.buffer)) if source == "-" else \
+            files.InputFile.read(source)
+        if output == "-":
+            _to_stdout(data, options, out)
         else:
-            targets = [(0 if options.frames == "first" else int(options.frames), output)]
-        for frame, target in targets:
-            # a file object so that load errors name "<stdin>"; a path so they name the file
-            rgba = api.load(io.BytesIO(data) if source == "-" else source, frame=frame, max_pixels=options.max_pixels)
-            prepared = api.prepare_input(rgba, background=options.background, pixel_size=options.pixel_size,
-                                         denoise=options.denoise, transparent=options.transparent,
-                                         lossy=lossy_format(data))
-            record_prepared(out, prepared, name, target)
-            blob = api.convert_bytes(prepared, options.fmt, options.params, stage=options.stage,
-                                     scale=options.scale, shading=options.shading, name=name,
-                                     title=None if source == "-" else Path(source).name,
-                                     precision=options.precision, width=options.width, height=options.height,
-                                     max_pixels=options.max_pixels, max_output_pixels=options.max_output_pixels,
-                                     layout=options.layout, simplify=options.simplify)
-            if target == "-":
-                if options.fmt != "svg" and sys.stdout.isatty():
-                    raise OutputError(f"refusing to write binary {options.fmt.upper()} to a terminal")
-                sys.stdout.buffer.write(blob)
-                sys.stdout.buffer.flush()
-            else:
-                write_atomic(target, blob, protect=protect)
-                out.written.append(Path(target))
-        if options.frames == "first" and (n := frame_count(data)) > 1:
-            out.notes.append(f"{name}: has {n} frames, converted the first (--frames all converts each)")
+            _stream_to_files(data, Path(output), options, out)
+        if options.frames == "first" and (n := frame_count(data.data, name=data.name)) > 1:
+            out.notes.append(f"{data.name}: has {n} frames, converted the first (--frames all converts each)")
     except DepixelError as exc:
         out.error, out.traceback = error_message(exc), current_traceback()
     return out
+
+
+def _to_stdout(source: files.InputFile, options: Options, out: Outcome) -> None:
+    """``-o -``: one frame's SVG, PNG or PDF on stdout, unstamped."""
+    frame = 0 if options.frames == "first" else int(options.frames)
+    rgba = load_image(source.data, options.max_pixels, frame, max_frames=options.max_frames, name=source.name)
+    prepared = api.prepare_input(rgba, background=options.background, pixel_size=options.pixel_size,
+                                 denoise=options.denoise, transparent=options.transparent,
+                                 lossy=lossy_format(source.data))
+    record_prepared(out, prepared, source.name, "-")
+    blob = api.convert_bytes(prepared, options.fmt, options.params, stage=options.stage, scale=options.scale,
+                             shading=options.shading, name=source.name,
+                             title=None if source.path is None else source.path.name,
+                             precision=options.precision, width=options.width, height=options.height,
+                             max_pixels=options.max_pixels, max_output_pixels=options.max_output_pixels,
+                             layout=options.layout, simplify=options.simplify)
+    if options.fmt != "svg" and sys.stdout.isatty():
+        raise OutputError(f"refusing to write binary {options.fmt.upper()} to a terminal")
+    sys.stdout.buffer.write(blob)
+    sys.stdout.buffer.flush()
+
+
+def _stream_to_files(source: files.InputFile, output: Path, options: Options, out: Outcome) -> None:
+    """stdin to ``-o FILE`` (every frame's file with ``--frames all``), all or none."""
+    if options.frames == "all":
+        frames = list(enumerate(files.frame_outputs(output, frame_count(source.data, options.max_frames,
+                                                                          name=source.name))))
+    else:
+        frames = [(0 if options.frames == "first" else int(options.frames), output)]
+    targets = {frame: (target, files.file_options(
+        target, options.params, fmt=options.fmt, stage=options.stage, scale=options.scale, frame=frame,
+        background=options.background, shading=options.shading, precision=options.precision, width=options.width,
+        height=options.height, layout=options.layout, simplify=options.simplify, pixel_size=options.pixel_size,
+        denoise=options.denoise, transparent=options.transparent)) for frame, target in frames}
+    for target, _ in targets.values():
+        now = stamps.NEW if options.force else stamps.replaceable(target)
+        (out.kept if now == stamps.UNSTAMPED else out.edited if now == stamps.EDITED else []).append(target)
+    if out.kept or out.edited:
+        out.error = kept_lines(out)[0][1]
+        return
+    result = files.convert_frames(source, targets, every_frame=options.frames == "all", max_pixels=options.max_pixels,
+                                  max_output_pixels=options.max_output_pixels, max_frames=options.max_frames,
+                                  token=options.token, overwrite=options.force,
+                                  on_prepared=lambda frame, target, prepared:
+                                      record_prepared(out, prepared, source.name, target))
+    out.written, out.seconds, out.sizes = result.written, result.seconds, result.sizes
+    for target, now in result.kept.items():
+        (out.edited if now == stamps.EDITED else out.kept).append(target)
+    if out.kept or out.edited:
+        out.error = kept_lines(out)[0][1]
 
 
 def _report(outcome: Outcome, progress: Progress, args: argparse.Namespace, step: bool = True) -> None:
@@ -263,7 +321,15 @@ def _report(outcome: Outcome, progress: Progress, args: argparse.Namespace, step
         return
     for note in () if args.quiet else outcome.notes:
         progress.message(f"note: {note}")
-    if outcome.error:
+    kept = kept_lines(outcome)
+    for kind, line in kept:
+        if kind == "edited" or outcome.error == line:  # an edit (or a -o FILE not depixel's) is an error
+            progress.message(f"error: {line}")
+        elif not args.quiet:
+            progress.message(f"note: {line}")
+    if outcome.changed:
+        progress.message(f"error: {outcome.changed}")
+    if outcome.error and outcome.error not in (line for _, line in kept):
         progress.message(f"error: {outcome.error}")
         if args.debug and outcome.traceback:
             progress.message(outcome.traceback.rstrip())
@@ -271,14 +337,15 @@ def _report(outcome: Outcome, progress: Progress, args: argparse.Namespace, step
         progress.step()
 
 
-def _print_totals(outcomes: list[Outcome], seconds: float, interrupted: bool = False) -> None:
-    report = summary(outcomes, seconds, interrupted)
-    parts = [f"{report['ok']} converted"]
-    if report["skipped"]:
-        parts.append(f"{report['skipped']} up to date (--force reconverts)")
-    if report["failed"]:
-        parts.append(f"{len(report['failed'])} failed")
-    if interrupted:
-        cancelled = sum(1 for o in outcomes if o.state == CANCELLED)
-        parts.append(f"{report['not_done'] - cancelled} abandoned, {cancelled} not started (interrupted)")
-    print(f"depixel: {len(outcomes)} files: {', '.join(parts)} in {seconds:.1f} s", file=sys.stderr)
+def _list_planned(outcomes: list[Outcome], args: argparse.Namespace) -> None:
+    """``--dry-run`` without ``--json``: one line per output on stdout, what would become of it."""
+    if args.json:
+        return
+    for o in outcomes:
+        lines = [f"would convert  {display_name(p)}" for p in o.planned]
+        lines += [f"up to date     {display_name(p)}" for p in o.up_to_date]
+        lines += [f"{kind:<14} {line}" for kind, line in kept_lines(o)]
+        if o.error and not (o.kept or o.edited):
+            lines.append(f"failed         {o.error}")
+        for line in lines:
+            print(line)

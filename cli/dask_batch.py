@@ -104,6 +104,11 @@ def _outcome(future, job: Job, sent: Job) -> Outcome:
     outcome.source, outcome.output = job.source, job.output
     outcome.written = [local.get(p, p) for p in outcome.written]
     outcome.up_to_date = [local.get(p, p) for p in outcome.up_to_date]
+    outcome.kept = [local.get(p, p) for p in outcome.kept]
+    outcome.edited = [local.get(p, p) for p in outcome.edited]
+    outcome.seconds = {local.get(p, p): s for p, s in outcome.seconds.items()}
+    outcome.sizes = {local.get(p, p): n for p, n in outcome.sizes.items()}
+    outcome.changed = outcome.changed and _relative(outcome.changed, names)
     outcome.error = outcome.error and _relative(outcome.error, names)
     outcome.notes = [_relative(note, names) for note in outcome.notes]
     return outcome

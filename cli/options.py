@@ -168,6 +168,7 @@ def params_from_args(args: argparse.Namespace) -> Params:
 FLAG_OF_PARAMETER = {
     "max_pixels": "--max-pixels",
     "max_output_pixels": "--max-output-pixels",
+    "max_frames": "--max-frames",
     "width": "--width",
     "height": "--height",
     "scale": "--scale",

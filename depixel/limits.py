@@ -1,15 +1,24 @@
 """The resource limits, in one place (docs/limits.md lists them with their messages).
 
-Each limit is checked before the memory it guards is spent: input pixels from the image
-header (of the frame or page actually decoded), output pixels from the size a render will
-have, decompressed bytes while decompressing. An error names the library parameter that
-raises the limit (``parameter=``), which the CLI shows as its flag.
+Each limit is checked before the work or memory it guards is spent: input pixels from the
+image header (of the frame or page actually decoded), an animation's frames and their pixels
+in all from its header before the first frame is decoded, output pixels from the size a render
+will have, decompressed bytes while decompressing. An error names the library parameter that
+raises the limit (``parameter=``), which the CLI shows as its flag. The checks of an input's
+size are the functions below, used wherever an input is opened.
 """
 from __future__ import annotations
+
+from .errors import InputError
 
 #: Pixels (width × height) of an input image, frame or page; ``max_pixels``, ``--max-pixels``.
 #: Pixel art is small; a larger input is almost always a photo.
 DEFAULT_MAX_PIXELS = 1_048_576
+#: Frames of an animation (or pages of a TIFF) converted with ``frames="all"``, and the frame
+#: index one may ask for (decoding frame N decodes the N before it); ``max_frames``,
+#: ``--max-frames``. The pixel limit applies to the sum over the frames as well: a header
+#: declaring 2**31 - 1 frames of 4 × 4 is refused before a frame is decoded.
+DEFAULT_MAX_FRAMES = 5000
 #: Pixels the pipeline can address at all, whatever ``max_pixels`` says: the cell graph and the
 #: curves index their nodes, edges and slots in 32 bits (``cells.INDEX``), up to ~10 of each a
 #: pixel, so an image is refused past 2**31 / 16 pixels (134,217,728, e.g. 11585 × 11585, which
@@ -32,3 +41,32 @@ PEAK_BYTES_PER_PIXEL = 1_000
 #: Memory of a worker process before its image: 35-38 MB measured with numpy and depixel imported
 #: (memory_per_pixel.py's baseline), plus room for cairo when it renders PNG or PDF.
 WORKER_BASELINE_BYTES = 80 * 2**20
+
+
+def check_pixels(name: str, width: int, height: int, max_pixels: int | None) -> None:
+    """Refuse an image (frame, page) of more than ``max_pixels`` pixels, naming the parameter."""
+    if max_pixels is not None and width * height > max_pixels:
+        raise InputError(f"{name}: {width}x{height} is {width * height} pixels, over the limit of "
+                         f"{max_pixels} (depixel is for pixel art; raise it with max_pixels)", parameter="max_pixels")
+
+
+def check_frames(name: str, frames: int, max_frames: int | None) -> None:
+    """Refuse an animation of more than ``max_frames`` frames (from its header)."""
+    if max_frames is not None and frames > max_frames:
+        raise InputError(f"{name}: declares {frames} frames, over the limit of {max_frames} "
+                         "(raise it with max_frames)", parameter="max_frames")
+
+
+def check_frame_index(name: str, frame: int, max_frames: int | None) -> None:
+    """Refuse frame ``frame`` past ``max_frames`` (it decodes every frame before it)."""
+    if max_frames is not None and frame >= max_frames:
+        raise InputError(f"{name}: frame {frame} is past the limit of {max_frames} frames "
+                         "(raise it with max_frames)", parameter="max_frames")
+
+
+def check_frames_pixels(name: str, frames: int, pixels: int, max_pixels: int | None) -> None:
+    """Refuse ``frames`` frames of ``pixels`` pixels in all over ``max_pixels``: an
+    animation's work is the sum of its frames'."""
+    if max_pixels is not None and pixels > max_pixels:
+        raise InputError(f"{name}: {frames} frames are {pixels} pixels in all, over the limit of {max_pixels} "
+                         "(the limit counts every frame; raise it with max_pixels)", parameter="max_pixels")

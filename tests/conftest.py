@@ -1,6 +1,7 @@
 """Shared test helpers: images from character maps, fixture paths, the shared corpus."""
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +29,14 @@ def art(text: str, colours: dict | None = None) -> np.ndarray:
     table = dict(COLOURS, **(colours or {}))
     rows = [r.strip() for r in text.strip().splitlines()]
     return np.array([[table[ch] for ch in row] for row in rows], dtype=np.uint8)
+
+
+def drop_summary(err: str) -> str:
+    """A batch's stderr without the summary line it ends with (``depixel: N files: ...``),
+    which must be there."""
+    lines = err.rstrip("\n").splitlines()
+    assert lines and re.match(r"depixel: \d+ files: ", lines[-1]), err
+    return "\n".join(lines[:-1])
 
 
 def fixture_pngs() -> list[Path]:

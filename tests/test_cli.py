@@ -120,9 +120,10 @@ def test_up_to_date_outputs_are_skipped_stale_ones_reconverted(tmp_path, capsys)
     # another option that changes the bytes: both are remade; one that does not (-j): none
     assert set(statuses(args + ["--precision", "1"])[0].values()) == {"converted"}
     assert set(statuses(args + ["--precision", "1", "-j", "2"])[0].values()) == {"up-to-date"}
-    # a file at the output that depixel did not make with these options is replaced
-    (out / "leaf.svg").write_text("hand-edited")
-    assert statuses(args + ["--precision", "1"])[0]["leaf.svg"] == "converted"
+    # a file at the output that depixel did not write is kept (issue 33 item 4); --force replaces it
+    (out / "leaf.svg").write_text("hand-made")
+    assert statuses(args + ["--precision", "1"])[0]["leaf.svg"] == "kept"
+    assert (out / "leaf.svg").read_text() == "hand-made"
     assert main(args + ["--precision", "1", "--force"]) == Exit.OK
     assert json.loads(capsys.readouterr().out)["ok"] == 2
     svg_root(out / "heart.svg")

@@ -1,28 +1,33 @@
 """File to file — an image file → an SVG, PNG or PDF file; an SVG file → PNG or PDF.
 
 :func:`convert_file` and :func:`render_file` read one file and write another atomically
-(:mod:`depixel.files.output`: never a partial file, never over their input). A converted
-file carries the stamp of the options that made it (:mod:`depixel.files.stamp`), which
-:func:`is_up_to_date` compares; :func:`file_options` checks those options once for a batch.
+(:mod:`depixel.files.output`: never a partial file, never over their input). An input is read
+once (:class:`InputFile`), with its identity at that moment; every output made from it carries
+the stamp of the options and of that identity (:mod:`depixel.files.stamp`), which
+:func:`output_status` compares; :func:`file_options` checks those options once for a batch.
+:func:`convert_frames` writes the outputs of several frames of one input, all or none.
 """
 from __future__ import annotations
 
 import dataclasses
 import os
-from collections.abc import Callable
+import time
+from collections.abc import Callable, Mapping
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 
 from .. import validate
-from ..api import FORMATS, SHADINGS, check_output_options, conversion_bytes, load
+from ..api import FORMATS, SHADINGS, check_output_options, conversion_bytes
 from ..colour import Colour, as_colour
-from ..errors import OutputError, ParameterError, display_name
-from ..limits import DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
+from ..errors import InputError, OutputError, ParameterError, display_name
+from ..limits import DEFAULT_MAX_FRAMES, DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
 from ..params import Params
-from ..prepare.image import read_source
+from ..prepare.image import load_frames, load_image, read_source
 from ..prepare.inputs import AUTO, PixelSize, PreparedImage, lossy_format, parse_pixel_size, parse_transparent
 from ..svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
+from . import output as outputs
 from . import stamp as stamps
 from .output import write_atomic
 
@@ -62,22 +67,141 @@ def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: P
                  max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS, layout: str = "stacked",
                  simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
                  transparent: Colour | str | None = None,
-                 on_prepared: Callable[[PreparedImage], None] | None = None) -> Path:
+                 on_prepared: Callable[[PreparedImage], None] | None = None,
+                 max_frames: int | None = DEFAULT_MAX_FRAMES) -> Path:
     """Convert one image file (one frame of it) to an SVG, PNG or PDF file; returns the output path.
 
     The output is written atomically and never replaces ``source``. PNG output uses the
-    smooth renderer unless ``shading="flat"``. The file carries the stamp of the options that
-    made it (:mod:`depixel.files.stamp`), which :func:`is_up_to_date` compares. ``denoise=None``
-    denoises JPEG and lossy WebP files; ``on_prepared`` is called with what the preparation
-    found (to report it).
+    smooth renderer unless ``shading="flat"``. The file carries the stamp of the options and
+    of the input that made it (:mod:`depixel.files.stamp`), which :func:`output_status`
+    compares. ``denoise=None`` denoises JPEG and lossy WebP files; ``on_prepared`` is called
+    with what the preparation found (to report it). An input that changes while it is
+    converted raises :class:`InputError` once the output is written (of the version read,
+    stamped as such: never up to date).
     """
     options = file_options(output, params, fmt=fmt, stage=stage, scale=scale, frame=frame, background=background,
                            shading=shading, precision=precision, width=width, height=height, layout=layout,
                            simplify=simplify, pixel_size=pixel_size, denoise=denoise, transparent=transparent)
-    rgba = load(source, frame=frame, max_pixels=max_pixels)
-    write_converted(rgba, source, output, options, max_pixels=max_pixels, max_output_pixels=max_output_pixels,
-                    on_prepared=on_prepared)
+    result = convert_frames(InputFile.read(source), {int(frame): (Path(output), options)}, max_pixels=max_pixels,
+                            max_output_pixels=max_output_pixels, max_frames=max_frames,
+                            on_prepared=None if on_prepared is None else lambda frame, target, p: on_prepared(p))
+    if result.changed:
+        raise InputError(f"{display_name(source)}: {CHANGED}")
     return Path(output)
+
+
+#: How an input that changed while it was converted is reported.
+CHANGED = "changed during conversion (the output is of the version read; the next run converts it again)"
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class InputFile:
+    """An input read once for a conversion: its bytes and, for a file, its identity as read."""
+
+    path: Path | None  # None: standard input
+    data: bytes
+    identity: stamps.Identity | None = None
+    key: tuple[int, int, int, int] | None = None  # device, inode, size, mtime (ns) of the path before the read
+
+    @classmethod
+    def read(cls, path: str | os.PathLike) -> InputFile:
+        """Read ``path`` (an :class:`InputError` naming it if it cannot be)."""
+        try:
+            before = os.stat(path)
+        except (OSError, ValueError):
+            before = None  # read_source says why
+        data = read_source(path)
+        if before is None:
+            raise InputError(f"{display_name(path)}: cannot read (it vanished while read)")
+        identity = stamps.Identity(before.st_size, before.st_mtime_ns, stamps.digest(data))
+        return cls(Path(path), data, identity, _key(before))
+
+    @property
+    def name(self) -> str:
+        return "<stdin>" if self.path is None else display_name(self.path)
+
+    def changed(self) -> bool:
+        """Whether the file at the path is no longer the one read (rewritten or replaced)."""
+        if self.path is None:
+            return False
+        try:
+            return _key(os.stat(self.path)) != self.key
+        except (OSError, ValueError):
+            return True
+
+
+def _key(st: os.stat_result) -> tuple[int, int, int, int]:
+    return st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns
+
+
+@dataclasses.dataclass(eq=False)
+class Written:
+    """What :func:`convert_frames` did."""
+
+    written: list[Path] = dataclasses.field(default_factory=list)
+    #: outputs that became someone else's while they were converted: stamp.UNSTAMPED or EDITED
+    kept: dict[Path, str] = dataclasses.field(default_factory=dict)
+    seconds: dict[Path, float] = dataclasses.field(default_factory=dict)  # each output's share of the work
+    sizes: dict[Path, int] = dataclasses.field(default_factory=dict)  # bytes of each output
+    changed: bool = False  # the input changed during the conversion
+
+
+def convert_frames(source: InputFile, targets: Mapping[int, tuple[Path, dict]], *, every_frame: bool = False,
+                   max_pixels: int | None = DEFAULT_MAX_PIXELS,
+                   max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS,
+                   max_frames: int | None = DEFAULT_MAX_FRAMES, token: str | None = None, overwrite: bool = True,
+                   on_prepared: Callable[[int, Path, PreparedImage], None] | None = None) -> Written:
+    """Convert frames of an input read once, ``targets`` {frame: (output, :func:`file_options`)},
+    and write their outputs, all or none: each is staged to its temporary file and they are
+    renamed into place together once every one is made (a failure in frame k leaves no
+    partial set). ``every_frame``: the input is an animation converted whole (its frames
+    decoded in order, checked against ``max_frames`` and, in all, ``max_pixels``). Without
+    ``overwrite``, an output that became unstamped or edited while converting is kept.
+    ``token``: the run's (:mod:`depixel.files.output`). The outputs are stamped with the
+    input's identity as read; whether it changed meanwhile is in the result."""
+    name = source.name
+    frames = load_frames(source.data, max_pixels, max_frames=max_frames, name=name) if every_frame else \
+        ((frame, load_image(source.data, max_pixels, frame, max_frames=max_frames, name=name)) for frame in targets)
+    done = Written()
+    staged: dict[Path, outputs.Staged | None] = {}  # None: a device, written in place
+    try:
+        began = time.perf_counter()
+        for frame, rgba in frames:
+            if frame not in targets:
+                continue
+            target, options = targets[frame]
+            blob = _converted(rgba, source, options, max_pixels, max_output_pixels,
+                              None if on_prepared is None else partial(on_prepared, frame, target))
+            protect = () if source.path is None else (source.path,)
+            staged[target] = outputs.stage(target, blob, protect=protect, token=token)
+            done.sizes[target] = len(blob)
+            done.seconds[target], began = time.perf_counter() - began, time.perf_counter()
+        done.changed = source.changed()
+        if not overwrite:
+            done.kept = {target: now for target in staged
+                         if (now := stamps.replaceable(target)) in (stamps.UNSTAMPED, stamps.EDITED)}
+        done.written = [target for target in staged if target not in done.kept]
+        outputs.commit([item for target in done.written if (item := staged.pop(target)) is not None])
+    finally:
+        outputs.discard([item for item in staged.values() if item is not None])
+    return done
+
+
+def _converted(rgba: np.ndarray, source: InputFile, options: dict, max_pixels: int | None,
+               max_output_pixels: int | None, on_prepared: Callable[[PreparedImage], None] | None) -> bytes:
+    """The stamped bytes of one output: decoded pixels of ``source`` converted with
+    :func:`file_options` (the file's own format says whether it is lossy: JPEG and lossy
+    WebP are denoised unless ``denoise`` says otherwise)."""
+    draft = stamps.text(options["stamp"], source.identity)
+    blob = conversion_bytes(rgba, options["fmt"], options["params"], stage=options["stage"], scale=options["scale"],
+                            background=options["background"], title=None if source.path is None else source.path.name,
+                            shading=options["shading"], name=source.name, precision=options["precision"],
+                            width=options["width"],
+                            height=options["height"], max_pixels=max_pixels, max_output_pixels=max_output_pixels,
+                            layout=options["layout"], simplify=options["simplify"], pixel_size=options["pixel_size"],
+                            denoise=options["denoise"], transparent=options["transparent"],
+                            lossy=lossy_format(source.data), keywords=draft, on_prepared=on_prepared)
+    return stamps.embed(blob, options["fmt"], options["stamp"], source.identity)
 
 
 def file_options(output: str | os.PathLike, params: Params = Params(), *, fmt: str | None = None,
@@ -87,7 +211,7 @@ def file_options(output: str | os.PathLike, params: Params = Params(), *, fmt: s
                  simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
                  transparent: Colour | str | None = None) -> dict:
     """The checked options of :func:`convert_file` that decide the output's bytes, with
-    their ``stamp``; the arguments of :func:`write_converted` and :func:`is_up_to_date`."""
+    their ``stamp``; the arguments of :func:`convert_frames` and :func:`output_status`."""
     if not isinstance(params, Params):
         raise ParameterError(f"params must be a depixel.Params, not {type(params).__name__}", parameter="params")
     validate.number("frame", frame, low=0, integer=True)
@@ -106,28 +230,12 @@ def file_options(output: str | os.PathLike, params: Params = Params(), *, fmt: s
     return {**options, "stamp": stamp}
 
 
-def write_converted(rgba: np.ndarray, source: str | os.PathLike, output: str | os.PathLike, options: dict, *,
-                    max_pixels: int | None = DEFAULT_MAX_PIXELS,
-                    max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS,
-                    on_prepared: Callable[[PreparedImage], None] | None = None, token: str | None = None) -> None:
-    """Convert decoded pixels of ``source`` with :func:`file_options` and write ``output``
-    atomically (the file's own format says whether it is lossy: JPEG and lossy WebP are
-    denoised unless ``denoise`` says otherwise). ``token``: the run's, in the name of the
-    temporary file (:func:`depixel.files.output.write_atomic`)."""
-    blob = conversion_bytes(rgba, options["fmt"], options["params"], stage=options["stage"], scale=options["scale"],
-                          background=options["background"], title=Path(source).name, shading=options["shading"],
-                          name=display_name(source), precision=options["precision"], width=options["width"],
-                          height=options["height"], max_pixels=max_pixels, max_output_pixels=max_output_pixels,
-                          layout=options["layout"], simplify=options["simplify"], pixel_size=options["pixel_size"],
-                          denoise=options["denoise"], transparent=options["transparent"],
-                          lossy=lossy_format(read_source(source)), keywords=f"{stamps.KEY}:{options['stamp']}",
-                            on_prepared=on_prepared)
-    write_atomic(output, stamps.embed(blob, options["fmt"], options["stamp"]), protect=(Path(source),), token=token)
-
-
-def is_up_to_date(source: str | os.PathLike, output: str | os.PathLike, options: dict) -> bool:
-    """True when ``output`` is newer than ``source`` and was made with these :func:`file_options`."""
-    return stamps.up_to_date(source, output, options["stamp"])
+def output_status(source: str | os.PathLike, output: str | os.PathLike, options: dict) -> str:
+    """What the existing ``output`` is for a conversion of ``source`` with these
+    :func:`file_options`: ``stamp.NEW``, ``CURRENT`` (made from this input with these
+    options: up to date), ``STALE`` (depixel's, unchanged since: safe to replace),
+    ``UNSTAMPED`` (not depixel's) or ``EDITED`` (changed since depixel wrote it)."""
+    return stamps.status(source, output, options["stamp"])
 
 
 def render_file(source: str | os.PathLike, output: str | os.PathLike, *, fmt: str | None = None,

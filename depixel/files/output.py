@@ -19,6 +19,8 @@ import errno
 import os
 import re
 import stat
+from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import OutputError, ParameterError, display_name
@@ -105,6 +107,24 @@ def write_atomic(path: str | os.PathLike, data: bytes | str, protect: tuple[Path
     (the inputs; symbolic and hard links to them included), a folder, or a read-only file,
     and reports a missing or unwritable output folder.
     """
+    commit([staged] if (staged := stage(path, data, protect, token)) is not None else [])
+
+
+@dataclass(eq=False)
+class Staged:
+    """An output written in full to its temporary file, waiting to be renamed into place."""
+
+    target: Path  # symbolic links resolved
+    tmp: Path
+    name: str  # as shown in messages
+
+
+def stage(path: str | os.PathLike, data: bytes | str, protect: tuple[Path, ...] = (),
+          token: str | None = None) -> Staged | None:
+    """The first half of :func:`write_atomic`: ``data`` written and flushed to the temporary
+    file, with the mode the output will have; :func:`commit` renames it into place,
+    :func:`discard` removes it. Several outputs staged and then committed together are
+    all written or none (a frame set). A device or pipe is written in place at once: None."""
     token = _token(token)
     name = display_name(path)
     if isinstance(data, str):
@@ -120,7 +140,7 @@ def write_atomic(path: str | os.PathLike, data: bytes | str, protect: tuple[Path
                 raise OutputError(f"{name}: is a directory")
             if not stat.S_ISREG(current.st_mode):
                 _write_stream(target, data, name)
-                return
+                return None
             if not os.access(target, os.W_OK):
                 raise OutputError(f"{name}: file is read-only")
         folder, shown = target.parent, display_name(Path(path).parent)
@@ -141,13 +161,41 @@ def write_atomic(path: str | os.PathLike, data: bytes | str, protect: tuple[Path
             fh.flush()
             os.fsync(fh.fileno())
         os.chmod(tmp, stat.S_IMODE(current.st_mode) if current is not None else 0o666 & ~_umask())
-        os.replace(tmp, target)
-        _created.discard(tmp)
     except BaseException as exc:  # KeyboardInterrupt included: never leave the temporary file
         _remove(tmp)
         if isinstance(exc, OSError):
             raise OutputError(f"{name}: cannot write ({exc.strerror or exc})") from None
         raise
+    return Staged(target, tmp, name)
+
+
+def commit(staged: Sequence[Staged]) -> None:
+    """Rename staged outputs into place, with SIGINT and SIGTERM held until the last is in
+    place (a Ctrl-C then stops after them, not between two frames of a set). On a failure
+    the ones not renamed yet are removed and an :class:`OutputError` is raised."""
+    import signal  # noqa: PLC0415
+
+    held = {signal.SIGINT, signal.SIGTERM}
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, held) if staged else None
+    try:
+        for i, item in enumerate(staged):
+            try:
+                os.replace(item.tmp, item.target)
+            except BaseException as exc:  # never leave a temporary file
+                discard(staged[i:])
+                if isinstance(exc, OSError):
+                    raise OutputError(f"{item.name}: cannot write ({exc.strerror or exc})") from None
+                raise
+            _created.discard(item.tmp)
+    finally:
+        if old is not None:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def discard(staged: Sequence[Staged]) -> None:
+    """Remove staged outputs' temporary files (those not committed)."""
+    for item in staged:
+        _remove(item.tmp)
 
 
 def _temporary_file(target: Path, token: str) -> tuple[int, Path]:

@@ -13,20 +13,32 @@ from typing import BinaryIO
 import numpy as np
 
 from ..errors import InputError, display_name
-from ..limits import DEFAULT_MAX_PIXELS, MAX_FILE_BYTES, MAX_INDEXED_PIXELS  # noqa: F401 (DEFAULT_MAX_PIXELS: re-exported)
+from ..limits import (  # noqa: F401 (DEFAULT_MAX_PIXELS, check_pixels: re-exported)
+    DEFAULT_MAX_FRAMES,
+    DEFAULT_MAX_PIXELS,
+    MAX_FILE_BYTES,
+    MAX_INDEXED_PIXELS,
+    check_frame_index,
+    check_frames,
+    check_frames_pixels,
+    check_pixels,
+)
 
 #: Modes with more than 8 bits per grey sample, scaled by hand (Pillow's convert clips them).
 _WIDE_GREY = ("I;16", "I;16B", "I;16L", "I;16N", "I", "F")
 
 ImageSource = str | os.PathLike | bytes | bytearray | memoryview | BinaryIO
 
-def _describe(source: ImageSource) -> str:
+def _describe(source: ImageSource, name: str | None = None) -> str:
+    if name is not None:
+        return name
     if isinstance(source, (str, os.PathLike)):
         return display_name(source)
     return "<bytes>" if isinstance(source, (bytes, bytearray, memoryview)) else "<stdin>"
 
 
-def load_image(source: ImageSource, max_pixels: int | None = DEFAULT_MAX_PIXELS, frame: int = 0) -> np.ndarray:
+def load_image(source: ImageSource, max_pixels: int | None = DEFAULT_MAX_PIXELS, frame: int = 0, *,
+               max_frames: int | None = DEFAULT_MAX_FRAMES, name: str | None = None) -> np.ndarray:
     """Read one frame of an image into an ``(H, W, 4) uint8`` RGBA array, alpha kept.
 
     ``source`` is a path, raw file bytes or a binary file object. Every Pillow mode is
@@ -34,29 +46,36 @@ def load_image(source: ImageSource, max_pixels: int | None = DEFAULT_MAX_PIXELS,
     transparency key keep it as alpha, 16-bit and 32-bit data are scaled to 8 bits.
     The size of the frame (or page) decoded is checked against ``max_pixels`` (``None``:
     only Pillow's decompression-bomb guard) from its header, before any pixel is decoded.
-    Anything unreadable raises :class:`InputError` with a one-line message naming the file.
+    Frame N of an animation decodes the N before it: N must be under ``max_frames``.
+    Anything unreadable raises :class:`InputError` with a one-line message naming the file
+    (``name``: how to name it, e.g. a file whose bytes are given).
     """
     from ..validate import number  # noqa: PLC0415
 
     number("frame", frame, low=0, integer=True)
-    for _, rgba in _frames(source, max_pixels, only=int(frame)):
+    for _, rgba in _frames(source, max_pixels, int(frame), max_frames, name):
         return rgba
     raise AssertionError("unreachable: _frames yields the frame or raises")
 
 
-def load_frames(source: ImageSource, max_pixels: int | None = DEFAULT_MAX_PIXELS):
+def load_frames(source: ImageSource, max_pixels: int | None = DEFAULT_MAX_PIXELS, *,
+                max_frames: int | None = DEFAULT_MAX_FRAMES, name: str | None = None):
     """Every frame of an (animated) image in order, each decoded once: yields ``(index,
     (H, W, 4) uint8 RGBA)``. The file is read once and the frames are decoded sequentially,
-    so the cost is linear in the number of frames; each is checked against ``max_pixels``."""
-    yield from _frames(source, max_pixels, only=None)
+    so the cost is linear in the number of frames. Before the first is decoded, the frames
+    the header declares are checked against ``max_frames`` and their pixels in all against
+    ``max_pixels`` (each frame's own size is added as it comes: TIFF pages differ)."""
+    yield from _frames(source, max_pixels, None, max_frames, name)
 
 
-def _frames(source: ImageSource, max_pixels: int | None, only: int | None):
+def _frames(source: ImageSource, max_pixels: int | None, only: int | None, max_frames: int | None,
+            name: str | None):
     """Frames ``only`` (one index) or all of them, as :func:`load_frames` describes."""
     from ..validate import limit  # noqa: PLC0415
 
     max_pixels = limit("max_pixels", max_pixels)
-    name = _describe(source)
+    max_frames = limit("max_frames", max_frames)
+    name = _describe(source, name)
     data = read_source(source)
     with _quiet_pillow(), _open(data, name) as img:
         width, height = img.size
@@ -65,8 +84,14 @@ def _frames(source: ImageSource, max_pixels: int | None, only: int | None):
             n_frames = int(getattr(img, "n_frames", 1))
         except Exception:
             raise InputError(f"{name}: truncated or corrupt image data") from None
-        if only is not None and only >= n_frames:
-            raise InputError(f"{name}: has {n_frames} frame(s), no frame {only}")
+        if only is None:
+            check_frames(name, n_frames, max_frames)
+            check_frames_pixels(name, n_frames, n_frames * width * height, max_pixels)
+        else:
+            check_frame_index(name, only, max_frames)
+            if only >= n_frames:
+                raise InputError(f"{name}: has {n_frames} frame(s), no frame {only}")
+        total = 0
         for index in range(n_frames) if only is None else (only,):
             try:
                 with _mute_stderr_fd(img.format == "TIFF"):  # libtiff prints its complaints there
@@ -75,6 +100,9 @@ def _frames(source: ImageSource, max_pixels: int | None, only: int | None):
                     # a page of a TIFF (or a frame of an APNG) has its own size: check it too
                     width, height = img.size
                     check_pixels(name, width, height, max_pixels)
+                    total += width * height
+                    if only is None:
+                        check_frames_pixels(name, index + 1, total, max_pixels)
                     img.load()
             except InputError:
                 raise
@@ -87,25 +115,18 @@ def _frames(source: ImageSource, max_pixels: int | None, only: int | None):
             yield index, _to_rgba(img, name)
 
 
-def check_pixels(name: str, width: int, height: int, max_pixels: int | None) -> None:
-    """Refuse an image of more than ``max_pixels`` pixels, naming the parameter."""
-    if max_pixels is not None and width * height > max_pixels:
-        raise InputError(
-            f"{name}: {width}x{height} is {width * height} pixels, over the limit of "
-            f"{max_pixels} (depixel is for pixel art; raise it with max_pixels)",
-            parameter="max_pixels",
-        )
-
-
-def frame_count(source: ImageSource) -> int:
-    """Number of frames in an (animated) image; 1 for still images."""
-    name = _describe(source)
+def frame_count(source: ImageSource, max_frames: int | None = None, *, name: str | None = None) -> int:
+    """Number of frames in an (animated) image; 1 for still images. Over ``max_frames``
+    (to convert every one) is refused, before anything is made per frame."""
+    name = _describe(source, name)
     data = read_source(source)
     with _quiet_pillow(), _open(data, name) as img:
         try:
-            return int(getattr(img, "n_frames", 1))
+            n_frames = int(getattr(img, "n_frames", 1))
         except Exception:
             raise InputError(f"{name}: truncated or corrupt image data") from None
+    check_frames(name, n_frames, max_frames)
+    return n_frames
 
 
 def read_source(source: ImageSource) -> bytes:
