@@ -203,8 +203,9 @@ def preview(job: Job) -> Outcome:
     write are ``planned``)."""
     out = Outcome(job.source, job.output)
     try:
-        if job.options.frames == "all" and job.frames == 0:
-            job = Job(job.source, job.output, job.options, frame_count(job.source, job.options.max_frames))
+        frames = frame_count(job.source, job.options.max_frames if job.options.frames == "all" else None)
+        if job.options.frames == "all" and job.frames == 0:  # the header is read: an unreadable input fails
+            job = Job(job.source, job.output, job.options, frames)
         out.planned = [target for target, _ in _outputs_to_make(job, out).values()]
         if job.options.explicit and (out.kept or out.edited):
             out.error = kept_lines(out)[0][1]

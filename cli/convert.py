@@ -66,9 +66,10 @@ to date and skipped (--force reconverts it). An existing output that depixel did
 (no stamp) is kept, and one edited since depixel wrote it is kept and reported as an error,
 unless --force (-o FILE too: it overwrites only what depixel wrote). A failed file is
 reported and the rest go on; the exit code is 1 if any file failed, was edited or changed
-while converted; a batch ends with a summary line on stderr. Ctrl-C (or SIGTERM) stops: no new file is
-started, files being converted are abandoned without leaving partial files, what was done
-is reported (exit 130, or 143 for SIGTERM); a second Ctrl-C exits at once.
+while converted; a batch ends with a summary line on stderr (--dry-run: the same, writing
+nothing). Ctrl-C (or SIGTERM) stops: no new file is started, files being converted are
+abandoned without leaving partial files, what was done is reported (exit 130, or 143 for
+SIGTERM); a second Ctrl-C exits at once.
 """
 
 

@@ -128,11 +128,13 @@ def test_dry_run_writes_nothing_and_says_what_would_happen(batch, capsys):
     assert code == Exit.OK and report["dry_run"] is True
     assert statuses == {"heart.svg": "to-convert", "leaf.svg": "kept", "new.svg": "to-convert"}
     assert {p.name: (p.read_bytes(), p.stat().st_mtime_ns) for p in out.iterdir()} == before
-    assert main(["convert", str(src), "--out-dir", str(out / "sub"), "--dry-run"]) == Exit.OK
+    (src / "broken.png").write_bytes(b"not an image")
+    assert main(["convert", str(src), "--out-dir", str(out / "sub"), "--dry-run"]) == Exit.FAILED
     listed = capsys.readouterr()
     assert not (out / "sub").exists()  # not even the folder
-    assert sorted(line.split()[0] for line in listed.out.splitlines()) == ["would", "would", "would"]
-    assert listed.err.strip().endswith("(dry run: nothing written) in 0.0 s") or "dry run" in listed.err
+    assert sorted(line.split()[0] for line in listed.out.splitlines()) == ["failed", "would", "would", "would"]
+    assert re.fullmatch(r"depixel: 4 files: 3 to convert, 0 up to date, 0 kept, 1 failed "
+                        r"\(dry run: nothing written\) in [0-9.]+ s", listed.err.strip()), listed.err
 
 
 def test_convert_o_overwrites_only_what_depixel_wrote(tmp_path, capsys):
