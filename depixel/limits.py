@@ -70,3 +70,12 @@ def check_frames_pixels(name: str, frames: int, pixels: int, max_pixels: int | N
     if max_pixels is not None and pixels > max_pixels:
         raise InputError(f"{name}: {frames} frames are {pixels} pixels in all, over the limit of {max_pixels} "
                          "(the limit counts every frame; raise it with max_pixels)", parameter="max_pixels")
+
+
+def check_rendered_frames(name: str, frames: int, pixels: int, max_output_pixels: int | None) -> None:
+    """Refuse PNG outputs of ``frames`` frames of ``pixels`` pixels in all over
+    ``max_output_pixels`` (each frame alone is checked as any PNG is)."""
+    if max_output_pixels is not None and pixels > max_output_pixels:
+        raise InputError(f"{name}: {frames} PNG frames are {pixels} pixels in all, over the limit of "
+                         f"{max_output_pixels} (the limit counts every frame; raise it with max_output_pixels)",
+                         parameter="max_output_pixels")

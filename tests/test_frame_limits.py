@@ -14,7 +14,7 @@ import zlib
 from pathlib import Path
 
 import pytest
-from conftest import FIXTURES, drop_summary
+from conftest import drop_summary
 from PIL import Image
 
 from depixel.errors import InputError
@@ -107,6 +107,21 @@ def test_the_pixel_limit_counts_every_frame(tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.glob("a*.svg")) == ["a-000.svg", "a-001.svg", "a-002.svg"]
 
 
+def test_the_output_pixel_limit_counts_every_png_frame(tmp_path, capsys):
+    """Three 20 × 20 frames at --scale 2 are three 40 × 40 PNGs, 4800 pixels: over
+    --max-output-pixels 4000 although each is 1600."""
+    anim = tmp_path / "anim.gif"
+    gif(anim, 3, 20)
+    argv = ["convert", str(anim), "-o", str(tmp_path / "a.png"), "--frames", "all", "--stage", "cells",
+            "--scale", "2", "--shading", "flat"]
+    assert main(argv + ["--max-output-pixels", "4000"]) == Exit.FAILED
+    err = capsys.readouterr().err
+    assert "3 PNG frames are 4800 pixels in all, over the limit of 4000" in err and "--max-output-pixels" in err
+    assert not list(tmp_path.glob("a*.png"))
+    assert main(argv + ["--max-output-pixels", "4800"]) == Exit.OK
+    assert len(list(tmp_path.glob("a-*.png"))) == 3
+
+
 def test_a_failure_in_frame_k_leaves_no_partial_frame_set(tmp_path, monkeypatch, capsys):
     """Frame 1 of 3 fails: no new frame is written (not frame 0 either), no temporary file
     is left, and the frame set of an earlier run stays whole."""
@@ -139,6 +154,6 @@ def test_a_failure_in_frame_k_leaves_no_partial_frame_set(tmp_path, monkeypatch,
 def test_the_frame_limit_is_a_flag_of_convert():
     from depixel_cli.main import build_parser
 
-    help_text = build_parser("convert").parse_args(["convert", "x.png", "-o", "x.svg"])
-    assert help_text.max_frames == 5000
-    assert FIXTURES.is_dir()
+    args = build_parser("convert").parse_args(["convert", "x.png", "-o", "x.svg"])
+    assert args.max_frames == 5000
+    assert build_parser("convert").parse_args(["convert", "x.png", "-o", "x.svg", "--max-frames", "7"]).max_frames == 7

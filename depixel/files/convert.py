@@ -22,7 +22,7 @@ from .. import validate
 from ..api import FORMATS, SHADINGS, check_output_options, conversion_bytes
 from ..colour import Colour, as_colour
 from ..errors import InputError, OutputError, ParameterError, display_name
-from ..limits import DEFAULT_MAX_FRAMES, DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
+from ..limits import DEFAULT_MAX_FRAMES, DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS, check_rendered_frames
 from ..params import Params
 from ..prepare.image import load_frames, load_image, read_source
 from ..prepare.inputs import AUTO, PixelSize, PreparedImage, lossy_format, parse_pixel_size, parse_transparent
@@ -155,7 +155,8 @@ def convert_frames(source: InputFile, targets: Mapping[int, tuple[Path, dict]], 
     and write their outputs, all or none: each is staged to its temporary file and they are
     renamed into place together once every one is made (a failure in frame k leaves no
     partial set). ``every_frame``: the input is an animation converted whole (its frames
-    decoded in order, checked against ``max_frames`` and, in all, ``max_pixels``). Without
+    decoded in order, checked against ``max_frames`` and, in all, ``max_pixels``; PNG frames'
+    pixels in all against ``max_output_pixels``, before each is converted). Without
     ``overwrite``, an output that became unstamped or edited while converting is kept.
     ``token``: the run's (:mod:`depixel.files.output`). The outputs are stamped with the
     input's identity as read; whether it changed meanwhile is in the result."""
@@ -165,11 +166,16 @@ def convert_frames(source: InputFile, targets: Mapping[int, tuple[Path, dict]], 
     done = Written()
     staged: dict[Path, outputs.Staged | None] = {}  # None: a device, written in place
     try:
-        began = time.perf_counter()
+        began, rendered = time.perf_counter(), 0
         for frame, rgba in frames:
             if frame not in targets:
                 continue
             target, options = targets[frame]
+            if options["fmt"] == "png" and len(targets) > 1:  # the PNGs' pixels in all, this frame's
+                each = _png_pixels(rgba.shape, options)      # size for the frames still to come
+                check_rendered_frames(name, len(targets), rendered + each * (len(targets) - len(staged)),
+                                      max_output_pixels)
+                rendered += each
             blob = _converted(rgba, source, options, max_pixels, max_output_pixels,
                               None if on_prepared is None else partial(on_prepared, frame, target))
             protect = () if source.path is None else (source.path,)
@@ -185,6 +191,15 @@ def convert_frames(source: InputFile, targets: Mapping[int, tuple[Path, dict]], 
     finally:
         outputs.discard([item for item in staged.values() if item is not None])
     return done
+
+
+def _png_pixels(shape: tuple[int, ...], options: dict) -> int:
+    """Pixels of the PNG of an input of ``shape`` with these options (as
+    :func:`depixel.api.conversion_bytes` sizes it)."""
+    height, width = shape[:2]
+    scale = options["width"] / width if options["width"] else \
+        options["height"] / height if options["height"] else options["scale"]
+    return max(1, round(width * scale)) * max(1, round(height * scale))
 
 
 def _converted(rgba: np.ndarray, source: InputFile, options: dict, max_pixels: int | None,
