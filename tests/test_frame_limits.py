@@ -157,3 +157,28 @@ def test_the_frame_limit_is_a_flag_of_convert():
     args = build_parser("convert").parse_args(["convert", "x.png", "-o", "x.svg"])
     assert args.max_frames == 5000
     assert build_parser("convert").parse_args(["convert", "x.png", "-o", "x.svg", "--max-frames", "7"]).max_frames == 7
+
+
+@pytest.mark.skipif(not hasattr(__import__("signal"), "pthread_sigmask"), reason="no signal masks")
+def test_a_ctrl_c_during_the_renames_comes_after_the_last_frame(tmp_path, monkeypatch):
+    """A real SIGINT sent while the first of three frames is renamed into place is held
+    until the third is in place: the set is whole, then KeyboardInterrupt."""
+    import os
+    import signal
+
+    from depixel.files import output
+
+    staged = [output.stage(tmp_path / f"f-{i}.svg", f"<svg>{i}</svg>") for i in range(3)]
+    real, renamed = os.replace, []
+
+    def replace(src, dst):
+        if not renamed:
+            os.kill(os.getpid(), signal.SIGINT)
+        real(src, dst)
+        renamed.append(Path(dst).name)
+
+    monkeypatch.setattr(os, "replace", replace)
+    with pytest.raises(KeyboardInterrupt):
+        output.commit([s for s in staged if s is not None])
+    assert renamed == ["f-0.svg", "f-1.svg", "f-2.svg"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f-0.svg", "f-1.svg", "f-2.svg"]

@@ -176,7 +176,8 @@ def commit(staged: Sequence[Staged]) -> None:
     import signal  # noqa: PLC0415
 
     held = {signal.SIGINT, signal.SIGTERM}
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, held) if staged else None
+    hold = staged and hasattr(signal, "pthread_sigmask")  # (not on Windows)
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, held) if hold else None
     try:
         for i, item in enumerate(staged):
             try:
