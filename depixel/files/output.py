@@ -15,13 +15,16 @@ glob that a user's ``.big.svg.mine.tmp`` could match.
 """
 from __future__ import annotations
 
+import contextlib
 import errno
 import os
 import re
 import stat
-from collections.abc import Sequence
+import threading
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from ..errors import OutputError, ParameterError, display_name
 
@@ -170,15 +173,10 @@ def stage(path: str | os.PathLike, data: bytes | str, protect: tuple[Path, ...] 
 
 
 def commit(staged: Sequence[Staged]) -> None:
-    """Rename staged outputs into place, with SIGINT and SIGTERM held until the last is in
+    """Rename staged outputs into place, with SIGINT and SIGTERM deferred until the last is in
     place (a Ctrl-C then stops after them, not between two frames of a set). On a failure
     the ones not renamed yet are removed and an :class:`OutputError` is raised."""
-    import signal  # noqa: PLC0415
-
-    held = {signal.SIGINT, signal.SIGTERM}
-    hold = staged and hasattr(signal, "pthread_sigmask")  # (not on Windows)
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, held) if hold else None
-    try:
+    with _signals_deferred(bool(staged)):
         for i, item in enumerate(staged):
             try:
                 os.replace(item.tmp, item.target)
@@ -188,9 +186,32 @@ def commit(staged: Sequence[Staged]) -> None:
                     raise OutputError(f"{item.name}: cannot write ({exc.strerror or exc})") from None
                 raise
             _created.discard(item.tmp)
+
+
+@contextlib.contextmanager
+def _signals_deferred(active: bool):
+    """SIGINT and SIGTERM noted and handed to their handlers once the block is done. A
+    Python handler, replaced for the duration (a signal mask would not do: the kernel gives a
+    process's signal to any thread that does not block it, OpenBLAS's included, and Python
+    then runs the handler in the main thread all the same). Only the main thread sets
+    handlers; elsewhere none runs in this thread anyway."""
+    import signal  # noqa: PLC0415
+
+    pending: list[int] = []
+    saved: dict[signal.Signals, Callable[[int, Any], Any]] = {}
+    if active and threading.current_thread() is threading.main_thread():
+        for number in (signal.SIGINT, signal.SIGTERM):
+            handler = signal.getsignal(number)
+            if callable(handler):  # a Python handler: deferred (SIG_DFL, SIG_IGN, C ones left as they are)
+                saved[number] = handler
+                signal.signal(number, lambda signum, frame: pending.append(signum))
+    try:
+        yield
     finally:
-        if old is not None:
-            signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        for number, handler in saved.items():
+            signal.signal(number, handler)
+        for signum in pending:
+            signal.raise_signal(signum)
 
 
 def discard(staged: Sequence[Staged]) -> None:
