@@ -10,13 +10,13 @@ from PIL import Image
 
 from depixel.diff.compare import (
     MAX_YIQ_DELTA,
-    SizeMismatchError,
     compare,
-    diff_files,
     luma,
     pick_background,
     yiq_distance,
 )
+from depixel.diff.files import diff_files
+from depixel.diff.sources import SizeMismatchError
 from depixel_cli.main import main
 from depixel_cli.options import Exit
 
@@ -55,19 +55,47 @@ def test_small_change_below_threshold_is_equal_and_large_is_not():
     assert compare(base, near, threshold=0.0).different_pixels == 1
 
 
-def test_edge_pixel_in_between_is_antialiasing_but_a_blob_is_not():
-    a = opaque([[(0, 0, 0)] * 4 + [(255, 255, 255)] * 4] * 8)  # sharp vertical edge
-    b = a.copy()
-    b[3, 4, :3] = 128  # a grey pixel on the edge: a renderer's anti-aliasing
+def test_a_blend_the_other_image_has_beside_it_is_antialiasing_but_a_blob_is_not():
+    """A ramp of blends drawn a pixel further: the blend beside the flat black area is
+    anti-aliasing (the other image has its colour next to it); the pixels that became a
+    flat area's colour (white) or whose neighbours are no flat area are changes."""
+    black, white = (0, 0, 0), (255, 255, 255)
+    a = opaque([[black, black, (64,) * 3, (128,) * 3, (192,) * 3, white, white, white]] * 6)
+    b = opaque([[black, black, (128,) * 3, (192,) * 3, white, white, white, white]] * 6)
     result = compare(a, b)
-    assert result.different_pixels == 0 and result.antialiased[3, 4]
-    assert compare(a, b, include_antialiasing=True).different_pixels == 1
+    assert result.antialiased[:, 2].all() and not result.different[:, 2].any()
+    assert result.different[:, 3:5].all() and result.different_pixels == 12
+    assert compare(a, b, include_antialiasing=True).different_pixels == 18
     c = a.copy()
-    c[3, 1, :3] = 128  # grey inside the black area: every neighbour is darker, a real change
+    c[3, 0, :3] = 128  # grey inside the black area: every neighbour is darker, a real change
     assert compare(a, c).different_pixels == 1
 
 
-def _reference_antialiased(img: np.ndarray, other: np.ndarray, x: int, y: int) -> bool:
+def test_a_blend_the_other_image_has_nowhere_near_is_a_change():
+    """Rule 3: pixelmatch calls this pixel anti-aliasing (between a darker and a brighter flat
+    neighbour); but the other image has no such colour next to it: something was drawn."""
+    black, white = (0, 0, 0), (255, 255, 255)
+    a = opaque([[black, black, (64,) * 3, (128,) * 3, (192,) * 3, white, white, white]] * 6)
+    b = a.copy()
+    b[:, 2, :3] = 100  # another blend, between the same flat black and the same 128
+    result = compare(a, b)
+    assert result.different[:, 2].all() and result.different_pixels == 6
+    assert compare(a, a.copy()).different_pixels == 0
+
+
+def test_a_pixel_taking_a_flat_neighbours_colour_is_a_change():
+    """Rule 2: a pixel that took the colour of a flat area beside it is that area grown by a
+    pixel (a sprite pixel changed, drawn at 1x), not an edge blend, even though the other
+    image has the colour next to it and pixelmatch's test passes."""
+    dark, mid, light = (20, 20, 20), (120, 40, 40), (240, 240, 240)
+    a = opaque([[dark] * 3 + [mid] + [light] * 3] * 7)
+    b = a.copy()
+    b[3, 3, :3] = dark  # a one-pixel notch of the dark area
+    result = compare(a, b)
+    assert result.different[3, 3] and result.different_pixels == 1
+
+
+def _reference_antialiased(img: np.ndarray, other: np.ndarray, x: int, y: int, limit: float) -> bool:
     """Slow, loop-by-loop statement of the anti-aliasing rule (scan order: x outer, y inner)."""
     h, w = img.shape[:2]
     ys = luma(img[..., :3])
@@ -75,31 +103,37 @@ def _reference_antialiased(img: np.ndarray, other: np.ndarray, x: int, y: int) -
     def on_border(px, py):
         return px in (0, w - 1) or py in (0, h - 1)
 
+    def neighbours(px, py):
+        return [(nx, ny) for nx in range(max(px - 1, 0), min(px + 1, w - 1) + 1)
+                for ny in range(max(py - 1, 0), min(py + 1, h - 1) + 1) if (nx, ny) != (px, py)]
+
     def many_siblings(im, px, py):
         count = 1 if on_border(px, py) else 0
-        for nx in range(max(px - 1, 0), min(px + 1, w - 1) + 1):
-            for ny in range(max(py - 1, 0), min(py + 1, h - 1) + 1):
-                if (nx, ny) != (px, py) and np.array_equal(im[py, px], im[ny, nx]):
-                    count += 1
+        count += sum(np.array_equal(im[py, px], im[ny, nx]) for nx, ny in neighbours(px, py))
         return count > 2
+
+    def close(c1, c2):
+        return yiq_distance(c1[:3], c2[:3]) <= limit
 
     zeroes = 1 if on_border(x, y) else 0
     low = high = 0.0
     low_at = high_at = None
-    for nx in range(max(x - 1, 0), min(x + 1, w - 1) + 1):
-        for ny in range(max(y - 1, 0), min(y + 1, h - 1) + 1):
-            if (nx, ny) == (x, y):
-                continue
-            delta = ys[y, x] - ys[ny, nx]
-            if delta == 0:
-                zeroes += 1
-            elif delta < low:
-                low, low_at = delta, (nx, ny)
-            elif delta > high:
-                high, high_at = delta, (nx, ny)
+    for nx, ny in neighbours(x, y):
+        delta = ys[y, x] - ys[ny, nx]
+        if delta == 0:
+            zeroes += 1
+        elif delta < low:
+            low, low_at = delta, (nx, ny)
+        elif delta > high:
+            high, high_at = delta, (nx, ny)
     if zeroes > 2 or low == 0 or high == 0:
         return False
-    return any(many_siblings(img, *p) and many_siblings(other, *p) for p in (low_at, high_at))
+    if not any(many_siblings(img, *p) and many_siblings(other, *p) for p in (low_at, high_at)):
+        return False  # pixelmatch's test
+    for im in (img, other):  # rule 2: a flat neighbour's colour in either image, not a blend
+        if any(many_siblings(im, nx, ny) and close(im[y, x], im[ny, nx]) for nx, ny in neighbours(x, y)):
+            return False
+    return any(close(img[y, x], other[ny, nx]) for nx, ny in neighbours(x, y))  # rule 3
 
 
 def test_vectorized_comparison_matches_the_reference_on_random_images():
@@ -115,7 +149,9 @@ def test_vectorized_comparison_matches_the_reference_on_random_images():
         over = yiq_distance(a[..., :3], b[..., :3]) > MAX_YIQ_DELTA * 0.01
         for y in range(h):
             for x in range(w):
-                aa = over[y, x] and (_reference_antialiased(a, b, x, y) or _reference_antialiased(b, a, x, y))
+                limit = MAX_YIQ_DELTA * 0.01
+                aa = over[y, x] and (_reference_antialiased(a, b, x, y, limit) or
+                                     _reference_antialiased(b, a, x, y, limit))
                 assert result.antialiased[y, x] == aa
                 assert result.different[y, x] == (over[y, x] and not aa)
 
