@@ -122,7 +122,8 @@ def _totals_line(results: list[Result], final: str, args: argparse.Namespace) ->
     allowed = [what for what, on in (("new", args.allow_new), ("missing", args.allow_missing)) if on]
     note = f" ({' and '.join(allowed)} allowed)" if allowed else ""
     updated = " after --update" if args.update else ""
-    return f"{final}{updated}: {len(results)} files: {', '.join(parts) or 'none found'}{note}"
+    files = f"{len(results)} file{'' if len(results) == 1 else 's'}"
+    return f"{final}{updated}: {files}: {', '.join(parts) or 'none found'}{note}"
 
 
 def describe(args: argparse.Namespace) -> str:

@@ -240,3 +240,107 @@ def test_cli_errors_exit_2(heart_svg, tmp_path, capsys):
     # the same SVG at a common scale compares equal
     assert main(["diff", str(heart_svg), str(heart_svg), "--scale", "3"]) == Exit.OK
 
+
+
+# --- no missed change, no comparison that cannot see the art -------------------------------
+
+@pytest.fixture(scope="module")
+def mushrooms(tmp_path_factory):
+    """mushroom.png and a copy with one pixel of the cap's outline changed, both as SVG at 1x."""
+    folder = tmp_path_factory.mktemp("mushrooms")
+    edited = np.asarray(Image.open(FIXTURES / "mushroom.png").convert("RGB")).copy()
+    edited[3, 4] = (24, 20, 37)
+    Image.fromarray(edited).save(folder / "edited.png")
+    for name, source in (("old", FIXTURES / "mushroom.png"), ("new", folder / "edited.png")):
+        assert main(["convert", str(source), "-o", str(folder / f"{name}.svg")]) == Exit.OK
+    return folder / "old.svg", folder / "new.svg"
+
+
+@pytest.mark.parametrize("scale", range(1, 9))
+def test_a_one_pixel_edit_is_seen_at_every_scale(mushrooms, scale):
+    """Issue 34: pixelmatch's anti-aliasing rule called all 14 changed pixels of this edit
+    anti-aliasing at 2x ("same"); it must differ at every integer scale."""
+    old, new = mushrooms
+    result, _ = diff_files(old, new, scale=scale)
+    assert result.different_pixels > 0
+    assert diff_files(old, old, scale=scale)[0].different_pixels == 0
+
+
+def test_a_scale_that_hides_the_art_is_refused(mushrooms, heart_svg, capsys):
+    old, new = mushrooms
+    assert main(["diff", str(old), str(new), "--scale", "0.01"]) == Exit.USAGE
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "fewer pixels than its 16x14 of art" in err and "--scale 1 or more" in err
+    # a raster is never shrunk; the SVG made at 4x may be drawn down to its pixel grid, no further
+    assert main(["diff", str(FIXTURES / "heart.png"), str(FIXTURES / "heart.png"), "--scale", "0.5"]) == Exit.USAGE
+    assert main(["diff", str(heart_svg), str(heart_svg), "--scale", "0.25"]) == Exit.OK  # 10x10: the art's size
+    assert main(["diff", str(heart_svg), str(heart_svg), "--scale", "0.2"]) == Exit.USAGE
+
+
+def test_an_svg_against_a_png_of_another_shape_is_a_size_mismatch(tmp_path, capsys):
+    svg = tmp_path / "square.svg"
+    svg.write_text('<svg xmlns="http://www.w3.org/2000/svg" width="48" height="48"><rect width="48" height="48" '
+                   'fill="#c33"/></svg>')
+    Image.new("RGBA", (480, 48), (204, 51, 51, 255)).save(tmp_path / "wide.png")
+    Image.new("RGBA", (96, 96), (204, 51, 51, 255)).save(tmp_path / "big.png")
+    assert main(["diff", str(svg), str(tmp_path / "wide.png")]) == Exit.USAGE
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "aspect ratio" in err
+    assert main(["diff", str(svg), str(tmp_path / "big.png")]) == Exit.OK  # same shape: drawn at 96x96
+    capsys.readouterr()
+    # allowed: the SVG keeps its shape, the area only the PNG covers counts as changed
+    assert main(["diff", str(svg), str(tmp_path / "wide.png"), "--allow-size-mismatch", "--json"]) == Exit.FAILED
+    report = json.loads(capsys.readouterr().out)
+    assert (report["width"], report["height"]) == (480, 48) and report["different_pixels"] == 432 * 48
+
+
+def test_masked_regions_are_not_compared(tmp_path, capsys):
+    a = np.full((8, 10, 4), 255, np.uint8)
+    b = a.copy()
+    b[1:3, 2:4, :3] = 0  # a 2x2 change
+    b[6, 9, :3] = 0  # a 1x1 change
+    for name, img in (("a.png", a), ("b.png", b)):
+        Image.fromarray(img, "RGBA").save(tmp_path / name)
+    A, B = str(tmp_path / "a.png"), str(tmp_path / "b.png")
+    assert main(["diff", A, B, "--json"]) == Exit.FAILED
+    assert json.loads(capsys.readouterr().out)["different_pixels"] == 5
+    assert main(["diff", A, B, "--mask", "2,1,2,2", "--json"]) == Exit.FAILED
+    report = json.loads(capsys.readouterr().out)
+    assert report["different_pixels"] == 1 and report["ignored_pixels"] == 4 and report["total_pixels"] == 76
+    # rectangles are in the pixels at scale 1: the same mask at 4x
+    assert main(["diff", A, B, "--mask", "2,1,2,2", "--mask", "9,6,1,1", "--scale", "4"]) == Exit.OK
+    capsys.readouterr()
+    # a mask image: light pixels are ignored; it is stretched to the comparison
+    mask = np.zeros((4, 5), np.uint8)
+    mask[0:2, 1:2] = 255
+    mask[3, 4] = 255
+    Image.fromarray(mask, "L").save(tmp_path / "mask.png")
+    assert main(["diff", A, B, "--mask", str(tmp_path / "mask.png"), "--json"]) == Exit.OK
+    assert json.loads(capsys.readouterr().out)["ignored_pixels"] == 12
+    Image.fromarray(np.zeros((4, 4), np.uint8), "L").save(tmp_path / "square.png")
+    assert main(["diff", A, B, "--mask", str(tmp_path / "square.png")]) == Exit.USAGE
+    assert "does not have the shape" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["diff", A, B, "--mask", "1,2,0,3"])
+    assert "width and height must be over 0" in capsys.readouterr().err
+
+
+def test_diff_out_must_be_named_png(heart_svg, tmp_path, capsys):
+    """Issue 35: --diff-out d.svg wrote PNG bytes into a .svg name."""
+    for name in ("d.svg", "d.jpg", "d"):
+        with pytest.raises(SystemExit) as exit_info:
+            main(["diff", str(heart_svg), str(heart_svg), "--diff-out", str(tmp_path / name)])
+        assert exit_info.value.code == Exit.USAGE
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "name it .png" in err
+        assert not (tmp_path / name).exists()
+
+
+def test_pdf_renders_compare_like_svgs(heart_svg, tmp_path, capsys):
+    pytest.importorskip("pypdfium2", reason="PDF comparisons need pypdfium2 (pip install 'depixel[pdf]')")
+    pdf = tmp_path / "heart.pdf"
+    assert main(["render", str(heart_svg), "-o", str(pdf)]) == Exit.OK
+    assert main(["diff", str(pdf), str(heart_svg), "--max-ratio", "0.01", "--json"]) == Exit.OK
+    report = json.loads(capsys.readouterr().out)
+    assert (report["width"], report["height"]) == (40, 40)
+    assert main(["diff", str(pdf), str(FIXTURES / "ghost.png")]) == Exit.USAGE  # 40x40 against 18x16

@@ -86,8 +86,8 @@ class Result:
 
     def summary(self) -> str:
         """One line: the verdict and its figures or reason."""
-        if self.verdict == ERROR:
-            return f"error: {display_name(self.name)}: {self.error}"
+        if self.verdict == ERROR:  # the reason names the file
+            return f"error: {self.error}"
         if self.verdict in (MISSING, NEW):
             where = "the baseline" if self.verdict == MISSING else "the current folder"
             return f"{self.verdict}: {display_name(self.name)}: only in {where}"
@@ -128,11 +128,11 @@ def compare_pair(pair: Pair, baseline: str | os.PathLike, current: str | os.Path
     except DepixelError as exc:
         return replace(base, error=exc.message_for(settings.names))
     except MemoryError:
-        return replace(base, error="not enough memory to compare it")
+        return replace(base, error=f"{display_name(pair.name)}: not enough memory to compare it")
     except OSError as exc:
-        return replace(base, error=f"cannot write a picture ({exc.strerror or exc})")
+        return replace(base, error=f"{display_name(pair.name)}: cannot write a picture ({exc.strerror or exc})")
     except Exception as exc:  # a bug: still a verdict, so one pair never stops the others
-        return replace(base, error=f"internal error ({type(exc).__name__}: {exc})")
+        return replace(base, error=f"{display_name(pair.name)}: internal error ({type(exc).__name__}: {exc})")
 
 
 def compare_sources(a: Source, b: Source, settings: Settings,

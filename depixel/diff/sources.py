@@ -12,8 +12,8 @@ refused rather than passed, because they could not see a change:
 * **a size mismatch**: rasters (or vector files) of different sizes, or a vector file
   against a raster of another aspect ratio (more than a pixel off once rendered at the
   raster's width), raise :class:`SizeMismatchError` unless ``allow_size_mismatch``: then
-  the vector file keeps its aspect ratio and both are padded with transparency to the
-  larger size, so the area only one covers counts as changed.
+  the vector file is drawn to fit inside the raster, keeping its shape, and both are padded
+  with transparency to the larger size, so the area only one covers counts as changed.
 
 Every image read or rendered is refused over ``max_pixels`` before it is decoded.
 """
@@ -110,8 +110,9 @@ def sizes(a: Source, b: Source, scale: float, allow_size_mismatch: bool = False)
             raise SizeMismatchError(f"{a.name} and {b.name} differ in aspect ratio: {_shape(a)} against "
                                     f"{_shape(b)} (a vector file is drawn at the raster's size only when "
                                     "the shapes agree)")
-        else:
-            out[v] = (width, max(1, round(exact)))
+        else:  # drawn to fit inside the raster, keeping its shape
+            fit = min(width / out[v][0], height / out[v][1])
+            out[v] = (max(1, round(out[v][0] * fit)), max(1, round(out[v][1] * fit)))
     for source, (width, height) in zip((a, b), out):
         need = (math.floor(source.art[0] + 1e-9), math.floor(source.art[1] + 1e-9))
         if source.kind != "raster" and rasters != [False, False]:
