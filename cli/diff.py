@@ -10,11 +10,10 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import sys
 from pathlib import Path
 
 from depixel.errors import display_name
-from depixel.limits import DEFAULT_MAX_DIFF_PIXELS, DIFF_BYTES_PER_PIXEL, WORKER_BASELINE_BYTES
+from depixel.limits import DEFAULT_MAX_DIFF_PIXELS
 
 from .options import (
     FLAG_OF_PARAMETER,
@@ -186,22 +185,3 @@ def _files(args: argparse.Namespace) -> int:
         print(f"{verdict}: {count} of {total} pixels differ ({100 * ratio:.3g}%) at {w}x{h}, "
               f"threshold {args.threshold}{masked}")
     return Exit.OK if same else Exit.FAILED
-
-
-def workers(option: str | int, pairs: int, max_pixels: int) -> int:
-    """``-j``: the number given, or one per core when each worker's largest comparison
-    (``max_pixels`` at DIFF_BYTES_PER_PIXEL) fits in the available memory."""
-    from .batch_run import available_memory, cores  # noqa: PLC0415
-
-    if option != "auto":
-        return max(1, min(int(option), pairs))
-    count = max(1, min(cores(), pairs))
-    memory = available_memory()
-    if memory is not None:
-        count = max(1, min(count, memory // (WORKER_BASELINE_BYTES + DIFF_BYTES_PER_PIXEL * max_pixels)))
-    return count
-
-
-def print_lines(lines: list[str]) -> None:
-    if lines:
-        sys.stdout.write("\n".join(lines) + "\n")

@@ -9,15 +9,16 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 from depixel.diff.files import ERROR, SAME, Job, Pictures, Result, Settings, run_job
 from depixel.diff.folders import pair_folders, status, totals
 from depixel.errors import display_name
 from depixel.files.output import write_atomic
+from depixel.limits import DIFF_BYTES_PER_PIXEL, WORKER_BASELINE_BYTES
 
 from .batch_run import Progress
-from .diff import print_lines, workers
 from .options import Exit, say
 from .pool import Finished, run_jobs
 
@@ -146,3 +147,22 @@ def _settings_entry(args: argparse.Namespace) -> dict:
             "include_aa": args.include_aa, "mask": args.mask, "allow_new": args.allow_new,
             "allow_missing": args.allow_missing, "html": args.html, "junit": args.junit,
             "diff_out": args.diff_out}
+
+
+def workers(option: str | int, pairs: int, max_pixels: int) -> int:
+    """``-j``: the number given, or one per core when each worker's largest comparison
+    (``max_pixels`` at DIFF_BYTES_PER_PIXEL) fits in the available memory."""
+    from .batch_run import available_memory, cores  # noqa: PLC0415
+
+    if option != "auto":
+        return max(1, min(int(option), pairs))
+    count = max(1, min(cores(), pairs))
+    memory = available_memory()
+    if memory is not None:
+        count = max(1, min(count, memory // (WORKER_BASELINE_BYTES + DIFF_BYTES_PER_PIXEL * max_pixels)))
+    return count
+
+
+def print_lines(lines: list[str]) -> None:
+    if lines:
+        sys.stdout.write("\n".join(lines) + "\n")
