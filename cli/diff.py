@@ -157,11 +157,11 @@ def _files(args: argparse.Namespace) -> int:
     if args.diff_out is not None and args.diff_out != "-" and Path(args.diff_out).suffix.lower() != ".png":
         args.parser.error(f"--diff-out {display_name(args.diff_out)}: the picture of the differences is a PNG; "
                           "name it .png")
-    jobs = settings(args)
-    comparison, background = diff_files(args.a, args.b, scale=jobs.scale, threshold=jobs.threshold,
-                                        background=jobs.background, allow_size_mismatch=jobs.allow_size_mismatch,
-                                        include_antialiasing=jobs.include_antialiasing, max_pixels=jobs.max_pixels,
-                                        mask=jobs.mask)
+    chosen = settings(args)
+    comparison, background = diff_files(args.a, args.b, scale=chosen.scale, threshold=chosen.threshold,
+                                        background=chosen.background, allow_size_mismatch=chosen.allow_size_mismatch,
+                                        include_antialiasing=chosen.include_antialiasing,
+                                        max_pixels=chosen.max_pixels, mask=chosen.mask)
     count, ratio = comparison.different_pixels, comparison.ratio
     same = within(comparison, args.max_pixels_diff, args.max_ratio)
     if args.diff_out:

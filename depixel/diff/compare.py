@@ -236,7 +236,7 @@ def pick_background(images: list[np.ndarray], candidates: tuple[Colour, ...] = B
 
 def flatten_in_place(rgba: np.ndarray, background: Colour) -> np.ndarray:
     """Composite ``(H, W, 4) uint8`` straight RGBA over an opaque colour, in place, band by
-    band (as :func:`depixel.api.flatten`, without its full-size float copies); returns it."""
+    band (the arithmetic of :func:`depixel.api.flatten`, without its full-size int64 copies); returns it."""
     colour = np.asarray(background, dtype=np.int32)
     for rows in _bands(*rgba.shape[:2]):
         band = rgba[rows]
