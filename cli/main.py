@@ -89,7 +89,7 @@ class _Version(argparse.Action):
 COMMANDS = (
     ("convert", "convert pixel art to SVG, PNG or PDF", "convert"),
     ("render", "render an SVG to PNG or PDF", "tools"),
-    ("diff", "compare two SVG/PNG images (for CI)", "tools"),
+    ("diff", "compare two images, or two folders of renders (for CI)", "diff"),
     ("inspect", "draw every pipeline stage (like the paper's Figure 3)", "tools"),
     ("inkscape", "install or remove the Inkscape extension", "inkscape"),
 )

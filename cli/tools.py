@@ -1,9 +1,8 @@
-"""``depixel render``, ``depixel diff`` and ``depixel inspect``."""
+"""``depixel render`` and ``depixel inspect`` (``depixel diff`` is :mod:`depixel_cli.diff`)."""
 from __future__ import annotations
 
 import argparse
 import io
-import json
 import sys
 from pathlib import Path
 
@@ -11,7 +10,7 @@ from depixel import api
 from depixel.errors import OutputError, display_name
 from depixel.files import convert as files
 from depixel.files.output import write_atomic
-from depixel.limits import DEFAULT_MAX_DIFF_PIXELS, DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
+from depixel.limits import DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
 from depixel.pipeline import STAGES
 from depixel.prepare.image import read_source
 
@@ -21,11 +20,9 @@ from .options import (
     add_tuning,
     colour,
     int_range,
-    non_negative_int,
     params_from_args,
     positive_float,
     positive_int,
-    unit_float,
 )
 
 RENDER_DESCRIPTION = """\
@@ -35,21 +32,6 @@ examples:
   depixel render sprite.svg -o sprite.pdf --background white
 
 Render an SVG (any SVG, not only depixel's) to PNG or PDF through cairosvg.
-"""
-
-DIFF_DESCRIPTION = """\
-examples:
-  depixel diff expected.svg actual.svg                 exit 0 same, 1 different, 2 error
-  depixel diff sprite.svg sprite.png --diff-out d.png  SVG rendered at the PNG's size
-  depixel diff sprite.svg sprite.png --scale 8         the SVG against the 1x pixel art, at 8x
-  depixel diff a.svg b.svg --scale 4 --max-ratio 0.001 --json
-
-Compare two images (SVG or PNG) the way a person would. Both are brought to one size (a
-PNG's size, or the SVGs' own, times --scale; a PNG is enlarged by nearest neighbour, an SVG
-rendered at that size), flattened over a background colour neither contains (default
-magenta, so seams and alpha leaks show) and compared pixel by pixel with pixelmatch's YIQ
-distance; anti-aliasing differences are ignored. The images are the same when no pixel
-differs, or when the differing pixels are within either tolerance given.
 """
 
 INSPECT_DESCRIPTION = """\
@@ -68,8 +50,8 @@ the 1x image the pipeline converted second.
 
 
 def add_parser(sub, name: str, help: str) -> None:
-    """Define the subcommand ``name`` (render, diff or inspect) with its arguments."""
-    {"render": _add_render, "diff": _add_diff, "inspect": _add_inspect}[name](sub, help)
+    """Define the subcommand ``name`` (render or inspect) with its arguments."""
+    {"render": _add_render, "inspect": _add_inspect}[name](sub, help)
 
 
 def _add_render(sub, help: str) -> None:
@@ -88,36 +70,6 @@ def _add_render(sub, help: str) -> None:
                         help=f"refuse larger PNG renders (default {DEFAULT_MAX_OUTPUT_PIXELS})")
     render.add_argument("--background", type=colour, metavar="COLOR", help="opaque background (default transparent)")
     _debug(render)
-
-
-def _add_diff(sub, help: str) -> None:
-    diff = sub.add_parser("diff", help=help, description=DIFF_DESCRIPTION,
-                          formatter_class=argparse.RawDescriptionHelpFormatter)
-    diff.set_defaults(run=run_diff, parser=diff)
-    diff.add_argument("a", metavar="A", help="SVG or PNG")
-    diff.add_argument("b", metavar="B", help="SVG or PNG")
-    diff.add_argument("--scale", type=positive_float, default=1.0,
-                      help="compare at this multiple of the size: a PNG is enlarged by nearest neighbour, an "
-                           "SVG rendered to match (default 1: the PNG's size, or the SVGs' own)")
-    diff.add_argument("--threshold", type=unit_float, default=0.1, metavar="T",
-                      help="colour distance (0-1) above which two pixels differ: pixelmatch's threshold, "
-                           "a YIQ distance over 35215*T^2 (default 0.1, as pixelmatch)")
-    diff.add_argument("--max-pixels-diff", type=non_negative_int, metavar="N",
-                      help="same if at most N pixels differ")
-    diff.add_argument("--max-ratio", type=unit_float, metavar="R",
-                      help="same if at most this fraction of the pixels differs (with --max-pixels-diff: "
-                           "within either bound; with neither: no pixel may differ)")
-    diff.add_argument("--max-pixels", type=positive_int, default=DEFAULT_MAX_DIFF_PIXELS, metavar="N",
-                      help=f"refuse to compare images larger than this (default {DEFAULT_MAX_DIFF_PIXELS})")
-    diff.add_argument("--background", type=colour, metavar="COLOR",
-                      help="flatten both over this colour (default: magenta, or another colour neither image has)")
-    diff.add_argument("--include-aa", action="store_true", help="count anti-aliasing differences too")
-    diff.add_argument("--allow-size-mismatch", action="store_true",
-                      help="compare images of different sizes (the area only one covers counts)")
-    diff.add_argument("--diff-out", metavar="PNG",
-                      help="write a picture of the differences (red; yellow: anti-aliasing)")
-    diff.add_argument("--json", action="store_true", help="print the report as JSON on stdout")
-    _debug(diff)
 
 
 def _add_inspect(sub, help: str) -> None:
@@ -176,32 +128,6 @@ def run_render(args: argparse.Namespace) -> int:
                   name=name, max_output_pixels=args.max_output_pixels)
     _write(args.output, data, protect)
     return Exit.OK
-
-
-def run_diff(args: argparse.Namespace) -> int:
-    from depixel.diff.compare import diff_files, within  # noqa: PLC0415
-
-    comparison, background = diff_files(args.a, args.b, scale=args.scale, threshold=args.threshold,
-                                        background=args.background, allow_size_mismatch=args.allow_size_mismatch,
-                                        include_antialiasing=args.include_aa, max_pixels=args.max_pixels)
-    count, ratio = comparison.different_pixels, comparison.ratio
-    same = within(comparison, args.max_pixels_diff, args.max_ratio)
-    if args.diff_out:
-        _write(args.diff_out, _png(comparison.diff_image()), protect=(Path(args.a), Path(args.b)))
-    h, w = comparison.different.shape
-    if args.json:
-        print(json.dumps({
-            "a": args.a, "b": args.b, "same": same, "width": w, "height": h,
-            "different_pixels": count, "antialiased_pixels": int(comparison.antialiased.sum()),
-            "total_pixels": w * h, "ratio": ratio, "threshold": args.threshold,
-            "max_pixels_diff": args.max_pixels_diff, "max_ratio": args.max_ratio,
-            "background": "#{:02x}{:02x}{:02x}".format(*background), "diff_out": args.diff_out,
-        }, indent=2))
-    else:
-        verdict = "same" if same else "different"
-        print(f"{verdict}: {count} of {w * h} pixels differ ({100 * ratio:.3g}%) at {w}x{h}, "
-              f"threshold {args.threshold}")
-    return Exit.OK if same else Exit.FAILED
 
 
 def run_inspect(args: argparse.Namespace) -> int:

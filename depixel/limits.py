@@ -25,12 +25,16 @@ DEFAULT_MAX_FRAMES = 5000
 #: would need over 100 GB) rather than wrap an index silently.
 MAX_INDEXED_PIXELS = 2**31 // 16
 #: Pixels of a raster output (a PNG, a diff render, an inspect figure); ``max_output_pixels``,
-#: ``--max-output-pixels``. 8192 × 4096: a 128 MiB RGBA image; ``diff`` needs ~140 bytes a pixel.
+#: ``--max-output-pixels``. 8192 × 4096: a 128 MiB RGBA image.
 DEFAULT_MAX_OUTPUT_PIXELS = 1 << 25
 #: Pixels of each image ``diff`` compares (input rasters and renders); ``max_pixels`` of
-#: :func:`depixel.diff.compare.diff_files`, ``diff --max-pixels``. Comparing costs ~140 bytes a
-#: pixel: 4096 × 4096 stays under 2.5 GB.
+#: :func:`depixel.diff.files.diff_files`, ``diff --max-pixels``. 4096 × 4096 stays under 1 GB
+#: at DIFF_BYTES_PER_PIXEL.
 DEFAULT_MAX_DIFF_PIXELS = 1 << 24
+#: Peak memory of one ``diff`` per compared pixel, the whole process (benchmarks/diff_memory.py
+#: measures it; tests/test_diff_memory.py holds it): the two 8-bit renders and a few bytes a
+#: pixel of results, the arithmetic in bands of rows. ``diff -j auto`` counts with it.
+DIFF_BYTES_PER_PIXEL = 64
 #: Bytes of an input file or stream, and of a compressed SVG (.svgz) once decompressed.
 MAX_FILE_BYTES = 256 * 2**20
 #: Peak memory of one conversion per input pixel, above the import baseline (bytes), measured

@@ -1,4 +1,9 @@
-"""Comparing renders — two SVG/PNG/PDF files → a verdict: do they look the same?
+"""Comparing renders — two SVG/PDF/PNG files, or two folders of them → verdicts (``depixel diff``).
 
-:mod:`.compare` renders both at one size and counts the pixels that differ (``depixel diff``).
+:mod:`.compare` compares two images pixel by pixel (YIQ distance, anti-aliasing);
+:mod:`.sources` reads and draws the files at one size (refusing what cannot be seen),
+:mod:`.mask` the regions left out, :mod:`.pdf` PDF pages; :mod:`.files` gives one pair its
+verdict and pictures; :mod:`.folders` pairs two folders; :mod:`.reports` (JSON, JUnit) and
+:mod:`.html` report them, :mod:`.staging` writes report folders whole, :mod:`.update`
+approves a change.
 """

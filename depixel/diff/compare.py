@@ -1,43 +1,53 @@
-"""Perceptual comparison of two renders, for CI: do two SVG/PNG files look the same?
+"""Perceptual comparison of two renders, for CI: do two images look the same?
 
-Both images are brought to the same size (SVGs rendered by cairosvg), flattened over an
-opaque background colour that neither image contains — so a seam or an alpha leak shows
-as that colour — and compared pixel by pixel with the YIQ colour distance of pixelmatch
-(Kotsarenko & Ramos, "Measuring perceived color difference using YIQ NTSC transmission
-color space", 2010). A pixel differs when its distance exceeds ``35215 · threshold²``
-(35215 is the largest distance there is, between cyan and red) unless it looks like
-anti-aliasing: a pixel whose neighbours contain both a darker and a brighter pixel, one of
-which sits in a flat area of both images, is an edge rendered slightly differently, not
-a change.
+Two opaque images of one size are compared pixel by pixel with the YIQ colour distance of
+pixelmatch (Kotsarenko & Ramos, "Measuring perceived color difference using YIQ NTSC
+transmission color space", 2010). A pixel differs when its distance exceeds
+``35215 · threshold²`` (35215 is the largest distance there is, between cyan and red)
+unless it is anti-aliasing: an edge rendered slightly differently, not a change.
+
+A pixel is anti-aliasing when, in one of the images, it looks like an edge blend and the
+other image shows the same colour next to it (docs/cli.md, "Anti-aliasing"):
+
+1. pixelmatch's test: at most two neighbours share its brightness, some neighbour is darker
+   and some brighter, and the darkest or the brightest of them sits in a flat area (3 or
+   more identical neighbours) of both images;
+2. it is a blend in both images, not a flat colour: in neither image does a neighbour that
+   is flat there have the pixel's colour (within the threshold) — a pixel that took (or
+   lost) a neighbouring area's colour is that area grown, not an edge drawn differently;
+3. the other image has a matching colour nearby: one of the pixel's 8 neighbours in the
+   other image is within the threshold of it — the edge moved by less than a pixel.
+
+pixelmatch stops at 1, which misses small changes: a sprite pixel converted and rendered at
+2x is a blob of a few pixels, each between a darker and a brighter flat neighbour, so
+every one of them passed for anti-aliasing. Rules 2 and 3 keep the edges that truly moved.
+
+The comparison runs in bands of rows (with the two rows around each band that the tests
+look at), so its memory is the two 8-bit images and a few bytes a pixel of results,
+whatever the size.
 """
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from .. import validate
-from ..api import flatten
 from ..arrays import unique
 from ..colour import Colour
-from ..errors import InputError
-from ..limits import DEFAULT_MAX_DIFF_PIXELS
-from ..prepare.image import check_pixels, load_image, read_source
 
 DEFAULT_THRESHOLD = 0.1  # pixelmatch's default: about 1% of the largest YIQ distance
 MAX_YIQ_DELTA = 35215.0  # the largest YIQ distance between two colours (cyan and red)
 #: Backgrounds tried in order when none is given: the first colour neither image contains.
 BACKGROUNDS: tuple[Colour, ...] = ((255, 0, 255), (0, 255, 255), (0, 255, 0), (255, 255, 0),
                                    (0, 0, 255), (255, 0, 0), (255, 128, 0), (128, 0, 255))
+#: Pixels compared at once (a band of whole rows): bounds the float temporaries.
+BAND_PIXELS = 1 << 16
+#: Colours of the diff picture: differing pixels, anti-aliasing, ignored (masked) pixels.
+RED, YELLOW, MASKED = (255, 0, 0), (255, 255, 0), (160, 200, 255)
 # the 8 neighbours (dy, dx) in pixelmatch's scan order (column by column), which decides
 # which of two equally dark neighbours is "the darkest"
 _NEIGHBOURS = np.array([(dy, dx) for dx in (-1, 0, 1) for dy in (-1, 0, 1) if (dx, dy) != (0, 0)])
-
-
-class SizeMismatchError(InputError):
-    """The two images have different sizes."""
+_HALO = 2  # rows around a band: a neighbour's flatness looks one row further
 
 
 @dataclass(frozen=True, eq=False)
@@ -49,25 +59,35 @@ class Comparison:
     different: np.ndarray  # (H, W) bool: perceptibly different pixels
     antialiased: np.ndarray  # (H, W) bool: over the threshold but judged anti-aliasing
     threshold: float
+    ignored: np.ndarray | None = None  # (H, W) bool: masked out, never compared
 
     @property
     def different_pixels(self) -> int:
-        return int(self.different.sum())
+        return int(np.count_nonzero(self.different))
+
+    @property
+    def compared_pixels(self) -> int:
+        """Pixels compared: all but the masked ones."""
+        masked = 0 if self.ignored is None else int(np.count_nonzero(self.ignored))
+        return self.different.size - masked
 
     @property
     def ratio(self) -> float:
-        """Fraction of all pixels that differ."""
-        return self.different_pixels / max(self.different.size, 1)
+        """Fraction of the compared pixels that differ."""
+        return self.different_pixels / max(self.compared_pixels, 1)
 
     def diff_image(self) -> np.ndarray:
         """``(H, W, 4) uint8`` picture of the result, in pixelmatch's colours: image A faded
-        to light grey, differences red, anti-aliasing yellow."""
-        grey = 255.0 + (luma(self.a[..., :3]) - 255.0) * 0.1
+        to light grey, differences red, anti-aliasing yellow; masked pixels pale blue."""
         out = np.empty(self.a.shape, np.uint8)
-        out[..., :3] = np.round(grey)[..., None].astype(np.uint8)
+        for rows in _bands(*self.a.shape[:2]):
+            grey = 255.0 + (luma(self.a[rows, :, :3]) - 255.0) * 0.1
+            out[rows, :, :3] = np.round(grey)[..., None].astype(np.uint8)
         out[..., 3] = 255
-        out[self.antialiased, :3] = (255, 255, 0)
-        out[self.different, :3] = (255, 0, 0)
+        if self.ignored is not None:
+            out[self.ignored, :3] = MASKED
+        out[self.antialiased, :3] = YELLOW
+        out[self.different, :3] = RED
         return out
 
 
@@ -88,51 +108,92 @@ def yiq_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def compare(a: np.ndarray, b: np.ndarray, threshold: float = DEFAULT_THRESHOLD,
-            include_antialiasing: bool = False) -> Comparison:
-    """Compare two opaque ``(H, W, 4) uint8`` images of the same size pixel by pixel."""
+            include_antialiasing: bool = False, ignore: np.ndarray | None = None) -> Comparison:
+    """Compare two opaque ``(H, W, 4) uint8`` images of the same size pixel by pixel.
+
+    ``include_antialiasing`` counts every pixel over the threshold; ``ignore`` is an
+    ``(H, W)`` bool mask of pixels never compared."""
     if a.shape != b.shape:
         raise ValueError(f"images differ in shape: {a.shape} vs {b.shape}")
     if not 0.0 <= threshold <= 1.0:
         raise ValueError(f"threshold must be within 0..1, not {threshold}")
-    over = yiq_distance(a[..., :3], b[..., :3]) > MAX_YIQ_DELTA * threshold * threshold
-    antialiased = np.zeros(over.shape, dtype=bool)
-    if over.any() and not include_antialiasing:
-        rows, cols = np.nonzero(over)
-        flat_both = _flat(a) & _flat(b)
-        aa = _antialiased(luma(a[..., :3]), flat_both, rows, cols)
-        aa |= _antialiased(luma(b[..., :3]), flat_both, rows, cols)
-        antialiased[rows[aa], cols[aa]] = True
-    return Comparison(a, b, over & ~antialiased, antialiased, threshold)
+    if ignore is not None and ignore.shape != a.shape[:2]:
+        raise ValueError(f"mask is {ignore.shape[1]}x{ignore.shape[0]}, the images {a.shape[1]}x{a.shape[0]}")
+    h, w = a.shape[:2]
+    limit = MAX_YIQ_DELTA * threshold * threshold
+    different = np.zeros((h, w), dtype=bool)
+    antialiased = np.zeros((h, w), dtype=bool)
+    for rows in _bands(h, w):
+        over = yiq_distance(a[rows, :, :3], b[rows, :, :3]) > limit
+        if ignore is not None:
+            over &= ~ignore[rows]
+        if not over.any():
+            continue
+        if include_antialiasing:
+            different[rows] = over
+            continue
+        lo, hi = max(rows.start - _HALO, 0), min(rows.stop + _HALO, h)
+        r, c = np.nonzero(over)
+        aa = _antialiasing(a[lo:hi], b[lo:hi], r + rows.start - lo, c, lo, h, limit)
+        antialiased[r[aa] + rows.start, c[aa]] = True
+        different[r[~aa] + rows.start, c[~aa]] = True
+    return Comparison(a, b, different, antialiased, threshold, ignore)
 
 
-def _flat(rgba: np.ndarray) -> np.ndarray:
-    """(H, W) bool: the pixel has 3 or more identical neighbours (image borders count as one)."""
+def _bands(h: int, w: int) -> list[slice]:
+    step = max(1, BAND_PIXELS // max(w, 1))
+    return [slice(r, min(r + step, h)) for r in range(0, h, step)]
+
+
+def _antialiasing(a: np.ndarray, b: np.ndarray, rows: np.ndarray, cols: np.ndarray, top: int, height: int,
+                  limit: float) -> np.ndarray:
+    """For the pixels (rows, cols) of the bands ``a`` and ``b`` (rows ``top``… of images
+    ``height`` rows high), over the threshold: are they anti-aliasing (module docstring)?"""
+    flat_a, flat_b = _flat(a, top, height), _flat(b, top, height)
+    flat_both = flat_a & flat_b
+    result = np.zeros(rows.size, dtype=bool)
+    for x, y in ((a, b), (b, a)):
+        edge = _edge_blend(luma(x[..., :3]), flat_both, rows, cols, top, height)  # rule 1
+        if edge.any():
+            k = edge.nonzero()[0]
+            edge[k] = _matches_neighbour(x, y, rows[k], cols[k], limit)  # rule 3
+        result |= edge
+    if result.any():  # rule 2, in either image
+        k = result.nonzero()[0]
+        grown = _matches_neighbour(a, a, rows[k], cols[k], limit, flat_a)
+        grown |= _matches_neighbour(b, b, rows[k], cols[k], limit, flat_b)
+        result[k] = ~grown
+    return result
+
+
+def _flat(rgba: np.ndarray, top: int, height: int) -> np.ndarray:
+    """(h, w) bool: the pixel has 3 or more identical neighbours (image borders count as one)."""
     h, w = rgba.shape[:2]
     q = rgba.astype(np.int64)
     key = (q[..., 0] << 24) | (q[..., 1] << 16) | (q[..., 2] << 8) | q[..., 3]
     padded = np.pad(key, 1, constant_values=-1)
     same = sum((padded[1 + dy : 1 + dy + h, 1 + dx : 1 + dx + w] == key).astype(np.int64)
                for dy, dx in _NEIGHBOURS)
-    return same + _on_border(h, w, *np.indices((h, w))) > 2
+    rows, cols = np.indices((h, w))
+    return same + _on_border(height, w, rows + top, cols) > 2
 
 
 def _on_border(h: int, w: int, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     return ((rows == 0) | (rows == h - 1) | (cols == 0) | (cols == w - 1)).astype(np.int64)
 
 
-def _antialiased(y: np.ndarray, flat_both: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-    """For the pixels (rows, cols) of one image with luma ``y``: do they look like anti-aliasing?
-
-    Yes when at most two neighbours share the pixel's brightness, some neighbour is darker
-    and some brighter, and the darkest or the brightest of them is flat in both images.
-    """
+def _edge_blend(y: np.ndarray, flat_both: np.ndarray, rows: np.ndarray, cols: np.ndarray, top: int,
+                height: int) -> np.ndarray:
+    """pixelmatch's test for the pixels (rows, cols) of one image band with luma ``y``:
+    at most two neighbours share the pixel's brightness, some neighbour is darker and some
+    brighter, and the darkest or the brightest of them is flat in both images."""
     h, w = y.shape
     padded = np.pad(y, 1, constant_values=np.nan)
     nr = rows[None, :] + _NEIGHBOURS[:, :1]  # (8, K)
     nc = cols[None, :] + _NEIGHBOURS[:, 1:]
     delta = y[rows, cols][None, :] - padded[nr + 1, nc + 1]  # centre minus neighbour, NaN outside
     inside = ~np.isnan(delta)
-    equal = _on_border(h, w, rows, cols) + (delta == 0).sum(axis=0)
+    equal = _on_border(height, w, rows + top, cols) + (delta == 0).sum(axis=0)
     k = np.arange(rows.size)
     darkest = np.argmin(np.where(inside, delta, np.inf), axis=0)  # first of equals, as pixelmatch
     brightest = np.argmax(np.where(inside, delta, -np.inf), axis=0)
@@ -142,90 +203,47 @@ def _antialiased(y: np.ndarray, flat_both: np.ndarray, rows: np.ndarray, cols: n
     return (equal <= 2) & has_both & (flat_both[r0, c0] | flat_both[r1, c1])
 
 
+def _matches_neighbour(x: np.ndarray, y: np.ndarray, rows: np.ndarray, cols: np.ndarray, limit: float,
+                       where: np.ndarray | None = None) -> np.ndarray:
+    """Whether some neighbour of each pixel (rows, cols) in ``y`` (only those ``where``
+    is true, when given) is within the threshold of the pixel's colour in ``x``."""
+    h, w = x.shape[:2]
+    centre = x[rows, cols, :3]
+    found = np.zeros(rows.size, dtype=bool)
+    for dy, dx in _NEIGHBOURS:
+        r, c = rows + dy, cols + dx
+        k = ((r >= 0) & (r < h) & (c >= 0) & (c < w)).nonzero()[0]
+        close = yiq_distance(centre[k], y[r[k], c[k], :3]) <= limit
+        if where is not None:
+            close &= where[r[k], c[k]]
+        found[k] |= close
+    return found
+
+
 def pick_background(images: list[np.ndarray], candidates: tuple[Colour, ...] = BACKGROUNDS) -> Colour:
     """The first candidate colour that no visible pixel of any image has."""
-    used = set()
+    used: set[int] = set()
     for rgba in images:
-        visible = rgba[rgba[..., 3] > 0][:, :3].astype(np.int64)
-        used.update(unique((visible[:, 0] << 16) | (visible[:, 1] << 8) | visible[:, 2]).tolist())
+        for rows in _bands(*rgba.shape[:2]):
+            band = rgba[rows]
+            visible = band[band[..., 3] > 0][:, :3].astype(np.int64)
+            used.update(unique((visible[:, 0] << 16) | (visible[:, 1] << 8) | visible[:, 2]).tolist())
     for c in candidates:
         if (c[0] << 16) | (c[1] << 8) | c[2] not in used:
             return c
     return candidates[0]
 
 
-def is_svg(data: bytes, path: str | os.PathLike = "") -> bool:
-    """SVG by extension, or by content starting with an XML declaration or ``<svg``."""
-    if Path(path).suffix.lower() == ".svg":
-        return True
-    head = data[:512].lstrip(b"\xef\xbb\xbf \t\r\n")
-    return head.startswith(b"<?xml") or head.startswith(b"<svg")
-
-
-def load_pair(path_a: str | os.PathLike, path_b: str | os.PathLike, *, scale: float = 1.0,
-              allow_size_mismatch: bool = False,
-              max_pixels: int | None = DEFAULT_MAX_DIFF_PIXELS) -> tuple[np.ndarray, np.ndarray]:
-    """Both files as ``(H, W, 4) uint8`` RGBA of the same size, not yet flattened.
-
-    The comparison size is a raster's own size (or an SVG's width/height when both are
-    SVGs) times ``scale``: a raster is enlarged by nearest-neighbour (each pixel a square,
-    as pixel art is meant to be seen) and an SVG is rendered at that size. So
-    ``scale=8`` compares a sprite's SVG with its 1x PNG at 8x. Different sizes raise
-    :class:`SizeMismatchError` unless ``allow_size_mismatch``: then both are padded with
-    transparency to the larger size, so the area only one image covers counts as changed.
-    Every image, read or rendered, is refused over ``max_pixels`` before it is decoded.
-    """
-    from PIL import Image  # noqa: PLC0415
-
-    from ..render.raster import render_rgba, svg_size  # noqa: PLC0415
-
-    validate.positive("scale", scale)
-    max_pixels = validate.limit("max_pixels", max_pixels)
-    paths = (path_a, path_b)
-    data = [read_source(p) for p in paths]
-    svg = [is_svg(d, p) for d, p in zip(data, paths)]
-    images: list[np.ndarray | None] = [None, None]
-    for i, (d, p) in enumerate(zip(data, paths)):
-        if svg[i]:
-            continue
-        rgba = load_image(d, max_pixels=max_pixels)
-        size = max(1, round(rgba.shape[1] * scale)), max(1, round(rgba.shape[0] * scale))
-        check_pixels(str(p), size[0], size[1], max_pixels)
-        images[i] = rgba.copy() if size == rgba.shape[1::-1] else \
-            np.asarray(Image.fromarray(rgba, "RGBA").resize(size, Image.Resampling.NEAREST))
-    for i, (d, p) in enumerate(zip(data, paths)):
-        if not svg[i]:
-            continue
-        other = images[1 - i]
-        if not svg[1 - i] and other is not None:  # the other is a raster: its (scaled) size rules
-            height, width = other.shape[:2]
-        else:
-            w, h = svg_size(d, name=str(p))
-            width, height = max(1, round(w * scale)), max(1, round(h * scale))
-        check_pixels(str(p), width, height, max_pixels)
-        images[i] = render_rgba(d, width=width, height=height, name=str(p), max_output_pixels=max_pixels)
-    a, b = images
-    assert a is not None and b is not None  # every SVG was rendered above
-    if a.shape != b.shape:
-        if not allow_size_mismatch:
-            raise SizeMismatchError(f"{path_a} is {a.shape[1]}x{a.shape[0]} but {path_b} is "
-                                    f"{b.shape[1]}x{b.shape[0]}")
-        height, width = max(a.shape[0], b.shape[0]), max(a.shape[1], b.shape[1])
-        a, b = (np.pad(x, ((0, height - x.shape[0]), (0, width - x.shape[1]), (0, 0))) for x in (a, b))
-    return a, b
-
-
-def diff_files(path_a: str | os.PathLike, path_b: str | os.PathLike, *, scale: float = 1.0,
-               threshold: float = DEFAULT_THRESHOLD, background: Colour | None = None,
-               allow_size_mismatch: bool = False, include_antialiasing: bool = False,
-               max_pixels: int | None = DEFAULT_MAX_DIFF_PIXELS) -> tuple[Comparison, Colour]:
-    """Load, flatten and compare two SVG/PNG files; returns the comparison and the background used."""
-    validate.number("threshold", threshold, low=0, high=1)
-    a, b = load_pair(path_a, path_b, scale=scale, allow_size_mismatch=allow_size_mismatch, max_pixels=max_pixels)
-    if background is None:
-        background = pick_background([a, b])
-    comparison = compare(flatten(a, background), flatten(b, background), threshold, include_antialiasing)
-    return comparison, background
+def flatten_in_place(rgba: np.ndarray, background: Colour) -> np.ndarray:
+    """Composite ``(H, W, 4) uint8`` straight RGBA over an opaque colour, in place, band by
+    band (the arithmetic of :func:`depixel.api.flatten`, without its full-size int64 copies); returns it."""
+    colour = np.asarray(background, dtype=np.int32)
+    for rows in _bands(*rgba.shape[:2]):
+        band = rgba[rows]
+        alpha = band[..., 3:4].astype(np.int32)
+        band[..., :3] = (band[..., :3] * alpha + colour * (255 - alpha) + 127) // 255
+        band[..., 3] = 255
+    return rgba
 
 
 def within(comparison: Comparison, max_pixels_diff: int | None = None, max_ratio: float | None = None) -> bool:

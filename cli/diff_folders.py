@@ -1,0 +1,168 @@
+"""``depixel diff BASELINE CURRENT`` on two folders: run the pairs, print, report, update.
+
+Every pair is a job of :func:`depixel.diff.files.run_job`, run ``-j`` processes at a time
+by :mod:`depixel_cli.pool` (this process for one) with ``convert``'s progress bar. The
+report folders are written under a temporary name and moved into place at the end
+(:mod:`depixel.diff.staging`): an error or an interrupt leaves no half-written report.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from depixel.diff.files import ERROR, SAME, Job, Pictures, Result, Settings, run_job
+from depixel.diff.folders import pair_folders, status, totals
+from depixel.errors import display_name
+from depixel.files.output import write_atomic
+from depixel.limits import DIFF_BYTES_PER_PIXEL, WORKER_BASELINE_BYTES
+
+from .batch_run import Progress
+from .options import Exit, say
+from .pool import Finished, run_jobs
+
+EXIT_OF_STATUS = {"same": Exit.OK, "different": Exit.FAILED, "error": Exit.USAGE}
+
+
+def run_folders(args: argparse.Namespace, settings: Settings) -> int:
+    from depixel.diff.staging import Staged  # noqa: PLC0415
+
+    if args.prune and not args.update:
+        args.parser.error("--prune removes missing files from the baseline: use it with --update")
+    pairs = pair_folders(args.a, args.b)
+    html = Staged(args.html) if args.html else None
+    diffs = Staged(args.diff_out) if args.diff_out else None
+    staged = [s for s in (html, diffs) if s is not None]
+    try:
+        from depixel.diff.html import IMAGES  # noqa: PLC0415
+
+        pictures = Pictures(report=str(html.path / IMAGES) if html else None,
+                            diffs=str(diffs.path) if diffs else None)
+        jobs = [Job(pair, args.a, args.b, settings, pictures) for pair in pairs]
+        results = _run(jobs, workers(args.jobs, len(jobs), settings.max_pixels or 0), args)
+        if results is None:  # interrupted
+            for folder in staged:
+                folder.discard()
+            say("interrupted")
+            return 128 + args.signals.signum
+        return _finish(args, settings, results, html, diffs)
+    except BaseException:
+        for folder in staged:
+            folder.discard()
+        raise
+
+
+def _run(jobs: list[Job], count: int, args: argparse.Namespace) -> list[Result] | None:
+    """Every job's result in order; None when a signal stopped the run."""
+    results: list[Result | None] = [None] * len(jobs)
+    progress = Progress(len(jobs))
+    signals = args.signals
+
+    def finished(done: Finished) -> None:
+        job = jobs[done.index]
+        if done.result is not None:
+            results[done.index] = done.result
+        elif done.died:
+            results[done.index] = Result(job.pair.name, ERROR, job.pair.baseline, job.pair.current,
+                                         error=f"worker process died ({done.died}), also when retried")
+        progress.step()
+
+    def started(index: int) -> None:
+        progress.current(Path(jobs[index].pair.name))
+
+    try:
+        if count <= 1 or len(jobs) <= 1:
+            for index, job in enumerate(jobs):  # a signal raises Interrupted here: the caller cleans up
+                started(index)
+                finished(Finished(index, run_job(job)))
+        else:
+            signals.raising = False  # the pool stops its workers on a signal and reports
+            run_jobs(jobs, count, run_job, finished, signals, started=started)
+            signals.raising = True
+    finally:
+        progress.close()
+    if signals.signum is not None or any(r is None for r in results):
+        return None
+    return [r for r in results if r is not None]
+
+
+def _finish(args: argparse.Namespace, settings: Settings, results: list[Result], html, diffs) -> int:
+    """Update the baseline if asked, write the reports, print the verdicts; the exit code."""
+    from depixel.diff.html import html_report  # noqa: PLC0415
+    from depixel.diff.reports import json_report, junit_report  # noqa: PLC0415
+    from depixel.diff.update import update_baseline  # noqa: PLC0415
+
+    found = status(results, args.allow_new, args.allow_missing)
+    updated, after = None, results
+    if args.update:
+        updated, after = update_baseline(results, args.a, args.b, prune=args.prune)
+    final = status(after, args.allow_new, args.allow_missing) if after else ("same" if updated else found)
+    if args.junit:
+        write_atomic(args.junit, junit_report(results, args.allow_new, args.allow_missing))
+    if html is not None:
+        write_atomic(html.path / "index.html", html_report(results, args.a, args.b, found, describe(args)))
+        html.publish()
+    if diffs is not None:
+        diffs.publish()
+    if args.json:
+        folders = {"diff_out": display_name(args.diff_out)} if args.diff_out else {}
+        report = json_report(results, final, _settings_entry(args), folders, updated)
+        print(json.dumps(report, indent=2))
+    else:
+        lines = [r.summary() for r in results if r.verdict != SAME]
+        lines += [f"{action}: {display_name(name)}" for action, name in updated or []]
+        lines.append(_totals_line(results, final, args))
+        print_lines(lines)
+    return EXIT_OF_STATUS[final]
+
+
+def _totals_line(results: list[Result], final: str, args: argparse.Namespace) -> str:
+    counts = totals(results)
+    parts = [f"{n} {verdict}" for verdict, n in counts.items() if n]
+    allowed = [what for what, on in (("new", args.allow_new), ("missing", args.allow_missing)) if on]
+    note = f" ({' and '.join(allowed)} allowed)" if allowed else ""
+    updated = " after --update" if args.update else ""
+    files = f"{len(results)} file{'' if len(results) == 1 else 's'}"
+    return f"{final}{updated}: {files}: {', '.join(parts) or 'none found'}{note}"
+
+
+def describe(args: argparse.Namespace) -> str:
+    """The comparison's settings in one line, for the HTML report."""
+    parts = [f"scale {args.scale:g}", f"threshold {args.threshold:g}"]
+    if args.max_pixels_diff is not None:
+        parts.append(f"at most {args.max_pixels_diff} pixels may differ")
+    if args.max_ratio is not None:
+        parts.append(f"at most {100 * args.max_ratio:g}% may differ")
+    if args.include_aa:
+        parts.append("anti-aliasing counted")
+    if args.mask:
+        parts.append(f"masked: {', '.join(args.mask)}")
+    return "; ".join(parts)
+
+
+def _settings_entry(args: argparse.Namespace) -> dict:
+    return {"baseline": args.a, "current": args.b, "scale": args.scale, "threshold": args.threshold,
+            "max_pixels_diff": args.max_pixels_diff, "max_ratio": args.max_ratio,
+            "include_aa": args.include_aa, "mask": args.mask, "allow_new": args.allow_new,
+            "allow_missing": args.allow_missing, "html": args.html, "junit": args.junit,
+            "diff_out": args.diff_out}
+
+
+def workers(option: str | int, pairs: int, max_pixels: int) -> int:
+    """``-j``: the number given, or one per core when each worker's largest comparison
+    (``max_pixels`` at DIFF_BYTES_PER_PIXEL) fits in the available memory."""
+    from .batch_run import available_memory, cores  # noqa: PLC0415
+
+    if option != "auto":
+        return max(1, min(int(option), pairs))
+    count = max(1, min(cores(), pairs))
+    memory = available_memory()
+    if memory is not None:
+        count = max(1, min(count, memory // (WORKER_BASELINE_BYTES + DIFF_BYTES_PER_PIXEL * max_pixels)))
+    return count
+
+
+def print_lines(lines: list[str]) -> None:
+    if lines:
+        sys.stdout.write("\n".join(lines) + "\n")
