@@ -7,6 +7,10 @@ in :mod:`depixel.pipeline`; each stage is a subpackage (:mod:`depixel.prepare`,
 """
 from __future__ import annotations
 
+import importlib
+import importlib.util
+from types import ModuleType
+
 from .api import convert, convert_bytes, flatten, prepare_input
 from .errors import DepixelError, InputError, OutputError, ParameterError, RenderError
 from .files.convert import convert_file, render_file
@@ -38,3 +42,17 @@ __all__ = [
     "flatten",
     "render_file",
 ]
+
+
+def load_submodule(package: str, name: str) -> ModuleType:
+    """The submodule ``package.name``, imported on first use: after ``import depixel`` alone,
+    ``depixel.diff.compare`` or ``depixel.render.figure`` work as docs/api.md writes them,
+    without every start of the command paying for modules it does not use. A name that is no
+    submodule (or is private) raises ``AttributeError``, as a missing attribute does."""
+    if not name.startswith("_") and importlib.util.find_spec(f"{package}.{name}") is not None:
+        return importlib.import_module(f"{package}.{name}")
+    raise AttributeError(f"module {package!r} has no attribute {name!r}")
+
+
+def __getattr__(name: str) -> ModuleType:
+    return load_submodule(__name__, name)

@@ -1,6 +1,7 @@
-"""Read-only arrays for the frozen products the stages pass on."""
+"""Read-only arrays and a one-line repr for the frozen products the stages pass on."""
 from __future__ import annotations
 
+from dataclasses import fields
 from typing import Any
 
 import numpy as np
@@ -20,3 +21,25 @@ def freeze(product: Any) -> None:
             for item in value:
                 if isinstance(item, np.ndarray):
                     item.setflags(write=False)
+
+
+def compact_repr(product: Any) -> str:
+    """``Name(field=value, …)`` of a dataclass product with each array shown as its type and
+    shape (``uint8[16, 18, 4]``) and each product inside it as ``Name(…)``: printing a result
+    shows what it holds in a line, not thousands of numbers (the default dataclass repr
+    prints every array whole)."""
+    parts = [f"{f.name}={_short(getattr(product, f.name))}" for f in fields(product) if f.repr]
+    return f"{type(product).__name__}({', '.join(parts)})"
+
+
+def _short(value: Any) -> str:
+    if isinstance(value, np.ndarray):
+        return f"{value.dtype}[{', '.join(map(str, value.shape))}]"
+    if type(value).__repr__ is compact_repr:
+        return f"{type(value).__name__}(…)"
+    if isinstance(value, tuple) and any(isinstance(item, np.ndarray) for item in value):
+        items = ", ".join(_short(item) for item in value)
+        return f"{type(value).__name__}({items})" if hasattr(value, "_fields") else f"({items})"
+    if isinstance(value, (list, dict)) and len(value) > 8:
+        return f"{type(value).__name__} of {len(value)}"
+    return repr(value)

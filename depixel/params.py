@@ -113,7 +113,17 @@ class Params:
                 object.__setattr__(self, f.name, int(value) if rule.integer else float(value))
 
     def replace(self, **changes: Any) -> Params:
-        """A copy with some fields changed (unknown names raise TypeError)."""
+        """A copy with some fields changed; an unknown name raises ParameterError with the
+        closest field (``replace(sed=1)``: did you mean seed?), as misspelt options do."""
+        unknown = [name for name in changes if name not in self.names()]
+        if unknown:
+            import difflib  # noqa: PLC0415
+
+            from .errors import ParameterError  # noqa: PLC0415
+
+            close = difflib.get_close_matches(unknown[0], self.names(), n=1)
+            hint = f"; did you mean {close[0]}?" if close else f"; the fields are {', '.join(self.names())}"
+            raise ParameterError(f"Params has no field {unknown[0]!r}{hint}", parameter=unknown[0])
         return replace(self, **changes)
 
     @classmethod

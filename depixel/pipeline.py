@@ -11,6 +11,7 @@ import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+from .frozen import compact_repr
 from .graph.cells import CellGraph, build_cell_graph
 from .graph.crossings import CrossingResolution, resolve_crossings
 from .graph.similarity import SimilarityGraph, build_similarity_graph
@@ -33,6 +34,8 @@ class Result:
     ``splines`` holds the curves of §3.3 as extracted (what the "splines" stage draws);
     ``optimized.splines`` are the same curves cut at ``optimized.corners``, the ones the
     "optimized" stage draws with ``optimized.positions``."""
+
+    __repr__ = compact_repr  # arrays as their shape, not their numbers
 
     similarity: SimilarityGraph
     resolution: CrossingResolution

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .frozen import freeze
+from .frozen import compact_repr, freeze
 from .graph.cells import DIAGONAL, HORIZONTAL, VERTICAL, CellGraph
 from .graph.components import component_roots
 
@@ -33,6 +33,8 @@ class CurveTable:
     curve passes through the display point of slot j's node at the span's middle.
     Read-only arrays.
     """
+
+    __repr__ = compact_repr  # arrays as their shape, not their numbers
 
     node: np.ndarray  # (P,) int32 cell-graph node of each slot
     curve: np.ndarray  # (P,) int32 curve of each slot
@@ -55,6 +57,8 @@ class CurveTable:
 class VectorImage:
     """Final geometry of a depixelized image (coordinates in input pixels, y down); arrays
     are read-only."""
+
+    __repr__ = compact_repr  # arrays as their shape, not their numbers
 
     cells: CellGraph  # topology: nodes, edges, pixels on each side, cell polygons
     points: np.ndarray  # (N, 2) float64 display position of every node, in pixels

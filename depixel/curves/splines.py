@@ -38,7 +38,7 @@ from functools import cached_property
 import numpy as np
 
 from ..arrays import batch_slices, flat_rows
-from ..frozen import freeze
+from ..frozen import compact_repr, freeze
 from ..graph.cells import INDEX, CellGraph
 from ..params import Params
 from ..vector import CurveTable, VectorImage, linked_edges
@@ -66,6 +66,8 @@ class SplineSet:
     coordinates ``(x, y)`` in pixels; the **control point** of a slot is its node's position
     (with T-junction ends snapped, :meth:`controls_for`).
     """
+
+    __repr__ = compact_repr  # arrays as their shape, not their numbers
 
     cells: CellGraph
     visible: np.ndarray  # (E,) bool: edge separates dissimilar pixels

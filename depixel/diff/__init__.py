@@ -7,3 +7,10 @@ verdict and pictures; :mod:`.folders` pairs two folders; :mod:`.reports` (JSON, 
 :mod:`.html` report them, :mod:`.staging` writes report folders whole, :mod:`.update`
 approves a change.
 """
+
+
+def __getattr__(name: str):
+    """Submodules load on first use (:func:`depixel.load_submodule`)."""
+    import depixel  # noqa: PLC0415 (an attribute read while depixel itself imports is a plain miss)
+
+    return depixel.load_submodule(__name__, name)

@@ -34,6 +34,7 @@ import numpy as np
 
 from ..arrays import unique
 from ..colour import Colour
+from ..frozen import compact_repr
 
 DEFAULT_THRESHOLD = 0.1  # pixelmatch's default: about 1% of the largest YIQ distance
 MAX_YIQ_DELTA = 35215.0  # the largest YIQ distance between two colours (cyan and red)
@@ -53,6 +54,8 @@ _HALO = 2  # rows around a band: a neighbour's flatness looks one row further
 @dataclass(frozen=True, eq=False)
 class Comparison:
     """Result of :func:`compare` on two opaque images of the same size."""
+
+    __repr__ = compact_repr  # arrays as their shape, not their numbers
 
     a: np.ndarray  # (H, W, 4) uint8, flattened
     b: np.ndarray  # (H, W, 4) uint8, flattened

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..arrays import both
-from ..frozen import freeze
+from ..frozen import compact_repr, freeze
 from .crossings import CrossingResolution
 from .similarity import SimilarityGraph
 
@@ -51,6 +51,8 @@ def link_corners(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 class CellGraph:
     """Reshaped pixel cells: nodes, edges with the pixel on each side, and cell polygons;
     arrays are read-only."""
+
+    __repr__ = compact_repr  # arrays as their shape, not their numbers
 
     graph: SimilarityGraph  # the resolved (planar) similarity graph it was built from
     nodes: np.ndarray  # (N, 2) int32, (x, y) in quarter pixels

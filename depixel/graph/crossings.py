@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..arrays import batch_slices
+from ..frozen import compact_repr
 from ..params import Params
 from .components import component_roots
 from .similarity import SimilarityGraph
@@ -37,6 +38,8 @@ WINDOW_BATCH = 2048
 @dataclass(frozen=True, eq=False)
 class CrossingResolution:
     """The planar graph plus what was decided where (for tests and stage pictures)."""
+
+    __repr__ = compact_repr  # arrays as their shape, not their numbers
 
     graph: SimilarityGraph  # resolved: at most one diagonal per 2×2 block
     flat: np.ndarray  # (H-1, W-1) bool: fully connected block, both diagonals removed

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..colour import rgb_to_yuv
+from ..frozen import compact_repr
 from ..params import Params
 from ..prepare.image import as_rgba
 
@@ -27,6 +28,8 @@ from ..prepare.image import as_rgba
 @dataclass(frozen=True, eq=False)
 class SimilarityGraph:
     """Pixels and their 8-neighbour similarity links (see module docstring for layout)."""
+
+    __repr__ = compact_repr  # arrays as their shape, not their numbers
 
     rgba: np.ndarray  # (H, W, 4) uint8
     right: np.ndarray  # (H, W-1) bool

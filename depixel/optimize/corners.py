@@ -22,7 +22,7 @@ import numpy as np
 
 from ..arrays import batch_slices, set_rows
 from ..curves.splines import SplineSet
-from ..frozen import freeze
+from ..frozen import compact_repr, freeze
 from ..graph.cells import link_corners
 from ..params import Params
 
@@ -34,6 +34,8 @@ RUN_BATCH = 16384
 @dataclass(frozen=True, eq=False)
 class Corners:
     """Corner nodes of a cell graph, by pattern; arrays are read-only."""
+
+    __repr__ = compact_repr  # arrays as their shape, not their numbers
 
     square: np.ndarray  # (N,) bool: right-angle corner of a block (sits on its lattice point)
     runs: np.ndarray  # (N,) bool: straight runs meet there at an angle

@@ -19,7 +19,7 @@ import numpy as np
 from ..arrays import flat_rows, set_rows
 from ..curves.drawing import Drawing
 from ..curves.splines import SplineSet
-from ..frozen import freeze
+from ..frozen import compact_repr, freeze
 from ..params import Params
 from ..vector import VectorImage
 from .corners import Corners, excluded_halves
@@ -32,6 +32,8 @@ from .relax import relax
 class OptimizedSplines:
     """The curves (cut at the corners) and their optimized node positions (pixel units);
     arrays are read-only."""
+
+    __repr__ = compact_repr  # arrays as their shape, not their numbers
 
     splines: SplineSet  # the curves optimized: Result.splines cut at the corners
     corners: Corners  # the corner nodes, kept sharp and fixed

@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..arrays import batch_bounds, in_sorted, ranges
+from ..frozen import compact_repr
 from ..vector import VectorImage
 from .boundaries import CUBIC, LINE, QUAD, BoundaryPieces, build_pieces
 from .holes import loops_to_keep, probe_keys
@@ -58,6 +59,8 @@ class Outlines:
     its segments run from the end of its last segment (the loop's start point) through
     ``seg_end`` in order. The shape's area is the nonzero-rule fill of its loops.
     """
+
+    __repr__ = compact_repr  # arrays as their shape, not their numbers
 
     shape: tuple[int, int]  # (H, W) of the image, in pixels
     layout: str
