@@ -165,8 +165,8 @@ def kept_lines(out: Outcome) -> list[tuple[str, str]]:
             for target in targets]
 
 
-def _outputs_to_make(job: Job, out: Outcome) -> dict[int, tuple[Path, dict]]:
-    """{frame: (output, file options)} of the outputs to convert; the others are added to
+def _outputs_to_make(job: Job, out: Outcome) -> dict[int, list[tuple[Path, dict]]]:
+    """{frame: [(output, file options)]} of the outputs to convert; the others are added to
     ``out.up_to_date`` (made from this input with these options), ``out.kept`` (not
     depixel's) or ``out.edited`` (changed since depixel wrote them)."""
     opt = job.options
@@ -187,7 +187,7 @@ def _outputs_to_make(job: Job, out: Outcome) -> dict[int, tuple[Path, dict]]:
         elif now == stamps.EDITED:
             out.edited.append(target)
         else:
-            todo[frame] = (target, options)
+            todo[frame] = [(target, options)]
     return todo
 
 

@@ -294,12 +294,12 @@ def _stream_to_files(source: files.InputFile, output: Path, options: Options, ou
                                                                           name=source.name))))
     else:
         frames = [(0 if options.frames == "first" else int(options.frames), output)]
-    targets = {frame: (target, files.file_options(
+    targets = {frame: [(target, files.file_options(
         target, options.params, fmt=options.fmt, stage=options.stage, scale=options.scale, frame=frame,
         background=options.background, shading=options.shading, precision=options.precision, width=options.width,
         height=options.height, layout=options.layout, simplify=options.simplify, pixel_size=options.pixel_size,
-        denoise=options.denoise, transparent=options.transparent)) for frame, target in frames}
-    for target, _ in targets.values():
+        denoise=options.denoise, transparent=options.transparent))] for frame, target in frames}
+    for target, _ in (output for wanted in targets.values() for output in wanted):
         now = stamps.NEW if options.force else stamps.replaceable(target)
         (out.kept if now == stamps.UNSTAMPED else out.edited if now == stamps.EDITED else []).append(target)
     if out.kept or out.edited:

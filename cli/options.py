@@ -123,8 +123,18 @@ def add_input_options(parser: argparse.ArgumentParser) -> None:
                        help="snap near-identical colours to a small palette (default: on for JPEG and "
                             "lossy WebP files, off otherwise)")
     group.add_argument("--transparent", type=transparent_colour, metavar="COLOR|auto",
-                       help="make this backdrop colour fully transparent; auto: the colour of the four "
+                       help="make the backdrop transparent: this colour where it reaches the image's border "
+                            "(a flood fill; the same colour inside the art stays); auto: the colour of the four "
                             "corners when they agree")
+    group.add_argument("--transparent-everywhere", action="store_true",
+                       help="with --transparent: every pixel of that colour, inside the art too (a colour key)")
+
+
+def check_input_options(args: argparse.Namespace) -> None:
+    """Refuse input options that need another (a usage error, exit 2)."""
+    if args.transparent_everywhere and args.transparent is None:
+        args.parser.error("--transparent-everywhere says how --transparent COLOR|auto removes its colour: "
+                          "give --transparent too")
 
 
 # --- tuning flags: one per Params field a user may want to change -------------------------------

@@ -18,6 +18,7 @@ from .options import (
     Exit,
     add_input_options,
     add_tuning,
+    check_input_options,
     colour,
     int_range,
     params_from_args,
@@ -136,11 +137,13 @@ def run_inspect(args: argparse.Namespace) -> int:
 
     if args.output is None and args.out_dir is None:
         args.parser.error("say where to write: -o PNG and/or --out-dir DIR")
+    check_input_options(args)
     from depixel.prepare.inputs import lossy_format  # noqa: PLC0415
 
     rgba = api.load(args.input, frame=args.frame, background=args.background, max_pixels=args.max_pixels)
     prepared = api.prepare_input(rgba, pixel_size=args.pixel_size, denoise=args.denoise,
-                                 transparent=args.transparent, lossy=lossy_format(files.read_input(args.input)))
+                                 transparent=args.transparent, transparent_everywhere=args.transparent_everywhere,
+                                 lossy=lossy_format(files.read_input(args.input)))
     check_figure_size(prepared.rgba.shape[:2], args.zoom, panel_count(args.stage) + prepared.changed,
                       args.max_output_pixels)
     result = depixelize(prepared.rgba, params_from_args(args), stage=args.stage)

@@ -9,7 +9,7 @@ is :mod:`depixel.files.convert`.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 
 import numpy as np
 
@@ -98,7 +98,7 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
             width: int | None = None, height: int | None = None,
             max_pixels: int | None = DEFAULT_MAX_PIXELS, layout: str = "stacked",
             simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
-            transparent: Colour | str | None = None) -> str:
+            transparent: Colour | str | None = None, transparent_everywhere: bool = False) -> str:
     """Depixelize an image (``(H, W[, C])`` array, PIL image or :class:`PreparedImage`) → SVG text.
 
     ``scale`` sets the SVG's width/height as a multiple of the input's size (or ``width`` or
@@ -108,14 +108,14 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
     ``layout`` is "stacked" (every shape continues under the shapes drawn above it) or
     "cutout" (shapes that tile the image); ``simplify`` is the tolerance in pixels within
     which fewer curves replace the exact spline (0: the exact spline; docs/svg.md).
-    ``pixel_size``, ``denoise`` and ``transparent`` prepare the input first
+    ``pixel_size``, ``denoise``, ``transparent`` and ``transparent_everywhere`` prepare the input first
     (:func:`depixel.prepare.inputs.prepare`, docs/inputs.md): upscaled art is converted at 1× and
     laid exactly over the input. Images over ``max_pixels`` pixels are refused (``None``:
     no limit).
     """
     prepared, scale = _prepare(image, params, stage, precision, background, scale, width, height, max_pixels,
                                layout=layout, simplify=simplify, pixel_size=pixel_size, denoise=denoise,
-                               transparent=transparent)
+                               transparent=transparent, transparent_everywhere=transparent_everywhere)
     vector = depixelize(prepared.rgba, params, stage=stage).vector  # the other stages' products are freed here
     svg = to_svg(vector, scale=scale, precision=precision, title=title, layout=layout, simplify=simplify)
     return overlay_svg(svg, prepared, scale)
@@ -123,23 +123,26 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
 
 def prepare_input(image, *, background: Colour | str | None = None, pixel_size: PixelSize = AUTO,
                   denoise: bool | None = None, transparent: Colour | str | None = None,
-                  lossy: str | None = None, max_pixels: int | None = DEFAULT_MAX_PIXELS) -> PreparedImage:
+                  transparent_everywhere: bool = False, lossy: str | None = None,
+                  max_pixels: int | None = DEFAULT_MAX_PIXELS) -> PreparedImage:
     """:func:`depixel.prepare.inputs.prepare` after flattening over ``background`` (when given);
     a :class:`PreparedImage` is returned as it is. ``lossy`` names the lossy format the
     pixels came from ("JPEG"; a PIL image says so itself), which turns denoising on."""
     if isinstance(image, PreparedImage):
         return image
     colour = as_colour(background)
+    validate.flag("transparent_everywhere", transparent_everywhere)
     _pixels(image, max_pixels=max_pixels)
     lossy = lossy or pil_lossy(image)
     rgba = as_rgba(image) if colour is None else flatten(image, colour)
-    return prepare(rgba, pixel_size=pixel_size, denoise=denoise, transparent=transparent, lossy=lossy)
+    return prepare(rgba, pixel_size=pixel_size, denoise=denoise, transparent=transparent,
+                   transparent_everywhere=transparent_everywhere, lossy=lossy)
 
 
 def _prepare(image, params, stage, precision, background, scale, width, height, max_pixels,
              name: str = "<image>", layout: str = "stacked", simplify: float = DEFAULT_SIMPLIFY,
              pixel_size: PixelSize = AUTO, denoise: bool | None = None, transparent: Colour | str | None = None,
-             lossy: str | None = None) -> tuple[PreparedImage, float]:
+             lossy: str | None = None, transparent_everywhere: bool = False) -> tuple[PreparedImage, float]:
     """Check every argument of a conversion → the prepared 1× art and the scale to write at
     (relative to the input's size)."""
     if not isinstance(params, Params):
@@ -148,7 +151,8 @@ def _prepare(image, params, stage, precision, background, scale, width, height, 
     if not isinstance(image, PreparedImage):
         _pixels(image, name, max_pixels)
     prepared = prepare_input(image, background=background, pixel_size=pixel_size, denoise=denoise,
-                             transparent=transparent, lossy=lossy, max_pixels=None)
+                             transparent=transparent, transparent_everywhere=transparent_everywhere, lossy=lossy,
+                             max_pixels=None)
     w, h = prepared.input_size
     return prepared, _scale((h, w), scale, width, height)
 
@@ -170,7 +174,7 @@ def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: 
                   max_pixels: int | None = DEFAULT_MAX_PIXELS,
                   max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS, layout: str = "stacked",
                   simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
-                  transparent: Colour | str | None = None) -> bytes:
+                  transparent: Colour | str | None = None, transparent_everywhere: bool = False) -> bytes:
     """Like :func:`convert`, returning the bytes of an SVG, PNG or PDF file.
 
     PNG output is rendered with the paper's smooth shading unless ``shading="flat"``, which
@@ -180,44 +184,56 @@ def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: 
     return conversion_bytes(image, fmt, params, stage=stage, scale=scale, background=background, title=title,
                             shading=shading, name=name, precision=precision, width=width, height=height,
                             max_pixels=max_pixels, max_output_pixels=max_output_pixels, layout=layout,
-                            simplify=simplify, pixel_size=pixel_size, denoise=denoise, transparent=transparent)
+                            simplify=simplify, pixel_size=pixel_size, denoise=denoise, transparent=transparent,
+                            transparent_everywhere=transparent_everywhere)
 
 
-def conversion_bytes(image, fmt, params, *, stage, scale, background, title, shading, name, precision,
-                     width, height, max_pixels, max_output_pixels, layout, simplify, pixel_size=AUTO,
-                     denoise=None, transparent=None, lossy=None, keywords: str | None = None,
-                     on_prepared: Callable[[PreparedImage], None] | None = None) -> bytes:
+def conversion_bytes(image, fmt, params, *, keywords: str | None = None, **options) -> bytes:
     """:func:`convert_bytes` with what a file conversion adds (:mod:`depixel.files.convert`): the
     ``lossy`` format the pixels came from, the PDF ``keywords`` (its options stamp) and a
-    callback told what the preparation found."""
-    validate.choice("format", fmt, FORMATS)
+    callback told what the preparation found (the options of :func:`conversions`)."""
+    return conversions(image, {fmt: keywords}, params, **options)[fmt]
+
+
+def conversions(image, formats: Mapping[str, str | None], params, *, stage, scale, background, title, shading, name,
+                precision, width, height, max_pixels, max_output_pixels, layout, simplify, pixel_size=AUTO,
+                denoise=None, transparent=None, transparent_everywhere=False, lossy=None,
+                on_prepared: Callable[[PreparedImage], None] | None = None) -> dict[str, bytes]:
+    """One conversion written in several formats, ``{format: its PDF keywords}`` → ``{format:
+    bytes}``: the input is prepared and depixelized once, then each format is made from the
+    same vector image (``depixel convert --format svg,png``)."""
+    for fmt in formats:
+        validate.choice("format", fmt, FORMATS)
     validate.choice("shading", shading, SHADINGS)
     max_output_pixels = validate.limit("max_output_pixels", max_output_pixels)
     prepared, scale = _prepare(image, params, stage, precision, background, scale, width, height, max_pixels, name,
-                               layout, simplify, pixel_size, denoise, transparent, lossy)
+                               layout, simplify, pixel_size, denoise, transparent, lossy, transparent_everywhere)
     if on_prepared is not None:
         on_prepared(prepared)
-    if fmt == "png":
+    if "png" in formats:
         size = max(1, round(prepared.input_size[0] * scale)), max(1, round(prepared.input_size[1] * scale))
         if max_output_pixels is not None and size[0] * size[1] > max_output_pixels:
             raise RenderError(f"{name}: a {size[0]}x{size[1]} PNG is {size[0] * size[1]} pixels, over the "
                               f"limit of {max_output_pixels} (raise it with max_output_pixels)",
                               parameter="max_output_pixels")
     vector = depixelize(prepared.rgba, params, stage=stage).vector
-    if fmt == "png" and shading == "smooth":
-        import io  # noqa: PLC0415
+    blobs, svg = {}, None
+    for fmt, keywords in formats.items():
+        if fmt == "png" and shading == "smooth":
+            import io  # noqa: PLC0415
 
-        from PIL import Image  # noqa: PLC0415
+            from PIL import Image  # noqa: PLC0415
 
-        from .render.shading import render_smooth  # noqa: PLC0415
+            from .render.shading import render_smooth  # noqa: PLC0415
 
-        # rendered at the art's grid, then laid over the input like the SVG
-        pixels = render_smooth(vector, scale * max(prepared.pixel_size), params=params)
-        buffer = io.BytesIO()
-        Image.fromarray(overlay_raster(pixels, prepared, scale), "RGBA").save(buffer, format="PNG")
-        blob = buffer.getvalue()
-    else:
-        svg = to_svg(vector, scale=scale, precision=precision, title=title, layout=layout, simplify=simplify)
-        svg = overlay_svg(svg, prepared, scale)
-        blob = encode(svg, fmt, name=name, keywords=keywords)
-    return blob
+            # rendered at the art's grid, then laid over the input like the SVG
+            pixels = render_smooth(vector, scale * max(prepared.pixel_size), params=params)
+            buffer = io.BytesIO()
+            Image.fromarray(overlay_raster(pixels, prepared, scale), "RGBA").save(buffer, format="PNG")
+            blobs[fmt] = buffer.getvalue()
+        else:
+            if svg is None:
+                svg = overlay_svg(to_svg(vector, scale=scale, precision=precision, title=title, layout=layout,
+                                         simplify=simplify), prepared, scale)
+            blobs[fmt] = encode(svg, fmt, name=name, keywords=keywords)
+    return blobs

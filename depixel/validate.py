@@ -50,6 +50,15 @@ def limit(name: str, value: object) -> int | None:
     return None if value is None else int(number(name, value, low=1, integer=True))
 
 
+def flag(name: str, value: object) -> bool:
+    """True or False (``1`` or ``"yes"`` are refused: they hide a mistaken argument)."""
+    from .errors import ParameterError  # noqa: PLC0415
+
+    if not isinstance(value, bool):
+        raise ParameterError(f"{name} must be True or False, not {value!r}", parameter=name)
+    return value
+
+
 def choice(name: str, value: object, options: Iterable[str]) -> str:
     """One of ``options`` (a misspelt choice gets a suggestion)."""
     from .errors import ParameterError  # noqa: PLC0415

@@ -12,14 +12,14 @@ from __future__ import annotations
 import dataclasses
 import os
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from functools import partial
 from pathlib import Path
 
 import numpy as np
 
 from .. import validate
-from ..api import FORMATS, SHADINGS, check_output_options, conversion_bytes
+from ..api import FORMATS, SHADINGS, check_output_options, conversions
 from ..colour import Colour, as_colour
 from ..errors import InputError, OutputError, ParameterError, display_name
 from ..limits import DEFAULT_MAX_FRAMES, DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS, check_rendered_frames
@@ -66,7 +66,7 @@ def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: P
                  width: int | None = None, height: int | None = None,
                  max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS, layout: str = "stacked",
                  simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
-                 transparent: Colour | str | None = None,
+                 transparent: Colour | str | None = None, transparent_everywhere: bool = False,
                  on_prepared: Callable[[PreparedImage], None] | None = None,
                  max_frames: int | None = DEFAULT_MAX_FRAMES) -> Path:
     """Convert one image file (one frame of it) to an SVG, PNG or PDF file; returns the output path.
@@ -81,8 +81,9 @@ def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: P
     """
     options = file_options(output, params, fmt=fmt, stage=stage, scale=scale, frame=frame, background=background,
                            shading=shading, precision=precision, width=width, height=height, layout=layout,
-                           simplify=simplify, pixel_size=pixel_size, denoise=denoise, transparent=transparent)
-    result = convert_frames(InputFile.read(source), {int(frame): (Path(output), options)}, max_pixels=max_pixels,
+                           simplify=simplify, pixel_size=pixel_size, denoise=denoise, transparent=transparent,
+                           transparent_everywhere=transparent_everywhere)
+    result = convert_frames(InputFile.read(source), {int(frame): [(Path(output), options)]}, max_pixels=max_pixels,
                             max_output_pixels=max_output_pixels, max_frames=max_frames,
                             on_prepared=None if on_prepared is None else lambda frame, target, p: on_prepared(p))
     if result.changed:
@@ -146,13 +147,14 @@ class Written:
     changed: bool = False  # the input changed during the conversion
 
 
-def convert_frames(source: InputFile, targets: Mapping[int, tuple[Path, dict]], *, every_frame: bool = False,
+def convert_frames(source: InputFile, targets: Mapping[int, Sequence[tuple[Path, dict]]], *, every_frame: bool = False,
                    max_pixels: int | None = DEFAULT_MAX_PIXELS,
                    max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS,
                    max_frames: int | None = DEFAULT_MAX_FRAMES, token: str | None = None, overwrite: bool = True,
                    on_prepared: Callable[[int, Path, PreparedImage], None] | None = None) -> Written:
-    """Convert frames of an input read once, ``targets`` {frame: (output, :func:`file_options`)},
-    and write their outputs, all or none: each is staged to its temporary file and they are
+    """Convert frames of an input read once, ``targets`` {frame: [(output, :func:`file_options`), ...]}
+    (several outputs of a frame differ only in their format, and are made from one run of the
+    pipeline), and write them, all or none: each is staged to its temporary file and they are
     renamed into place together once every one is made (a failure in frame k leaves no
     partial set). ``every_frame``: the input is an animation converted whole (its frames
     decoded in order, checked against ``max_frames`` and, in all, ``max_pixels``; PNG frames'
@@ -165,23 +167,26 @@ def convert_frames(source: InputFile, targets: Mapping[int, tuple[Path, dict]], 
         ((frame, load_image(source.data, max_pixels, frame, max_frames=max_frames, name=name)) for frame in targets)
     done = Written()
     staged: dict[Path, outputs.Staged | None] = {}  # None: a device, written in place
+    pngs = sum(options["fmt"] == "png" for wanted in targets.values() for _, options in wanted)
     try:
-        began, rendered = time.perf_counter(), 0
+        began, rendered, pngs_done = time.perf_counter(), 0, 0
         for frame, rgba in frames:
             if frame not in targets:
                 continue
-            target, options = targets[frame]
-            if options["fmt"] == "png" and len(targets) > 1:  # the PNGs' pixels in all, this frame's
-                each = _png_pixels(rgba.shape, options)      # size for the frames still to come
-                check_rendered_frames(name, len(targets), rendered + each * (len(targets) - len(staged)),
-                                      max_output_pixels)
-                rendered += each
-            blob = _converted(rgba, source, options, max_pixels, max_output_pixels,
-                              None if on_prepared is None else partial(on_prepared, frame, target))
+            wanted = targets[frame]
+            for _, options in wanted:
+                if options["fmt"] == "png" and pngs > 1:  # the PNGs' pixels in all, this one's size
+                    each = _png_pixels(rgba.shape, options)  # for each of those still to come
+                    check_rendered_frames(name, pngs, rendered + each * (pngs - pngs_done), max_output_pixels)
+                    rendered, pngs_done = rendered + each, pngs_done + 1
+            blobs = _converted(rgba, source, [options for _, options in wanted], max_pixels, max_output_pixels,
+                               None if on_prepared is None else partial(on_prepared, frame, wanted[0][0]))
             protect = () if source.path is None else (source.path,)
-            staged[target] = outputs.stage(target, blob, protect=protect, token=token)
-            done.sizes[target] = len(blob)
-            done.seconds[target], began = time.perf_counter() - began, time.perf_counter()
+            seconds = (time.perf_counter() - began) / len(wanted)
+            for (target, _), blob in zip(wanted, blobs):
+                staged[target] = outputs.stage(target, blob, protect=protect, token=token)
+                done.sizes[target], done.seconds[target] = len(blob), seconds
+            began = time.perf_counter()
         done.changed = source.changed()
         if not overwrite:
             done.kept = {target: now for target in staged
@@ -202,21 +207,24 @@ def _png_pixels(shape: tuple[int, ...], options: dict) -> int:
     return max(1, round(width * scale)) * max(1, round(height * scale))
 
 
-def _converted(rgba: np.ndarray, source: InputFile, options: dict, max_pixels: int | None,
-               max_output_pixels: int | None, on_prepared: Callable[[PreparedImage], None] | None) -> bytes:
-    """The stamped bytes of one output: decoded pixels of ``source`` converted with
-    :func:`file_options` (the file's own format says whether it is lossy: JPEG and lossy
-    WebP are denoised unless ``denoise`` says otherwise)."""
-    draft = stamps.text(options["stamp"], source.identity)
-    blob = conversion_bytes(rgba, options["fmt"], options["params"], stage=options["stage"], scale=options["scale"],
-                            background=options["background"], title=None if source.path is None else source.path.name,
-                            shading=options["shading"], name=source.name, precision=options["precision"],
-                            width=options["width"],
-                            height=options["height"], max_pixels=max_pixels, max_output_pixels=max_output_pixels,
-                            layout=options["layout"], simplify=options["simplify"], pixel_size=options["pixel_size"],
-                            denoise=options["denoise"], transparent=options["transparent"],
-                            lossy=lossy_format(source.data), keywords=draft, on_prepared=on_prepared)
-    return stamps.embed(blob, options["fmt"], options["stamp"], source.identity)
+def _converted(rgba: np.ndarray, source: InputFile, wanted: Sequence[dict], max_pixels: int | None,
+               max_output_pixels: int | None, on_prepared: Callable[[PreparedImage], None] | None) -> list[bytes]:
+    """The stamped bytes of each output of a frame: decoded pixels of ``source`` converted
+    once with :func:`file_options` that differ only in their format (the file's own format
+    says whether it is lossy: JPEG and lossy WebP are denoised unless ``denoise`` says
+    otherwise)."""
+    first = wanted[0]
+    drafts = {options["fmt"]: stamps.text(options["stamp"], source.identity) for options in wanted}
+    blobs = conversions(rgba, drafts, first["params"], stage=first["stage"], scale=first["scale"],
+                        background=first["background"], title=None if source.path is None else source.path.name,
+                        shading=first["shading"], name=source.name, precision=first["precision"],
+                        width=first["width"], height=first["height"], max_pixels=max_pixels,
+                        max_output_pixels=max_output_pixels, layout=first["layout"], simplify=first["simplify"],
+                        pixel_size=first["pixel_size"], denoise=first["denoise"], transparent=first["transparent"],
+                        transparent_everywhere=first["transparent_everywhere"], lossy=lossy_format(source.data),
+                        on_prepared=on_prepared)
+    return [stamps.embed(blobs[options["fmt"]], options["fmt"], options["stamp"], source.identity)
+            for options in wanted]
 
 
 def file_options(output: str | os.PathLike, params: Params = Params(), *, fmt: str | None = None,
@@ -224,7 +232,7 @@ def file_options(output: str | os.PathLike, params: Params = Params(), *, fmt: s
                  background: Colour | str | None = None, shading: str = "smooth", precision: int = DEFAULT_PRECISION,
                  width: int | None = None, height: int | None = None, layout: str = "stacked",
                  simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
-                 transparent: Colour | str | None = None) -> dict:
+                 transparent: Colour | str | None = None, transparent_everywhere: bool = False) -> dict:
     """The checked options of :func:`convert_file` that decide the output's bytes, with
     their ``stamp``; the arguments of :func:`convert_frames` and :func:`output_status`."""
     if not isinstance(params, Params):
@@ -236,12 +244,15 @@ def file_options(output: str | os.PathLike, params: Params = Params(), *, fmt: s
                "background": as_colour(background), "shading": validate.choice("shading", shading, SHADINGS),
                "precision": int(precision), "width": width, "height": height, "params": params,
                "layout": layout, "simplify": float(simplify), "pixel_size": parse_pixel_size(pixel_size),
-               "denoise": denoise, "transparent": parse_transparent(transparent)}
+               "denoise": denoise, "transparent": parse_transparent(transparent),
+               "transparent_everywhere": validate.flag("transparent_everywhere", transparent_everywhere)}
     # only what changes the bytes: shading is for PNG, which ignores the SVG's settings when smooth
     smooth_png = options["fmt"] == "png" and shading == "smooth"
-    stamp = stamps.options_stamp(**{**options, "params": dataclasses.asdict(params),
-                                    "shading": shading if options["fmt"] == "png" else None,
-                                    **({"precision": None, "layout": None, "simplify": None} if smooth_png else {})})
+    stamped = {**options, "params": dataclasses.asdict(params), "shading": shading if options["fmt"] == "png" else None,
+               **({"precision": None, "layout": None, "simplify": None} if smooth_png else {})}
+    if options["transparent"] is None:  # (an option added with the border flood fill: other stamps are unchanged)
+        del stamped["transparent_everywhere"]
+    stamp = stamps.options_stamp(**stamped)
     return {**options, "stamp": stamp}
 
 

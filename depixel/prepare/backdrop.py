@@ -1,11 +1,16 @@
-"""Stage 0b, step 3 — the backdrop — RGBA → the same pixels with one colour made fully transparent.
+"""Stage 0b, step 3 — the backdrop — RGBA → the same pixels with the backdrop made fully transparent.
 
-Sprites are often drawn on a solid backdrop colour; :func:`make_transparent` keys it out
-(a given colour, or ``"auto"``: the colour of the four corners when they agree). Part of
-the input preparation (:mod:`depixel.prepare.inputs`); its own module so that each preparation
-step is read and changed on its own.
+Sprites are often drawn on a solid backdrop colour; :func:`make_transparent` removes it (a
+given colour, or ``"auto"``: the colour of the four corners when they agree). The backdrop
+is that colour where it reaches the image's border, 4-connected, as a flood fill from the
+border finds it: a sprite's eye-whites or teeth of the same colour are inside its outline
+and stay (``everywhere`` removes every pixel of the colour, a colour key). Part of the input
+preparation (:mod:`depixel.prepare.inputs`); its own module so that each preparation step
+is read and changed on its own.
 """
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 
@@ -15,39 +20,96 @@ from .palette import SNAP_RADIUS
 from .pixelgrid import AUTO, colour_keys
 
 
-def make_transparent(rgba: np.ndarray, colour: str | Colour, snapped: bool = False):
-    """Make every visible pixel of one colour fully transparent.
+class Backdrop(NamedTuple):
+    """What :func:`make_transparent` did."""
+
+    rgba: np.ndarray  # the image with the backdrop's alpha 0 (the input itself when nothing changed)
+    colour: Colour | None  # the colour made transparent, None when no pixel was
+    pixels: int  # pixels made transparent
+    kept: int  # visible pixels of that colour left as they are (inside the art, not joined to the border)
+    note: str | None  # why nothing was made transparent, when nothing was
+
+
+def make_transparent(rgba: np.ndarray, colour: str | Colour, snapped: bool = False,
+                     everywhere: bool = False) -> Backdrop:
+    """Make the backdrop fully transparent: the visible pixels of one colour that are joined
+    to the image's border through pixels of that colour (4-connected), or with
+    ``everywhere`` every visible pixel of that colour.
 
     ``colour`` is an ``(r, g, b)`` triple or ``"auto"``: the colour of the four corners
     when all four are that same opaque colour. On a ``snapped`` (denoised) image the
     palette colour nearest to a given colour is taken when it lies within SNAP_RADIUS.
-    Returns ``(rgba, colour made transparent or None, pixels changed, note or None)``.
     """
     keys = colour_keys(rgba)
     if colour == AUTO:
         corners = keys[[0, 0, -1, -1], [0, -1, 0, -1]]
         if corners[0] == 0 and (corners == 0).all():
-            return rgba, None, 0, None  # already on a transparent backdrop
+            return Backdrop(rgba, None, 0, 0, None)  # already on a transparent backdrop
         if not (corners == corners[0]).all() or rgba[0, 0, 3] != 255:
-            return rgba, None, 0, "the corners differ, so no backdrop colour was made transparent"
+            return Backdrop(rgba, None, 0, 0, "the corners differ, so no backdrop colour was made transparent")
         target: Colour = (int(rgba[0, 0, 0]), int(rgba[0, 0, 1]), int(rgba[0, 0, 2]))
     else:
         target = (int(colour[0]), int(colour[1]), int(colour[2]))
         if snapped:
-            visible = rgba[..., 3] > 0
-            present = unique(rgba[..., :3][visible], axis=0)
-            if present.size:
-                gap = np.abs(rgb_to_yuv(present) - rgb_to_yuv(np.array(target, dtype=np.float64))).max(axis=1)
-                if gap.min() <= SNAP_RADIUS:
-                    nearest = present[int(np.argmin(gap))]
-                    target = (int(nearest[0]), int(nearest[1]), int(nearest[2]))
-    hit = (rgba[..., 3] > 0) & (rgba[..., :3] == np.array(target, dtype=np.uint8)).all(axis=2)
-    n = int(hit.sum())
+            target = _nearest_present(rgba, target)
+    same = (rgba[..., 3] > 0) & (rgba[..., :3] == np.array(target, dtype=np.uint8)).all(axis=2)
+    hit = same if everywhere else border_connected(same)
+    n, kept = int(hit.sum()), int(same.sum() - hit.sum())
     if n == 0:
-        return rgba, None, 0, f"no pixel is {hex_code(target)}, so nothing was made transparent"
+        where = "no pixel is" if kept == 0 else f"none of the {kept} pixels of"
+        reach = "" if kept == 0 else " reaches the border"
+        return Backdrop(rgba, None, 0, kept, f"{where} {hex_code(target)}{reach}, so nothing was made transparent")
     out = rgba.copy()
     out[hit, 3] = 0
-    return out, target, n, None
+    return Backdrop(out, target, n, kept, None)
+
+
+def border_connected(mask: np.ndarray) -> np.ndarray:
+    """``(H, W) bool``: the pixels of ``mask`` joined to the image's border through ``mask``
+    (4-connected), as a flood fill from every border pixel of ``mask`` reaches them.
+
+    Each round fills whole runs: every row run of ``mask`` touching a reached pixel, then
+    every column run. So the rounds count the turns of the longest way in, not its length:
+    a backdrop around a sprite takes two or three (a spiral corridor takes one a turn)."""
+    rows, cols = _runs(mask), _runs(mask.T).T
+    reached = mask.copy()
+    reached[1:-1, 1:-1] = False
+    count = -1
+    while (now := int(reached.sum())) != count:
+        count = now
+        reached = _fill_runs(reached, rows)
+        reached = _fill_runs(reached, cols)
+    return reached
+
+
+def _runs(mask: np.ndarray) -> np.ndarray:
+    """``(H, W) int64``: the number of each pixel's run of ``mask`` along its row (runs
+    numbered from 0 in reading order), -1 outside ``mask``."""
+    starts = mask.copy()
+    starts[:, 1:] &= ~mask[:, :-1]
+    number = np.cumsum(starts, axis=None).reshape(mask.shape) - 1
+    return np.where(mask, number, -1)
+
+
+def _fill_runs(reached: np.ndarray, runs: np.ndarray) -> np.ndarray:
+    """``reached`` grown to the whole of every run (``runs``) it touches."""
+    touched = np.zeros(int(runs.max()) + 2, dtype=bool)  # the last slot: outside every run (-1)
+    touched[runs[reached]] = True
+    touched[-1] = False
+    return touched[runs]
+
+
+def _nearest_present(rgba: np.ndarray, target: Colour) -> Colour:
+    """The visible colour nearest to ``target`` when it lies within SNAP_RADIUS (hqx YUV),
+    else ``target``: a denoised image holds its palette's colours, not the one asked for."""
+    visible = rgba[..., 3] > 0
+    present = unique(rgba[..., :3][visible], axis=0)
+    if present.size:
+        gap = np.abs(rgb_to_yuv(present) - rgb_to_yuv(np.array(target, dtype=np.float64))).max(axis=1)
+        if gap.min() <= SNAP_RADIUS:
+            nearest = present[int(np.argmin(gap))]
+            return int(nearest[0]), int(nearest[1]), int(nearest[2])
+    return target
 
 
 def hex_code(colour: Colour) -> str:

@@ -11,7 +11,10 @@ that before the similarity graph (docs/inputs.md has the how and the limits, wit
 2. denoise (lossy input): snap near-identical colours to a small palette; for 1× pixels
    whose chroma was subsampled (4:2:0 JPEG, lossy WebP), label every pixel jointly
    through the decoder's model instead (depixel/prepare/chroma.py, depixel/prepare/chroma_unmix.py);
-3. backdrop: make one colour fully transparent.
+3. backdrop: make one colour fully transparent where it reaches the border (or everywhere).
+
+A lossless input that looks anti-aliased or noisy gets a hint in ``notes`` instead
+(:mod:`.noisy`): denoising is on by default only for files that say they are lossy.
 
 Each step is its own module (:mod:`.pixelgrid`, :mod:`.palette` with :mod:`.chroma` and
 :mod:`.chroma_unmix`, :mod:`.backdrop`); this one holds the driver :func:`prepare`, its
@@ -34,8 +37,10 @@ import numpy as np
 
 from ..colour import Colour, parse_colour
 from ..errors import ParameterError
-from .backdrop import hex_code, make_transparent
+from ..frozen import compact_repr
+from .backdrop import Backdrop, hex_code, make_transparent
 from .image import as_rgba
+from .noisy import noise_hint
 from .palette import LEFTOVER_BLOCK, distinct_colours, snap_colours
 from .pixelgrid import AUTO, MAX_FACTOR, block_medians, find_grid, reduce_blocks
 
@@ -52,6 +57,8 @@ class PreparedImage:
     upscaled image has partial blocks at its edges, which still count as art pixels.
     """
 
+    __repr__ = compact_repr  # arrays as their shape, not their numbers
+
     rgba: np.ndarray
     input_size: tuple[int, int]  # (width, height) of the image as given
     pixel_size: tuple[int, int] = (1, 1)
@@ -63,6 +70,7 @@ class PreparedImage:
     subsampling: str | None = None  # the chroma subsampling undone while denoising ("4:2:0"), if any
     transparent: Colour | None = None  # the colour made transparent
     transparent_pixels: int = 0  # art pixels made transparent
+    transparent_kept: int = 0  # art pixels of that colour kept: inside the art, not joined to the border
     notes: tuple[str, ...] = ()  # what was looked for and not done, one phrase each
 
     @property
@@ -103,7 +111,8 @@ class PreparedImage:
             unmixed = f" ({self.subsampling} chroma unmixed)" if self.subsampling else ""
             parts.append(f"{source}{unmixed}: snapped {self.colours_before} colours to {self.palette}")
         if self.transparent is not None:
-            parts.append(f"made {hex_code(self.transparent)} transparent ({self.transparent_pixels} pixels)")
+            kept = f"; {self.transparent_kept} of that colour inside kept" if self.transparent_kept else ""
+            parts.append(f"made {hex_code(self.transparent)} transparent ({self.transparent_pixels} pixels{kept})")
         parts.extend(self.notes)
         if not parts:
             return None
@@ -123,12 +132,14 @@ class PreparedImage:
             "subsampling": self.subsampling,
             "transparent": hex_code(self.transparent) if self.transparent is not None else None,
             "transparent_pixels": self.transparent_pixels,
+            "transparent_kept": self.transparent_kept,
             "notes": list(self.notes),
         }
 
 
 def prepare(image, *, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
-            transparent: str | Colour | None = None, lossy: str | None = None) -> PreparedImage:
+            transparent: str | Colour | None = None, transparent_everywhere: bool = False,
+            lossy: str | None = None) -> PreparedImage:
     """Turn an image as given into the 1× pixel art to convert.
 
     Parameters
@@ -140,8 +151,10 @@ def prepare(image, *, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
         per art pixel (the grid offset is still fitted).
     denoise : snap near-identical colours to a small palette; ``None`` (default) does it
         when ``lossy`` names the format the pixels came from (JPEG, lossy WebP).
-    transparent : a colour (``(r, g, b)``, ``"#rrggbb"``, a CSS name) to make fully
-        transparent, or ``"auto"``: the colour of the four corners when they agree.
+    transparent : the backdrop colour (``(r, g, b)``, ``"#rrggbb"``, a CSS name), or
+        ``"auto"``: the colour of the four corners when they agree. Its pixels joined to the
+        border (4-connected) become fully transparent; the same colour inside the art stays.
+    transparent_everywhere : make every pixel of that colour transparent (a colour key).
     lossy : the lossy format the pixels were decoded from, if any (see :func:`lossy_format`);
         a PIL image opened from a JPEG file says so itself.
     """
@@ -168,19 +181,21 @@ def prepare(image, *, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
                                                leftovers=min(factor) >= LEFTOVER_BLOCK)
     elif grid is not None:
         rgba = reduce_blocks(rgba, grid)
+    if denoise is None and not lossy_pixels and (hint := noise_hint(rgba)) is not None:
+        notes.append(hint)  # a lossless file that looks like a lossy one: say what denoise would do
 
-    keyed, n_keyed = None, 0
-    if key_colour is not None:
-        rgba, keyed, n_keyed, note = make_transparent(rgba, key_colour, snapped=palette > 0)
-        if note:
-            notes.append(note)
+    keyed = Backdrop(rgba, None, 0, 0, None) if key_colour is None else \
+        make_transparent(rgba, key_colour, snapped=palette > 0, everywhere=transparent_everywhere)
+    rgba = keyed.rgba
+    if keyed.note:
+        notes.append(keyed.note)
 
     rgba = np.array(rgba, dtype=np.uint8, order="C")  # a copy: the caller's array stays writable
     rgba.flags.writeable = False
     return PreparedImage(rgba, (width, height), factor, offset, detected=size == AUTO and factor != (1, 1),
                          lossy=lossy, colours_before=colours_before, palette=palette, subsampling=subsampling,
-                         transparent=keyed,
-                         transparent_pixels=n_keyed, notes=tuple(notes))
+                         transparent=keyed.colour, transparent_pixels=keyed.pixels, transparent_kept=keyed.kept,
+                         notes=tuple(notes))
 
 
 # --- options ------------------------------------------------------------------------------------
