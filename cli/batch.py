@@ -14,7 +14,7 @@ jobs (how many workers, the run loop, the progress bar) is :mod:`depixel_cli.bat
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from depixel.errors import DepixelError, OutputError, display_name
@@ -35,7 +35,7 @@ class Options:
     """How to convert each file (the same for every job of a batch)."""
 
     params: Params
-    fmt: str  # svg, png or pdf
+    formats: tuple[str, ...]  # svg, png or pdf: one output of each per input (and frame)
     stage: str
     scale: float
     frames: str | int  # "first", "all" or a frame index
@@ -52,6 +52,7 @@ class Options:
     pixel_size: str | tuple[int, int] = "auto"  # input preparation (depixel/prepare/inputs.py)
     denoise: bool | None = None
     transparent: str | tuple[int, int, int] | None = None
+    transparent_everywhere: bool = False
     max_frames: int | None = DEFAULT_MAX_FRAMES
     #: an output named by ``-o``: converted even when up to date; one that is not depixel's
     #: (or was edited) is an error without ``force``, not a note
@@ -64,9 +65,12 @@ class Options:
 @dataclass(frozen=True, eq=False)
 class Job:
     source: Path
-    output: Path  # with frames="all", the name the frame names derive from
+    output: Path  # its first output; for -o FILE with frames="all", the name the frame names derive from
     options: Options
     frames: int = 1  # frames of the input, known when frames="all"
+    #: (frame, format, path) of every output, as named when planned (--out-dir, beside the
+    #: input, --name); empty for -o FILE, whose outputs derive from ``output``
+    targets: tuple[tuple[int, str, Path], ...] = ()
 
 
 #: Outcome states: converted/up to date/failed are in ``written``/``up_to_date``/``error``.
@@ -99,12 +103,14 @@ def current_traceback() -> str:
     return traceback.format_exc()
 
 
-def frame_targets(job: Job) -> list[tuple[int, Path]]:
-    """(frame index, output path) of every output of a job."""
-    opt = job.options
+def frame_targets(job: Job) -> list[tuple[int, str, Path]]:
+    """(frame index, format, output path) of every output of a job."""
+    if job.targets:
+        return list(job.targets)
+    opt, fmt = job.options, job.options.formats[0]
     if opt.frames == "all":
-        return list(enumerate(files.frame_outputs(job.output, job.frames)))
-    return [(0 if opt.frames == "first" else int(opt.frames), job.output)]
+        return [(frame, fmt, path) for frame, path in enumerate(files.frame_outputs(job.output, job.frames))]
+    return [(0 if opt.frames == "first" else int(opt.frames), fmt, job.output)]
 
 
 def run_job(job: Job) -> Outcome:
@@ -116,7 +122,7 @@ def run_job(job: Job) -> Outcome:
     opt = job.options
     try:
         if opt.frames == "all" and job.frames == 0:  # not counted when planned (a single -o)
-            job = Job(job.source, job.output, opt, frame_count(job.source, opt.max_frames))
+            job = replace(job, frames=frame_count(job.source, opt.max_frames))
         todo = _outputs_to_make(job, out)
         if todo:
             source = files.InputFile.read(job.source)
@@ -166,17 +172,18 @@ def kept_lines(out: Outcome) -> list[tuple[str, str]]:
 
 
 def _outputs_to_make(job: Job, out: Outcome) -> dict[int, list[tuple[Path, dict]]]:
-    """{frame: [(output, file options)]} of the outputs to convert; the others are added to
+    """{frame: [(output, file options), ...]} of the outputs to convert; the others are added to
     ``out.up_to_date`` (made from this input with these options), ``out.kept`` (not
     depixel's) or ``out.edited`` (changed since depixel wrote them)."""
     opt = job.options
-    todo = {}
-    for frame, target in frame_targets(job):
-        options = files.file_options(target, opt.params, fmt=opt.fmt, stage=opt.stage, scale=opt.scale,
+    todo: dict[int, list[tuple[Path, dict]]] = {}
+    for frame, fmt, target in frame_targets(job):
+        options = files.file_options(target, opt.params, fmt=fmt, stage=opt.stage, scale=opt.scale,
                                    frame=frame, background=opt.background, shading=opt.shading,
                                    precision=opt.precision, width=opt.width, height=opt.height,
                                    layout=opt.layout, simplify=opt.simplify, pixel_size=opt.pixel_size,
-                                   denoise=opt.denoise, transparent=opt.transparent)
+                                   denoise=opt.denoise, transparent=opt.transparent,
+                                   transparent_everywhere=opt.transparent_everywhere)
         if _same_file(target, job.source):  # said as the writer says it, before any work
             raise OutputError(f"{display_name(target)}: is the input file; refusing to overwrite it")
         now = stamps.NEW if opt.force else files.output_status(job.source, target, options)
@@ -187,7 +194,7 @@ def _outputs_to_make(job: Job, out: Outcome) -> dict[int, list[tuple[Path, dict]
         elif now == stamps.EDITED:
             out.edited.append(target)
         else:
-            todo[frame] = [(target, options)]
+            todo.setdefault(frame, []).append((target, options))
     return todo
 
 
@@ -205,8 +212,8 @@ def preview(job: Job) -> Outcome:
     try:
         frames = frame_count(job.source, job.options.max_frames if job.options.frames == "all" else None)
         if job.options.frames == "all" and job.frames == 0:  # the header is read: an unreadable input fails
-            job = Job(job.source, job.output, job.options, frames)
-        out.planned = [target for target, _ in _outputs_to_make(job, out).values()]
+            job = replace(job, frames=frames)
+        out.planned = [target for wanted in _outputs_to_make(job, out).values() for target, _ in wanted]
         if job.options.explicit and (out.kept or out.edited):
             out.error = kept_lines(out)[0][1]
     except DepixelError as exc:
@@ -219,7 +226,7 @@ def already_done(job: Job) -> Outcome | None:
     worker: a rerun of an unchanged batch starts no process), else None."""
     if job.options.force or job.options.explicit or (job.options.frames == "all" and job.frames == 0):
         return None
-    if not all(os.path.exists(target) for _, target in frame_targets(job)):
+    if not all(os.path.exists(target) for *_, target in frame_targets(job)):
         return None  # not made yet (a first run): no options stamp to compute (~0.5 ms a file)
     out = Outcome(job.source, job.output)
     try:
@@ -244,7 +251,7 @@ def abandoned(job: Job, begun: int) -> Outcome:
     out = Outcome(job.source, job.output, state=INTERRUPTED)
     if job.options.frames == "all" and job.frames == 0:
         return out
-    out.written = [target for _, target in frame_targets(job) if written_since(target, begun)]
+    out.written = [target for *_, target in frame_targets(job) if written_since(target, begun)]
     if len(out.written) == len(frame_targets(job)):
         out.state = DONE
     return out
@@ -263,13 +270,15 @@ def remove_temporary_files(job: Job) -> None:
     """Remove what an abandoned job may have left: the temporary files this run's processes
     made for each of its outputs (``.NAME.depixel-PID-TOKEN.tmp`` with this run's token,
     :mod:`depixel.files.output`), and no other file."""
-    for _, target in frame_targets(job) if job.options.frames != "all" or job.frames else [(0, job.output)]:
+    for *_, target in frame_targets(job) if job.options.frames != "all" or job.frames else [(0, "", job.output)]:
         written.remove_temporary(target, job.options.token)
 
 
 def record_prepared(out: Outcome, prepared: PreparedImage, source: Path | str, target: Path | str) -> None:
     """Note what preparing a frame found (a one-line note and a --json entry), if anything."""
     line = prepared.describe(display_name(source))
+    if line is not None and prepared.transparent_kept and prepared.transparent is not None:
+        line += " (--transparent-everywhere removes those too)"
     if line is not None:
         if line not in out.notes:  # frames of an animation usually say the same: once
             out.notes.append(line)

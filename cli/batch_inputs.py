@@ -7,12 +7,15 @@ outputs go (``--out-dir``, ``-r``, existing outputs) read apart from running the
 from __future__ import annotations
 
 import glob
+import string
 from pathlib import Path
 
 from depixel.errors import DepixelError, display_name
+from depixel.files import convert as files
+from depixel.files import stamp as stamps
 from depixel.prepare.image import frame_count
 
-from .batch import Job, Options, Outcome, frame_targets
+from .batch import Job, Options, Outcome
 from .options import error_message
 
 #: File extensions taken from folders and globs (explicitly named files are always tried).
@@ -20,15 +23,15 @@ IMAGE_SUFFIXES = frozenset({".png", ".gif", ".bmp", ".webp", ".tga", ".tif", ".t
                             ".pbm", ".pcx", ".ico", ".jpg", ".jpeg", ".qoi"})
 
 
-
-def expand_inputs(args: list[str], recursive: bool,
-                  exclude: Path | None = None) -> tuple[list[tuple[Path, Path]], list[tuple[str, str]]]:
+def expand_inputs(args: list[str], recursive: bool, exclude: Path | None = None,
+                  skip_outputs: bool = False) -> tuple[list[tuple[Path, Path]], list[tuple[str, str]]]:
     """Files to convert as (path, path relative to its folder or glob base), and the
     arguments that gave none as (argument, message).
 
     A folder contributes the images directly in it (all its subfolders with ``recursive``),
     a glob its matches; hidden files and anything under ``exclude`` (the output folder) are
-    left out. A file named twice is converted once.
+    left out, and with ``skip_outputs`` (outputs beside their inputs) the PNGs depixel wrote
+    (they carry its options stamp). A file named twice is converted once.
     """
     found: list[tuple[Path, Path]] = []
     problems: list[tuple[str, str]] = []
@@ -47,6 +50,8 @@ def expand_inputs(args: list[str], recursive: bool,
                                                             path.relative_to(base).parts) or not path.is_file():
             return False
         key = resolved[path] = path.resolve()
+        if skip_outputs and path.suffix.lower() == ".png" and stamps.read(path) is not None:
+            return False  # an output of an earlier run beside its input
         # the output folder, when it lies inside an input folder, is not an input
         return outputs is None or outputs == base_key or outputs not in key.parents
 
@@ -85,8 +90,60 @@ def _glob_base(pattern: str) -> Path:
     return Path(*fixed) if fixed else Path(".")
 
 
-def plan(found: list[tuple[Path, Path]], out_dir: Path, options: Options) -> tuple[list[Job], list[Outcome]]:
-    """One job per input, its output under ``out_dir`` at the same relative place.
+#: the fields of ``--name TEMPLATE`` (docs/cli.md)
+NAME_FIELDS = ("stem", "suffix", "frame")
+DEFAULT_NAME = "{stem}"
+
+
+def name_template(text: str) -> str:
+    """``--name``: a template of the fields NAME_FIELDS, without a format spec or a folder;
+    raises ValueError with what is wrong."""
+    try:
+        parts = list(string.Formatter().parse(text))
+    except ValueError as exc:
+        raise ValueError(f"{text!r}: {exc} (write {{{{ and }}}} for a brace)") from None
+    for _, field, spec, conversion in parts:
+        fields = ", ".join("{" + f + "}" for f in NAME_FIELDS)
+        if field is not None and field not in NAME_FIELDS:
+            raise ValueError(f"{text!r}: unknown field {{{field}}}; use {fields}")
+        if field is not None and (spec or conversion):
+            raise ValueError(f"{text!r}: the fields take no format ({{{field}}} as it is); use {fields}")
+    sample = text.format(stem="a", suffix="png", frame="000")
+    if "/" in sample or "\\" in sample:
+        raise ValueError(f"{text!r}: a name, not a folder (outputs go to --out-dir DIR or beside their input)")
+    if not sample.strip(". "):
+        raise ValueError(f"{text!r}: names nothing")
+    return text
+
+
+def output_targets(source: Path, folder: Path, options: Options, n_frames: int,
+                   name: str = DEFAULT_NAME) -> tuple[tuple[int, str, Path], ...]:
+    """(frame, format, path) of every output of ``source`` in ``folder``: ``name`` filled in
+    (``{stem}``, ``{suffix}`` the input's extension without the dot, ``{frame}`` the frame
+    number, 000, 001, …) plus each format's extension. Several frames and no ``{frame}``
+    in the name: ``name-000.svg``, ``name-001.svg``, …"""
+    if options.frames == "all":
+        frames = list(range(n_frames))
+    else:
+        frames = [0 if options.frames == "first" else int(options.frames)]
+    digits = max(3, len(str(max(frames))))
+    uses_frame = any(field == "frame" for _, field, _, _ in string.Formatter().parse(name))
+    targets = []
+    for fmt in options.formats:
+        named = [(frame, name.format(stem=source.stem, suffix=source.suffix[1:], frame=f"{frame:0{digits}d}"))
+                 for frame in frames]
+        if len(frames) > 1 and not uses_frame:
+            paths = files.frame_outputs(folder / f"{named[0][1]}.{fmt}", len(frames))
+        else:
+            paths = [folder / f"{stem}.{fmt}" for _, stem in named]
+        targets += [(frame, fmt, path) for frame, path in zip(frames, paths)]
+    return tuple(sorted(targets, key=lambda target: target[0]))  # frame by frame, formats as given
+
+
+def plan(found: list[tuple[Path, Path]], out_dir: Path | None, options: Options,
+         name: str = DEFAULT_NAME) -> tuple[list[Job], list[Outcome]]:
+    """One job per input, its outputs under ``out_dir`` at the same relative place, or
+    beside the input when ``out_dir`` is None, named by ``name`` (:func:`output_targets`).
 
     With ``frames="all"`` the frames of each input are counted here, so the names compared
     are the real ones (an animation gives ``name-000.svg``, … and a still image
@@ -97,25 +154,32 @@ def plan(found: list[tuple[Path, Path]], out_dir: Path, options: Options) -> tup
     owner: dict[Path, Path] = {}
     jobs, failed = [], []
     for path, rel in found:
-        output = out_dir / rel.with_suffix("." + options.fmt)
+        folder = path.parent if out_dir is None else out_dir / rel.parent
         n_frames = 1
         if options.frames == "all":
             try:
                 n_frames = frame_count(path, options.max_frames)
             except DepixelError as exc:
-                failed.append(Outcome(path, output, error=error_message(exc)))
+                failed.append(Outcome(path, folder / f"{path.stem}.{options.formats[0]}", error=error_message(exc)))
                 continue
-        job = Job(path, output, options, n_frames)
-        keys = [target.resolve() for _, target in frame_targets(job)]
-        clash = next((k for k in keys if k in inputs or k in owner), None)
+        targets = output_targets(path, folder, options, n_frames, name)
+        job = Job(path, targets[0][2], options, n_frames, targets)
+        clash = next((target for *_, target in targets if target.resolve() in inputs or target.resolve() in owner),
+                     None)
         if clash is not None:
-            shown = display_name(out_dir / clash.relative_to(out_dir.resolve())) if clash.is_relative_to(
-                out_dir.resolve()) else display_name(clash)
-            reason = "would overwrite an input" if clash in inputs else \
-                f"is already the output of {display_name(owner[clash])}"
-            failed.append(Outcome(path, output, error=f"{display_name(path)}: output {shown} {reason}"))
+            key = clash.resolve()
+            reason = "would overwrite an input" if key in inputs else \
+                f"is already the output of {display_name(owner[key])}"
+            if key in inputs:
+                hint = "; name the outputs otherwise with --name, e.g. --name '{stem}-depixel'"
+            elif "{suffix}" not in name:
+                hint = "; name the outputs apart with --name, e.g. --name '{stem}-{suffix}'"
+            else:
+                hint = ""
+            failed.append(Outcome(path, job.output, error=f"{display_name(path)}: output {display_name(clash)} "
+                                                         f"{reason}{hint}"))
             continue
-        owner.update((k, path) for k in keys)
+        owner.update((target.resolve(), path) for *_, target in targets)
         jobs.append(job)
     return jobs, failed
 

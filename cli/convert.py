@@ -31,12 +31,13 @@ from .batch import (
     summary,
     totals_line,
 )
-from .batch_inputs import expand_inputs, make_folders, plan
+from .batch_inputs import DEFAULT_NAME, expand_inputs, make_folders, name_template, plan
 from .batch_run import Progress, auto_jobs, cores, run
 from .options import (
     Exit,
     add_input_options,
     add_tuning,
+    check_input_options,
     colour,
     error_message,
     int_range,
@@ -48,10 +49,11 @@ from .options import (
 
 DESCRIPTION = """\
 examples:
-  depixel convert sprite.png -o sprite.svg              smooth vector art (the paper's result)
+  depixel convert sprite.png                            sprite.svg beside it (the paper's result)
   depixel convert sprite.png -o sprite.png --scale 8    rendered 8x as PNG (or .pdf)
   depixel convert icons/ -r --out-dir svg/ -j 4         a whole folder tree, 4 files at a time
   depixel convert 'art/*.gif' --out-dir out --frames all    every frame: name-000.svg, ...
+  depixel convert art/ --out-dir out --format svg,png --name '{stem}-{suffix}'   two formats
   cat sprite.png | depixel convert - -o - > sprite.svg  stdin to stdout
   depixel convert sprite.png -o cells.svg --stage cells     only the reshaped pixel cells
   depixel convert ghost_x4.jpg -o ghost.svg --transparent auto   upscaled JPEG on a backdrop
@@ -60,7 +62,8 @@ Convert pixel art to SVG, PNG or PDF (Kopf & Lischinski, Depixelizing Pixel Art,
 Upscaled pixel art is detected and converted at 1x, the SVG laid over the input (same
 width/height); JPEG noise is snapped to a palette (see the input options and docs/inputs.md).
 The format comes from the output's extension (--format for a name without .svg/.png/.pdf;
-a format that contradicts the extension is refused). With --out-dir, outputs keep the
+a format that contradicts the extension is refused). Without -o and --out-dir, each output
+is written beside its input (sprite.png -> sprite.svg); with --out-dir, outputs keep the
 inputs' relative folders; an output made from the same input with the same options is up
 to date and skipped (--force reconverts it). An existing output that depixel did not write
 (no stamp) is kept, and one edited since depixel wrote it is kept and reported as an error,
@@ -82,6 +85,22 @@ def frames_option(text: str) -> str | int:
         raise argparse.ArgumentTypeError(f"expected first, all or a frame number, not {text!r}") from None
 
 
+def formats_option(text: str) -> tuple[str, ...]:
+    """``--format``: one format or several, comma-separated (``svg,png``), each once."""
+    formats = tuple(dict.fromkeys(part.strip().lower() for part in text.split(",")))
+    unknown = [f for f in formats if f not in api.FORMATS]
+    if unknown or not formats:
+        raise argparse.ArgumentTypeError(f"{text!r}: choose from {', '.join(api.FORMATS)} (several: svg,png)")
+    return formats
+
+
+def template_option(text: str) -> str:
+    try:
+        return name_template(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def jobs_option(text: str) -> str | int:
     if text == "auto":
         return text
@@ -94,17 +113,22 @@ def jobs_option(text: str) -> str | int:
 def add_parser(sub, name: str, help: str) -> None:
     """Define the subcommand ``name`` (convert) with its arguments."""
     p = sub.add_parser(name, help=help, description=DESCRIPTION,
-                       usage="%(prog)s INPUT... (-o FILE | --out-dir DIR) [options]",
+                       usage="%(prog)s INPUT... [-o FILE | --out-dir DIR] [options]",
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.set_defaults(run=run_convert, parser=p)
     p.add_argument("inputs", nargs="+", metavar="INPUT",
                    help="image files, folders or globs; - reads one image from stdin")
-    out = p.add_argument_group("output")
+    out = p.add_argument_group("output (default: each output beside its input, sprite.png -> sprite.svg)")
     out.add_argument("-o", "--output", metavar="FILE", help="output file for a single input; - writes to stdout")
-    out.add_argument("--out-dir", metavar="DIR", type=Path, help="folder for the outputs of many inputs")
-    out.add_argument("--format", choices=api.FORMATS,
-                     help="output format (default: from -o's extension, else svg); "
-                          "must agree with a .svg/.png/.pdf name")
+    out.add_argument("--out-dir", metavar="DIR", type=Path,
+                     help="folder for the outputs, at the inputs' relative places")
+    out.add_argument("--format", type=formats_option, metavar="svg|png|pdf[,...]",
+                     help="output format (default: from -o's extension, else svg); must agree with a "
+                          ".svg/.png/.pdf name; several, comma-separated, write one output of each (without -o)")
+    out.add_argument("--name", type=template_option, metavar="TEMPLATE",
+                     help="name of each output without -o, the format's extension added: {stem} (the "
+                          "input's name without extension, the default), {suffix} (its extension without the "
+                          "dot), {frame} (the frame number, 000, 001, ...); e.g. --name '{stem}-{suffix}'")
     size = out.add_mutually_exclusive_group()
     size.add_argument("--scale", type=positive_float, default=1.0,
                       help="size as a multiple of the input's size: SVG width/height, PNG pixels, PDF size "
@@ -165,29 +189,13 @@ def add_parser(sub, name: str, help: str) -> None:
 
 def run_convert(args: argparse.Namespace) -> int:
     parser = args.parser
-    if args.output is not None and args.out_dir is not None:
-        parser.error("give either -o FILE (one input) or --out-dir DIR (many), not both")
-    if args.output is None and args.out_dir is None:
-        parser.error("say where to write: -o FILE (one input, - for stdout) or --out-dir DIR")
-    if "-" in args.inputs and (len(args.inputs) > 1 or args.out_dir is not None):
-        parser.error("- (stdin) must be the only input, with -o FILE or -o -")
-    if args.output == "-" and (args.frames == "all" or args.json):
-        parser.error("-o - writes one image to stdout: no --frames all or --json with it")
-    if args.dry_run and (args.output == "-" or "-" in args.inputs):
-        parser.error("--dry-run looks at output files: not with - (stdin or stdout)")
-    if args.out_dir is not None and args.out_dir.exists() and not args.out_dir.is_dir():
-        parser.error(f"--out-dir {display_name(args.out_dir)}: is a file, not a folder")
-    if args.dask is not None and args.out_dir is None:
-        parser.error("--dask converts batches: use it with --out-dir DIR")
-    try:
-        fmt = files.output_format(args.output, args.format) if args.output not in (None, "-") else args.format or "svg"
-    except OutputError as exc:
-        parser.error(str(exc).replace("the format", "--format").replace("give --format", "use --format"))
-    options = Options(params_from_args(args), fmt, args.stage, args.scale, args.frames, args.background,
+    formats = _check_destination(args)
+    options = Options(params_from_args(args), formats, args.stage, args.scale, args.frames, args.background,
                       args.max_pixels, force=args.force, shading=args.shading, precision=args.precision,
                       width=args.width, height=args.height, max_output_pixels=args.max_output_pixels,
                       layout=args.layout, simplify=args.simplify, pixel_size=args.pixel_size, denoise=args.denoise,
-                      transparent=args.transparent, max_frames=args.max_frames)
+                      transparent=args.transparent, transparent_everywhere=args.transparent_everywhere,
+                      max_frames=args.max_frames)
 
     start = time.perf_counter()
     signals = args.signals
@@ -198,8 +206,8 @@ def run_convert(args: argparse.Namespace) -> int:
     elif args.output is not None:
         found, problems = expand_inputs(args.inputs, args.recursive)
         if problems or len(found) != 1:
-            parser.error(problems[0][1] if problems else
-                         f"-o takes one input, not {len(found)}; use --out-dir DIR for several")
+            parser.error(problems[0][1] if problems else f"-o takes one input, not {len(found)}; use --out-dir DIR "
+                         "for several (or neither: each output is written beside its input)")
         # an explicitly named output is written even when up to date; its frames are counted by the job
         job = Job(found[0][0], Path(args.output), replace(options, explicit=True), frames=0)
         if args.dry_run:
@@ -213,17 +221,49 @@ def run_convert(args: argparse.Namespace) -> int:
     interrupted = signals.signum is not None
     if args.json:
         print(json.dumps(summary(outcomes, seconds, interrupted, args.dry_run), indent=2))
-    if (args.out_dir is not None and not args.quiet) or interrupted:  # every batch, in a terminal or a log
+    if (args.output is None and not args.quiet) or interrupted:  # every batch, in a terminal or a log
         print(f"depixel: {totals_line(outcomes, seconds, interrupted, args.dry_run)}", file=sys.stderr)
     if interrupted:
         return 128 + signals.signum
     return Exit.FAILED if any(o.error or o.edited or o.changed for o in outcomes) else Exit.OK
 
 
+def _check_destination(args: argparse.Namespace) -> tuple[str, ...]:
+    """Refuse contradictory destinations (usage errors); the output formats."""
+    parser = args.parser
+    if args.output is not None and args.out_dir is not None:
+        parser.error("give either -o FILE (one input) or --out-dir DIR (many), not both")
+    if "-" in args.inputs and (len(args.inputs) > 1 or args.output is None):
+        parser.error("- (stdin) must be the only input, with -o FILE or -o -")
+    if args.output == "-" and (args.frames == "all" or args.json):
+        parser.error("-o - writes one image to stdout: no --frames all or --json with it")
+    if args.dry_run and (args.output == "-" or "-" in args.inputs):
+        parser.error("--dry-run looks at output files: not with - (stdin or stdout)")
+    if args.out_dir is not None and args.out_dir.exists() and not args.out_dir.is_dir():
+        parser.error(f"--out-dir {display_name(args.out_dir)}: is a file, not a folder")
+    if args.dask is not None and args.output is not None:
+        parser.error("--dask converts batches: use it with --out-dir DIR (or without -o)")
+    if args.output is not None and args.name is not None:
+        parser.error("-o FILE names the output itself; --name names those of --out-dir DIR or beside the input")
+    check_input_options(args)
+    if args.output is not None and args.format is not None and len(args.format) > 1:
+        parser.error("-o writes one file in one format; for several formats use --out-dir DIR or no -o "
+                     "(each output is then written beside its input)")
+    if args.output in (None, "-"):
+        return args.format or ("svg",)
+    try:
+        fmt = files.output_format(args.output, args.format and args.format[0])
+    except OutputError as exc:
+        parser.error(str(exc).replace("the format", "--format").replace("give --format", "use --format"))
+    return (fmt,)
+
+
 def _convert_batch(args: argparse.Namespace, options: Options) -> list[Outcome]:
-    """Every input under --out-dir: plan, make folders, run the pool with a progress bar."""
-    found, problems = expand_inputs(args.inputs, args.recursive, exclude=args.out_dir)
-    jobs, failed = plan(found, args.out_dir, options)
+    """Every input under --out-dir, or beside itself: plan, make folders, run the pool with a
+    progress bar."""
+    beside = args.out_dir is None
+    found, problems = expand_inputs(args.inputs, args.recursive, exclude=args.out_dir, skip_outputs=beside)
+    jobs, failed = plan(found, args.out_dir, options, args.name or DEFAULT_NAME)
     if args.dry_run:  # no folder made, nothing written
         outcomes = failed + [Outcome(Path(arg), error=text) for arg, text in problems] + [preview(j) for j in jobs]
         _list_planned(outcomes, args)
@@ -273,16 +313,17 @@ def _to_stdout(source: files.InputFile, options: Options, out: Outcome) -> None:
     rgba = load_image(source.data, options.max_pixels, frame, max_frames=options.max_frames, name=source.name)
     prepared = api.prepare_input(rgba, background=options.background, pixel_size=options.pixel_size,
                                  denoise=options.denoise, transparent=options.transparent,
+                                 transparent_everywhere=options.transparent_everywhere,
                                  lossy=lossy_format(source.data))
     record_prepared(out, prepared, source.name, "-")
-    blob = api.convert_bytes(prepared, options.fmt, options.params, stage=options.stage, scale=options.scale,
+    blob = api.convert_bytes(prepared, options.formats[0], options.params, stage=options.stage, scale=options.scale,
                              shading=options.shading, name=source.name,
                              title=None if source.path is None else source.path.name,
                              precision=options.precision, width=options.width, height=options.height,
                              max_pixels=options.max_pixels, max_output_pixels=options.max_output_pixels,
                              layout=options.layout, simplify=options.simplify)
-    if options.fmt != "svg" and sys.stdout.isatty():
-        raise OutputError(f"refusing to write binary {options.fmt.upper()} to a terminal")
+    if options.formats[0] != "svg" and sys.stdout.isatty():
+        raise OutputError(f"refusing to write binary {options.formats[0].upper()} to a terminal")
     sys.stdout.buffer.write(blob)
     sys.stdout.buffer.flush()
 
@@ -295,10 +336,11 @@ def _stream_to_files(source: files.InputFile, output: Path, options: Options, ou
     else:
         frames = [(0 if options.frames == "first" else int(options.frames), output)]
     targets = {frame: [(target, files.file_options(
-        target, options.params, fmt=options.fmt, stage=options.stage, scale=options.scale, frame=frame,
+        target, options.params, fmt=options.formats[0], stage=options.stage, scale=options.scale, frame=frame,
         background=options.background, shading=options.shading, precision=options.precision, width=options.width,
         height=options.height, layout=options.layout, simplify=options.simplify, pixel_size=options.pixel_size,
-        denoise=options.denoise, transparent=options.transparent))] for frame, target in frames}
+        denoise=options.denoise, transparent=options.transparent,
+        transparent_everywhere=options.transparent_everywhere))] for frame, target in frames}
     for target, _ in (output for wanted in targets.values() for output in wanted):
         now = stamps.NEW if options.force else stamps.replaceable(target)
         (out.kept if now == stamps.UNSTAMPED else out.edited if now == stamps.EDITED else []).append(target)

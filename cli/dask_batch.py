@@ -87,7 +87,8 @@ def run_dask(jobs: list[Job], address: str, report, signals, progress: Progress 
 
 
 def _absolute(job: Job) -> Job:
-    return replace(job, source=job.source.absolute(), output=job.output.absolute())
+    return replace(job, source=job.source.absolute(), output=job.output.absolute(),
+                   targets=tuple((frame, fmt, path.absolute()) for frame, fmt, path in job.targets))
 
 
 def _outcome(future, job: Job, sent: Job) -> Outcome:
@@ -99,7 +100,7 @@ def _outcome(future, job: Job, sent: Job) -> Outcome:
             else f"Dask task failed ({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})"
         return Outcome(job.source, job.output, error=f"{display_name(job.source)}: {reason}")
     names = {str(sent.source): str(job.source)}
-    names.update((str(a), str(b)) for (_, a), (_, b) in zip(frame_targets(sent), frame_targets(job)))
+    names.update((str(a), str(b)) for (*_, a), (*_, b) in zip(frame_targets(sent), frame_targets(job)))
     local = {Path(a): Path(b) for a, b in names.items()}
     outcome.source, outcome.output = job.source, job.output
     outcome.written = [local.get(p, p) for p in outcome.written]

@@ -225,7 +225,12 @@ def test_tuning_flags_reach_the_pipeline(tmp_path):
 
 
 @pytest.mark.parametrize("argv", [
-    ["convert", "x.png"],  # no -o / --out-dir
+    ["convert", "-"],  # stdin needs -o
+    ["convert", "a.png", "-o", "x.svg", "--name", "{stem}"],  # -o names the file itself
+    ["convert", "a.png", "-o", "x.svg", "--format", "svg,png"],  # -o is one file
+    ["convert", "a.png", "--name", "{nope}"],
+    ["convert", "a.png", "--name", "sub/{stem}"],
+    ["convert", "a.png", "--format", "svg,gif"],
     ["convert", "a.png", "b.png", "-o", "x.svg"],
     ["convert", "a.png", "-o", "x.svg", "--out-dir", "d"],
     ["convert", "a.png", "-o", "x.jpg"],

@@ -435,7 +435,7 @@ def test_an_output_the_dead_worker_completed_counts_as_converted(tmp_path, monke
     import depixel
     from depixel_cli import batch, batch_run, pool
 
-    options = batch.Options(depixel.Params(), "svg", "cells", 1.0, "first", None, None, force=False)
+    options = batch.Options(depixel.Params(), ("svg",), "cells", 1.0, "first", None, None, force=False)
     (tmp_path / "out").mkdir()
     jobs = [batch.Job(FIXTURES / name, tmp_path / "out" / f"{name}.svg", options) for name in ("heart.png", "ghost.png")]
 

@@ -133,7 +133,7 @@ def test_a_failure_in_frame_k_leaves_no_partial_frame_set(tmp_path, monkeypatch,
     before = {p.name: p.read_bytes() for p in out.iterdir()}
     assert sorted(before) == ["anim-000.svg", "anim-001.svg", "anim-002.svg"]
     gif(src / "anim.gif", 3, 14)  # a new version of the animation
-    real, calls = files.conversion_bytes, []
+    real, calls = files.conversions, []
 
     def fails_on_frame_1(*args, **kwargs):
         calls.append(1)
@@ -141,7 +141,7 @@ def test_a_failure_in_frame_k_leaves_no_partial_frame_set(tmp_path, monkeypatch,
             raise InputError("anim.gif: frame 1 is broken")
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(files, "conversion_bytes", fails_on_frame_1)
+    monkeypatch.setattr(files, "conversions", fails_on_frame_1)
     assert main(argv) == Exit.FAILED
     assert "frame 1 is broken" in capsys.readouterr().err
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # old set whole, no .tmp

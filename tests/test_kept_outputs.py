@@ -173,14 +173,14 @@ def test_an_input_changed_during_its_conversion_is_reported_and_converted_again(
     exit 1; the output is of the version read and is not up to date: the next run converts
     the new input, and the one after finds it up to date."""
     src, out, run = batch
-    real = files.conversion_bytes
+    real = files.conversions
 
     def replaced_meanwhile(*args, **kwargs):
         if kwargs["title"] == "heart.png":  # after the read, before the write
             shutil.copy(FIXTURES / "ghost.png", src / "heart.png")
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(files, "conversion_bytes", replaced_meanwhile)
+    monkeypatch.setattr(files, "conversions", replaced_meanwhile)
     code, statuses, report = run()
     monkeypatch.undo()
     assert code == Exit.FAILED and report["changed"] == 1

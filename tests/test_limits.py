@@ -216,7 +216,7 @@ def test_frames_all_reads_the_file_once(tmp_path, monkeypatch):
     reads = []
     original = image.read_source
     monkeypatch.setattr(image, "read_source", lambda source: reads.append(source) or original(source))
-    options = Options(depixel.Params(), "svg", "cells", 1.0, "all", None, None, force=False)
+    options = Options(depixel.Params(), ("svg",), "cells", 1.0, "all", None, None, force=False)
     (tmp_path / "out").mkdir()
     outcome = run_job(Job(gif, tmp_path / "out" / "many.svg", options, 30))
     assert outcome.error is None and len(outcome.written) == 30

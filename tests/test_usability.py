@@ -93,7 +93,8 @@ def test_frames_all_keeps_still_names_and_reports_only_real_collisions(tmp_path,
     code = main(["convert", str(one), "--out-dir", str(tmp_path / "out1"), "--frames", "all", "-j", "1"])
     assert code == Exit.FAILED
     line = one_line(drop_summary(capsys.readouterr().err))
-    assert "boo.png: output" in line and "boo.svg is already the output of" in line and line.endswith("boo.gif")
+    assert "boo.png: output" in line and "boo.svg is already the output of" in line
+    assert line.endswith("boo.gif; name the outputs apart with --name, e.g. --name '{stem}-{suffix}'")
     assert [p.name for p in (tmp_path / "out1").iterdir()] == ["boo.svg"]
 
 
