@@ -48,22 +48,39 @@ class Runtime:
 
 
 @functools.cache
-def inkscape_runtime() -> Runtime | None:
+def inkscape_runtime() -> Runtime | str:
     """Inkscape's inkex (``inkscape --system-data-directory``/extensions) with the first
-    Python that imports it, as Inkscape's own ``python3`` would; None without Inkscape."""
+    Python that imports it, as Inkscape's own ``python3`` would; without one, why not: what
+    is missing, found the way ``depixel inkscape check`` finds it."""
     inkscape = shutil.which("inkscape")
     if inkscape is None:
-        return None
+        return "Inkscape is not installed (no inkscape on PATH)"
     done = subprocess.run([inkscape, "--system-data-directory"], capture_output=True, text=True, timeout=120)
     folder = Path(done.stdout.strip().splitlines()[-1] if done.stdout.strip() else "") / "extensions"
     if not (folder / "inkex" / "__init__.py").is_file():
-        return None
-    for python in ("/usr/bin/python3", shutil.which("python3"), sys.executable):
-        if python and os.path.isfile(python) and subprocess.run(
-                [python, "-c", "import inkex"], env={**os.environ, "PYTHONPATH": str(folder)},
-                capture_output=True).returncode == 0:
+        return f"Inkscape is installed but its inkex is not in {folder}"
+    lacking = []
+    for python in dict.fromkeys(("/usr/bin/python3", shutil.which("python3"), sys.executable)):
+        if not python or not os.path.isfile(python):
+            continue
+        env = {**os.environ, "PYTHONPATH": str(folder)}
+        if subprocess.run([python, "-c", "import inkex"], env=env, capture_output=True).returncode == 0:
             return Runtime("inkscape", python, str(folder))
-    return None
+        lacking.append(why_not(python, env))
+    return f"Inkscape is installed but no Python here imports its inkex: {'; '.join(lacking)}"
+
+
+def why_not(python: str, env: dict) -> str:
+    """What ``python`` lacks to import inkex, and the command that installs it."""
+    done = subprocess.run([python, str(installer.SOURCE / "depixel_inkscape_check.py")], env=env,
+                          capture_output=True, text=True)
+    try:
+        report = json.loads(done.stdout)
+    except ValueError:
+        return f"{python} does not run the check ({done.stderr.strip().splitlines()[-1:]})"
+    if report["missing"]:
+        return f"{python} lacks {', '.join(report['missing'])} ({report['fix']})"
+    return f"{python} imports its modules but not inkex"
 
 
 def pypi_runtime() -> Runtime:
@@ -79,8 +96,8 @@ def runtime(request) -> Runtime:
     if request.param == "pypi":
         return pypi_runtime()
     found = inkscape_runtime()
-    if found is None:
-        pytest.skip("Inkscape (and a Python that imports its inkex) is not installed")
+    if isinstance(found, str):
+        pytest.skip(found)
     return found
 
 
@@ -459,11 +476,28 @@ def test_dialog_path_comes_before_the_environment(tmp_path, depixel_program):
 
 # --- depixel inkscape install / uninstall ---------------------------------------------------------
 
-def test_install_then_convert_then_uninstall(tmp_path, capsys):
+def ready_python(profile: Path, monkeypatch) -> None:
+    """Inkscape's preferences in ``profile`` name this Python, with stand-ins on PYTHONPATH for
+    the modules inkex needs that the test environment lacks (cssselect), so that the check
+    ``install`` runs first passes whatever this machine's python3 has (tests/test_inkscape_check.py
+    tests the check itself)."""
+    profile.mkdir(parents=True, exist_ok=True)
+    (profile / "preferences.xml").write_text(
+        f'<inkscape><group id="extensions" python-interpreter="{sys.executable}"/></inkscape>')
+    stubs = profile / "stubs"
+    for module in ("lxml", "cssselect", "numpy"):
+        if subprocess.run([sys.executable, "-c", f"import {module}"], capture_output=True).returncode:
+            (stubs / module).mkdir(parents=True, exist_ok=True)
+            (stubs / module / "__init__.py").write_text("")
+    monkeypatch.setenv("PYTHONPATH", str(stubs))
+
+
+def test_install_then_convert_then_uninstall(tmp_path, capsys, monkeypatch):
     """The acceptance test: install, run the installed script with no DEPIXEL and no
     depixel on PATH (it uses the command install recorded), uninstall."""
     folder = tmp_path / "extensions"
     folder.mkdir()
+    ready_python(tmp_path, monkeypatch)
     (folder / "other.inx").write_text("another extension")
     assert main(["inkscape", "install", "--dir", str(folder)]) == Exit.OK
     assert str(folder) in capsys.readouterr().out
@@ -493,6 +527,7 @@ def test_install_asks_inkscape_for_its_folder(tmp_path, monkeypatch, capsys):
     fake.write_text(f'#!/bin/sh\n[ "$1" = --user-data-directory ] && echo "{data}"\n')
     fake.chmod(0o755)
     monkeypatch.setenv("PATH", str(fake.parent))
+    ready_python(data, monkeypatch)
     assert main(["inkscape", "install"]) == Exit.OK
     assert sorted(p.name for p in (data / "extensions").iterdir()) == sorted(installer.INSTALLED)
     assert main(["inkscape", "uninstall"]) == Exit.OK

@@ -15,7 +15,8 @@ the root's size and viewBox, so it works with any version of depixel's SVG write
 id it imports is made unique in the document. Runs on Python 3.7+ with inkex 1.0 to 1.4.
 
 This file finds the bitmaps and runs depixel; putting the drawing in place (the viewBox
-mapping, unique ids, SVG lengths and transforms) is ``depixel_inkscape_place.py``, which
+mapping, unique ids, SVG lengths and transforms) is ``depixel_inkscape_place.py``, and
+saying what Inkscape's Python lacks is ``depixel_inkscape_check.py``, which
 ``depixel inkscape install`` puts beside it and the ``.inx`` declares.
 """
 from __future__ import annotations
@@ -30,8 +31,13 @@ import tempfile
 import urllib.parse
 import urllib.request
 
-import inkex
-from depixel_inkscape_place import SVG_NS, XLINK_HREF, describe, local_name, replace_image
+import depixel_inkscape_check as check  # the standard library only: it runs where inkex cannot
+
+try:
+    import inkex
+    from depixel_inkscape_place import SVG_NS, XLINK_HREF, describe, local_name, replace_image
+except ImportError as exc:  # Inkscape's Python lacks lxml, numpy, ...: one line saying how to install them
+    check.exit_missing(exc)
 
 SODIPODI_ABSREF = "{http://sodipodi.sourceforge.net/DTD/sodipodi-0.dtd}absref"
 
@@ -301,4 +307,5 @@ def _explain(stderr: str, bitmap: str) -> str:
 
 
 if __name__ == "__main__":
+    check.messages_to_inkscape()  # under --batch-process: no dialog waiting for OK
     DepixelizeEffect().run()
