@@ -11,7 +11,8 @@ options, and judged against the clean 1× PNG:
   q85-422  saved as JPEG quality 85 with 4:2:2 subsampling (no target)
   q85-444  the same without chroma subsampling (no target)
   key      --transparent auto (sprites whose corners agree), judged against the sprite
-           with that colour at alpha 0
+           with that colour at alpha 0 where it reaches the border (4-connected, found with
+           scipy.ndimage.label: not the code under test)
 
 The judge renders an SVG at the clean image's size, so it gets the SVG of the prepared 1×
 image (``pixel_size=1`` on ``PreparedImage.rgba``): the same shapes as the default output,
@@ -75,6 +76,15 @@ def damaged(clean: np.ndarray, variant: str) -> tuple[bytes, str] | None:
     return buffer.getvalue(), ("jpg" if "q" in variant else "png")
 
 
+def backdrop(clean: np.ndarray) -> np.ndarray:
+    """The pixels of the corner colour joined to the border, 4-connected."""
+    from scipy import ndimage  # noqa: PLC0415 (the test extra)
+
+    labels, _ = ndimage.label((clean[..., :3] == clean[0, 0, :3]).all(axis=2))
+    border = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
+    return np.isin(labels, border[border > 0])
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--shared", type=Path, default=SHARED, help="the shared folder (corpus and judge)")
@@ -107,7 +117,7 @@ def main() -> int:
             if variant == "key":
                 prepared = prepare(load_image(path), transparent="auto")
                 expected = clean.copy()
-                expected[..., 3][(clean[..., :3] == clean[0, 0, :3]).all(axis=2)] = 0
+                expected[..., 3][backdrop(clean)] = 0
                 truth = work / f"{src.stem}_keyed.png"
                 Image.fromarray(expected, "RGBA").save(truth)
             else:

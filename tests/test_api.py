@@ -9,7 +9,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
-from conftest import FIXTURES, ROOT, art
+from conftest import FIXTURES, art
 from PIL import Image
 
 import depixel
@@ -151,15 +151,3 @@ def test_missing_cairo_library_is_a_render_error(tmp_path, monkeypatch):
 def test_cairosvg_version_from_metadata():
     version = raster.cairosvg_version()
     assert version and version[0].isdigit()
-
-
-def test_docs_example_runs(tmp_path, monkeypatch, capsys):
-    text = (ROOT / "docs" / "api.md").read_text()
-    blocks = re.findall(r"```python\n(.*?)```", text, flags=re.S)
-    assert blocks, "docs/api.md has no python example"
-    shutil.copytree(FIXTURES, tmp_path / "fixtures")
-    monkeypatch.chdir(tmp_path)
-    for code in blocks:
-        exec(compile(code, "docs/api.md", "exec"), {"__name__": "docs_example"})
-    assert capsys.readouterr().out == "fixtures/missing.png: no such file\n"
-    assert (tmp_path / "heart.svg").exists() and (tmp_path / "heart.png").exists()

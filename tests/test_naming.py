@@ -81,6 +81,7 @@ def test_help_says_where_outputs_go(capsys):
         main(["convert", "--help"])
     text = " ".join(capsys.readouterr().out.split())
     assert "default: each output beside its input, sprite.png -> sprite.svg" in text
+    assert "Without -o and --out-dir, each output is written beside its input (sprite.png -> sprite.svg)" in text
     assert "--name TEMPLATE" in text and "{suffix}" in text
 
 
