@@ -276,9 +276,7 @@ def remove_temporary_files(job: Job) -> None:
 
 def record_prepared(out: Outcome, prepared: PreparedImage, source: Path | str, target: Path | str) -> None:
     """Note what preparing a frame found (a one-line note and a --json entry), if anything."""
-    line = prepared.describe(display_name(source))
-    if line is not None and prepared.transparent_kept and prepared.transparent is not None:
-        line += " (--transparent-everywhere removes those too)"
+    line = prepared.describe(display_name(source), kept_hint=": --transparent-everywhere removes them too")
     if line is not None:
         if line not in out.notes:  # frames of an animation usually say the same: once
             out.notes.append(line)

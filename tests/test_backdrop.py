@@ -129,3 +129,17 @@ def test_the_api_takes_the_same_choice():
     assert svg_border != svg_key and svg_border.count('fill="#ffffff"') > 0 == svg_key.count('fill="#ffffff"')
     with pytest.raises(ParameterError, match="transparent_everywhere must be True or False"):
         depixel.convert(frog, transparent="auto", transparent_everywhere="yes")
+
+
+def test_the_command_notes_what_it_kept_and_how_to_remove_it(tmp_path, capsys):
+    from PIL import Image
+
+    from depixel_cli.main import main
+
+    Image.fromarray(art(FROG)).save(tmp_path / "frog.png")
+    assert main(["convert", str(tmp_path / "frog.png"), "-o", str(tmp_path / "frog.svg"), "--transparent", "auto"]) == 0
+    assert capsys.readouterr().err == (f"depixel: note: {tmp_path / 'frog.png'}: made #ffffff transparent (37 pixels; "
+                                       "6 of that colour inside kept: --transparent-everywhere removes them too)\n")
+    assert main(["convert", str(tmp_path / "frog.png"), "-o", str(tmp_path / "frog.svg"), "--transparent", "auto",
+                 "--transparent-everywhere"]) == 0
+    assert capsys.readouterr().err.endswith("made #ffffff transparent (43 pixels)\n")

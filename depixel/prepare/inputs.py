@@ -98,8 +98,9 @@ class PreparedImage:
         sx, sy = ((k - o) % k for k, o in zip(self.pixel_size, self.offset))
         return sx / kx, sy / ky, w / kx, h / ky
 
-    def describe(self, name: str) -> str | None:
-        """One line saying what was detected and done, or None when nothing was."""
+    def describe(self, name: str, kept_hint: str = "") -> str | None:
+        """One line saying what was detected and done, or None when nothing was; ``kept_hint``
+        follows the count of the backdrop's colour kept inside (how a front end removes it)."""
         parts = []
         if self.upscaled:
             factor = _factor_text(self.pixel_size)
@@ -111,7 +112,7 @@ class PreparedImage:
             unmixed = f" ({self.subsampling} chroma unmixed)" if self.subsampling else ""
             parts.append(f"{source}{unmixed}: snapped {self.colours_before} colours to {self.palette}")
         if self.transparent is not None:
-            kept = f"; {self.transparent_kept} of that colour inside kept" if self.transparent_kept else ""
+            kept = f"; {self.transparent_kept} of that colour inside kept{kept_hint}" if self.transparent_kept else ""
             parts.append(f"made {hex_code(self.transparent)} transparent ({self.transparent_pixels} pixels{kept})")
         parts.extend(self.notes)
         if not parts:
