@@ -143,15 +143,50 @@ class Progress:
             self.bar.close()
 
 
+class Repeats:
+    """An error that is the same for every input (a read-only output folder, a full disk,
+    cairo missing) is printed once, with the count at the end (:meth:`lines`), not once a
+    file: an error that does not name its input once its output's name is taken out, and
+    then reads like one printed before, is counted instead of printed. Errors about an input
+    (not an image, too large) name it, and are all printed; ``--json`` lists every one."""
+
+    def __init__(self) -> None:
+        self.counts: dict[str, int] = {}
+
+    def first(self, outcome: Outcome) -> bool:
+        """Whether to print ``outcome``'s error (it is not a repeat)."""
+        text = str(outcome.error)
+        if outcome.output is not None:
+            text = text.replace(display_name(outcome.output), display_name(outcome.output.parent / "…"))
+        if display_name(outcome.source) in text:
+            return True
+        self.counts[text] = self.counts.get(text, 0) + 1
+        return self.counts[text] == 1
+
+    def lines(self) -> list[str]:
+        """One line for each error printed once that more files had."""
+        return [f"error: {n - 1} more file{'s' if n > 2 else ''} failed the same way: {text}"
+                for text, n in self.counts.items() if n > 1]
+
+
 def small(job: Job) -> bool:
     """Whether the main process may convert ``job`` itself: at most LOCAL_MAX_PIXELS."""
+    size = header_size(job.source)
+    return size is not None and size[0] * size[1] <= LOCAL_MAX_PIXELS
+
+
+def header_size(path: Path) -> tuple[int, int] | None:
+    """An input's width and height from its header, None when it is not a regular file
+    (opened only then: a named pipe would wait for a writer) or not an image."""
     from PIL import Image  # noqa: PLC0415
 
+    from depixel.prepare.image import open_input  # noqa: PLC0415
+
     try:
-        with Image.open(job.source) as img:
-            return img.size[0] * img.size[1] <= LOCAL_MAX_PIXELS
-    except Exception:  # unreadable: a worker reports it
-        return False
+        with open_input(path, display_name(path), regular=True) as fh, Image.open(fh) as img:
+            return img.size
+    except Exception:  # unreadable: the job reports it
+        return None
 
 
 def cores() -> int:
@@ -179,25 +214,20 @@ def available_memory() -> int | None:
 
 def largest_image(jobs: list[Job]) -> tuple[int, Path | None]:
     """Pixels of the largest input (from the headers, nothing decoded) and its path."""
-    from PIL import Image  # noqa: PLC0415
-
     best, where = 0, None
     for job in jobs:
-        try:
-            with Image.open(job.source) as img:
-                pixels = img.size[0] * img.size[1]
-        except Exception:  # unreadable: the job reports it
-            continue
-        if pixels > best:
-            best, where = pixels, job.source
+        size = header_size(job.source)
+        if size is not None and size[0] * size[1] > best:
+            best, where = size[0] * size[1], job.source
     return best, where
 
 
-def auto_jobs(jobs: list[Job], memory: int | None = None) -> tuple[int, str | None]:
-    """``-j auto``: one worker per core, but no more than the available memory holds when
-    each converts the largest image (PEAK_BYTES_PER_PIXEL per pixel, measured). Returns the
-    count and, when memory is what limits it, a note saying so."""
-    count = max(1, min(cores(), len(jobs)))
+def auto_jobs(jobs: list[Job], memory: int | None = None, asked: int | None = None) -> tuple[int, str | None]:
+    """``-j auto`` (``asked`` None): one worker per core; ``-j N``: N. Either way no more
+    workers than files, nor than the available memory holds when each converts the largest
+    image (PEAK_BYTES_PER_PIXEL per pixel, measured): an explicit count is capped by the same
+    estimate. Returns the count and, when memory is what limits it, a note saying so."""
+    count = max(1, min(cores() if asked is None else asked, len(jobs)))
     if count == 1:
         return 1, None
     memory = available_memory() if memory is None else memory
@@ -208,7 +238,6 @@ def auto_jobs(jobs: list[Job], memory: int | None = None) -> tuple[int, str | No
     fits = max(1, memory // need)
     if fits >= count:
         return count, None
-    return fits, (f"-j auto: {fits} worker{'s' if fits > 1 else ''}, not {count}: converting "
-                  f"{display_name(where)} ({pixels} pixels) takes about {need / 2**30:.1f} GiB and "
+    return fits, (f"-j {'auto' if asked is None else asked}: {fits} worker{'s' if fits > 1 else ''}, not {count}: "
+                  f"converting {display_name(where)} ({pixels} pixels) takes about {need / 2**30:.1f} GiB and "
                   f"{memory / 2**30:.1f} GiB is available")
-

@@ -32,7 +32,7 @@ from .batch import (
     totals_line,
 )
 from .batch_inputs import DEFAULT_NAME, expand_inputs, make_folders, name_template, plan
-from .batch_run import Progress, auto_jobs, cores, run
+from .batch_run import Progress, Repeats, auto_jobs, cores, run
 from .options import (
     Exit,
     add_input_options,
@@ -46,6 +46,7 @@ from .options import (
     positive_int,
     tolerance,
 )
+from .streams import print_stdout, stdin_closed, write_stdout
 
 DESCRIPTION = """\
 examples:
@@ -172,8 +173,8 @@ def add_parser(sub, name: str, help: str) -> None:
                        help="list what would be converted, what is up to date and what would be kept, on stdout; "
                             "write nothing")
     batch.add_argument("-j", "--jobs", type=jobs_option, default="auto", metavar="N|auto",
-                       help=f"files converted in parallel (default auto: one per core, {cores()} here, fewer when "
-                            "the largest image would not fit in the available memory)")
+                       help=f"files converted in parallel (default auto: one per core, {cores()} here); auto or N, "
+                            "fewer when the largest image would not fit in the available memory that many times")
     batch.add_argument("--dask", metavar="ADDRESS",
                        help="run the conversions on a Dask cluster (scheduler address, e.g. tcp://host:8786); "
                             "inputs and outputs must be on a filesystem the workers share; pip install 'depixel[dask]'")
@@ -199,6 +200,7 @@ def run_convert(args: argparse.Namespace) -> int:
 
     start = time.perf_counter()
     signals = args.signals
+    args.repeats = Repeats()
     if args.inputs == ["-"] or args.output == "-":
         outcome = _convert_stream(args.inputs[0], args.output, options)
         _report(outcome, Progress(0), args)
@@ -220,7 +222,7 @@ def run_convert(args: argparse.Namespace) -> int:
     seconds = time.perf_counter() - start
     interrupted = signals.signum is not None
     if args.json:
-        print(json.dumps(summary(outcomes, seconds, interrupted, args.dry_run), indent=2))
+        print_stdout(json.dumps(summary(outcomes, seconds, interrupted, args.dry_run), indent=2))
     if (args.output is None and not args.quiet) or interrupted:  # every batch, in a terminal or a log
         print(f"depixel: {totals_line(outcomes, seconds, interrupted, args.dry_run)}", file=sys.stderr)
     if interrupted:
@@ -235,6 +237,8 @@ def _check_destination(args: argparse.Namespace) -> tuple[str, ...]:
         parser.error("give either -o FILE (one input) or --out-dir DIR (many), not both")
     if "-" in args.inputs and (len(args.inputs) > 1 or args.output is None):
         parser.error("- (stdin) must be the only input, with -o FILE or -o -")
+    if "-" in args.inputs and stdin_closed():
+        parser.error("- reads the image from standard input, which is closed")
     if args.output == "-" and (args.frames == "all" or args.json):
         parser.error("-o - writes one image to stdout: no --frames all or --json with it")
     if args.dry_run and (args.output == "-" or "-" in args.inputs):
@@ -278,13 +282,13 @@ def _convert_batch(args: argparse.Namespace, options: Options) -> list[Outcome]:
             from .dask_batch import run_dask  # noqa: PLC0415
 
             return failed + run_dask(jobs, args.dask, lambda o: _report(o, progress, args), args.signals, progress)
-        workers = args.jobs
-        if workers == "auto":
-            workers, note = auto_jobs(jobs)
-            if note:
-                progress.message(f"note: {note}")
+        workers, note = auto_jobs(jobs, asked=None if args.jobs == "auto" else args.jobs)
+        if note:
+            progress.message(f"note: {note}")
         return failed + run(jobs, workers, lambda o: _report(o, progress, args), args.signals, progress)
     finally:
+        for line in args.repeats.lines():
+            progress.message(line)
         progress.close()
 
 
@@ -322,10 +326,9 @@ def _to_stdout(source: files.InputFile, options: Options, out: Outcome) -> None:
                              precision=options.precision, width=options.width, height=options.height,
                              max_pixels=options.max_pixels, max_output_pixels=options.max_output_pixels,
                              layout=options.layout, simplify=options.simplify)
-    if options.formats[0] != "svg" and sys.stdout.isatty():
+    if options.formats[0] != "svg" and sys.stdout is not None and sys.stdout.isatty():
         raise OutputError(f"refusing to write binary {options.formats[0].upper()} to a terminal")
-    sys.stdout.buffer.write(blob)
-    sys.stdout.buffer.flush()
+    write_stdout(blob)
 
 
 def _stream_to_files(source: files.InputFile, output: Path, options: Options, out: Outcome) -> None:
@@ -372,7 +375,8 @@ def _report(outcome: Outcome, progress: Progress, args: argparse.Namespace, step
             progress.message(f"note: {line}")
     if outcome.changed:
         progress.message(f"error: {outcome.changed}")
-    if outcome.error and outcome.error not in (line for _, line in kept):
+    if outcome.error and outcome.error not in (line for _, line in kept) and \
+            (args.debug or args.repeats.first(outcome)):
         progress.message(f"error: {outcome.error}")
         if args.debug and outcome.traceback:
             progress.message(outcome.traceback.rstrip())
@@ -390,5 +394,5 @@ def _list_planned(outcomes: list[Outcome], args: argparse.Namespace) -> None:
         lines += [f"{kind:<14} {line}" for kind, line in kept_lines(o)]
         if o.error and not (o.kept or o.edited):
             lines.append(f"failed         {o.error}")
-        for line in lines:
-            print(line)
+        if lines:
+            print_stdout("\n".join(lines))

@@ -24,6 +24,7 @@ from .options import (
     positive_int,
     unit_float,
 )
+from .streams import print_stdout
 
 DESCRIPTION = """\
 examples:
@@ -178,10 +179,10 @@ def _files(args: argparse.Namespace) -> int:
         }
         if w * h != total:
             report["ignored_pixels"] = w * h - total
-        print(json.dumps(report, indent=2))
+        print_stdout(json.dumps(report, indent=2))
     else:
         verdict = "same" if same else "different"
         masked = f", {w * h - total} masked" if w * h != total else ""
-        print(f"{verdict}: {count} of {total} pixels differ ({100 * ratio:.3g}%) at {w}x{h}, "
-              f"threshold {args.threshold}{masked}")
+        print_stdout(f"{verdict}: {count} of {total} pixels differ ({100 * ratio:.3g}%) at {w}x{h}, "
+                     f"threshold {args.threshold}{masked}")
     return Exit.OK if same else Exit.FAILED

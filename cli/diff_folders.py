@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 
 from depixel.diff.files import ERROR, SAME, Job, Pictures, Result, Settings, run_job
@@ -21,6 +20,7 @@ from depixel.limits import DIFF_BYTES_PER_PIXEL, WORKER_BASELINE_BYTES
 from .batch_run import Progress
 from .options import Exit, say
 from .pool import Finished, run_jobs
+from .streams import print_stdout
 
 EXIT_OF_STATUS = {"same": Exit.OK, "different": Exit.FAILED, "error": Exit.USAGE}
 
@@ -108,7 +108,7 @@ def _finish(args: argparse.Namespace, settings: Settings, results: list[Result],
     if args.json:
         folders = {"diff_out": display_name(args.diff_out)} if args.diff_out else {}
         report = json_report(results, final, _settings_entry(args), folders, updated)
-        print(json.dumps(report, indent=2))
+        print_stdout(json.dumps(report, indent=2))
     else:
         lines = [r.summary() for r in results if r.verdict != SAME]
         lines += [f"{action}: {display_name(name)}" for action, name in updated or []]
@@ -165,4 +165,4 @@ def workers(option: str | int, pairs: int, max_pixels: int) -> int:
 
 def print_lines(lines: list[str]) -> None:
     if lines:
-        sys.stdout.write("\n".join(lines) + "\n")
+        print_stdout("\n".join(lines))

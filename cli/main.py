@@ -11,6 +11,7 @@ import importlib
 import os
 import re
 import sys
+import warnings
 from typing import NoReturn, cast
 
 import depixel
@@ -18,6 +19,7 @@ from depixel.errors import DepixelError, ParameterError
 
 from .options import Exit, error_exit, error_message, say
 from .pool import Interrupted, Signals
+from .streams import closed_pipe, flush_stdout, print_stdout, reserve_closed_descriptors
 
 
 def _help_width() -> int:
@@ -80,7 +82,7 @@ class _Version(argparse.Action):
             except metadata.PackageNotFoundError:
                 lines.append(f"  {name} not installed")
         lines.append(f"  python {sys.version.split()[0]}")
-        print("\n".join(lines))
+        print_stdout("\n".join(lines))
         parser.exit(Exit.OK)
 
 
@@ -123,47 +125,61 @@ def command_of(argv: list[str]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the command of ``argv`` (default: the command line) and return its exit code. A
+    closed standard output ends it quietly with 141 (depixel_cli/streams.py); warnings of
+    the libraries (numpy's overflow notices, Pillow's) never reach the terminal."""
+    reserve_closed_descriptors()
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                return _main(argv)
+            finally:  # --help and --version exit through SystemExit: theirs too
+                flush_stdout()
+    except BrokenPipeError:
+        return closed_pipe()
+
+
+def _main(argv: list[str] | None) -> int:
     with Signals() as signals:  # Ctrl-C and SIGTERM, from here to the end: see depixel_cli/pool.py
         try:
             parser = build_parser(command_of(sys.argv[1:] if argv is None else argv))
             args, extras = parser.parse_known_args(argv)
             if extras:
                 cast(_Parser, getattr(args, "parser", parser)).unrecognized(extras)
-        except Interrupted as exc:
+            if args.command is None:
+                parser.print_help(sys.stderr)
+                return Exit.USAGE
+            args.signals = signals
+            return _run(args)
+        except Interrupted as exc:  # at any moment, even while an error is being reported
             say("interrupted")
             return exc.exit_code
-        if args.command is None:
-            parser.print_help(sys.stderr)
-            return Exit.USAGE
-        args.signals = signals
-        return _run(args)
 
 
 def _run(args: argparse.Namespace) -> int:
     """Run the command; every library error becomes one line and an exit code."""
     try:
         return int(args.run(args))
-    except ParameterError as exc:  # a value the library refuses is a usage error
+    except BrokenPipeError:  # e.g. `depixel convert - -o - | head`: main ends quietly
+        raise
+    except Exception as exc:
+        if args.signals.signum is not None:  # a failure the stop request caused (a render cut short)
+            raise Interrupted(args.signals.signum) from None
         if args.debug:
             raise
-        say(f"error: {error_message(exc)}")
-        return Exit.USAGE
-    except DepixelError as exc:
-        if args.debug:
-            raise
-        say(f"error: {error_message(exc)}")
-        return error_exit(args.command)
-    except (Interrupted, KeyboardInterrupt) as exc:
-        say("interrupted")
-        return exc.exit_code if isinstance(exc, Interrupted) else Exit.INTERRUPTED
-    except BrokenPipeError:  # e.g. `depixel convert - -o - | head`
-        return Exit.FAILED
-    except Exception as exc:  # a bug: one line unless --debug
-        if args.debug:
-            raise
-        first = str(exc).splitlines()[0] if str(exc) else ""
+        if isinstance(exc, ParameterError):  # a value the library refuses is a usage error
+            say(f"error: {error_message(exc)}")
+            return Exit.USAGE
+        if isinstance(exc, DepixelError):
+            say(f"error: {error_message(exc)}")
+            return error_exit(args.command)
+        first = str(exc).splitlines()[0] if str(exc) else ""  # a bug: one line unless --debug
         say(f"internal error: {type(exc).__name__}: {first} (--debug shows the traceback)")
         return error_exit(args.command)
+    except KeyboardInterrupt:
+        say("interrupted")
+        return Exit.INTERRUPTED
 
 
 if __name__ == "__main__":

@@ -25,6 +25,7 @@ from .options import (
     positive_float,
     positive_int,
 )
+from .streams import stdin_closed, write_stdout
 
 RENDER_DESCRIPTION = """\
 examples:
@@ -104,10 +105,9 @@ def _write(target: str, data: bytes, protect: tuple[Path, ...] = ()) -> None:
     if target != "-":
         write_atomic(target, data, protect=protect)
         return
-    if sys.stdout.isatty() and not data.lstrip().startswith(b"<"):
+    if sys.stdout is not None and sys.stdout.isatty() and not data.lstrip().startswith(b"<"):
         raise OutputError("refusing to write binary data to a terminal")
-    sys.stdout.buffer.write(data)
-    sys.stdout.buffer.flush()
+    write_stdout(data)
 
 
 def run_render(args: argparse.Namespace) -> int:
@@ -121,6 +121,8 @@ def run_render(args: argparse.Namespace) -> int:
         args.parser.error(f"{display_name(args.output)}: render writes PNG or PDF; name OUT .png or .pdf "
                           "(or use --format with a name without those extensions)")
     protect: tuple[Path, ...]
+    if args.input == "-" and stdin_closed():
+        args.parser.error("- reads the SVG from standard input, which is closed")
     if args.input == "-":
         svg, name, protect = read_source(sys.stdin.buffer), "<stdin>", ()
     else:
@@ -138,6 +140,11 @@ def run_inspect(args: argparse.Namespace) -> int:
     if args.output is None and args.out_dir is None:
         args.parser.error("say where to write: -o PNG and/or --out-dir DIR")
     check_input_options(args)
+    if args.output not in (None, "-"):
+        try:  # PNG bytes in a file named .svg or .pdf help nobody, as convert refuses them
+            files.output_format(args.output, "png")
+        except OutputError:
+            args.parser.error(f"{display_name(args.output)}: inspect writes PNG; name it .png")
     from depixel.prepare.inputs import lossy_format  # noqa: PLC0415
 
     rgba = api.load(args.input, frame=args.frame, background=args.background, max_pixels=args.max_pixels)

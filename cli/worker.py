@@ -2,13 +2,17 @@
 
 A worker ignores SIGINT (only the main process decides what Ctrl-C means), turns SIGTERM into
 :class:`Stop` (its job is abandoned; a file being written removes its temporary file) and
-asks the kernel for SIGTERM when the main process dies.
+asks the kernel for SIGTERM when the main process dies. Once it is stopping it ignores every
+further signal: SIGTERM sent to the whole process group (``timeout``, systemd, ``kill -TERM
+-PGID``) reaches it, and then the main process's own SIGTERM, while it exits, where a second
+:class:`Stop` would escape to multiprocessing, which prints it with a traceback.
 """
 from __future__ import annotations
 
 import os
 import signal
 import sys
+import warnings
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -18,7 +22,16 @@ class Stop(BaseException):
 
 
 def raise_stop(signum: int, frame: object) -> None:
+    stopping()
     raise Stop()
+
+
+def stopping() -> None:
+    """From now on the worker is on its way out: SIGTERM and the re-raise timer of
+    :func:`unraisable` are ignored."""
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    signal.setitimer(signal.ITIMER_REAL, 0)
+    signal.signal(signal.SIGALRM, signal.SIG_IGN)
 
 
 def unraisable(hook: Any) -> None:
@@ -39,24 +52,27 @@ def serve(conn, function: Callable, inherited: Sequence[Any] = ()) -> None:
         other.close()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, raise_stop)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
     try:  # from here on SIGTERM raises Stop: the set-up too (a stop request may come at once)
+        # a SIGTERM that came while the signals were blocked (since the fork) is raised here
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
         sys.unraisablehook = unraisable
+        warnings.simplefilter("ignore")  # as in the command (forked workers have its filters already)
         die_with_parent()
         while True:
             try:
                 job = conn.recv()
             except (EOFError, OSError):
-                return
+                break
             if job is None:
-                return
+                break
             result = function(job)
             try:
                 conn.send(result)
             except (BrokenPipeError, OSError):
-                return
+                break
+        stopping()  # inside the try: a SIGTERM until here is a Stop, caught below
     except (Stop, KeyboardInterrupt):
-        return
+        stopping()
     finally:
         sys.stdout.flush()
 

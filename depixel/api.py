@@ -19,7 +19,7 @@ from .errors import ParameterError, RenderError, display_name
 from .limits import DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
 from .params import Params
 from .pipeline import STAGES, depixelize
-from .prepare.image import ImageSource, as_rgba, check_indexable, check_pixels, load_image
+from .prepare.image import ImageSource, as_rgba, check_indexable, check_pixels, image_array, load_image
 from .prepare.inputs import AUTO, PixelSize, PreparedImage, pil_lossy, prepare
 from .render.overlay import overlay_raster, overlay_svg
 from .svg.outlines import LAYOUTS
@@ -41,7 +41,7 @@ def _pixels(image, name: str = "<image>", max_pixels: int | None = DEFAULT_MAX_P
     if isinstance(image, (bytes, bytearray, memoryview)):
         raise ParameterError("convert takes pixels (a numpy array or a PIL image), not file bytes; "
                              "decode them with depixel.api.load(data)", parameter="image")
-    size = image.size if hasattr(image, "mode") and hasattr(image, "size") else np.shape(image)[1::-1]
+    size = image.size if hasattr(image, "mode") and hasattr(image, "size") else image_array(image).shape[1::-1]
     if len(size) == 2:
         check_pixels(name, int(size[0]), int(size[1]), validate.limit("max_pixels", max_pixels))
         check_indexable(name, int(size[0]), int(size[1]))
@@ -116,6 +116,7 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
     prepared, scale = _prepare(image, params, stage, precision, background, scale, width, height, max_pixels,
                                layout=layout, simplify=simplify, pixel_size=pixel_size, denoise=denoise,
                                transparent=transparent, transparent_everywhere=transparent_everywhere)
+    _check_page("svg", prepared, scale, width, height, "<image>")
     vector = depixelize(prepared.rgba, params, stage=stage).vector  # the other stages' products are freed here
     svg = to_svg(vector, scale=scale, precision=precision, title=title, layout=layout, simplify=simplify)
     return overlay_svg(svg, prepared, scale)
@@ -155,6 +156,15 @@ def _prepare(image, params, stage, precision, background, scale, width, height, 
                              max_pixels=None)
     w, h = prepared.input_size
     return prepared, _scale((h, w), scale, width, height)
+
+
+def _check_page(fmt: str, prepared: PreparedImage, scale: float, width: int | None, height: int | None,
+                name: str) -> None:
+    """Refuse an SVG or PDF page readers cannot show (:func:`depixel.validate.page_size`),
+    naming what set its size."""
+    parameter = "width" if width is not None else "height" if height is not None else "scale"
+    w, h = prepared.input_size
+    validate.page_size(fmt, w * scale, h * scale, name, parameter)
 
 
 def encode(svg: str, fmt: str = "svg", *, name: str = "<svg>", keywords: str | None = None) -> bytes:
@@ -213,9 +223,12 @@ def conversions(image, formats: Mapping[str, str | None], params, *, stage, scal
     if "png" in formats:
         size = max(1, round(prepared.input_size[0] * scale)), max(1, round(prepared.input_size[1] * scale))
         if max_output_pixels is not None and size[0] * size[1] > max_output_pixels:
-            raise RenderError(f"{name}: a {size[0]}x{size[1]} PNG is {size[0] * size[1]} pixels, over the "
-                              f"limit of {max_output_pixels} (raise it with max_output_pixels)",
+            shown = validate.shown
+            raise RenderError(f"{name}: a {shown(size[0])}x{shown(size[1])} PNG is {shown(size[0] * size[1])} "
+                              f"pixels, over the limit of {max_output_pixels} (raise it with max_output_pixels)",
                               parameter="max_output_pixels")
+    for fmt in formats:
+        _check_page(fmt, prepared, scale, width, height, name)
     vector = depixelize(prepared.rgba, params, stage=stage).vector
     blobs, svg = {}, None
     for fmt, keywords in formats.items():

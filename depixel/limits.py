@@ -45,6 +45,17 @@ PEAK_BYTES_PER_PIXEL = 1_000
 #: Memory of a worker process before its image: 35-38 MB measured with numpy and depixel imported
 #: (memory_per_pixel.py's baseline), plus room for cairo when it renders PNG or PDF.
 WORKER_BASELINE_BYTES = 80 * 2**20
+#: Sides of a PDF page, in points: the PDF format's own range (ISO 32000-1, Annex C: 3 to
+#: 14,400 units a side without a user unit), so 4 to 19,200 CSS pixels at cairo's 0.75 pt a pixel.
+PDF_PAGE_POINTS = (3.0, 14_400.0)
+#: Sides of an SVG's width and height, in CSS pixels: written with 3 decimals, less than
+#: 0.001 would be written as 0 (nothing is drawn); over 2**23, cairo's 24.8 fixed-point
+#: coordinates (Inkscape's and cairosvg's renderer) cannot place a point and drop path operators.
+SVG_SIDE_PIXELS = (0.001, float(2**23))
+#: ``<use>`` elements an SVG may draw, counting every copy (a use of a group of uses draws
+#: each of them): cairosvg's own limit, which it reaches only after drawing them all (an
+#: SVG of 3 KB whose uses fan out to 10**11 copies ran 15 s before failing); counted before.
+MAX_SVG_REFERENCES = 100_000
 
 
 def check_pixels(name: str, width: int, height: int, max_pixels: int | None) -> None:

@@ -17,24 +17,40 @@ class Range(NamedTuple):
     integer: bool = False
 
 
-#: The constraint of every numeric field (a field not listed is not checked; booleans must be bool).
-#: Upper bounds keep the pipeline's memory in reason (a window of side N costs N² per crossing).
+#: The range of every numeric field (a field not listed is not checked; booleans must be bool),
+#: one a line. Every field has an upper bound (docs/limits.md lists them): the fields that
+#: size work or memory are bounded where the largest value still costs little more than the
+#: default (tests/test_limits.py converts a small image with each at its bound under a memory
+#: limit), the others where a larger value changes nothing (a threshold above any difference of
+#: two colours) or only gives numbers that overflow.
 LIMITS: dict[str, Range] = {
-    "threshold_y": Range(), "threshold_u": Range(), "threshold_v": Range(), "threshold_alpha": Range(),
-    "curve_weight": Range(), "sparse_weight": Range(), "island_weight": Range(),
-    "sparse_window": Range(2, 64, integer=True),
-    "shading_distance": Range(),
+    "threshold_y": Range(0, 1_000),  # YUV differences on the 0-255 scale are at most ~315
+    "threshold_u": Range(0, 1_000),
+    "threshold_v": Range(0, 1_000),
+    "threshold_alpha": Range(0, 1_000),
+    "curve_weight": Range(0, 1_000),  # votes: 1000 times another heuristic's outvotes it anyway
+    "sparse_weight": Range(0, 1_000),
+    "sparse_window": Range(2, 64, integer=True),  # a window of side N costs N² per crossing
+    "island_weight": Range(0, 1_000),
+    "shading_distance": Range(0, 1_000),  # a YUV distance on the 0-255 scale is at most ~450
+    "snap_passes": Range(1, 100, integer=True),
+    "run_tolerance": Range(0, 4),  # pixels
+    "run_long": Range(0, 64),  # pixels: no run is followed further (run_reach)
+    "run_short": Range(0, 64),
+    "run_turn": Range(0, 180),  # degrees
+    "run_bend": Range(0, 180),
+    "run_reach": Range(0, 64),  # a run is followed ~3 steps a pixel, each step weighing all before it
     "iterations": Range(0, 10_000, integer=True),
     "candidates": Range(1, 1_000, integer=True),
-    "radius": Range(), "max_offset": Range(), "centre_clearance": Range(),
+    "radius": Range(0, 4),  # pixels: as far as max_offset lets a node go
+    "max_offset": Range(0, 4),  # pixels: past every neighbour of a node's cell
+    "centre_clearance": Range(0, 1),  # pixels: a whole pixel from every centre leaves no room to move
     "seed": Range(0, 2**63 - 1, integer=True),
-    "snap_passes": Range(1, 100, integer=True),
-    "run_tolerance": Range(), "run_long": Range(), "run_short": Range(), "run_turn": Range(0, 180),
-    "run_bend": Range(0, 180), "run_reach": Range(),
     "harmonic_reach": Range(0, 1_000, integer=True),
     "revert_rounds": Range(0, 1_000, integer=True),
-    "shading_sigma": Range(1e-6), "shading_radius": Range(1e-6),
-    "shading_supersample": Range(1, 16, integer=True),
+    "shading_sigma": Range(1e-6, 16),  # pixels
+    "shading_radius": Range(1e-6, 16),  # pixels: the render pads the image by it and weighs ~3 r² cells a sample
+    "shading_supersample": Range(1, 16, integer=True),  # samples² per contour pixel
 }
 
 
@@ -47,54 +63,59 @@ class Params:
     last stage to run is an argument of :func:`depixel.depixelize`."""
 
     # --- §3.2 similarity graph -------------------------------------------------------------
-    threshold_y: float = 48.0  # paper §3.2 / hqx: dissimilar when |ΔY| > 48/255
-    threshold_u: float = 7.0  # paper §3.2 / hqx: dissimilar when |ΔU| > 7/255
-    threshold_v: float = 6.0  # paper §3.2 / hqx: dissimilar when |ΔV| > 6/255
-    threshold_alpha: float = 48.0  # not in paper: two visible pixels whose alpha differs by more are dissimilar
+    threshold_y: float = 48.0  # paper §3.2 / hqx: dissimilar when |ΔY| > 48/255 [0, 1000]
+    threshold_u: float = 7.0  # paper §3.2 / hqx: dissimilar when |ΔU| > 7/255 [0, 1000]
+    threshold_v: float = 6.0  # paper §3.2 / hqx: dissimilar when |ΔV| > 6/255 [0, 1000]
+    # not in paper: two visible pixels whose alpha differs by more are dissimilar [0, 1000]
+    threshold_alpha: float = 48.0
 
     # --- §3.2 crossing resolution heuristics ----------------------------------------------
-    curve_weight: float = 1.0  # paper §3.2 "curves": vote = difference of curve lengths (× this factor)
-    sparse_weight: float = 1.0  # paper §3.2 "sparse pixels": vote = difference of component sizes (× this)
-    sparse_window: int = 8  # paper §3.2: component sizes are measured in an 8×8 window around the block
-    island_weight: float = 5.0  # paper §3.2 "islands": fixed vote, empirically 5
+    curve_weight: float = 1.0  # paper §3.2 "curves": vote = difference of curve lengths (× this factor) [0, 1000]
+    sparse_weight: float = 1.0  # paper §3.2 "sparse pixels": vote = difference of component sizes (× this) [0, 1000]
+    sparse_window: int = 8  # paper §3.2: component sizes are measured in an 8×8 window around the block [2, 64]
+    island_weight: float = 5.0  # paper §3.2 "islands": fixed vote, empirically 5 [0, 1000]
     tie_break: bool = True  # not in paper: a tie goes to the diagonal of the rarer colour in the window
 
     # --- §3.3 spline extraction -----------------------------------------------------------
-    shading_distance: float = 100.0  # paper §3.3: a visible edge is a shading edge if YUV distance ≤ 100/255
-    snap_passes: int = 6  # not in paper: T-junction snapping is iterated; each pass shrinks the gap ≥ 4×
+    shading_distance: float = 100.0  # paper §3.3: a visible edge is a shading edge if YUV distance ≤ 100/255 [0, 1000]
+    snap_passes: int = 6  # not in paper: T-junction snapping is iterated; each pass shrinks the gap ≥ 4× [1, 100]
 
     # --- §3.4 corners (docs/corners.md) ---------------------------------------------------
     corner_patterns: bool = True  # paper §3.4 / Figure 7: keep detected corners out of the smoothness term
-    # not in paper: a straight run's nodes stay this near (px) its chord (a 2:1 staircase stays within ¼)
+    # not in paper: a straight run's nodes stay this near (px) its chord (a 2:1 staircase stays within ¼) [0, 4]
     run_tolerance: float = 0.3
-    run_long: float = 2.5  # not in paper: a long run (px); smooth curves bend away before their chords do
-    run_short: float = 1.4  # not in paper: shortest bevel (px) between two long runs; the "386" chip's is 1.5
-    run_turn: float = 80.0  # not in paper: degrees two runs must turn by, across a sharp corner or a whole bevel
-    # not in paper: degrees each end of a bevel must turn by (a pixel circle turns 45° but over longer runs)
+    run_long: float = 2.5  # not in paper: a long run (px); smooth curves bend away before their chords do [0, 64]
+    run_short: float = 1.4  # not in paper: shortest bevel (px) between two long runs; the "386" chip's is 1.5 [0, 64]
+    # not in paper: degrees two runs must turn by, across a sharp corner or a whole bevel [0, 180]
+    run_turn: float = 80.0
+    # not in paper: degrees each end of a bevel must turn by (a pixel circle turns 45° but over longer runs) [0, 180]
     run_bend: float = 25.0
-    run_reach: float = 4.0  # not in paper: runs are followed at most this far (px); longer ones are no straighter
+    # not in paper: runs are followed at most this far (px); longer ones are no straighter [0, 64]
+    run_reach: float = 4.0
 
     # --- §3.4 relaxation -------------------------------------------------------------------
     # not in paper ("at each iteration"): with the gradient trials (depixel/optimize/relax.py), 4 sweeps reach the
-    # energy of 10 sweeps of random trials alone (docs/design.md, Optimization)
+    # energy of 10 sweeps of random trials alone (docs/design.md, Optimization) [0, 10000]
     iterations: int = 4
-    candidates: int = 8  # not in paper ("several random offsets"): trial positions per node and sweep
-    radius: float = 0.2  # not in paper ("a small radius"): trial offsets within 1/5 pixel
-    max_offset: float = 0.5  # not in paper: hard bound on a node's move from its initial place (pixels)
-    centre_clearance: float = 0.15  # not in paper: curves keep this far (pixels) from the centres of their pixels
-    seed: int = 0  # not in paper: all randomness comes from SplitMix64 seeded with this (depixel/optimize/splitmix.py)
+    candidates: int = 8  # not in paper ("several random offsets"): trial positions per node and sweep [1, 1000]
+    radius: float = 0.2  # not in paper ("a small radius"): trial offsets within 1/5 pixel [0, 4]
+    max_offset: float = 0.5  # not in paper: hard bound on a node's move from its initial place (pixels) [0, 4]
+    # not in paper: curves keep this far (pixels) from the centres of their pixels [0, 1]
+    centre_clearance: float = 0.15
+    # not in paper: all randomness comes from SplitMix64 seeded with this (depixel/optimize/splitmix.py) [0, 2⁶³-1]
+    seed: int = 0
 
     # --- §3.4 harmonic map and the fidelity guard --------------------------------------------
-    # not in paper: the harmonic map is solved within this many edges of a moved curve node (decayed beyond)
+    # not in paper: the harmonic map is solved within this many edges of a moved curve node (decayed beyond) [0, 1000]
     harmonic_reach: int = 6
     # not in paper: rounds of reverting the nodes around cells whose centre came within centre_clearance / 2
-    # of their boundary (after relaxation; the fixtures need at most 2)
+    # of their boundary (after relaxation; the fixtures need at most 2) [0, 1000]
     revert_rounds: int = 8
 
     # --- §3.5 smooth shading (PNG output) ---------------------------------------------------
-    shading_sigma: float = 1.0  # paper §3.5: Gaussian influence of a cell with σ = 1 pixel
-    shading_radius: float = 2.0  # paper §3.5: truncated at 2 pixels
-    # not in paper: samples per output pixel along each axis at contours (odd: one at the pixel centre)
+    shading_sigma: float = 1.0  # paper §3.5: Gaussian influence of a cell with σ = 1 pixel [1e-6, 16]
+    shading_radius: float = 2.0  # paper §3.5: truncated at 2 pixels [1e-6, 16]
+    # not in paper: samples per output pixel along each axis at contours (odd: one at the pixel centre) [1, 16]
     shading_supersample: int = 3
 
     def __post_init__(self) -> None:

@@ -26,6 +26,7 @@ def number(name: str, value: object, *, low: float | None = None, high: float | 
         raise ParameterError(f"{name} must be a finite number, not {value!r}", parameter=name)
     if integer and not isinstance(value, numbers.Integral) and value != int(value):
         raise ParameterError(f"{name} must be an integer, not {value!r}", parameter=name)
+    given = shown(value) if isinstance(value, numbers.Integral) else repr(value)
     too_low = low is not None and (value <= low if low_open else value < low)
     if too_low or (high is not None and value > high):
         if low == 0 and low_open and high is None:
@@ -36,7 +37,7 @@ def number(name: str, value: object, *, low: float | None = None, high: float | 
             bounds = f"above {_text(low)}" if low_open else f"at least {_text(low)}"
         else:
             bounds = f"at most {_text(cast(float, high))}"
-        raise ParameterError(f"{name} must be {bounds}, not {value!r}", parameter=name)
+        raise ParameterError(f"{name} must be {bounds}, not {given}", parameter=name)
     return value
 
 
@@ -76,3 +77,40 @@ def choice(name: str, value: object, options: Iterable[str]) -> str:
 
 def _text(bound: float) -> str:
     return str(int(bound)) if float(bound).is_integer() else f"{bound:g}"
+
+
+def shown(value: float) -> str:
+    """A number as a message shows it: whole numbers up to 15 digits as they are, other
+    numbers in four significant digits (``1e+300``, not 301 digits of a scale's overflow)."""
+    if isinstance(value, numbers.Integral) and abs(value) >= 10**15:  # maybe too large for a float
+        from decimal import Decimal  # noqa: PLC0415
+
+        return format(Decimal(int(value)).normalize(), ".4g")
+    if float(value).is_integer() and abs(value) < 1e15:
+        return str(int(value))
+    return f"{value:.4g}"
+
+
+def page_size(fmt: str, width: float, height: float, name: str, parameter: str = "scale",
+              error: type | None = None) -> None:
+    """Refuse an SVG or PDF whose page (``width`` × ``height`` CSS pixels) readers cannot
+    show: a PDF page outside the 3-14400 pt a side the PDF format allows, an SVG side beyond
+    the coordinates cairo can place (renderers built on it drop path operators there) or so
+    small that it is written as 0. The error (a :class:`ParameterError` unless ``error``
+    says otherwise) names ``parameter``: the scale, or the width or height that set the size."""
+    from .errors import ParameterError  # noqa: PLC0415
+    from .limits import PDF_PAGE_POINTS, SVG_SIDE_PIXELS  # noqa: PLC0415
+
+    if fmt == "pdf":
+        low, high = PDF_PAGE_POINTS
+        w, h = width * 0.75, height * 0.75  # 96 CSS pixels an inch, 72 points
+        unit, what = " pt", "a PDF page"
+    elif fmt == "svg":
+        (low, high), w, h, unit, what = SVG_SIDE_PIXELS, width, height, " px", "an SVG"
+    else:
+        return
+    if low <= w <= high and low <= h <= high:
+        return
+    raise (error or ParameterError)(f"{name}: a {shown(w)}x{shown(h)}{unit} page is outside the {shown(low)} to "
+                                    f"{shown(high)}{unit} a side {what} can have; choose another {parameter}",
+                                    parameter=parameter)

@@ -3,7 +3,9 @@
 A failure at any point leaves no partial or empty output, and an existing file at the
 target is only replaced once the new content is complete (and flushed to disk). A symbolic
 link at the target keeps pointing where it did; the file it points to gets the content.
-Devices and pipes (``/dev/null``, ``/dev/stdout``) are written directly, never replaced.
+Character devices and pipes (``/dev/null``, ``/dev/stdout``, ``>(gzip > x.svgz)``) are
+written directly, never replaced; a named pipe nobody reads is refused at once instead of
+waiting for a reader, and block devices and sockets are refused.
 
 Temporary files have a name only this run can have, in one fixed pattern:
 ``.NAME.depixel-PID-TOKEN.tmp`` beside the output (NAME: the output's name, cut to 64 bytes;
@@ -133,6 +135,10 @@ def stage(path: str | os.PathLike, data: bytes | str, protect: tuple[Path, ...] 
     if isinstance(data, str):
         data = data.encode("utf-8")
     try:
+        kind = _stat(Path(path), name)  # through every link, /proc/self/fd/1's included
+        if kind is not None and not stat.S_ISREG(kind.st_mode) and not stat.S_ISDIR(kind.st_mode):
+            _write_stream(path, kind.st_mode, data, name)
+            return None
         target = Path(os.path.realpath(path))
         current = _stat(target, name)
         if current is not None:
@@ -141,9 +147,6 @@ def stage(path: str | os.PathLike, data: bytes | str, protect: tuple[Path, ...] 
                     raise OutputError(f"{name}: is the input file; refusing to overwrite it")
             if stat.S_ISDIR(current.st_mode):
                 raise OutputError(f"{name}: is a directory")
-            if not stat.S_ISREG(current.st_mode):
-                _write_stream(target, data, name)
-                return None
             if not os.access(target, os.W_OK):
                 raise OutputError(f"{name}: file is read-only")
         folder, shown = target.parent, display_name(Path(path).parent)
@@ -270,12 +273,28 @@ def _same_file(target: Path, other: Path) -> bool:
         return False
 
 
-def _write_stream(target: Path, data: bytes, name: str) -> None:
-    """Write to a device or pipe in place (there is no partial file to clean up)."""
+def _write_stream(path: str | os.PathLike, mode: int, data: bytes, name: str) -> None:
+    """Write to a character device or a pipe in place (there is no partial file to clean
+    up). Opened without waiting: a named pipe with no reader is refused, not waited on."""
+    if stat.S_ISBLK(mode):
+        raise OutputError(f"{name}: is a block device; refusing to write to it")
+    if stat.S_ISSOCK(mode):
+        raise OutputError(f"{name}: is a socket, not a file")
+    flags = os.O_WRONLY | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_CLOEXEC", 0)
     try:
-        with open(target, "wb") as fh:
-            fh.write(data)
+        fd = os.open(path, flags)
     except PermissionError:
         raise OutputError(f"{name}: permission denied") from None
     except OSError as exc:
+        if exc.errno == errno.ENXIO:
+            raise OutputError(f"{name}: a pipe nobody reads; refusing to wait for a reader") from None
         raise OutputError(f"{name}: cannot write ({exc.strerror or exc})") from None
+    try:
+        os.set_blocking(fd, True)  # a reader is there: the writes go at its pace
+        view = memoryview(data)
+        while view:
+            view = view[os.write(fd, view):]
+    except OSError as exc:
+        raise OutputError(f"{name}: cannot write ({exc.strerror or exc})") from None
+    finally:
+        os.close(fd)

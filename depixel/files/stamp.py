@@ -173,13 +173,15 @@ def read(path: str | os.PathLike) -> Stamp | None:
     """The stamp of an output file from its first and last 4 KiB (where depixel writes it),
     or None (no file, not one of depixel's outputs). Its body is not checked."""
     try:
+        if not stat.S_ISREG(os.stat(path).st_mode):  # a pipe would wait for a writer, a device never end
+            return None
         with open(path, "rb") as fh:
             head = fh.read(4096)
             fh.seek(0, os.SEEK_END)
             size = fh.tell()
             fh.seek(max(0, size - 4096))
             tail = fh.read()
-    except OSError:
+    except (OSError, ValueError):
         return None
     return parse(head) or parse(tail)
 

@@ -7,7 +7,6 @@ import io
 import os
 import stat
 import warnings
-from pathlib import Path
 from typing import BinaryIO
 
 import numpy as np
@@ -132,23 +131,18 @@ def frame_count(source: ImageSource, max_frames: int | None = None, *, name: str
 def read_source(source: ImageSource) -> bytes:
     """All bytes of a path, bytes or binary file object; :class:`InputError` for a missing,
     empty or unreadable file, a folder, a device, or more than MAX_FILE_BYTES (so an endless
-    stream such as ``cat /dev/zero |`` fails fast instead of filling the memory)."""
+    stream such as ``cat /dev/zero |`` fails fast instead of filling the memory). A named
+    pipe is read when something writes to it (``<(cat sprite.png)``); one nothing writes to
+    fails at once instead of waiting (:func:`open_input`)."""
     name = _describe(source)
     try:
         if isinstance(source, (bytes, bytearray, memoryview)):
             data = bytes(source)
         elif isinstance(source, (str, os.PathLike)):
-            path = Path(source)
-            try:
-                mode = path.stat().st_mode
-            except FileNotFoundError:
-                raise InputError(f"{name}: no such file") from None
-            if stat.S_ISDIR(mode):
-                raise InputError(f"{name}: is a directory, not a file")
-            if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
-                raise InputError(f"{name}: is a device, not a file")
-            with path.open("rb") as fh:  # pipes (e.g. <(cat sprite.png)) are read like files
+            with open_input(source, name) as fh:
                 data = fh.read(MAX_FILE_BYTES + 1)
+                if not data and stat.S_ISFIFO(os.fstat(fh.fileno()).st_mode):
+                    raise InputError(f"{name}: a pipe nothing was written to")
         elif hasattr(source, "read"):
             data = source.read(MAX_FILE_BYTES + 1)
         else:
@@ -167,6 +161,35 @@ def read_source(source: ImageSource) -> bytes:
     if len(data) > MAX_FILE_BYTES:
         raise InputError(f"{name}: over {MAX_FILE_BYTES // 2**20} MiB, too large for pixel art")
     return data
+
+
+def open_input(path: str | os.PathLike, name: str, regular: bool = False) -> BinaryIO:
+    """``path`` open for reading, checked on the descriptor opened (what it is when read, not
+    when looked at): a folder or a device is an :class:`InputError`, and so is anything but a
+    regular file with ``regular``. Opening never waits for a writer of a named pipe (a
+    batch's input swapped for one must fail, not hang): one nobody writes to reads as empty.
+    A device is refused before it is opened too (opening a tape rewinds it)."""
+    try:
+        _check_kind(name, os.stat(path).st_mode, regular)
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+    except FileNotFoundError:
+        raise InputError(f"{name}: no such file") from None
+    try:
+        _check_kind(name, os.fstat(fd).st_mode, regular)
+        os.set_blocking(fd, True)  # a pipe with a writer is then read to its end
+        return os.fdopen(fd, "rb")
+    except BaseException:
+        os.close(fd)
+        raise
+
+
+def _check_kind(name: str, mode: int, regular: bool) -> None:
+    if stat.S_ISDIR(mode):
+        raise InputError(f"{name}: is a directory, not a file")
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        raise InputError(f"{name}: is a device, not a file")
+    if regular and not stat.S_ISREG(mode):
+        raise InputError(f"{name}: is not a regular file")
 
 
 @contextlib.contextmanager
@@ -291,7 +314,8 @@ def as_rgba(image) -> np.ndarray:
     Arrays are ``(H, W)`` grey, ``(H, W, 2)`` grey + alpha, ``(H, W, 3)`` RGB or
     ``(H, W, 4)`` RGBA. ``uint8`` is taken as is, ``uint16`` is scaled from 0-65535,
     ``bool`` maps to 0/255, floats are on a 0-1 scale when none exceeds 1 (else 0-255, like
-    other integer types), and everything is clipped to 0-255 (NaN counts as 0).
+    other integer types), and everything is clipped to 0-255. Ragged nested lists and NaN or
+    infinite values are refused (:class:`InputError`): they are no picture.
     """
     if hasattr(image, "mode") and hasattr(image, "size"):  # a PIL image
         check_indexable("<image>", *image.size)
@@ -300,7 +324,7 @@ def as_rgba(image) -> np.ndarray:
         except Exception:
             raise InputError("<image>: truncated or corrupt image data") from None
         return _to_rgba(image)
-    arr = np.asarray(image)
+    arr = image_array(image)
     if arr.ndim == 2:
         arr = arr[..., None]
     if arr.ndim != 3 or arr.shape[2] not in (1, 2, 3, 4):
@@ -315,7 +339,9 @@ def as_rgba(image) -> np.ndarray:
     elif arr.dtype == np.uint16:
         arr = np.round(arr / 257.0)
     elif arr.dtype.kind == "f":
-        arr = np.nan_to_num(arr.astype(np.float64), nan=0.0, posinf=255.0, neginf=0.0)
+        if not np.isfinite(arr).all():
+            raise InputError(f"array of shape {arr.shape}: has NaN or infinite values; pixels must be finite")
+        arr = arr.astype(np.float64)
         arr = np.round(arr * 255.0) if arr.max() <= 1.0 else np.round(arr)
     if arr.dtype != np.uint8:
         arr = np.clip(arr, 0, 255).astype(np.uint8)
@@ -327,3 +353,13 @@ def as_rgba(image) -> np.ndarray:
     elif channels == 3:
         arr = np.concatenate([arr, np.full(arr.shape[:2] + (1,), 255, np.uint8)], axis=2)
     return np.ascontiguousarray(arr)
+
+
+def image_array(image) -> np.ndarray:
+    """``np.asarray(image)``, with an :class:`InputError` for what is no array of numbers (a
+    ragged nested list, where numpy raises a bare ValueError)."""
+    try:
+        return np.asarray(image)
+    except (ValueError, TypeError) as exc:
+        reason = "rows of different lengths" if "inhomogeneous" in str(exc) else str(exc).splitlines()[0]
+        raise InputError(f"not an image array ({reason}); expected (H, W) or (H, W, C) numbers") from None

@@ -7,15 +7,19 @@ missing; both become a :class:`RenderError` with a one-line hint.
 """
 from __future__ import annotations
 
+import contextlib
 import io
+import os
 import re
+from collections.abc import Iterator
 from importlib import metadata
 
 import numpy as np
 
 from .. import validate
 from ..errors import RenderError
-from ..limits import DEFAULT_MAX_OUTPUT_PIXELS, MAX_FILE_BYTES
+from ..limits import DEFAULT_MAX_OUTPUT_PIXELS, MAX_FILE_BYTES, PDF_PAGE_POINTS
+from .references import check_references
 
 #: Formats :func:`render` writes.
 RASTER_FORMATS = ("png", "pdf")
@@ -102,31 +106,96 @@ def render(svg: str | bytes, fmt: str = "png", *, scale: float | None = None, wi
     cairosvg = _cairosvg()
     data = svg_document(svg, name)
     colour = "#{:02x}{:02x}{:02x}".format(*background) if background is not None else None
-    surface_class = _png_surface(cairosvg) if fmt == "png" else cairosvg.surface.PDFSurface
+    surface_class = _png_surface(cairosvg) if fmt == "png" else _pdf_surface(cairosvg)
     try:
         tree = cairosvg.parser.Tree(bytestring=data)
-        output = io.BytesIO()
-        limit = {"max_pixels": max_output_pixels} if fmt == "png" else {}
-        surface = surface_class(tree, output, 96, None, None, None, 1.0 if scale is None else scale,
-                                width, height, colour, **limit)
-        if fmt == "pdf":
-            import cairocffi  # noqa: PLC0415
+        check_references(tree.xml_tree, name)
+        with _output_file() as (path, fd):
+            limit = {"max_pixels": max_output_pixels} if fmt == "png" else {}
+            surface = surface_class(tree, path, 96, None, None, None, 1.0 if scale is None else scale,
+                                    width, height, colour, **limit)
+            if fmt == "pdf":
+                import cairocffi  # noqa: PLC0415
 
-            surface.cairo.set_metadata(cairocffi.PDF_METADATA_CREATE_DATE, reproducible_date())
-            surface.cairo.set_metadata(cairocffi.PDF_METADATA_CREATOR, "depixel")
-            if keywords:
-                surface.cairo.set_metadata(cairocffi.PDF_METADATA_KEYWORDS, keywords)
-        surface.finish()
-        return output.getvalue()
+                surface.cairo.set_metadata(cairocffi.PDF_METADATA_CREATE_DATE, reproducible_date())
+                surface.cairo.set_metadata(cairocffi.PDF_METADATA_CREATOR, "depixel")
+                if keywords:
+                    surface.cairo.set_metadata(cairocffi.PDF_METADATA_KEYWORDS, keywords)
+            surface.finish()
+            return _read_all(fd)
+    except RenderError:
+        raise
     except _TooLarge as exc:
-        raise RenderError(f"{name}: a {exc.width}x{exc.height} render is {exc.width * exc.height} pixels, "
-                          f"over the limit of {max_output_pixels} (raise it with max_output_pixels)",
-                          parameter="max_output_pixels") from None
+        shown = validate.shown
+        raise RenderError(f"{name}: a {shown(exc.width)}x{shown(exc.height)} render is "
+                          f"{shown(exc.width * exc.height)} pixels, over the limit of {max_output_pixels} "
+                          "(raise it with max_output_pixels)", parameter="max_output_pixels") from None
+    except _PageSize as exc:
+        parameter = "width" if width is not None else "height" if height is not None else "scale"
+        validate.page_size("pdf", exc.width / 0.75, exc.height / 0.75, name, parameter, RenderError)
+        raise  # (page_size refuses what _PageSize refused)
     except MemoryError:
         raise RenderError(f"{name}: not enough memory to render it") from None
     except Exception as exc:  # cairosvg raises ParseError, ValueError, ... for bad SVG
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise RenderError(f"{name}: cannot render SVG ({reason})") from None
+
+
+@contextlib.contextmanager
+def _output_file() -> Iterator[tuple[str, int]]:
+    """A file cairo writes by name, and a descriptor to read it back: a file in memory on
+    Linux, else a temporary file. Given a Python file object instead, cairo would call back
+    into Python for every block it writes, and a Ctrl-C arriving meanwhile would be raised in
+    that callback, where cffi swallows it ("Exception ignored from cffi callback", a
+    traceback) and the render goes on or ends short; now it is raised when cairo returns."""
+    if hasattr(os, "memfd_create") and os.path.isdir("/proc/self/fd"):
+        fd = os.memfd_create("depixel-render", getattr(os, "MFD_CLOEXEC", 0))
+        try:
+            yield f"/proc/self/fd/{fd}", fd
+        finally:
+            os.close(fd)
+        return
+    import tempfile  # noqa: PLC0415
+
+    fd, path = tempfile.mkstemp(prefix="depixel-render-")
+    try:
+        yield path, fd
+    finally:
+        os.close(fd)
+        os.unlink(path)
+
+
+def _read_all(fd: int) -> bytes:
+    """Everything in the file open as ``fd``, from its start."""
+    os.lseek(fd, 0, os.SEEK_SET)
+    with open(fd, "rb", closefd=False) as fh:
+        return fh.read()
+
+
+class _PageSize(Exception):
+    def __init__(self, width: float, height: float) -> None:
+        super().__init__(f"{width}x{height} pt")
+        self.width, self.height = width, height
+
+
+_PDF_SURFACE = None
+
+
+def _pdf_surface(cairosvg):
+    """cairosvg's PDF surface, refusing a page outside the PDF format's range before cairo
+    makes it (``limits.PDF_PAGE_POINTS``: cairo would write a page no reader shows, or drop
+    the drawing's operators)."""
+    global _PDF_SURFACE
+    if _PDF_SURFACE is None:
+        class CheckedPDFSurface(cairosvg.surface.PDFSurface):
+            def _create_surface(self, width, height):
+                low, high = PDF_PAGE_POINTS
+                if not (low <= width <= high and low <= height <= high):
+                    raise _PageSize(width, height)
+                return super()._create_surface(width, height)
+
+        _PDF_SURFACE = CheckedPDFSurface
+    return _PDF_SURFACE
 
 
 class _TooLarge(Exception):
