@@ -9,6 +9,7 @@ from __future__ import annotations
 import errno
 import io
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -50,6 +51,13 @@ def shell(command: str, *argv: str, timeout: float = 120) -> subprocess.Complete
 
 def lines(err: str) -> list[str]:
     return [line for line in err.splitlines() if line.strip()]
+
+
+def messages(err: str) -> tuple[list[str], str]:
+    """A batch's lines on stderr but its summary line, and the summary (``N files: …``)."""
+    found = lines(err)
+    assert re.fullmatch(r"depixel: \d+ files: .* in [0-9.]+ s", found[-1]), err
+    return found[:-1], found[-1]
 
 
 # --- finding 2: output streams --------------------------------------------------------------
@@ -262,7 +270,9 @@ def test_named_pipe_among_the_inputs_is_one_failed_file(tmp_path):
                           str(folder / "b.png"), "--out-dir", str(out), "-j", "2"],
                          capture_output=True, text=True, timeout=120)
     assert run.returncode == 1
-    assert lines(run.stderr) == [f"depixel: error: {folder / 'swapped.png'}: a pipe nothing was written to"]
+    said, summary = messages(run.stderr)
+    assert said == [f"depixel: error: {folder / 'swapped.png'}: a pipe nothing was written to"]
+    assert "3 files: 2 converted" in summary and "1 failed" in summary
     assert sorted(p.name for p in out.iterdir()) == ["a.svg", "b.svg"]
 
 
@@ -283,7 +293,7 @@ def test_explicit_jobs_are_capped_by_memory(tmp_path):
     run = subprocess.run([sys.executable, "-c", code, "convert", str(folder), "--out-dir", str(tmp_path / "out"),
                           "-j", "1000"], capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr
-    (note,) = lines(run.stderr)
+    (note,), _ = messages(run.stderr)
     assert note.startswith("depixel: note: -j 1000: 2 workers, not 4: converting "), note
     assert len(list((tmp_path / "out").iterdir())) == 4
 
@@ -308,7 +318,8 @@ def test_the_same_error_for_every_input_is_printed_once(tmp_path, monkeypatch, c
 
     monkeypatch.setattr(os, "open", refuse)
     assert main(["convert", str(folder), "--out-dir", str(out), "-j", "1"]) == Exit.FAILED
-    err = lines(capsys.readouterr().err)
+    err, summary = messages(capsys.readouterr().err)
+    assert "6 files: 0 converted" in summary and "6 failed" in summary
     assert err == [f"depixel: error: {out / 'h0.svg'}: permission denied (cannot write in its folder)",
                    f"depixel: error: {folder / 'junk.png'}: not an image (no format Pillow reads recognises it)",
                    f"depixel: error: 4 more files failed the same way: {out / '…'}: permission denied "
