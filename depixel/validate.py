@@ -85,7 +85,8 @@ def shown(value: float) -> str:
     if isinstance(value, numbers.Integral) and abs(value) >= 10**15:  # maybe too large for a float
         from decimal import Decimal  # noqa: PLC0415
 
-        return format(Decimal(int(value)).normalize(), ".4g")
+        mantissa, _, exponent = format(Decimal(int(value)), ".4g").partition("e")
+        return f"{mantissa.rstrip('0').rstrip('.') if '.' in mantissa else mantissa}e{exponent}"
     if float(value).is_integer() and abs(value) < 1e15:
         return str(int(value))
     return f"{value:.4g}"
