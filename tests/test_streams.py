@@ -134,6 +134,13 @@ def mapped(pid: int, name: bytes) -> bool:
         return False
 
 
+def test_the_installed_script_enters_before_the_imports():
+    """The console script runs depixel_cli.entry (SCRIPT above is what it does)."""
+    from conftest import ROOT
+
+    assert 'depixel = "depixel_cli.entry:main"' in (ROOT / "pyproject.toml").read_text()
+
+
 @pytest.mark.parametrize("delay", [0.0, 0.02, 0.05, 0.1])
 def test_ctrl_c_while_importing(tmp_path, delay):
     """SIGINT once numpy is being imported (the command's first ~0.1-0.2 s): before, Python's
