@@ -98,6 +98,8 @@ def test_tangent_is_the_unit_leg_or_chord_of_the_plain_formula_to_the_bit():
 
 
 def test_piece_tolerance_is_the_tolerance_or_a_sixteenth_of_the_pieces_sample_box():
+    """The box holds every sample of the piece, both its ends included: so a piece walked
+    the other way (a mirrored image's) gets the same tolerance."""
     from conftest import FIXTURES
 
     from depixel import depixelize, load_image
@@ -110,7 +112,8 @@ def test_piece_tolerance_is_the_tolerance_or_a_sixteenth_of_the_pieces_sample_bo
         exact = Exact(pieces, tolerance)
         expected = []
         for a, b in zip(pieces.ptr[:-1].tolist(), pieces.ptr[1:].tolist()):
-            x, y = exact.part_start[0, a:b].ravel(), exact.part_start[1, a:b].ravel()
+            x = np.concatenate([exact.part_start[0, a:b].ravel(), exact.part_end[0, a:b].ravel()])
+            y = np.concatenate([exact.part_start[1, a:b].ravel(), exact.part_end[1, a:b].ravel()])
             size = np.hypot(x.max() - x.min(), y.max() - y.min())
             expected += [min(tolerance, _RELATIVE_TOLERANCE * size)] * (b - a)
         np.testing.assert_allclose(exact.tolerance, expected, rtol=1e-15)
@@ -159,14 +162,13 @@ def test_distance_test_is_every_samples_distance_within_the_tolerance_to_the_bit
     from depixel.svg.curvefit import _cubic_controls, _quadratic_control, _Samples
     from depixel.svg.outlines import OutlineShapes
     from depixel.svg.reference import Exact
-    from depixel.svg.simplify import _chunks, _halves
 
     vector = depixelize(load_image(FIXTURES / "mushroom.png")).vector
     pieces = OutlineShapes(vector, "stacked", grid=0.01, simplify=0.0).pieces
     exact = Exact(pieces, 0.25)
-    lo, hi = _chunks(pieces.ptr, 8)
-    half_lo, half_hi = _halves(lo, hi)
-    lo, hi = np.concatenate([lo, half_lo]), np.concatenate([hi, half_hi])
+    # runs of 2, 4 and 8 segments along every piece
+    lo, hi = map(np.array, zip(*[(a, a + size) for p in range(len(pieces)) for size in (2, 4, 8)
+                                 for a in range(int(pieces.ptr[p]), int(pieces.ptr[p + 1]) - size + 1, size)]))
     samples = _Samples(exact, lo, hi)
     q, has_q = _quadratic_control(exact, samples.p0.T, samples.p3.T, lo, hi, None)
     q1, q2 = elevate(samples.p0.T, q, samples.p3.T)
@@ -179,9 +181,10 @@ def test_distance_test_is_every_samples_distance_within_the_tolerance_to_the_bit
     c1 = np.concatenate([q1[quads], r1, r1 + rng.normal(0.0, 0.5, r1.shape)])
     c2 = np.concatenate([q2[quads], r2, r2 + rng.normal(0.0, 0.5, r2.shape)])
     worst = _plain_worst_distances(exact, lo[rows], hi[rows], c1, c2)
-    shape_ok, _ = samples.within(rows, c1, c2, np.full(rows.size, np.inf))
+    shape_ok, _, _ = samples.within(rows, c1, c2, np.full(rows.size, np.inf))
     assert rows.size > 100 and 0 < shape_ok.sum() < rows.size
-    ok_at, _ = samples.within(rows, c1, c2, worst)
-    ok_below, _ = samples.within(rows, c1, c2, np.nextafter(worst, -1.0))
+    ok_at, error, _ = samples.within(rows, c1, c2, worst)
+    ok_below, _, _ = samples.within(rows, c1, c2, np.nextafter(worst, -1.0))
+    assert np.array_equal(error[shape_ok], worst[shape_ok])
     assert np.array_equal(ok_at, shape_ok)
     assert not ok_below.any()

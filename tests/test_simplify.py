@@ -1,176 +1,329 @@
-"""depixel/svg/simplify.py's driver: which ranges of exact segments are fitted, and that fitting
-some of them ahead of time (a speed choice) never shows in the result."""
+"""The SVG writer's simplification (depixel/svg/simplify.py, depixel/svg/breaks.py): what it keeps
+true of the exact spline — straight runs, thin lines' width, the square's symmetries, the
+curves away from an edit."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import FIXTURES
-from hypothesis import given
+from conftest import CORPUS, art, needs_corpus
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-import depixel.svg.simplify as simplify
 from depixel import depixelize, load_image
-from depixel.svg.outlines import build_outlines
-from depixel.svg.simplify import _descendants, _first_merges, _halves, _next_merges, _range_keys
+from depixel.curves.bspline import elevate
+from depixel.svg.boundaries import CUBIC, LINE, QUAD
+from depixel.svg.outlines import OutlineShapes, build_outlines
+
+T = np.linspace(0.0, 1.0, 9)
 
 
-def _pairs(lo, hi):
-    return sorted(zip(np.asarray(lo).tolist(), np.asarray(hi).tolist()))
+def _pieces(rgba: np.ndarray, tolerance: float, grid: float | None = None, stage: str = "splines"):
+    return OutlineShapes(depixelize(rgba, stage=stage).vector, "stacked", grid, tolerance).pieces
 
 
-def test_halves_split_every_range_and_drop_single_segments():
-    lo, hi = np.array([0, 8, 11]), np.array([8, 11, 12])
-    assert _pairs(*_halves(lo, hi)) == [(0, 4), (4, 8), (9, 11)]  # [8, 9), [11, 12) are single
+def _cubics(start, kind, ctrl, ctrl2, end) -> np.ndarray:
+    """(K, 4, 2) every segment as a cubic's control points."""
+    q1, q2 = elevate(start, np.nan_to_num(ctrl), end)
+    c1 = np.where((kind == QUAD)[:, None], q1, np.where((kind == CUBIC)[:, None], ctrl, start + (end - start) / 3))
+    c2 = np.where((kind == QUAD)[:, None], q2, np.where((kind == CUBIC)[:, None], ctrl2, end - (end - start) / 3))
+    return np.stack([start, c1, c2, end], axis=1)
 
 
-def test_descendants_are_whole_levels_within_the_budget():
-    lo, hi = np.array([0]), np.array([8])
-    assert _pairs(*_descendants(lo, hi, 100)) == [(0, 2), (0, 4), (2, 4), (4, 6), (4, 8), (6, 8)]
-    assert _pairs(*_descendants(lo, hi, 15)) == [(0, 4), (4, 8)]  # the second level would make 16
-    assert _pairs(*_descendants(lo, hi, 7)) == []
+def _starts(pieces) -> np.ndarray:
+    start = np.roll(pieces.end, 1, axis=0)
+    first = pieces.ptr[:-1][np.diff(pieces.ptr) > 0]
+    start[first] = pieces.start[np.diff(pieces.ptr) > 0]
+    return start
 
 
-def _second_pass(lo, hi, piece, failed_keys, merged, ptr):
-    """The ranges the second merge pass asks for after the first merged the ranges ``merged``
-    with their next ones (simplify._merge_neighbours' bookkeeping, written out plainly)."""
-    items = [[lo[i], hi[i], piece[i]] for i in range(len(lo))]
-    for a in sorted(merged, reverse=True):
-        items[a][1] = items[a + 1][1]
-        del items[a + 1]
-    asked = []
-    for i in range(1, len(items) - 1, 2):
-        (l0, h0, p0), (l1, h1, p1) = items[i], items[i + 1]
-        if h0 == l1 and p0 == p1 and _range_keys(np.array([l0]), np.array([h1]), ptr)[0] not in failed_keys:
-            asked.append((l0, h1))
-    return asked
+def _curve_points(pieces) -> np.ndarray:
+    """(K, 9, 2) points along every segment of the pieces."""
+    k = _cubics(_starts(pieces), pieces.kind, pieces.ctrl, pieces.ctrl2, pieces.end)
+    s = 1 - T[:, None]
+    t = T[:, None]
+    return (s**3 * k[:, None, 0] + 3 * s * s * t * k[:, None, 1] + 3 * s * t * t * k[:, None, 2]
+            + t**3 * k[:, None, 3])
 
 
-_seldom = st.integers(0, 5).map(lambda x: x == 0)  # a gap, a new piece
+def _same_curves(a: np.ndarray, b: np.ndarray, tol: float) -> bool:
+    """Whether two sets of segments (points along each, :func:`_curve_points`) are the same,
+    each segment of one within ``tol`` of one of the other, in either direction."""
+    if a.shape != b.shape:
+        return False
+    forward = np.abs(a[:, None] - b[None]).max(axis=(2, 3))
+    backward = np.abs(a[:, None] - b[None, :, ::-1]).max(axis=(2, 3))
+    d = np.minimum(forward, backward)
+    return bool((d.min(axis=1) <= tol).all() and (d.min(axis=0) <= tol).all())
 
 
-@given(st.lists(st.tuples(st.integers(1, 3), _seldom, _seldom), min_size=2, max_size=14),
-       st.lists(st.booleans(), min_size=14, max_size=14), st.data())
-def test_the_ranges_fitted_ahead_hold_every_range_of_the_second_merge_pass(runs, merges, data):
-    """Whichever of the first pass's merges succeed, the second pass asks only for ranges
-    :func:`_next_merges` fitted ahead (unless it gives up over the budget)."""
-    # consecutive ranges: a gap before some (not touching), a new piece at some
-    lo, hi, piece, at, p = [], [], [], 0, 0
-    for length, gap, new_piece in runs:
-        at += gap
-        p += new_piece
-        lo.append(at)
-        at += length
-        hi.append(at)
-        piece.append(p)
-    lo, hi, piece = np.array(lo), np.array(hi), np.array(piece)
-    ptr = np.array([0, at])
-    touching = (hi[:-1] == lo[1:]) & (piece[:-1] == piece[1:])
-    spans = data.draw(st.lists(st.tuples(st.integers(0, lo.size - 1), st.integers(1, 4)), max_size=4))
-    failed = np.sort(np.array([_range_keys(lo[i : i + 1], hi[min(i + n, lo.size) - 1 :][:1], ptr)[0]
-                               for i, n in spans], np.int64))  # some unions of 1-4 ranges did not fit before
-    a = np.flatnonzero(touching & (np.arange(lo.size - 1) % 2 == 0))
-    a = a[~np.isin(_range_keys(lo[a], hi[a + 1], ptr), failed)]
-    ahead = _next_merges(lo, hi, touching, a, failed, ptr)
-    assert ahead is not None  # small: within the budget
-    merged = [int(x) for x, m in zip(a, merges) if m]
-    first = set(zip(lo[a].tolist(), hi[a + 1].tolist()))
-    assert set(_second_pass(lo, hi, piece, set(failed.tolist()), merged, ptr)) <= set(_pairs(*ahead)) | first
+# the square's symmetries: the image's, and the map of a point of the result back
+SYMMETRIES = {
+    "mirror_x": (lambda a: a[:, ::-1], lambda p, h, w: np.stack([w - p[..., 0], p[..., 1]], axis=-1)),
+    "mirror_y": (lambda a: a[::-1], lambda p, h, w: np.stack([p[..., 0], h - p[..., 1]], axis=-1)),
+    "turn": (np.rot90, lambda p, h, w: np.stack([w - p[..., 1], p[..., 0]], axis=-1)),
+}
 
 
-def test_a_large_first_merge_pass_fits_nothing_ahead(monkeypatch):
-    lo = np.arange(0, 24, 2)  # 12 ranges of 2 segments, the even ones to merge
-    hi = lo + 2
-    touching = np.ones(lo.size - 1, bool)
-    a = np.arange(0, lo.size - 1, 2)
-    failed = np.zeros(0, np.int64)
-    assert _next_merges(lo, hi, touching, a, failed, np.array([0, 24])) is not None
-    monkeypatch.setattr(simplify, "SPECULATIVE_SEGMENTS", 143)  # 24 asked + 120 ahead
-    assert _next_merges(lo, hi, touching, a, failed, np.array([0, 24])) is None
+def _equivariant(rgba: np.ndarray, tolerance: float, grid: float | None = None, tol: float = 1e-6) -> dict:
+    """For each symmetry, whether the pieces of the transformed image, mapped back, are the
+    image's own (``None`` where the exact spline already differs: nothing to ask then)."""
+    h, w = rgba.shape[:2]
+    out = {}
+    for name, (transform, back) in SYMMETRIES.items():
+        moved = np.ascontiguousarray(transform(rgba))
+        exact = [_curve_points(_pieces(x, 0.0, grid)) for x in (rgba, moved)]
+        if not _same_curves(exact[0], back(exact[1], h, w), tol):
+            out[name] = None
+            continue
+        simple = [_curve_points(_pieces(x, tolerance, grid)) for x in (rgba, moved)]
+        out[name] = _same_curves(simple[0], back(simple[1], h, w), tol)
+    return out
 
 
-@given(st.lists(st.tuples(st.integers(1, 3), _seldom, _seldom, st.booleans(), st.booleans()), min_size=1,
-                max_size=14), st.data())
-def test_the_last_levels_pass_holds_every_range_of_the_first_merge_pass(runs, data):
-    """Whichever ranges of the halving's last level fit, the first merge pass asks only for
-    ranges :func:`_first_merges` gave to that level's pass to fit ahead."""
-    # consecutive ranges (a gap before some, a new piece at some), each fitted at an earlier
-    # level or of the last level (at most two segments) and then fitting or not
-    lo, hi, earlier, fits, ptr, at = [], [], [], [], [0], 0
-    for length, gap, new_piece, before, fitting in runs:
-        at += gap
-        if new_piece and at > ptr[-1]:
-            ptr.append(at)
-        lo.append(at)
-        at += length if before else min(length, 2)
-        hi.append(at)
-        earlier.append(before)
-        fits.append(fitting)
-    ptr.append(at)
-    lo, hi, earlier, fits, ptr = np.array(lo), np.array(hi), np.array(earlier), np.array(fits), np.array(ptr)
-    # some unions of two neighbours did not fit at an earlier level
-    tried = data.draw(st.lists(st.integers(0, max(lo.size - 2, 0)), max_size=3)) if lo.size > 1 else []
-    failed = [_range_keys(lo.take(tried), hi.take(np.add(tried, 1)), ptr)] if tried else []
-    fitted = [(lo[earlier], hi[earlier])]
-    ahead = _first_merges(fitted, lo[~earlier], hi[~earlier], failed, ptr)
-    assert ahead is not None  # small: within the budget
-    # the first merge pass (simplify._merge_neighbours, written out plainly): every other
-    # pair of the fitted ranges in order, where they touch in one piece
-    kept = earlier | fits
-    final_lo, final_hi = lo[kept], hi[kept]
-    piece = np.searchsorted(ptr, final_lo, side="right") - 1
-    failed_keys = set(np.concatenate(failed).tolist()) if failed else set()
-    asked = [(final_lo[i], final_hi[i + 1]) for i in range(0, final_lo.size - 1, 2)
-             if final_hi[i] == final_lo[i + 1] and piece[i] == piece[i + 1]
-             and _range_keys(final_lo[i : i + 1], final_hi[i + 1 : i + 2], ptr)[0] not in failed_keys]
-    assert set(_pairs(*zip(*asked)) if asked else []) <= set(_pairs(*ahead))
+ASYMMETRIC = art("""
+    ..........
+    ..###.....
+    .#####....
+    .######...
+    .##..###..
+    .##...###.
+    ..##..###.
+    ...######.
+    ....####..
+    ..........
+""")
+BLOB = art("""
+    ............
+    ....####....
+    ..########..
+    .##########.
+    .####..####.
+    .##########.
+    ..########..
+    ....####....
+    ............
+""")
 
 
-def test_a_large_last_level_fits_no_merge_ahead(monkeypatch):
-    lo = np.arange(0, 24, 2)  # 12 touching ranges of 2 segments: 11 pairs of 4, 44 segments
-    fitted = [(lo[::2], lo[::2] + 2)]
-    args = (fitted, lo[1::2], lo[1::2] + 2, [], np.array([0, 24]))
-    assert _pairs(*_first_merges(*args)) == [(i, i + 4) for i in range(0, 21, 2)]
-    monkeypatch.setattr(simplify, "MERGE_AHEAD_SEGMENTS", 43)
-    assert _first_merges(*args) is None
+@pytest.mark.parametrize("image", [ASYMMETRIC, BLOB], ids=["asymmetric", "blob"])
+@pytest.mark.parametrize("tolerance", [0.25, 1.0])
+def test_simplification_commutes_with_mirrors_and_quarter_turns(image, tolerance):
+    """Convert the mirrored or quarter-turned image and map the curves back: the same
+    simplified curves, to 1e-6 px (the cuts depend neither on where a loop's numbering
+    starts nor on its direction)."""
+    result = _equivariant(image, tolerance)
+    assert all(v is not None for v in result.values())  # the exact spline is equivariant here
+    assert all(result.values()), result
 
 
-def _outlines_counting_passes(monkeypatch, vector, speculative, merge_ahead, grid, tolerance):
-    """Stacked outlines of ``vector`` simplified at ``tolerance`` under the given fit-ahead
-    budgets, and the number of curvefit.fit passes they took."""
-    calls = []
-    real_fit = simplify.fit
-    monkeypatch.setattr(simplify, "SPECULATIVE_SEGMENTS", speculative)
-    monkeypatch.setattr(simplify, "MERGE_AHEAD_SEGMENTS", merge_ahead)
-    monkeypatch.setattr(simplify, "fit", lambda *args: calls.append(1) or real_fit(*args))
-    out = build_outlines(vector, "stacked", grid=grid, simplify=tolerance)
-    monkeypatch.setattr(simplify, "fit", real_fit)
-    return out, len(calls)
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.integers(0, 2**32 - 1))
+def test_random_patterns_simplify_equivariantly(seed):
+    """Random three-colour patterns: wherever the exact spline is equivariant, so is the
+    simplified one."""
+    rng = np.random.default_rng(seed)
+    palette = np.array([[255, 255, 255, 255], [0, 0, 0, 255], [220, 30, 30, 255]], np.uint8)
+    image = palette[rng.integers(0, 3, (7, 8))].repeat(2, axis=0).repeat(2, axis=1)  # blocks: curves, not noise
+    result = _equivariant(image, 0.25)
+    asked = [v for v in result.values() if v is not None]
+    assume(asked)
+    assert all(asked), result
 
 
-def _assert_same_outlines(a, b):
-    for x, y in zip((a.kind, a.ctrl, a.ctrl2, a.end), (b.kind, b.ctrl, b.ctrl2, b.end)):
-        assert x.shape == y.shape and np.array_equal(x, y, equal_nan=x.dtype.kind == "f")
+EQUIVARIANT_SPRITES = ["smw_boo", "sma_toad", "win31_386", "mana_rabite", "smw_yoshi", "invaders_01",
+                       "win31_keyboard"]
 
 
-@pytest.mark.parametrize("name", ["ghost.png", "mushroom.png", "potion_rgba.png"])
-def test_fitting_ahead_saves_passes_and_changes_no_curve(name, monkeypatch):
-    """The halving's and the merges' later ranges fitted ahead in one pass: fewer calls of
-    curvefit.fit, the same curves as one pass per level."""
-    vector = depixelize(load_image(FIXTURES / name)).vector
-    runs = [_outlines_counting_passes(monkeypatch, vector, budget, budget, grid=1e-2, tolerance=0.25)
-            for budget in (0, 1 << 30)]  # never ahead, always
-    _assert_same_outlines(*(out for out, _ in runs))
-    passes = [count for _, count in runs]
-    assert passes[1] <= 2 < passes[0]
+@needs_corpus
+@pytest.mark.parametrize("name", EQUIVARIANT_SPRITES)
+def test_corpus_sprites_simplify_equivariantly(name):
+    """Seven corpus sprites whose exact spline is equivariant: the simplified pieces of the
+    mirrored and turned sprite, mapped back, are the sprite's own, at the SVG's grid (its
+    rounding of a mirrored number may differ by one step)."""
+    rgba = np.asarray(load_image(CORPUS / f"{name}.png"))
+    result = _equivariant(rgba, 0.25, grid=0.01, tol=0.0101)
+    assert all(v is not None for v in result.values())
+    assert all(result.values()), result
 
 
-def test_the_last_levels_pass_fits_the_first_merges(monkeypatch):
-    """mushroom at 0.1 px: the halving's last level (ranges of 2 segments) and the first merge
-    pass in one call of curvefit.fit instead of two, the same curves."""
-    vector = depixelize(load_image(FIXTURES / "mushroom.png")).vector
-    speculative = simplify.SPECULATIVE_SEGMENTS
-    runs = [_outlines_counting_passes(monkeypatch, vector, speculative, budget, grid=1e-3, tolerance=0.1)
-            for budget in (-1, simplify.MERGE_AHEAD_SEGMENTS)]  # never, the default
-    _assert_same_outlines(*(out for out, _ in runs))
-    passes = [count for _, count in runs]
-    assert passes == [3, 2]
+ONE_PIXEL_LINES = art("""
+    ............
+    .########...
+    ...........#
+    .#.........#
+    .#..######.#
+    .#.........#
+    .#.........#
+    .#..........
+    ............
+""")
+
+
+def _straight_runs(pieces) -> list[tuple[tuple[float, float], tuple[float, float]]]:
+    """The runs of collinear line segments of the pieces at least one pixel long, as (start, end)."""
+    start = _starts(pieces)
+    runs = []
+    for p in range(len(pieces)):
+        a, b = int(pieces.ptr[p]), int(pieces.ptr[p + 1])
+        k = a
+        while k < b:
+            if pieces.kind[k] != LINE:
+                k += 1
+                continue
+            d = pieces.end[k] - start[k]
+            e = k + 1
+            while e < b and pieces.kind[e] == LINE:
+                d2 = pieces.end[e] - start[e]
+                if abs(d[0] * d2[1] - d[1] * d2[0]) > 1e-9 or d @ d2 <= 0:
+                    break
+                e += 1
+            if np.hypot(*(pieces.end[e - 1] - start[k])) >= 1 - 1e-9:
+                runs.append((tuple(start[k]), tuple(pieces.end[e - 1])))
+            k = e
+    return runs
+
+
+@pytest.mark.parametrize("image", [ONE_PIXEL_LINES, ASYMMETRIC], ids=["lines", "asymmetric"])
+@pytest.mark.parametrize("tolerance", [0.25, 2.0])
+def test_straight_runs_stay_lines(image, tolerance):
+    """Every straight run of the exact spline a pixel long or more (a pixel edge of two
+    pixels between the curves at its ends) is drawn as the same straight line."""
+    exact = _straight_runs(_pieces(image, 0.0))
+    assert len(exact) >= 4
+    simple = _pieces(image, tolerance)
+    start = _starts(simple)
+    for a, b in exact:
+        on = [k for k in range(simple.kind.size) if simple.kind[k] == LINE
+              and _on_segment(start[k], a, b) and _on_segment(simple.end[k], a, b)]
+        covered = sum(np.hypot(*(simple.end[k] - start[k])) for k in on)
+        assert covered == pytest.approx(np.hypot(b[0] - a[0], b[1] - a[1]), abs=1e-9), (a, b)
+
+
+def _on_segment(p, a, b) -> bool:
+    a, b, p = np.asarray(a), np.asarray(b), np.asarray(p)
+    d, q = b - a, p - a
+    return abs(d[0] * q[1] - d[1] * q[0]) <= 1e-9 and -1e-9 <= q @ d <= d @ d + 1e-9
+
+
+def _outline_polylines(image: np.ndarray, tolerance: float, colour) -> list[np.ndarray]:
+    """The loops of the shapes of ``colour`` as polylines, 64 points a segment."""
+    out = build_outlines(depixelize(image, stage="splines").vector, "stacked", None, tolerance)
+    t = np.linspace(0, 1, 64)[:, None]
+    lines = []
+    loops = [loop for s in np.flatnonzero((out.rgba == colour).all(axis=1)) for loop in out.loops_of(int(s))]
+    for start, kind, ctrl, ctrl2, end in loops:
+        starts = np.roll(end, 1, axis=0)
+        starts[0] = start
+        k = _cubics(starts, kind, ctrl, ctrl2, end)
+        pts = ((1 - t) ** 3 * k[:, None, 0] + 3 * (1 - t) ** 2 * t * k[:, None, 1] + 3 * (1 - t) * t * t * k[:, None, 2]
+               + t**3 * k[:, None, 3])
+        lines.append(pts.reshape(-1, 2))
+    return lines
+
+
+def _extent_at(lines: list[np.ndarray], x: float, axis: int) -> float:
+    """The length of the cut through the loops along the line ``coordinate[axis] == x``
+    (the crossings' outermost pair)."""
+    hits = []
+    for pts in lines:
+        a, b = pts, np.roll(pts, -1, axis=0)
+        cross = (a[:, axis] - x) * (b[:, axis] - x) < 0
+        t = (x - a[cross, axis]) / (b[cross, axis] - a[cross, axis])
+        hits += list(a[cross, 1 - axis] + t * (b[cross, 1 - axis] - a[cross, 1 - axis]))
+    return max(hits) - min(hits)
+
+
+@pytest.mark.parametrize("tolerance", [0.25, 1.0])
+def test_one_pixel_lines_keep_their_width(tolerance):
+    """Across every inner pixel of a one-pixel line (its two end pixels are rounded), the
+    simplified line is 1 ± 0.1 px wide."""
+    black = COLOUR_BLACK
+    lines = _outline_polylines(ONE_PIXEL_LINES, tolerance, black)
+    widths = []
+    # the horizontal line of row 1, columns 1-8; the vertical one of column 11, rows 2-6
+    for x in np.arange(2.0, 8.0, 0.125) + 0.0625:
+        widths.append(_extent_at([lines[_loop_near(lines, (x, 1.5))]], x, 0))
+    for y in np.arange(3.0, 6.0, 0.125) + 0.0625:
+        widths.append(_extent_at([lines[_loop_near(lines, (11.5, y))]], y, 1))
+    assert np.allclose(widths, 1.0, atol=0.1), np.round(widths, 3)
+
+
+COLOUR_BLACK = (0, 0, 0, 255)
+
+
+def _loop_near(lines: list[np.ndarray], point) -> int:
+    return int(np.argmin([np.hypot(*(pts - point).T).min() for pts in lines]))
+
+
+HIGHLIGHT = art("""
+    ##############
+    #............#
+    #bbbbbbbbbbbb#
+    #bbbbbbbbbbbb#
+    ##############
+""")
+
+
+@pytest.mark.parametrize("tolerance", [0.25, 1.0])
+def test_no_s_curve_on_a_straight_highlight(tolerance):
+    """A one-pixel highlight along a key (the keyboard's spacebar): no simplified curve turns
+    one way and then the other, and the highlight's long edges are straight lines."""
+    pieces = _pieces(HIGHLIGHT, tolerance)
+    start = _starts(pieces)
+    cubic = pieces.kind == CUBIC
+    legs = [pieces.ctrl[cubic] - start[cubic], pieces.ctrl2[cubic] - pieces.ctrl[cubic],
+            pieces.end[cubic] - pieces.ctrl2[cubic]]
+    turns = [a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0] for a, b in zip(legs[:-1], legs[1:])]
+    assert not (turns[0] * turns[1] < -1e-9).any()
+    highlight = _outline_polylines(HIGHLIGHT, tolerance, (255, 255, 255, 255))
+    assert _extent_at(highlight, 7.0, 0) == pytest.approx(1.0, abs=1e-9)
+    exact = _pieces(HIGHLIGHT, 0.0)
+    for y in (1.0, 2.0):  # the highlight's top and bottom edges: as long a line as the exact spline's
+        longest = [max(abs(b[0] - a[0]) for a, b in _straight_runs(p) if a[1] == b[1] == y) for p in (exact, pieces)]
+        assert longest[1] == longest[0] >= 9
+
+
+KEYS = art("""
+    ##############
+    #............#
+    #.##..##..##.#
+    #.##..##..##.#
+    #............#
+    ##############
+""")
+
+
+def test_a_two_by_two_block_keeps_the_exact_outline():
+    """The 2×2 keys of a rectilinear icon: their simplified outline stays within a twentieth
+    of a pixel of the exact spline (a circle would be a tenth of a pixel off)."""
+    for tolerance in (0.25, 2.0):
+        exact = _outline_polylines(KEYS, 0.0, COLOUR_BLACK)
+        simple = _outline_polylines(KEYS, tolerance, COLOUR_BLACK)
+        for centre in ((3.0, 3.0), (7.0, 3.0), (11.0, 3.0)):
+            e, s = exact[_loop_near(exact, centre)], simple[_loop_near(simple, centre)]
+            d = np.hypot(*(s[:, None] - e[None]).transpose(2, 0, 1)).min(axis=1)
+            assert d.max() <= 0.05, (centre, d.max())
+
+
+WAVE = art("""
+    ..............................
+    ..##....##....##....##....##..
+    .####..####..####..####..####.
+    ##############################
+    ##############################
+""")
+
+
+def test_an_edit_changes_the_curves_only_near_it():
+    """One pixel changed at the left end of a long wavy boundary: the simplified segments
+    farther than 6 px from it are those of the unedited image, to the bit."""
+    edited = WAVE.copy()
+    edited[1, 2] = WAVE[0, 0]  # the first bump loses a pixel
+    far = []
+    for image in (WAVE, edited):
+        pieces = _pieces(image, 0.25, grid=0.01)
+        points = _curve_points(pieces)
+        away = np.hypot(points[..., 0] - 2.5, points[..., 1] - 1.5).min(axis=1) > 6
+        far.append({tuple(np.round(p, 6).ravel()) for p in points[away]})
+    assert len(far[0]) >= 10
+    assert far[0] == far[1]

@@ -51,6 +51,7 @@ class BoundaryPieces:
     curve_ctrl: np.ndarray  # (P, 2) float64 the curve table's control points (the image's own array)
     grid: float | None  # the grid of the coordinates (None: exact)
     ctrl2: np.ndarray  # (K, 2) float64 second control point of a CUBIC (NaN otherwise; read-only)
+    closed: np.ndarray  # (N,) bool a whole closed curve without junction: it starts at an arbitrary joint
 
     def __len__(self) -> int:
         return int(self.ptr.size - 1)
@@ -64,7 +65,7 @@ class BoundaryPieces:
                          end: np.ndarray, ctrl2: np.ndarray) -> BoundaryPieces:
         """The same pieces with other segments (e.g. simplified)."""
         return BoundaryPieces(start, ptr, kind, ctrl, end, self.edge_piece, self.edge_first, self.edge_last,
-                              np.full(kind.size, -1, np.int32), self.curve_ctrl, self.grid, ctrl2)
+                              np.full(kind.size, -1, np.int32), self.curve_ctrl, self.grid, ctrl2, self.closed)
 
 
 def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = None) -> BoundaryPieces:
@@ -80,7 +81,8 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
     if curves is None or not image.curved.any():
         return BoundaryPieces(np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, np.uint8), np.zeros((0, 2)),
                               np.zeros((0, 2)), np.full(n_edges, -1, np.int64), np.zeros(n_edges, bool),
-                              np.zeros(n_edges, bool), empty, np.zeros((0, 2)), grid, np.zeros((0, 2)))
+                              np.zeros(n_edges, bool), empty, np.zeros((0, 2)), grid, np.zeros((0, 2)),
+                              np.zeros(0, bool))
     point = _on_grid(image.points, grid)
     node, nxt = curves.node, curves.next
     end = curves.is_end()
@@ -171,7 +173,7 @@ def build_pieces(image: VectorImage, junction: np.ndarray, grid: float | None = 
     del slot
     _straighten(start, ptr, kind, seg_ctrl, seg_end, grid)
     return BoundaryPieces(start, ptr, kind, seg_ctrl, seg_end, edge_piece, edge_first, edge_last,
-                          span_slot, curves.ctrl, grid, _no_cubics(seg_ctrl.shape))
+                          span_slot, curves.ctrl, grid, _no_cubics(seg_ctrl.shape), seed)
 
 
 def _no_cubics(shape: tuple[int, ...]) -> np.ndarray:

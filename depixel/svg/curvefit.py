@@ -28,11 +28,12 @@ FUSED_RANGES = 128
 
 
 def fit(exact: Exact, prot: Protected, lo: np.ndarray, hi: np.ndarray, tolerance: float | np.ndarray,
-         clearance: float,
-         grid: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        clearance: float,
+        grid: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """One curve per range [lo, hi) of exact segments: a quadratic through the meeting point
     of the end tangents where that one fits (4 numbers in the file), else the least-squares
-    cubic. Returns ``(kind, c1, c2, ok)``: QUAD rows hold the quadratic's control in ``c1``."""
+    cubic. Returns ``(kind, c1, c2, ok, error)``: QUAD rows hold the quadratic's control in
+    ``c1``; ``error`` is the kept curve's largest distance to the run's samples (pixels)."""
     # Each test is per candidate curve. A pass costs a few hundred numpy calls whatever its
     # size, so few ranges test both candidates in one pass (the cubic's verdict is not used
     # where the quadratic fits); many test the cubic only where no quadratic fits. The side
@@ -43,31 +44,32 @@ def fit(exact: Exact, prot: Protected, lo: np.ndarray, hi: np.ndarray, tolerance
     q1, q2 = elevate(p0, q, p3)  # the same curve as a cubic
     limit = np.minimum(tolerance, exact.tolerance[lo])  # the run's piece's own limit
 
-    def passes(rows: np.ndarray, c1: np.ndarray, c2: np.ndarray) -> np.ndarray:
-        ok, curves = samples.within(rows, c1, c2, limit[rows])
+    def passes(rows: np.ndarray, c1: np.ndarray, c2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        ok, worst, curves = samples.within(rows, c1, c2, limit[rows])
         ok[ok] = _keeps_sides(exact, prot, lo[rows[ok]], hi[rows[ok]], curves.compress(ok, axis=1), clearance)
-        return ok
+        return ok, worst
 
     quads = has_q.nonzero()[0]
-    quad_ok = np.zeros(lo.size, bool)
-    cubic_ok = np.zeros(lo.size, bool)
+    quad_ok, quad_err = np.zeros(lo.size, bool), np.full(lo.size, np.inf)
+    cubic_ok, cubic_err = np.zeros(lo.size, bool), np.full(lo.size, np.inf)
     if lo.size <= FUSED_RANGES:
         r1, r2 = _cubic_controls(exact, samples, None, lo, hi, grid)
-        passed = passes(np.concatenate([quads, np.arange(lo.size)]), np.concatenate([q1.take(quads, axis=0), r1]),
-                        np.concatenate([q2.take(quads, axis=0), r2]))
+        passed, err = passes(np.concatenate([quads, np.arange(lo.size)]),
+                             np.concatenate([q1.take(quads, axis=0), r1]), np.concatenate([q2.take(quads, axis=0), r2]))
         quad_ok[quads], cubic_ok = passed[: quads.size], passed[quads.size :]
+        quad_err[quads], cubic_err = err[: quads.size], err[quads.size :]
     else:
-        quad_ok[quads] = passes(quads, q1.take(quads, axis=0), q2.take(quads, axis=0))
+        quad_ok[quads], quad_err[quads] = passes(quads, q1.take(quads, axis=0), q2.take(quads, axis=0))
         rest = (~quad_ok).nonzero()[0]
         c1, c2 = _cubic_controls(exact, samples, rest, lo[rest], hi[rest], grid)
-        cubic_ok[rest] = passes(rest, c1, c2)
+        cubic_ok[rest], cubic_err[rest] = passes(rest, c1, c2)
         r1, r2 = np.full_like(q, np.nan), np.full_like(q, np.nan)
         set_rows(r1, rest, c1)
         set_rows(r2, rest, c2)
     kind = np.where(quad_ok, QUAD, CUBIC).astype(np.uint8)
     first = np.where(quad_ok[:, None], q, r1)
     second = np.where(quad_ok[:, None], np.nan, r2)
-    return kind, first, second, quad_ok | cubic_ok
+    return kind, first, second, quad_ok | cubic_ok, np.where(quad_ok, quad_err, cubic_err)
 
 
 class _Samples:
@@ -103,10 +105,11 @@ class _Samples:
         return count, start, ranges(self.first.take(rows), count)
 
     def within(self, rows: np.ndarray, c1: np.ndarray, c2: np.ndarray, tolerance: np.ndarray
-               ) -> tuple[np.ndarray, np.ndarray]:
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """For candidate cubics (p0, c1, c2, p3) of the ranges ``rows`` (``c1``, ``c2``: (M, 2)):
         every sample of the range lies within ``tolerance`` of the cubic, and the cubic is not
-        more than 10 % longer than the run (no loop or bulge between samples); and the
+        more than 10 % longer than the run (no loop or bulge between samples); each
+        candidate's largest distance to a sample (inf where the shape test fails); and the
         candidates' polylines (2, M, T) (:func:`_flatten`), which the side test uses too."""
         # the shape test first (one polyline per candidate), then the samples of the
         # candidates that pass it: the costly part, each sample on its own
@@ -145,10 +148,10 @@ class _Samples:
         s = 1 - u
         off = _cube(s) * q0 + 3 * u * s**2 * q1 + 3 * u**2 * s * q2 + _cube(u) * q3 - points  # evaluate_cubic
         d = np.sqrt(off[0] ** 2 + off[1] ** 2)
-        worst = np.zeros(rows.size)
+        worst = np.full(rows.size, np.inf)
         if cand.size:  # at least 7 samples a candidate (2 segments and more, less the first)
             worst[cand] = np.maximum.reduceat(d, start)
-        return ok & (worst <= tolerance), curve
+        return ok & (worst <= tolerance), worst, curve
 
 
 def _quadratic_control(exact: Exact, p0: np.ndarray, p3: np.ndarray, lo: np.ndarray, hi: np.ndarray,

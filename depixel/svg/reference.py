@@ -28,12 +28,14 @@ def _piece_tolerance(pieces: BoundaryPieces, exact: Exact, tolerance: float) -> 
     count = np.diff(pieces.ptr)
     has = count > 0
     # a piece's samples are consecutive: its extent by reduceat from its first (ufunc.at
-    # would handle every sample on its own)
+    # would handle every sample on its own), the parts' starts and ends (so both ends of
+    # the piece count, whichever way it runs)
     first = pieces.ptr[:-1].compress(has) * exact.part_start.shape[2]
     extent = []
     for axis in range(2):
-        coord = exact.part_start[axis].ravel()  # the samples
-        extent.append(np.maximum.reduceat(coord, first) - np.minimum.reduceat(coord, first))
+        starts, ends = exact.part_start[axis].ravel(), exact.part_end[axis].ravel()
+        extent.append(np.maximum(np.maximum.reduceat(starts, first), np.maximum.reduceat(ends, first))
+                      - np.minimum(np.minimum.reduceat(starts, first), np.minimum.reduceat(ends, first)))
     size = np.sqrt(extent[0] ** 2 + extent[1] ** 2)
     return np.minimum(tolerance, _RELATIVE_TOLERANCE * size).repeat(count.compress(has))
 

@@ -1,0 +1,208 @@
+"""Where the simplification may cut a boundary piece: the straight runs it keeps and the
+knots it cuts at first, features of the curve itself.
+
+The SVG writer's simplification (:mod:`depixel.svg.simplify`) replaces runs of a piece's exact
+segments by single Béziers. Which runs it tries must not depend on where a piece's numbering
+starts, on its direction, or on anything far away: otherwise mirroring or turning the image
+changes the curves (not only their place), and a one-pixel edit rewrites curves across the
+sprite. So the places where a piece is cut are features of the curve, the same whichever way
+it is walked and after any of the square's symmetries:
+
+* **Straight runs** — :data:`MIN_STRAIGHT` pixels or more of collinear line segments: a pixel
+  edge two pixels long or more, a 45° staircase — are kept exactly as they are, never bent
+  into a curve. Their ends always cut, like a piece's ends (:data:`BREAK`).
+* **Knots** (:data:`KNOT`) are the joints where the tangent is horizontal or vertical: where
+  the curve is farthest in x or y. A quadratic whose tangent turns through such a direction
+  marks its nearer end (both ends when it does so at its middle, within :data:`_TIE`). The
+  mirrors and quarter turns map these directions onto themselves.
+
+A run that does not fit as one curve is cut at all its knots, else at the joint farthest
+from its chord (:meth:`Breaks.split`). A closed curve without junction and without straight
+run (an eye, a dot) cannot be one curve: its knots cut it at once, and it starts at one of
+them (:func:`piece_breaks`), so where its numbering started does not matter.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from ..arrays import ranges
+from .boundaries import LINE, BoundaryPieces
+
+#: straight runs at least this long (pixels) are kept as lines: the run of lines between the
+#: spans at the ends of a pixel edge two pixels long is one pixel long
+MIN_STRAIGHT = 1.0 - 1e-6
+#: the class of a joint: always a cut, a knot, neither
+BREAK, KNOT, NONE = 0, 1, 2
+#: a unit tangent's component this small is zero (a mirrored image's numbers differ from the
+#: image's in the last bits)
+_EPS = 1e-9
+#: a direction met within this of a segment's middle (in its parameter) marks both ends; two
+#: joints within this of the farthest from a chord are as far (pixels)
+_TIE = 1e-6
+
+
+class Breaks:
+    """The straight runs and the class of every joint of ``pieces``: ``fixed[k]``, segment k
+    is part of a straight run (kept as it is); ``joint[k]``, the class of the joint where
+    segment k starts (:data:`BREAK` at a piece's start and at a straight run's ends; on a
+    closed piece the joint before its first segment is its last one's end)."""
+
+    def __init__(self, pieces: BoundaryPieces) -> None:
+        n, ptr = pieces.kind.size, pieces.ptr
+        piece = np.arange(len(pieces)).repeat(np.diff(ptr))
+        k = np.arange(n)
+        first, last = ptr[:-1].take(piece), ptr[1:].take(piece) - 1
+        # the segment before each one: on a closed piece, the last one before the first
+        before = np.where(k == first, np.where(pieces.closed.take(piece), last, -1), k - 1)
+        self.ptr, self.end = ptr, pieces.end
+        self.start = np.where((k == first)[:, None], pieces.start.take(piece, axis=0),
+                              pieces.end.take(np.maximum(k - 1, 0), axis=0))
+        line = pieces.kind == LINE
+        chord = pieces.end - self.start
+        ctrl = np.where(line[:, None], self.start, pieces.ctrl)
+        leg0 = np.where(line[:, None], chord, ctrl - self.start)  # a line's legs: its chord
+        leg1 = np.where(line[:, None], chord, pieces.end - ctrl)
+        t0, t1 = _unit(leg0), _unit(leg1)
+        self.fixed = _straight_runs(line, t0, np.sqrt((chord * chord).sum(axis=1)), before, first, last)
+        has_before = before >= 0
+        b = np.maximum(before, 0)
+        tangent = _unit(t0 + np.where(has_before[:, None], t1.take(b, axis=0), 0.0))
+        joint = np.where((np.abs(tangent) <= _EPS).any(axis=1), KNOT, NONE).astype(np.int8)
+        after = np.where(k == last, np.where(before.take(first) >= 0, first, n), k + 1)  # the joint at each end
+        _mark_turns(joint, leg0, leg1, t0, t1, line, after)
+        joint[~has_before | self.fixed | (has_before & self.fixed.take(b))] = BREAK
+        self.joint = joint
+
+    def reorder(self, order: np.ndarray) -> None:
+        """Segment k becomes segment ``order[k]`` (:func:`piece_breaks` starts a closed piece elsewhere)."""
+        self.fixed, self.joint = self.fixed.take(order), self.joint.take(order)
+        self.start, self.end = self.start.take(order, axis=0), self.end.take(order, axis=0)
+
+    def stretches(self) -> tuple[np.ndarray, np.ndarray]:
+        """The runs [lo, hi) of segments between breaks that are not straight runs and hold
+        more than one segment."""
+        n = self.fixed.size
+        starts = (~self.fixed & (self.joint == BREAK)).nonzero()[0]
+        stops = np.concatenate(((self.fixed | (self.joint == BREAK)).nonzero()[0], [n]))
+        ends = stops.take(stops.searchsorted(starts, side="right"))
+        many = ends - starts > 1
+        return starts.compress(many), ends.compress(many)
+
+    def split(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The parts of more than one segment of the runs [lo, hi) (two segments or more
+        each), cut at all their knots, or where they have none at the joint farthest from
+        the run's chord (the middle one or two of those as far: a run along a periodic wave):
+        ``(lo, hi, run)``, ``run`` the place of each part's run in [lo, hi)."""
+        if lo.size == 0:
+            return lo, hi, lo
+        # every joint of every run, its ends included: the cuts and the ends bound the parts
+        count = hi - lo + 1
+        j = ranges(lo, count)
+        owner = np.arange(lo.size).repeat(count)
+        firsts = count.cumsum() - count
+        end = np.zeros(j.size, bool)
+        end[firsts] = True
+        end[firsts + count - 1] = True
+        cut = (self.joint.take(j, mode="clip") == KNOT) & ~end  # (hi may be the last joint + 1)
+        plain = ~np.logical_or.reduceat(cut, firsts)  # runs without a knot
+        if plain.any():
+            cut |= self._farthest(lo, hi, j, owner, firsts, end, plain)
+        at = j.compress(cut | end)  # consecutive bounds of one run bound a part
+        of = owner.compress(cut | end)
+        part = ((of[1:] == of[:-1]) & (at[1:] - at[:-1] > 1)).nonzero()[0]
+        return at.take(part), at.take(part + 1), of.take(part)
+
+    def _farthest(self, lo: np.ndarray, hi: np.ndarray, j: np.ndarray, owner: np.ndarray, firsts: np.ndarray,
+                  end: np.ndarray, plain: np.ndarray) -> np.ndarray:
+        """(len(j),) bool: in each run [lo, hi) that is ``plain``, the inner joint farthest
+        from its chord, the middle one or two of those as far (``j``: every joint of every
+        run, ``owner`` its run, ``firsts`` where each run's begin, ``end`` the runs' ends)."""
+        a = self.start.take(lo, axis=0).take(owner, axis=0)
+        chord = self.end.take(hi - 1, axis=0).take(owner, axis=0) - a
+        length = np.sqrt((chord * chord).sum(axis=1))
+        off = self.start.take(np.minimum(j, self.start.shape[0] - 1), axis=0) - a
+        across = np.abs(off[:, 0] * chord[:, 1] - off[:, 1] * chord[:, 0]) / np.maximum(length, 1e-300)
+        dist = np.where(length > 0, across, np.sqrt((off * off).sum(axis=1)))  # (a closed run: from its start)
+        dist[end] = -1.0
+        far = (dist >= np.maximum.reduceat(dist, firsts).take(owner) - _TIE) & plain.take(owner) & ~end
+        count = np.add.reduceat(far.astype(np.int64), firsts).take(owner)
+        seen = far.cumsum()
+        rank = seen - 1 - (seen - far).take(firsts).take(owner)  # place among the farthest of its run
+        return far & ((rank == (count - 1) // 2) | (rank == count // 2))
+
+
+def piece_breaks(pieces: BoundaryPieces) -> tuple[BoundaryPieces, Breaks]:
+    """The pieces with every closed piece started at a place of the curve's own — the start
+    of a straight run, else a knot — and their :class:`Breaks`, a piece's start a
+    :data:`BREAK`; on a closed piece without straight run every knot is one."""
+    breaks = Breaks(pieces)
+    ptr = pieces.ptr
+    closed = (pieces.closed & (ptr[1:] > ptr[:-1])).nonzero()[0]
+    n = (ptr[1:] - ptr[:-1]).take(closed)
+    seg = ranges(ptr.take(closed), n)
+    owner = np.arange(closed.size).repeat(n)
+    firsts = n.cumsum() - n
+    fixed = breaks.fixed.take(seg)
+    has_fixed = np.logical_or.reduceat(fixed, firsts) if n.size else np.zeros(0, bool)
+    previous = np.where(seg == ptr.take(closed).repeat(n), ptr.take(closed + 1).repeat(n) - 1, seg - 1)
+    starts_run = fixed & ~breaks.fixed.take(previous)
+    target = np.where(has_fixed.take(owner), starts_run, breaks.joint.take(seg) == KNOT)
+    none = np.iinfo(np.int64).max
+    found = np.minimum.reduceat(np.where(target, seg, none), firsts) if n.size else np.zeros(0, np.int64)
+    found = np.where(found == none, ptr.take(closed), found)
+    shift = found - ptr.take(closed)
+    if (shift > 0).any():
+        order = np.arange(pieces.kind.size)
+        order[seg] = ptr.take(closed).repeat(n) + (ranges(0, n) + shift.repeat(n)) % n.repeat(n)
+        start = pieces.start.copy()
+        start[closed] = pieces.end.take(np.where(shift > 0, found, ptr.take(closed + 1)) - 1, axis=0)
+        pieces = replace(pieces, start=start, kind=pieces.kind.take(order), ctrl=pieces.ctrl.take(order, axis=0),
+                         end=pieces.end.take(order, axis=0), span_slot=pieces.span_slot.take(order),
+                         ctrl2=pieces.ctrl2.take(order, axis=0))
+        breaks.reorder(order)  # (a closed piece's joints are those of its curve, wherever it starts)
+    joint = breaks.joint
+    joint[ptr[:-1].compress(ptr[1:] > ptr[:-1])] = BREAK
+    free = seg.compress(~has_fixed.take(owner)) if n.size else seg
+    joint[free.compress(joint.take(free) == KNOT)] = BREAK
+    return pieces, breaks
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    """(N, 2) the unit vectors along ``v`` (0 stays 0)."""
+    return v / np.maximum(np.sqrt((v * v).sum(axis=1)), 1e-300)[:, None]
+
+
+def _straight_runs(line: np.ndarray, direction: np.ndarray, length: np.ndarray, before: np.ndarray,
+                   first: np.ndarray, last: np.ndarray) -> np.ndarray:
+    """(K,) bool: the line segments of runs of collinear lines :data:`MIN_STRAIGHT` long or
+    more (on a closed piece a run may go on through its start)."""
+    b = np.maximum(before, 0)
+    back = direction.take(b, axis=0)
+    cont = line & (before >= 0) & line.take(b)
+    cont &= np.abs(direction[:, 0] * back[:, 1] - direction[:, 1] * back[:, 0]) <= _EPS
+    cont &= (direction * back).sum(axis=1) > 0
+    run_start = line & ~cont
+    label = run_start.cumsum() - 1
+    # the lines at a closed piece's start that go on from its last segment are its last run's
+    gaps = (~cont).cumsum()
+    leading = cont & (gaps == gaps.take(first) - (~cont).take(first))
+    label[leading] = label.take(last.compress(leading))
+    total = np.bincount(label.compress(line), weights=length.compress(line), minlength=int(run_start.sum()))
+    return line & (total.take(np.maximum(label, 0)) >= MIN_STRAIGHT) if total.size else np.zeros(line.size, bool)
+
+
+def _mark_turns(joint: np.ndarray, leg0: np.ndarray, leg1: np.ndarray, t0: np.ndarray, t1: np.ndarray,
+                line: np.ndarray, after: np.ndarray) -> None:
+    """Make :data:`KNOT` the nearer joint of every quadratic whose tangent turns through a
+    horizontal or vertical direction (both when it does so at its middle; ``after``: the
+    joint where each segment ends, ``joint.size`` for none)."""
+    for axis in range(2):  # the tangent's x, then y, changes sign
+        f0, f1 = t0[:, axis], t1[:, axis]
+        seg = (~line & (f0 * f1 < 0) & (np.abs(f0) > _EPS) & (np.abs(f1) > _EPS)).nonzero()[0]
+        a, b = leg0[seg, axis], leg1[seg, axis]
+        t = a / (a - b)  # where (1 - t) a + t b, the tangent's component, is 0
+        at_end = after.take(seg.compress(t >= 0.5 - _TIE))
+        joint[seg.compress(t <= 0.5 + _TIE)] = KNOT
+        joint[at_end.compress(at_end < joint.size)] = KNOT
