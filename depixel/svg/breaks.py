@@ -29,6 +29,7 @@ import numpy as np
 
 from ..arrays import ranges
 from .boundaries import LINE, BoundaryPieces
+from .reference import planes
 
 #: straight runs at least this long (pixels) are kept as lines: the run of lines between the
 #: spans at the ends of a pixel edge two pixels long is one pixel long
@@ -56,29 +57,32 @@ class Breaks:
         first, last = ptr[:-1].take(piece), ptr[1:].take(piece) - 1
         # the segment before each one: on a closed piece, the last one before the first
         before = np.where(k == first, np.where(pieces.closed.take(piece), last, -1), k - 1)
-        self.ptr, self.end = ptr, pieces.end
-        self.start = np.where((k == first)[:, None], pieces.start.take(piece, axis=0),
-                              pieces.end.take(np.maximum(k - 1, 0), axis=0))
+        self.ptr = ptr
+        # (2, K) x and y planes (reference.planes) of the segments' ends and legs
+        self.end = planes(pieces.end)
+        self.start = np.where(k == first, planes(pieces.start).take(piece, axis=1),
+                              self.end.take(np.maximum(k - 1, 0), axis=1))
         line = pieces.kind == LINE
-        chord = pieces.end - self.start
-        ctrl = np.where(line[:, None], self.start, pieces.ctrl)
-        leg0 = np.where(line[:, None], chord, ctrl - self.start)  # a line's legs: its chord
-        leg1 = np.where(line[:, None], chord, pieces.end - ctrl)
+        chord = self.end - self.start
+        ctrl = planes(pieces.ctrl)
+        leg0 = np.where(line, chord, ctrl - self.start)  # a line's legs: its chord
+        leg1 = np.where(line, chord, self.end - ctrl)
         t0, t1 = _unit(leg0), _unit(leg1)
-        self.fixed = _straight_runs(line, t0, np.sqrt((chord * chord).sum(axis=1)), before, first, last)
+        self.fixed = _straight_runs(line, t0, np.sqrt(chord[0] * chord[0] + chord[1] * chord[1]), before, first,
+                                    last)
         has_before = before >= 0
         b = np.maximum(before, 0)
-        tangent = _unit(t0 + np.where(has_before[:, None], t1.take(b, axis=0), 0.0))
-        joint = np.where((np.abs(tangent) <= _EPS).any(axis=1), KNOT, NONE).astype(np.int8)
+        tangent = _unit(t0 + np.where(has_before, t1.take(b, axis=1), 0.0))
+        joint = np.where((np.abs(tangent[0]) <= _EPS) | (np.abs(tangent[1]) <= _EPS), KNOT, NONE).astype(np.int8)
         after = np.where(k == last, np.where(before.take(first) >= 0, first, n), k + 1)  # the joint at each end
         _mark_turns(joint, leg0, leg1, t0, t1, line, after)
         joint[~has_before | self.fixed | (has_before & self.fixed.take(b))] = BREAK
         self.joint = joint
 
     def reorder(self, order: np.ndarray) -> None:
-        """Segment k becomes segment ``order[k]`` (:func:`piece_breaks` starts a closed piece elsewhere)."""
+        """Segment ``order[k]`` becomes segment k (:func:`piece_breaks` starts a closed piece elsewhere)."""
         self.fixed, self.joint = self.fixed.take(order), self.joint.take(order)
-        self.start, self.end = self.start.take(order, axis=0), self.end.take(order, axis=0)
+        self.start, self.end = self.start.take(order, axis=1), self.end.take(order, axis=1)
 
     def stretches(self) -> tuple[np.ndarray, np.ndarray]:
         """The runs [lo, hi) of segments between breaks that are not straight runs and hold
@@ -100,37 +104,44 @@ class Breaks:
         # every joint of every run, its ends included: the cuts and the ends bound the parts
         count = hi - lo + 1
         j = ranges(lo, count)
-        owner = np.arange(lo.size).repeat(count)
         firsts = count.cumsum() - count
         end = np.zeros(j.size, bool)
         end[firsts] = True
         end[firsts + count - 1] = True
-        cut = (self.joint.take(j, mode="clip") == KNOT) & ~end  # (hi may be the last joint + 1)
+        cut = self.joint.take(j, mode="clip") == KNOT  # (hi may be the last joint + 1)
+        cut &= ~end
         plain = ~np.logical_or.reduceat(cut, firsts)  # runs without a knot
         if plain.any():
-            cut |= self._farthest(lo, hi, j, owner, firsts, end, plain)
-        at = j.compress(cut | end)  # consecutive bounds of one run bound a part
-        of = owner.compress(cut | end)
+            inner = plain.nonzero()[0]  # their inner joints: from the second to the one before the last
+            self._cut_farthest(cut, ranges(firsts.take(inner) + 1, count.take(inner) - 2), lo.take(inner),
+                               hi.take(inner), count.take(inner) - 2)
+        bound = cut | end
+        at = j.compress(bound)  # consecutive bounds of one run bound a part
+        of = np.arange(lo.size).repeat(count).compress(bound)
         part = ((of[1:] == of[:-1]) & (at[1:] - at[:-1] > 1)).nonzero()[0]
         return at.take(part), at.take(part + 1), of.take(part)
 
-    def _farthest(self, lo: np.ndarray, hi: np.ndarray, j: np.ndarray, owner: np.ndarray, firsts: np.ndarray,
-                  end: np.ndarray, plain: np.ndarray) -> np.ndarray:
-        """(len(j),) bool: in each run [lo, hi) that is ``plain``, the inner joint farthest
-        from its chord, the middle one or two of those as far (``j``: every joint of every
-        run, ``owner`` its run, ``firsts`` where each run's begin, ``end`` the runs' ends)."""
-        a = self.start.take(lo, axis=0).take(owner, axis=0)
-        chord = self.end.take(hi - 1, axis=0).take(owner, axis=0) - a
-        length = np.sqrt((chord * chord).sum(axis=1))
-        off = self.start.take(np.minimum(j, self.start.shape[0] - 1), axis=0) - a
-        across = np.abs(off[:, 0] * chord[:, 1] - off[:, 1] * chord[:, 0]) / np.maximum(length, 1e-300)
-        dist = np.where(length > 0, across, np.sqrt((off * off).sum(axis=1)))  # (a closed run: from its start)
-        dist[end] = -1.0
-        far = (dist >= np.maximum.reduceat(dist, firsts).take(owner) - _TIE) & plain.take(owner) & ~end
-        count = np.add.reduceat(far.astype(np.int64), firsts).take(owner)
-        seen = far.cumsum()
-        rank = seen - 1 - (seen - far).take(firsts).take(owner)  # place among the farthest of its run
-        return far & ((rank == (count - 1) // 2) | (rank == count // 2))
+    def _cut_farthest(self, cut: np.ndarray, place: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                      inner: np.ndarray) -> None:
+        """Set ``cut`` at the inner joint of each run [lo, hi) farthest from the run's chord,
+        the middle one or two of those as far (``place``: where the runs' inner joints, each
+        run's ``inner`` of them in turn, are in ``cut``)."""
+        j = ranges(lo + 1, inner)
+        firsts = inner.cumsum() - inner
+        a = self.start.take(lo, axis=1).repeat(inner, axis=1)
+        chord = self.end.take(hi - 1, axis=1).repeat(inner, axis=1) - a
+        length = np.sqrt(chord[0] * chord[0] + chord[1] * chord[1])
+        off = self.start.take(j, axis=1) - a
+        across = np.abs(off[0] * chord[1] - off[1] * chord[0]) / np.maximum(length, 1e-300)
+        dist = np.where(length > 0, across, np.sqrt(off[0] * off[0] + off[1] * off[1]))  # (closed: from its start)
+        far = dist >= np.maximum.reduceat(dist, firsts).repeat(inner) - _TIE
+        count = np.add.reduceat(far, firsts, dtype=np.int64)
+        if (count > 1).any():  # ties (a periodic wave): the middle one or two
+            seen = far.cumsum()
+            rank = seen - 1 - (seen - far).take(firsts).repeat(inner)  # place among the farthest of its run
+            count = count.repeat(inner)
+            far &= (rank == (count - 1) // 2) | (rank == count // 2)
+        cut[place.compress(far)] = True
 
 
 def piece_breaks(pieces: BoundaryPieces) -> tuple[BoundaryPieces, Breaks]:
@@ -170,19 +181,19 @@ def piece_breaks(pieces: BoundaryPieces) -> tuple[BoundaryPieces, Breaks]:
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
-    """(N, 2) the unit vectors along ``v`` (0 stays 0)."""
-    return v / np.maximum(np.sqrt((v * v).sum(axis=1)), 1e-300)[:, None]
+    """(2, N) the unit vectors along the (2, N) planes ``v`` (0 stays 0)."""
+    return v / np.maximum(np.sqrt(v[0] * v[0] + v[1] * v[1]), 1e-300)
 
 
 def _straight_runs(line: np.ndarray, direction: np.ndarray, length: np.ndarray, before: np.ndarray,
                    first: np.ndarray, last: np.ndarray) -> np.ndarray:
     """(K,) bool: the line segments of runs of collinear lines :data:`MIN_STRAIGHT` long or
-    more (on a closed piece a run may go on through its start)."""
+    more (on a closed piece a run may go on through its start; ``direction``: (2, K) planes)."""
     b = np.maximum(before, 0)
-    back = direction.take(b, axis=0)
+    back = direction.take(b, axis=1)
     cont = line & (before >= 0) & line.take(b)
-    cont &= np.abs(direction[:, 0] * back[:, 1] - direction[:, 1] * back[:, 0]) <= _EPS
-    cont &= (direction * back).sum(axis=1) > 0
+    cont &= np.abs(direction[0] * back[1] - direction[1] * back[0]) <= _EPS
+    cont &= direction[0] * back[0] + direction[1] * back[1] > 0
     run_start = line & ~cont
     label = run_start.cumsum() - 1
     # the lines at a closed piece's start that go on from its last segment are its last run's
@@ -196,12 +207,13 @@ def _straight_runs(line: np.ndarray, direction: np.ndarray, length: np.ndarray, 
 def _mark_turns(joint: np.ndarray, leg0: np.ndarray, leg1: np.ndarray, t0: np.ndarray, t1: np.ndarray,
                 line: np.ndarray, after: np.ndarray) -> None:
     """Make :data:`KNOT` the nearer joint of every quadratic whose tangent turns through a
-    horizontal or vertical direction (both when it does so at its middle; ``after``: the
-    joint where each segment ends, ``joint.size`` for none)."""
+    horizontal or vertical direction (both when it does so at its middle; the legs and unit
+    tangents are (2, K) planes; ``after``: the joint where each segment ends, ``joint.size``
+    for none)."""
     for axis in range(2):  # the tangent's x, then y, changes sign
-        f0, f1 = t0[:, axis], t1[:, axis]
+        f0, f1 = t0[axis], t1[axis]
         seg = (~line & (f0 * f1 < 0) & (np.abs(f0) > _EPS) & (np.abs(f1) > _EPS)).nonzero()[0]
-        a, b = leg0[seg, axis], leg1[seg, axis]
+        a, b = leg0[axis].take(seg), leg1[axis].take(seg)
         t = a / (a - b)  # where (1 - t) a + t b, the tangent's component, is 0
         at_end = after.take(seg.compress(t >= 0.5 - _TIE))
         joint[seg.compress(t <= 0.5 + _TIE)] = KNOT
