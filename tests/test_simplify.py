@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import CORPUS, art, needs_corpus
+from conftest import CORPUS, FIXTURES, art, needs_corpus
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
@@ -327,3 +327,29 @@ def test_an_edit_changes_the_curves_only_near_it():
         far.append({tuple(np.round(p, 6).ravel()) for p in points[away]})
     assert len(far[0]) >= 10
     assert far[0] == far[1]
+
+
+def _outlines_counting_passes(monkeypatch, vector, budget: int):
+    """Stacked outlines of ``vector`` simplified at 0.25 px with ``budget`` segments fitted
+    ahead, and the number of curvefit.fit passes they took."""
+    import depixel.svg.simplify as simplify
+
+    calls = []
+    real_fit = simplify.fit
+    monkeypatch.setattr(simplify, "SPECULATIVE_SEGMENTS", budget)
+    monkeypatch.setattr(simplify, "fit", lambda *args: calls.append(1) or real_fit(*args))
+    out = build_outlines(vector, "stacked", grid=0.01, simplify=0.25)
+    monkeypatch.undo()
+    return out, len(calls)
+
+
+@pytest.mark.parametrize("name", ["ghost.png", "mushroom.png", "potion_rgba.png"])
+def test_fitting_ahead_saves_passes_and_changes_no_curve(name, monkeypatch):
+    """The ranges the cutting may ask for fitted in the first pass: fewer calls of
+    curvefit.fit, the same curves as a pass per level (a fit depends on its range alone)."""
+    vector = depixelize(load_image(FIXTURES / name)).vector
+    (ahead, passes_ahead), (level, passes_level) = (_outlines_counting_passes(monkeypatch, vector, b)
+                                                    for b in (1 << 30, 0))
+    for x, y in zip((ahead.kind, ahead.ctrl, ahead.ctrl2, ahead.end), (level.kind, level.ctrl, level.ctrl2, level.end)):
+        assert x.shape == y.shape and np.array_equal(x, y, equal_nan=x.dtype.kind == "f")
+    assert passes_ahead < passes_level or passes_level == 1  # (potion: every stretch fits at once)
