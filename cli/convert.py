@@ -154,9 +154,8 @@ def add_parser(sub, name: str, help: str) -> None:
                           "the image exactly (renderers that anti-alias each shape show faint seams)")
     out.add_argument("--simplify", type=tolerance, default=DEFAULT_SIMPLIFY, metavar="TOL",
                      help=f"fit fewer curves within TOL pixels of the exact spline, keeping corners, straight "
-                          f"runs, every "
-                          f"pixel centre in its colour and every thin diagonal (default {DEFAULT_SIMPLIFY}; "
-                          f"0 writes the exact spline, one quadratic per span)")
+                          f"runs, every pixel centre in its colour and every thin diagonal (default "
+                          f"{DEFAULT_SIMPLIFY}; 0 writes the exact spline, one quadratic per span)")
     out.add_argument("--max-pixels", type=positive_int, default=DEFAULT_MAX_PIXELS, metavar="N",
                      help=f"refuse larger images, frames or pages (default {DEFAULT_MAX_PIXELS}; pixel art is small)")
     out.add_argument("--max-output-pixels", type=positive_int, default=DEFAULT_MAX_OUTPUT_PIXELS, metavar="N",
