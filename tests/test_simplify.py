@@ -110,7 +110,8 @@ BLOB = art("""
 def test_simplification_commutes_with_mirrors_and_quarter_turns(image, tolerance):
     """Convert the mirrored or quarter-turned image and map the curves back: the same
     simplified curves, to 1e-6 px (the cuts depend neither on where a loop's numbering
-    starts nor on its direction)."""
+    starts nor on its direction). The blob is its own mirror image in x and y: its
+    simplified curves are symmetric."""
     result = _equivariant(image, tolerance)
     assert all(v is not None for v in result.values())  # the exact spline is equivariant here
     assert all(result.values()), result
