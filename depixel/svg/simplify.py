@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..arrays import batch_bounds, in_sorted
+from ..arrays import batch_bounds, in_sorted, unique
 from ..vector import VectorImage
 from .boundaries import CUBIC, BoundaryPieces
 from .breaks import BREAK, Breaks, piece_breaks
@@ -174,7 +174,7 @@ class _Fits:
             if ahead is not None:
                 extra = _range_keys(*ahead, self.ptr)
                 new = np.concatenate([new, extra[~in_sorted(self.keys, extra)]])
-            new = np.unique(new)
+            new = unique(new)  # (arrays.unique: np.unique alone would import numpy.ma)
             new_lo, new_hi = np.divmod(new, int(self.ptr[-1]) + 1)
             kind, c1, c2, ok, err = self._fit(new_lo, new_hi)
             order = np.concatenate([self.keys, new]).argsort(kind="stable")
