@@ -14,6 +14,10 @@ passes to every worker it starts, including Dask's). Cleanup removes only such n
 a process's own by its registry (:func:`remove_created`), another process's (a worker that
 was killed) by the pattern with this run's token (:func:`remove_temporary`), never by a
 glob that a user's ``.big.svg.mine.tmp`` could match.
+
+A batch whose tasks cannot be stopped once started (Dask's) sets :data:`STILL_WANTED` around
+each task: outputs are renamed into place only while it answers True, so a stopped batch's
+tasks do not complete files that its report says were not made.
 """
 from __future__ import annotations
 
@@ -24,6 +28,7 @@ import re
 import stat
 import threading
 from collections.abc import Callable, Sequence
+from contextvars import ContextVar
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -36,6 +41,9 @@ _TOKEN = re.compile(r"[0-9a-f]{8,32}")
 _run_token: str | None = None
 #: The temporary files this process created and has not yet renamed or removed.
 _created: set[Path] = set()
+#: Asked just before outputs are renamed into place, when set: False means that the batch
+#: they belong to has stopped, and they are not written (depixel_cli/dask_task.py).
+STILL_WANTED: ContextVar[Callable[[], bool] | None] = ContextVar("depixel_still_wanted", default=None)
 
 
 def run_token() -> str:
@@ -68,6 +76,20 @@ def remove_temporary(target: str | os.PathLike, token: str, pid: int | None = No
     except (OSError, ValueError):  # ParameterError (a bad token) included: nothing is ours
         return []
     return [real.parent / name for name in names if _remove(real.parent / name)]
+
+
+def remove_temporary_in(folder: str | os.PathLike, token: str) -> list[Path]:
+    """Remove every temporary file of run ``token`` in ``folder``, whatever its output and
+    process: :func:`remove_temporary` for all the outputs of a folder at once (one look at
+    the folder, not one an output). Returns what was removed; never raises."""
+    try:
+        real = Path(os.path.realpath(folder))
+        mine = re.compile(r"\..+\.depixel-[0-9]+-" + _token(token) + r"(?:-[0-9]+)?\.tmp", re.DOTALL)
+        with os.scandir(real) as entries:
+            names = [entry.name for entry in entries if mine.fullmatch(entry.name)]
+    except (OSError, ValueError):  # ParameterError (a bad token) included: nothing is ours
+        return []
+    return [real / name for name in names if _remove(real / name)]
 
 
 def remove_created() -> list[Path]:
@@ -178,7 +200,11 @@ def stage(path: str | os.PathLike, data: bytes | str, protect: tuple[Path, ...] 
 def commit(staged: Sequence[Staged]) -> None:
     """Rename staged outputs into place, with SIGINT and SIGTERM deferred until the last is in
     place (a Ctrl-C then stops after them, not between two frames of a set). On a failure
-    the ones not renamed yet are removed and an :class:`OutputError` is raised."""
+    the ones not renamed yet are removed and an :class:`OutputError` is raised; so are all
+    of them when :data:`STILL_WANTED` says their batch has stopped."""
+    if staged and (wanted := STILL_WANTED.get()) is not None and not wanted():
+        discard(staged)
+        raise OutputError(f"{staged[0].name}: not written: its batch was stopped")
     with _signals_deferred(bool(staged)):
         for i, item in enumerate(staged):
             try:
