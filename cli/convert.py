@@ -76,6 +76,9 @@ abandoned without leaving partial files, what was done is reported (exit 130, or
 SIGTERM); a second Ctrl-C exits at once.
 """
 
+#: --dask-timeout's default and largest value, seconds (docs/scale.md).
+DASK_TIMEOUT, MAX_DASK_TIMEOUT = 60.0, 86400.0
+
 
 def frames_option(text: str) -> str | int:
     if text in ("first", "all"):
@@ -100,6 +103,13 @@ def template_option(text: str) -> str:
         return name_template(text)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def timeout_option(text: str) -> float:
+    value = positive_float(text)
+    if value > MAX_DASK_TIMEOUT:
+        raise argparse.ArgumentTypeError(f"at most {MAX_DASK_TIMEOUT:g} seconds (a day): {text!r}")
+    return value
 
 
 def jobs_option(text: str) -> str | int:
@@ -178,6 +188,9 @@ def add_parser(sub, name: str, help: str) -> None:
     batch.add_argument("--dask", metavar="ADDRESS",
                        help="run the conversions on a Dask cluster (scheduler address, e.g. tcp://host:8786); "
                             "inputs and outputs must be on a filesystem the workers share; pip install 'depixel[dask]'")
+    batch.add_argument("--dask-timeout", type=timeout_option, default=DASK_TIMEOUT, metavar="SECONDS",
+                       help=f"--dask: how long to wait for a worker, before the batch and while none is left "
+                            f"(default {DASK_TIMEOUT:g})")
     batch.add_argument("--json", action="store_true",
                        help="print a JSON summary on stdout (files, ok, skipped, failed with reasons, every output "
                             "with its status, what the input preparation found, interrupted, seconds)")
@@ -227,7 +240,8 @@ def run_convert(args: argparse.Namespace) -> int:
         print(f"depixel: {totals_line(outcomes, seconds, interrupted, args.dry_run)}", file=sys.stderr)
     if interrupted:
         return 128 + signals.signum
-    return Exit.FAILED if any(o.error or o.edited or o.changed for o in outcomes) else Exit.OK
+    # a file not done in a batch that was not interrupted: a --dask batch stopped (no worker, scheduler lost)
+    return Exit.FAILED if any(o.error or o.edited or o.changed or o.state != DONE for o in outcomes) else Exit.OK
 
 
 def _check_destination(args: argparse.Namespace) -> tuple[str, ...]:
@@ -281,7 +295,8 @@ def _convert_batch(args: argparse.Namespace, options: Options) -> list[Outcome]:
         if args.dask is not None:
             from .dask_batch import run_dask  # noqa: PLC0415
 
-            return failed + run_dask(jobs, args.dask, lambda o: _report(o, progress, args), args.signals, progress)
+            return failed + run_dask(jobs, args.dask, args.out_dir, lambda o: _report(o, progress, args), args.signals,
+                                     progress, timeout=args.dask_timeout, debug=args.debug)
         workers, note = auto_jobs(jobs, asked=None if args.jobs == "auto" else args.jobs)
         if note:
             progress.message(f"note: {note}")

@@ -1,89 +1,260 @@
 """``depixel convert … --dask ADDRESS``: the batch's files as tasks on a Dask cluster.
 
-Each task is the same :func:`depixel_cli.batch.run_job` that ``-j`` runs in a worker process,
-so outputs, up-to-date skipping and failure messages are the same, byte for byte. Inputs
-and outputs travel as paths: the workers read and write them on a filesystem they share
-with the command (docs/scale.md explains why paths and not bytes). Paths are made absolute
-before they are sent, since a worker's working folder is not the command's.
+Each task is :func:`depixel_cli.dask_task.run_task`, the same conversion that ``-j`` runs in
+a worker process, so outputs, up-to-date skipping and failure messages are the same, byte
+for byte. Inputs and outputs travel as paths: the workers read and write them on a
+filesystem they share with the command (docs/scale.md explains why paths and not bytes).
+Paths are made absolute before they are sent, since a worker's working folder is not the
+command's.
+
+A batch never loses or misreports a file:
+
+* its task keys carry a random token of the run, so two batches on one scheduler never
+  share a task (the scheduler would hand one the other's result);
+* the cluster is checked before the first task (:mod:`depixel_cli.dask_cluster`);
+* a task's report is checked against the disk: an output the worker says it wrote but
+  that is not here, up to date, is a failure with the reason;
+* the batch's *run marker* in the output folder is removed when the batch ends, and a task
+  renames its output into place only while the marker exists, so that a stopped batch's
+  tasks do not complete files its report calls interrupted;
+* a stop (Ctrl-C, SIGTERM, the scheduler lost, no worker for ``--dask-timeout`` seconds)
+  reports each unfinished file from the disk: converted if its outputs are there,
+  interrupted if its task was running, cancelled if it never started;
+* the temporary files named with the run's token (``Options.token``) are removed at the
+  end from every output folder (a killed worker's included), and no others.
 
 A worker that dies is Dask's to handle: it reschedules the task on another worker and,
 after ``distributed.scheduler.allowed-failures`` deaths, fails it (``KilledWorker``), which
-fails only that file. On Ctrl-C or SIGTERM, queued tasks are cancelled; a task already
-running on a worker cannot be stopped by Dask and finishes there (its output is written
-atomically, whole or not at all).
+fails only that file.
 """
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 
-from depixel.errors import DepixelError, display_name
+from depixel.errors import display_name
+from depixel.files.output import remove_temporary_in
 
-from .batch import CANCELLED, INTERRUPTED, Job, Outcome, already_done, frame_targets, run_job
+from .batch import (
+    CANCELLED,
+    DONE,
+    INTERRUPTED,
+    Job,
+    Outcome,
+    _outputs_to_make,
+    abandoned,
+    already_done,
+    claim_outputs_of_the_dead,
+    frame_targets,
+)
 from .batch_run import Progress
+from .dask_cluster import (
+    check_workers,
+    checked_address,
+    close,
+    connect,
+    make_marker,
+    quiet_dask,
+    reachable,
+    wait_for_a_worker,
+)
+from .dask_task import run_task, running_keys
+from .options import say
 
 #: Seconds between two looks at the signals while waiting for tasks.
 POLL_SECONDS = 0.2
+#: Seconds between two looks at the cluster (its workers, the tasks running) while waiting.
+LOOK_SECONDS = 1.0
+#: Seconds given, after the run marker is removed, to a task that saw it just before.
+SETTLE_SECONDS = 0.1
 
 
-class DaskError(DepixelError):
-    """The Dask extra is missing or the scheduler cannot be reached."""
-
-
-def run_dask(jobs: list[Job], address: str, report, signals, progress: Progress | None = None) -> list[Outcome]:
-    """Run the jobs as tasks on the Dask scheduler at ``address``; like
-    :func:`depixel_cli.batch_run.run`, returns the outcomes in the order of ``jobs``."""
-    try:
-        from distributed import Client, as_completed  # noqa: PLC0415
-    except ImportError:
-        raise DaskError("--dask needs the Dask extra: pip install 'depixel[dask]'") from None
-    if not jobs:
-        return []
-    try:
-        client = Client(address, timeout="20s", set_as_default=False)
-    except (OSError, TimeoutError, ValueError) as exc:
-        raise DaskError(f"cannot reach the Dask scheduler at {address} ({str(exc).splitlines()[0]})") from None
+def run_dask(jobs: list[Job], address: str, folder: Path, report, signals, progress: Progress | None,
+             timeout: float, debug: bool = False) -> list[Outcome]:
+    """Run the jobs, whose outputs are under ``folder``, as tasks on the Dask scheduler at
+    ``address``; like :func:`depixel_cli.batch_run.run`, returns the outcomes in the order
+    of ``jobs``. No wait on the cluster lasts more than ``timeout`` seconds; a cluster that
+    cannot run the batch is a :class:`DaskError` (one line) before any task; ``debug``
+    shows Dask's own logs."""
+    address, host, port = checked_address(address)  # before importing Dask: a typo is refused at once
     outcomes: dict[int, Outcome] = {}
-    signals.raising = False  # a signal is seen by the loop below, which cancels the queue
-    try:
-        for i, job in enumerate(jobs):  # up to date: decided here, no task
-            if (done := already_done(job)) is not None:
-                outcomes[i] = done
-                report(done)
-        todo = [i for i in range(len(jobs)) if i not in outcomes]
-        absolute = {i: _absolute(jobs[i]) for i in todo}
-        futures = client.map(run_job, list(absolute.values()), pure=False,
-                             key=[f"depixel-{i}-{jobs[i].source.name}" for i in todo])
+    for i, job in enumerate(jobs):  # up to date: decided here, no task (and no cluster when all are)
+        if (done := already_done(job)) is not None:
+            outcomes[i] = done
+            report(done)
+    todo = [i for i in range(len(jobs)) if i not in outcomes]
+    if todo:
+        signals.raising = False  # a signal is seen by the loops, which stop cleanly
+        with quiet_dask(debug):
+            _Run(jobs, address, folder, report, signals, progress, timeout).run(todo, host, port, outcomes)
+    return [outcomes[i] for i in range(len(jobs))]
+
+
+class _Run:
+    """One batch on the cluster: its token, client, run marker, and the outcomes of its tasks."""
+
+    def __init__(self, jobs: list[Job], address: str, folder: Path, report, signals, progress: Progress | None,
+                 timeout: float) -> None:
+        self.jobs, self.address, self.folder, self.report = jobs, address, folder, report
+        self.signals, self.progress, self.timeout = signals, progress, timeout
+        # in its task keys and run marker: drawn for each run (a process's run_token, in the
+        # temporary files' names, is the same for every batch a library user runs)
+        self.token = os.urandom(6).hex()
+        self.client = None
+        self.marker: Path | None = None
+        self.begun = 0  # the marker's modification time: the shared filesystem's clock, not this machine's
+
+    def run(self, todo: list[int], host: str, port: int, outcomes: dict[int, Outcome]) -> None:
+        stopped = lambda: self.signals.signum is not None  # noqa: E731
+        try:
+            reachable(self.address, host, port, self.timeout)
+            self.client = connect(self.address, self.timeout)
+            if wait_for_a_worker(self.client, self.address, self.timeout, stopped):
+                self.marker = make_marker(self.folder, self.token)
+                self.begun = self.marker.stat().st_mtime_ns
+                check_workers(self.client, self.folder, self.token, self.marker)
+            if stopped():
+                for i in todo:
+                    outcomes[i] = Outcome(self.jobs[i].source, self.jobs[i].output, state=CANCELLED)
+                    self.report(outcomes[i])
+                return
+            self._watch(todo, outcomes)
+        finally:
+            self._end()
+
+    def _tell(self, text: str) -> None:
+        self.progress.message(text) if self.progress is not None else say(text)
+
+    def _watch(self, todo: list[int], outcomes: dict[int, Outcome]) -> None:
+        """Submit the tasks and collect them until all are reported or the batch stops."""
+        from distributed import as_completed  # noqa: PLC0415
+
+        assert self.client is not None and self.marker is not None
+        sent = {i: _absolute(self.jobs[i]) for i in todo}
+        keys = [f"depixel-{self.token}-{i}-{self.jobs[i].source.name}" for i in todo]
+        futures = self.client.map(partial(run_task, marker=str(self.marker)), list(sent.values()), key=keys,
+                                  pure=False)
         index = {future.key: i for i, future in zip(todo, futures)}
         pending = set(futures)
-        finished = as_completed(futures, loop=client.loop)
-        while pending and signals.signum is None:
+        # results fetched by the client's event loop: a result whose worker died is computed
+        # again there, without blocking this loop (and its watchdog) until a worker comes
+        finished = as_completed(futures, loop=self.client.loop, with_results=True, raise_errors=False)
+        assigned: set[str] = set()  # the keys of the tasks on a worker at the last look
+        last_event = last_look = time.monotonic()
+        alone_since: float | None = None  # since when the scheduler has had no worker
+        stop: str | None = None
+        while pending and stop is None and self.signals.signum is None:
             done = finished.next_batch(block=False)
+            now = time.monotonic()
+            for future, result in done:
+                i = index[future.key]
+                outcome = self._outcome(result, self.jobs[i], sent[i])
+                if outcome is None:
+                    stop = f"lost the Dask scheduler at {self.address}"
+                    break
+                pending.discard(future)
+                outcomes[i] = outcome
+                if self.progress is not None:
+                    self.progress.current(self.jobs[i].source)
+                self.report(outcome)
+                last_event = now
+            if stop is None and now - last_look >= LOOK_SECONDS:
+                last_look = now
+                looked = self._look()
+                if looked is None:
+                    stop = f"lost the Dask scheduler at {self.address}"
+                    break
+                assigned, alive = looked
+                alone_since = None if alive else alone_since or now
+                if alone_since is not None and now - max(alone_since, last_event) >= self.timeout:
+                    stop = (f"the Dask scheduler at {self.address} has had no worker for {self.timeout:g} s "
+                            "(--dask-timeout)")
             if not done:
                 time.sleep(POLL_SECONDS)
-                continue
-            pending.difference_update(done)
-            for future in done:
-                i = index[future.key]
-                outcomes[i] = _outcome(future, jobs[i], absolute[i])
-                if progress is not None:
-                    progress.current(jobs[i].source)
-                report(outcomes[i])
-        if pending:  # stopped: queued tasks are cancelled, running ones finish on their worker
+        if stop is not None:
+            self._tell(f"error: {stop}")
+        if pending:
+            self._stop(pending, index, assigned, outcomes)
+
+    def _look(self) -> tuple[set[str], bool] | None:
+        """(keys of the tasks assigned to a worker, whether any worker is alive), or None
+        when the scheduler is lost."""
+        assert self.client is not None
+        if self.client.status != "running":
+            return None
+        try:
+            processing = self.client.processing()  # {worker: [key, ...]} for every worker
+        except Exception:  # the connection closed while asking
+            return None
+        return {key for keys in processing.values() for key in keys}, bool(processing)
+
+    def _stop(self, pending: set, index: dict, assigned: set[str], outcomes: dict[int, Outcome]) -> None:
+        """Cancel the queued tasks, close the run marker to the running ones, and report each
+        unfinished file from the disk: converted when its outputs are there, else interrupted
+        when its task was running (asked of the workers; with the scheduler lost, assigned to
+        a worker at the last look), else cancelled."""
+        assert self.client is not None
+        running = assigned
+        if self.client.status == "running":
             try:
-                running = {key for keys in client.processing().values() for key in keys}
-            except Exception:  # the scheduler is gone: nothing is known to run
-                running = set()
-            client.cancel(list(pending))
-            for future in pending:
-                i = index[future.key]
-                state = INTERRUPTED if future.key in running else CANCELLED
-                outcomes[i] = Outcome(jobs[i].source, jobs[i].output, state=state)
-                report(outcomes[i])
-    finally:
-        client.close(timeout=2)
-    return [outcomes[i] for i in range(len(jobs))]
+                found = self.client.run(running_keys, on_error="ignore")
+                running = {key for keys in found.values() for key in keys}
+                self.client.cancel(list(pending))
+            except Exception:  # the scheduler went meanwhile
+                pass
+        self._close_marker(settle=True)
+        for future in sorted(pending, key=lambda f: index[f.key]):
+            i = index[future.key]
+            outcome = abandoned(self.jobs[i], self.begun)
+            if outcome.state == INTERRUPTED and not outcome.written and future.key not in running:
+                outcome.state = CANCELLED
+            outcomes[i] = outcome
+            self.report(outcome)
+
+    def _close_marker(self, settle: bool = False) -> None:
+        """Remove the run marker: from now on the batch's tasks write nothing more (with
+        ``settle``, after a moment for a rename that saw it just before)."""
+        if self.marker is not None:
+            try:
+                self.marker.unlink()
+            except OSError:
+                pass
+            self.marker = None
+            if settle:
+                time.sleep(SETTLE_SECONDS)
+
+    def _end(self) -> None:
+        """Close the marker and the client, and remove this run's temporary files."""
+        self._close_marker()
+        if self.client is not None:
+            close(self.client)
+        folders: set[tuple[str, str]] = set()
+        for job in self.jobs:
+            folders.update((os.path.realpath(target.parent), job.options.token) for _, target in frame_targets(job))
+        for folder, token in folders:
+            remove_temporary_in(folder, token)
+
+    def _outcome(self, result, job: Job, sent: Job) -> Outcome | None:
+        """The outcome of a task from its ``result`` (what :func:`run_task` returned, or the
+        cancellation, or ``(type, exception, traceback)`` of its failure), with the command's
+        own (relative) paths and checked against the disk; None when the scheduler is lost
+        (the client then cancels every task)."""
+        assert self.client is not None
+        if isinstance(result, tuple) and len(result) == 2 and isinstance(result[0], Outcome):
+            outcome, worker = result
+            return _checked(_local(outcome, job, sent), job, worker, self.begun)
+        if isinstance(result, BaseException):  # cancelled
+            if self.client.status != "running":
+                return None
+            return Outcome(job.source, job.output, error=f"{display_name(job.source)}: its Dask task was cancelled "
+                           "on the cluster")
+        exc = result[1]  # KilledWorker (its worker died every time), a task that could not be unpickled, ...
+        reason = "worker process died on every Dask worker that tried it" if type(exc).__name__ == "KilledWorker" \
+            else f"Dask task failed ({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})"
+        return Outcome(job.source, job.output, error=f"{display_name(job.source)}: {reason}")
 
 
 def _absolute(job: Job) -> Job:
@@ -91,14 +262,8 @@ def _absolute(job: Job) -> Job:
                    targets=tuple((frame, fmt, path.absolute()) for frame, fmt, path in job.targets))
 
 
-def _outcome(future, job: Job, sent: Job) -> Outcome:
-    """The task's outcome with the command's own (relative) paths, or its failure."""
-    try:
-        outcome = future.result()
-    except Exception as exc:  # KilledWorker (its worker died every time), a lost connection, ...
-        reason = "worker process died on every Dask worker that tried it" if type(exc).__name__ == "KilledWorker" \
-            else f"Dask task failed ({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})"
-        return Outcome(job.source, job.output, error=f"{display_name(job.source)}: {reason}")
+def _local(outcome: Outcome, job: Job, sent: Job) -> Outcome:
+    """The outcome with the command's own (relative) paths."""
     names = {str(sent.source): str(job.source)}
     names.update((str(a), str(b)) for (*_, a), (*_, b) in zip(frame_targets(sent), frame_targets(job)))
     local = {Path(a): Path(b) for a, b in names.items()}
@@ -119,3 +284,31 @@ def _relative(text: str, names: dict[str, str]) -> str:
     for a, b in names.items():
         text = text.replace(display_name(a), display_name(b))
     return text
+
+
+def _checked(outcome: Outcome, job: Job, worker: str, begun: int) -> Outcome:
+    """The outcome as the disk here shows it: an output the worker reported converted or up
+    to date that is not here, up to date (made from this input with these options), makes
+    the file failed, with the reason. An output the task found up to date but written
+    during this batch was completed by a try whose worker died after the rename: converted,
+    not skipped. (An input that changed while converted is reported as such: its output is
+    not current by design.)"""
+    if outcome.error or outcome.changed or outcome.state != DONE:
+        return outcome
+    claim_outputs_of_the_dead(outcome, begun)
+    here = Outcome(job.source)  # its up_to_date: the outputs current here, --force or not
+    try:
+        _outputs_to_make(replace(job, options=replace(job.options, force=False, explicit=False)), here)
+    except Exception as exc:  # the input is gone or unreadable here
+        outcome.error = f"{display_name(job.source)}: cannot check its outputs here ({exc})"
+    stale = [target for target in outcome.written + outcome.up_to_date if target not in here.up_to_date]
+    if stale and outcome.error is None:
+        target = stale[0]
+        said = "converted" if target in outcome.written else "up to date"
+        found = "is not there" if not os.path.lexists(target) else "there is not the file it wrote"
+        outcome.error = (f"{display_name(target)}: Dask worker {worker} reported it {said}, but the file {found}: "
+                         "the workers must write to a filesystem that this machine shares, at the same path")
+    if outcome.error:
+        outcome.written = [p for p in outcome.written if p not in stale]
+        outcome.up_to_date = [p for p in outcome.up_to_date if p not in stale]
+    return outcome

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 from conftest import FIXTURES
+from test_dask_faults import sprites, stamped
 from test_faults import batch_folder, wait_for_outputs
 
 from depixel_cli.main import main
@@ -67,6 +68,10 @@ def test_dask_batch_is_byte_identical_to_one_process(tmp_path, capsys, scheduler
     # a rerun on the cluster finds everything up to date
     code, again = run_json(capsys, common + ["--out-dir", str(tmp_path / "dask"), "--dask", scheduler])
     assert {o["status"] for o in again["outputs"] if o["status"] != "failed"} == {"up-to-date"}
+    # and --force converts every file again (checked on disk like any other result)
+    code, forced = run_json(capsys, common + ["--out-dir", str(tmp_path / "dask"), "--dask", scheduler, "--force"])
+    assert [f["input"] for f in forced["failed"]] == [str(src / "broken.png")]
+    assert forced["ok"] == remote["ok"] and {o["status"] for o in forced["outputs"]} == {"converted", "failed"}
 
 
 def test_dask_batch_stops_on_ctrl_c(tmp_path, scheduler):
@@ -90,3 +95,23 @@ def test_dask_needs_out_dir(capsys, scheduler):
         main(["convert", str(FIXTURES / "heart.png"), "-o", "x.svg", "--dask", scheduler])
     assert exit_info.value.code == Exit.USAGE
     assert "--dask" in capsys.readouterr().err
+
+
+def test_two_batches_on_one_scheduler_keep_their_own_files(tmp_path, scheduler):
+    """Two batches at once on one scheduler, with the same file names (so the same indices
+    and names in their tasks). Before: both reported 20 converted, one folder stayed empty
+    and its report named the other's outputs (the scheduler gave one batch the other's
+    finished tasks)."""
+    procs = {}
+    for name in "ab":
+        src = sprites(tmp_path / f"in_{name}", 20)
+        procs[name] = subprocess.Popen([sys.executable, "-m", "depixel", "convert", "-q", str(src), "--out-dir",
+                                        str(tmp_path / f"out_{name}"), "--json", "--dask", scheduler],
+                                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    for name, proc in procs.items():
+        stdout, stderr = proc.communicate(timeout=120)
+        assert proc.returncode == 0, stderr
+        report = json.loads(stdout)
+        assert report["ok"] == 20
+        assert {Path(o["output"]).parent for o in report["outputs"]} == {tmp_path / f"out_{name}"}
+        assert stamped(tmp_path / f"out_{name}") == {f"s{i:03d}.svg" for i in range(20)}
