@@ -344,7 +344,8 @@ def totals_line(outcomes: list[Outcome], seconds: float, interrupted: bool = Fal
              f"{counts.count('up to date')} up to date", f"{counts.count('kept')} kept"]
     parts += [f"{counts.count(name)} {name}" for name in ("edited", "changed") if name in counts]
     parts.append(f"{counts.count('failed')} failed")
-    if interrupted:
-        parts.append(f"{counts.count(INTERRUPTED)} abandoned, {counts.count(CANCELLED)} not started (interrupted)")
+    if interrupted or INTERRUPTED in counts or CANCELLED in counts:  # a --dask batch also stops without a signal
+        parts.append(f"{counts.count(INTERRUPTED)} abandoned, {counts.count(CANCELLED)} not started"
+                     + (" (interrupted)" if interrupted else ""))
     tail = " (dry run: nothing written)" if dry_run else ""
     return f"{len(outcomes)} files: {', '.join(parts)}{tail} in {seconds:.1f} s"

@@ -12,7 +12,7 @@ from conftest import FIXTURES
 from depixel.errors import OutputError
 from depixel.files.output import STILL_WANTED, commit, remove_temporary_in, stage, temporary_path, write_atomic
 from depixel.params import Params
-from depixel_cli.batch import Job, Options, Outcome, run_job
+from depixel_cli.batch import CANCELLED, INTERRUPTED, Job, Options, Outcome, run_job, totals_line
 from depixel_cli.dask_batch import _checked
 from depixel_cli.dask_cluster import DaskError, checked_address
 
@@ -116,3 +116,13 @@ def test_a_reported_output_that_is_here_stands_and_one_made_by_a_dead_try_counts
     skipped = _checked(Outcome(job.source, job.output, up_to_date=[job.output]), job, "tcp://w:1",
                        begun=job.output.stat().st_mtime_ns + 1)
     assert skipped.written == [] and skipped.up_to_date == [job.output]
+
+
+def test_the_summary_line_counts_the_files_a_stopped_batch_did_not_do():
+    """A --dask batch stopped without a signal (scheduler lost, no worker) says what it did
+    not do, as an interrupted one does."""
+    outcomes = [Outcome(Path("a.png"), written=[Path("a.svg")]), Outcome(Path("b.png"), state=INTERRUPTED),
+                Outcome(Path("c.png"), state=CANCELLED), Outcome(Path("d.png"), state=CANCELLED)]
+    assert totals_line(outcomes, 1.0) == ("4 files: 1 converted, 0 up to date, 0 kept, 0 failed, 1 abandoned, "
+                                          "2 not started in 1.0 s")
+    assert totals_line(outcomes, 1.0, interrupted=True).endswith("2 not started (interrupted) in 1.0 s")
