@@ -126,7 +126,10 @@ class _Run:
             self._end()
 
     def _tell(self, text: str) -> None:
-        self.progress.message(text) if self.progress is not None else say(text)
+        if self.progress is not None:
+            self.progress.message(text)
+        else:
+            say(text)
 
     def _watch(self, todo: list[int], outcomes: dict[int, Outcome]) -> None:
         """Submit the tasks and collect them until all are reported or the batch stops."""

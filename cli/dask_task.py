@@ -15,15 +15,15 @@ import socket
 from .batch import Job, Outcome, run_job
 
 
-def probe(folder: str, token: str, marker: str) -> dict[str, str | int | bool | None]:
+def probe(folder: str, token: str, marker: str) -> dict[str, str | bool | None]:
     """Run on every worker before a batch: depixel's version here, whether this worker sees
     the command's ``marker`` (the output ``folder``, as the command sees it), and the name of
     a probe file it wrote there and read back, for the command to read too. Never raises."""
     import depixel  # noqa: PLC0415 (the version this worker would convert with)
 
-    found: dict[str, str | int | bool | None] = {
-        "version": depixel.__version__, "host": socket.gethostname(), "pid": os.getpid(),
-        "sees_marker": False, "probe": None, "error": None}
+    found: dict[str, str | bool | None] = {
+        "version": depixel.__version__, "host": socket.gethostname(), "sees_marker": False, "probe": None,
+        "error": None}
     try:
         with open(marker, encoding="ascii") as fh:
             found["sees_marker"] = fh.read() == token
