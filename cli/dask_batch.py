@@ -114,6 +114,7 @@ class _Run:
             self.client = connect(self.address, self.timeout)
             if wait_for_a_worker(self.client, self.address, self.timeout, stopped):
                 self.marker = make_marker(self.folder, self.token)
+                self.signals.on_second = self._close_marker  # a second Ctrl-C exits at once: no task writes after
                 self.begun = self.marker.stat().st_mtime_ns
                 check_workers(self.client, self.folder, self.token, self.marker)
             if stopped():
@@ -232,6 +233,7 @@ class _Run:
     def _end(self) -> None:
         """Close the marker and the client, and remove this run's temporary files."""
         self._close_marker()
+        self.signals.on_second = None
         if self.client is not None:
             close(self.client)
         folders: set[tuple[str, str]] = set()
