@@ -238,7 +238,7 @@ class _Run:
             close(self.client)
         folders: set[tuple[str, str]] = set()
         for job in self.jobs:
-            folders.update((os.path.realpath(target.parent), job.options.token) for _, target in frame_targets(job))
+            folders.update((os.path.realpath(target.parent), job.options.token) for *_, target in frame_targets(job))
         for folder, token in folders:
             remove_temporary_in(folder, token)
 

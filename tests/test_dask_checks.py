@@ -82,7 +82,7 @@ def test_a_stopped_task_renames_nothing_and_leaves_no_temporary_file(tmp_path):
 def job_in(tmp_path: Path, force: bool = False) -> Job:
     source = tmp_path / "heart.png"
     shutil.copy(FIXTURES / "heart.png", source)
-    options = Options(Params(), "svg", "optimized", 1.0, "first", None, None, force=force)
+    options = Options(Params(), ("svg",), "optimized", 1.0, "first", None, None, force=force)
     return Job(source, tmp_path / "heart.svg", options)
 
 
