@@ -35,6 +35,7 @@ from .batch_inputs import DEFAULT_NAME, expand_inputs, make_folders, name_templa
 from .batch_run import Progress, Repeats, auto_jobs, cores, run
 from .options import (
     Exit,
+    add_dask_options,
     add_input_options,
     add_tuning,
     check_input_options,
@@ -76,9 +77,6 @@ abandoned without leaving partial files, what was done is reported (exit 130, or
 SIGTERM); a second Ctrl-C exits at once.
 """
 
-#: --dask-timeout's default and largest value, seconds (docs/scale.md).
-DASK_TIMEOUT, MAX_DASK_TIMEOUT = 60.0, 86400.0
-
 
 def frames_option(text: str) -> str | int:
     if text in ("first", "all"):
@@ -103,13 +101,6 @@ def template_option(text: str) -> str:
         return name_template(text)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
-
-
-def timeout_option(text: str) -> float:
-    value = positive_float(text)
-    if value > MAX_DASK_TIMEOUT:
-        raise argparse.ArgumentTypeError(f"at most {MAX_DASK_TIMEOUT:g} seconds (a day): {text!r}")
-    return value
 
 
 def jobs_option(text: str) -> str | int:
@@ -185,12 +176,7 @@ def add_parser(sub, name: str, help: str) -> None:
     batch.add_argument("-j", "--jobs", type=jobs_option, default="auto", metavar="N|auto",
                        help=f"files converted in parallel (default auto: one per core, {cores()} here); auto or N, "
                             "fewer when the largest image would not fit in the available memory that many times")
-    batch.add_argument("--dask", metavar="ADDRESS",
-                       help="run the conversions on a Dask cluster (scheduler address, e.g. tcp://host:8786); "
-                            "inputs and outputs must be on a filesystem the workers share; pip install 'depixel[dask]'")
-    batch.add_argument("--dask-timeout", type=timeout_option, default=DASK_TIMEOUT, metavar="SECONDS",
-                       help=f"--dask: how long to wait for a worker, before the batch and while none is left "
-                            f"(default {DASK_TIMEOUT:g})")
+    add_dask_options(batch)
     batch.add_argument("--json", action="store_true",
                        help="print a JSON summary on stdout (files, ok, skipped, failed with reasons, every output "
                             "with its status, what the input preparation found, interrupted, seconds)")

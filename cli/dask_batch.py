@@ -72,11 +72,11 @@ LOOK_SECONDS = 1.0
 SETTLE_SECONDS = 0.1
 
 
-def run_dask(jobs: list[Job], address: str, folder: Path, report, signals, progress: Progress | None,
+def run_dask(jobs: list[Job], address: str, folder: Path | None, report, signals, progress: Progress | None,
              timeout: float, debug: bool = False) -> list[Outcome]:
-    """Run the jobs, whose outputs are under ``folder``, as tasks on the Dask scheduler at
-    ``address``; like :func:`depixel_cli.batch_run.run`, returns the outcomes in the order
-    of ``jobs``. No wait on the cluster lasts more than ``timeout`` seconds; a cluster that
+    """Run the jobs, whose outputs are under ``folder`` (None: beside their inputs), as tasks
+    on the Dask scheduler at ``address``; like :func:`depixel_cli.batch_run.run`, returns
+    the outcomes in the order of ``jobs``. No wait on the cluster lasts more than ``timeout`` seconds; a cluster that
     cannot run the batch is a :class:`DaskError` (one line) before any task; ``debug``
     shows Dask's own logs."""
     address, host, port = checked_address(address)  # before importing Dask: a typo is refused at once
@@ -88,6 +88,8 @@ def run_dask(jobs: list[Job], address: str, folder: Path, report, signals, progr
     todo = [i for i in range(len(jobs)) if i not in outcomes]
     if todo:
         signals.raising = False  # a signal is seen by the loops, which stop cleanly
+        if folder is None:  # the run marker goes beside the first output
+            folder = frame_targets(jobs[todo[0]])[0][2].parent
         with quiet_dask(debug):
             _Run(jobs, address, folder, report, signals, progress, timeout).run(todo, host, port, outcomes)
     return [outcomes[i] for i in range(len(jobs))]

@@ -113,6 +113,27 @@ def transparent_colour(text: str) -> str | tuple[int, int, int]:
     return "auto" if text.strip().lower() == "auto" else colour(text)
 
 
+#: --dask-timeout's default and largest value, seconds (docs/scale.md).
+DASK_TIMEOUT, MAX_DASK_TIMEOUT = 60.0, 86400.0
+
+
+def dask_timeout(text: str) -> float:
+    value = positive_float(text)
+    if value > MAX_DASK_TIMEOUT:
+        raise argparse.ArgumentTypeError(f"at most {MAX_DASK_TIMEOUT:g} seconds (a day): {text!r}")
+    return value
+
+
+def add_dask_options(group) -> None:
+    """``--dask ADDRESS`` and ``--dask-timeout SECONDS`` (docs/scale.md)."""
+    group.add_argument("--dask", metavar="ADDRESS",
+                       help="run the conversions on a Dask cluster (scheduler address, e.g. tcp://host:8786); "
+                            "inputs and outputs must be on a filesystem the workers share; pip install 'depixel[dask]'")
+    group.add_argument("--dask-timeout", type=dask_timeout, default=DASK_TIMEOUT, metavar="SECONDS",
+                       help=f"--dask: how long to wait for a worker, before the batch and while none is left "
+                            f"(default {DASK_TIMEOUT:g})")
+
+
 def add_input_options(parser: argparse.ArgumentParser) -> None:
     """The options that prepare pixel art as people have it (depixel/prepare/inputs.py)."""
     group = parser.add_argument_group("input (pixel art saved upscaled, as JPEG or on a backdrop; docs/inputs.md)")

@@ -115,3 +115,13 @@ def test_two_batches_on_one_scheduler_keep_their_own_files(tmp_path, scheduler):
         assert report["ok"] == 20
         assert {Path(o["output"]).parent for o in report["outputs"]} == {tmp_path / f"out_{name}"}
         assert stamped(tmp_path / f"out_{name}") == {f"s{i:03d}.svg" for i in range(20)}
+
+
+def test_outputs_beside_their_inputs(tmp_path, capsys, scheduler):
+    """Without --out-dir each output is written beside its input; the run marker and the
+    probe's file go beside the first output, and are gone at the end."""
+    src = sprites(tmp_path / "in", 3)
+    code, report = run_json(capsys, ["convert", "-q", str(src), "--json", "--dask", scheduler])
+    assert code == 0 and report["ok"] == 3
+    assert sorted(p.name for p in src.iterdir()) == ["s000.png", "s000.svg", "s001.png", "s001.svg", "s002.png",
+                                                    "s002.svg"]
