@@ -14,6 +14,7 @@ from depixel.pipeline import depixelize
 from depixel.prepare.image import load_image
 from depixel.render import shading
 from depixel.render.shading import cell_centroids, render_smooth
+from depixel.render.visibility import Occluders
 
 STAGES = ("cells", "optimized")
 
@@ -189,7 +190,7 @@ def test_shading_is_similar_to_the_cell_under_each_point(path):
     image = fixture_vector(path.name, "optimized")
     h, w = image.shape
     out = render_smooth(image, 3, supersample=1)
-    segments = shading._Segments(image, shading._flatten(image, shading._pieces_per_curve(image, 3)))
+    segments = shading._Segments(image, shading._flatten(image, shading._pieces_per_curve(image, shading.FLATTEN_TOLERANCE / 3)))
     under = shading._cell_labels(segments, 0, 3 * h, 3, 3, 3 * w)
     assert within_thresholds(out, rgba.reshape(-1, 4)[under]).all()
 
@@ -202,7 +203,7 @@ def test_random_shaded_images_stay_similar_to_the_cell_under_each_point(seed, st
     rgba = palette[np.random.default_rng(seed).integers(0, len(palette), size=(9, 10))]
     image = vector(rgba, stage)
     out = render_smooth(image, 2, supersample=1)
-    segments = shading._Segments(image, shading._flatten(image, shading._pieces_per_curve(image, 2)))
+    segments = shading._Segments(image, shading._flatten(image, shading._pieces_per_curve(image, shading.FLATTEN_TOLERANCE / 2)))
     under = shading._cell_labels(segments, 0, 18, 2, 2, 20)
     assert within_thresholds(out, rgba.reshape(-1, 4)[under]).all()
 
@@ -220,6 +221,85 @@ def test_region_chained_through_a_middle_grey_blends_only_similar_colours(stage)
     out = render_smooth(vector(rgba, stage), 9)
     assert within_thresholds(out[4::9, 4::9], rgba).all()
     assert out[1 * 9 + 4, 1 * 9 + 4, 0] < 150  # still shaded, not flat
+
+
+#: a tone chain: 60 ~ 105 ~ 150 (|ΔY| = 45 each), 60 and 150 not similar: one region
+#: through the middle grey at the left end of the contour between the dark and the light side
+CHAIN = """
+    0000000000
+    0000000000
+    0000000000
+    1000000000
+    2222222222
+    2222222222
+    2222222222
+"""
+
+
+@pytest.mark.parametrize("stage", STAGES)
+def test_colour_does_not_travel_along_a_tone_chain_past_a_contour(stage, monkeypatch):
+    """§3.5: a cell's influence stops at the region visible from its centroid. The light
+    side's centroids see the dark pixels along the contour only across it, so those keep
+    their colour exactly; by the region alone (the check at the end) the light grey would
+    reach them around the contour's end."""
+    rgba = art(CHAIN, grey(60, 105, 150))
+    image = vector(rgba, stage)
+    out = render_smooth(image, 9)[4::9, 4::9].astype(int)
+    assert (np.abs(out[3, 2:, :3] - 60) <= 1).all() and (np.abs(out[4, 2:, :3] - 150) <= 1).all()
+    assert out[3, 1, 0] > 61  # the dark pixel beside the middle grey sees it: shaded
+    monkeypatch.setattr(Occluders, "hidden", lambda self, pixel, *rest: np.zeros(pixel.size, bool))
+    regions_only = render_smooth(image, 9)[4::9, 4::9].astype(int)
+    assert (regions_only[3, 2:, 0] - 60).max() > 20
+
+
+def brute_force_hidden(image, centroid: np.ndarray, cell: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Every visible edge (flattened as the renderer does for visibility), every segment
+    tested against every piece."""
+    from depixel.vector import linked_edges
+
+    a, b, edge = shading._flatten(image, shading._pieces_per_curve(image, shading.VISIBILITY_TOLERANCE))
+    cells = image.cells
+    visible = ~linked_edges(cells) & (cells.edge_pixels >= 0).all(axis=1)
+    a, b = a[visible[edge]], b[visible[edge]]
+    p, q = centroid[cell], np.stack([x, y], axis=1)
+
+    def side(u, v, r):
+        return (v[..., 0] - u[..., 0]) * (r[..., 1] - u[..., 1]) - (v[..., 1] - u[..., 1]) * (r[..., 0] - u[..., 0]) > 0
+
+    pp, qq = p[:, None], q[:, None]
+    crosses = (side(pp, qq, a[None]) != side(pp, qq, b[None])) & (side(a[None], b[None], pp) != side(a[None], b[None], qq))
+    return crosses.any(axis=1)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_occluders_agree_with_testing_every_visible_edge(seed):
+    """The pieces kept per (pixel, offset) are all that can hide a cell of a region of several
+    colours from a point of the pixel within the influence radius (elsewhere the cells a
+    point sees have its colour anyway): the same answer as testing every visible edge."""
+    rng = np.random.default_rng(seed)
+    levels = grey(60, 100, 140, 180)
+    rgba = np.array([[levels[str(k)] for k in row] for row in rng.integers(0, 4, size=(8, 9))], np.uint8)
+    image = vector(rgba)
+    field = shading._ShadingField(image, shading._flatten(image, 16), Params())
+    h, w = image.shape
+    colour = rgba.reshape(-1, 4)[:, 0]
+    tones = {r: set() for r in field.region.tolist()}
+    for r, c in zip(field.region.tolist(), colour.tolist()):
+        tones[r].add(c)
+    shaded = np.array([len(tones[r]) > 1 for r in field.region.tolist()])
+    assert shaded.any() and not shaded.all()
+    n = 4000
+    x, y = rng.uniform(0, w, n), rng.uniform(0, h, n)
+    pixel = np.floor(y).astype(int) * w + np.floor(x).astype(int)
+    for o, (dy, dx) in enumerate(field.offsets.tolist()):
+        row, col = np.floor(y).astype(int) + dy, np.floor(x).astype(int) + dx
+        inside = (row >= 0) & (row < h) & (col >= 0) & (col < w)
+        cell = (row * w + col)[inside]
+        got = field.occluders.hidden(pixel[inside], o, cell, x[inside], y[inside])
+        near = np.hypot(*(field.centroid[cell] - np.stack([x[inside], y[inside]], axis=1)).T) < field.radius
+        near &= shaded[cell]
+        want = brute_force_hidden(image, field.centroid, cell, x[inside], y[inside])
+        assert np.array_equal(got[near], want[near])
 
 
 @pytest.mark.parametrize("name", ["ghost_rgba.png", "heart_trns.png", "potion_rgba.png"])

@@ -32,9 +32,12 @@ from ..curves.bspline import bend, edge_halves, flatten_edges, pieces_for
 from ..errors import RenderError
 from ..params import Params
 from ..vector import VectorImage, regions
+from .visibility import Occluders
 
 FLATTEN_TOLERANCE = 0.1  # not in paper: polyline error of flattened curves, in output pixels
 TILE_SAMPLES = 1 << 18  # not in paper: samples per tile; bounds memory (~40 MB) and fits caches
+#: not in paper: polyline error (input pixels) of the contours that stop a cell's influence
+VISIBILITY_TOLERANCE = 0.05
 MAX_OUTPUT_PIXELS = 1 << 28  # not in paper: the RGBA result alone is 1 GiB at this size
 
 
@@ -66,7 +69,7 @@ def render_smooth(image: VectorImage, scale: float, supersample: int | None = No
     out_h, out_w = max(1, round(h * scale)), max(1, round(w * scale))
     if out_h * out_w > MAX_OUTPUT_PIXELS:
         raise RenderError(f"a {out_w}×{out_h} render is too large (at most {MAX_OUTPUT_PIXELS} pixels)")
-    pieces = _flatten(image, _pieces_per_curve(image, max(out_h / h, out_w / w)))
+    pieces = _flatten(image, _pieces_per_curve(image, FLATTEN_TOLERANCE / max(out_h / h, out_w / w)))
     field = _ShadingField(image, pieces, params)
     segments = _Segments(image, pieces)
     rows_per_tile = max(1, TILE_SAMPLES // (out_w * supersample * supersample))
@@ -80,16 +83,16 @@ def render_smooth(image: VectorImage, scale: float, supersample: int | None = No
 # --- geometry -----------------------------------------------------------------------------
 
 
-def _pieces_per_curve(image: VectorImage, scale: float) -> int:
+def _pieces_per_curve(image: VectorImage, tolerance: float) -> int:
     """Line pieces per quadratic Bézier so that every flattened curve stays within
-    FLATTEN_TOLERANCE output pixels of the true curve (chord error ≤ |P0 - 2C + P1| / 4n²)."""
+    ``tolerance`` input pixels of the true curve (chord error ≤ |P0 - 2C + P1| / 4n²)."""
     if not image.curved.any():
         return 1
     p = image.points
     u, v = image.cells.edges[image.curved, 0], image.cells.edges[image.curved, 1]
     first, second = edge_halves(p[u], image.controls[image.curved], p[v])
     worst = np.maximum(bend(*first), bend(*second)).max()
-    return pieces_for(worst, FLATTEN_TOLERANCE / scale)
+    return pieces_for(worst, tolerance)
 
 
 class Pieces(NamedTuple):
@@ -116,7 +119,7 @@ def _flatten(image: VectorImage, n: int) -> Pieces:
 
 def cell_centroids(image: VectorImage, pieces: Pieces | None = None) -> np.ndarray:
     """``(H*W, 2)`` centroid (x, y) of every cell polygon, curved edges flattened."""
-    a, b, edge = _flatten(image, _pieces_per_curve(image, 8.0)) if pieces is None else pieces
+    a, b, edge = _flatten(image, _pieces_per_curve(image, FLATTEN_TOLERANCE / 8.0)) if pieces is None else pieces
     cells = image.cells
     n_cells, n_edges = cells.cell_ptr.size - 1, len(cells.edges)
     # shoelace sums per edge walked u → v; walking it backwards flips their signs
@@ -230,6 +233,9 @@ class _ShadingField:
         self.pad_y = np.pad(self.centroid[:, 1].reshape(h, w), pad).ravel().astype(np.float32)
         self.pad_region = np.pad(self.region.reshape(h, w), pad, constant_values=-1).ravel()
         self.pad_colour = np.pad(self.premultiplied.reshape(h, w, 4), pad + ((0, 0),)).reshape(-1, 4).astype(np.float32)
+        coarse = _flatten(image, _pieces_per_curve(image, VISIBILITY_TOLERANCE))
+        self.occluders = Occluders(image, *coarse, self.centroid, self.region, self.premultiplied, self.radius,
+                                   self.offsets)
 
     def _flat_cells(self, radius: int) -> np.ndarray:
         """``(H*W,)`` bool: every cell of the same region within ``radius`` pixels (Chebyshev)
@@ -270,11 +276,15 @@ class _ShadingField:
         total = np.zeros(x.size, np.float32)
         acc = np.zeros((x.size, 4), np.float32)
         floor = np.float32(np.exp(-(self.radius**2) / (2 * self.sigma**2)))
-        for dy, dx in self.offsets.tolist():
+        pixel = i0 * w + j0
+        for o, (dy, dx) in enumerate(self.offsets.tolist()):
             q = base + (dy * stride + dx)
             d2 = (self.pad_x[q] - x32) ** 2 + (self.pad_y[q] - y32) ** 2
             weight = np.exp(d2 * np.float32(-0.5 / self.sigma**2)) - floor
             weight *= (self.pad_region[q] == region) & (weight > 0)
+            seen = weight.nonzero()[0]  # by the paper's visibility: no visible edge on the way
+            hidden = self.occluders.hidden(pixel[seen], o, pixel[seen] + (dy * w + dx), x[seen], y[seen])
+            weight[seen[hidden]] = 0
             total += weight
             acc += weight[:, None] * self.pad_colour[q]
         acc, total = acc.astype(np.float64), total.astype(np.float64)
@@ -331,7 +341,10 @@ def _render_tile(field: _ShadingField, seg: _Segments, r0: int, r1: int, out_sha
         labels[ki, ji] = pi * w + pj
     block = labels.reshape(rows, s, out_w, s).transpose(0, 2, 1, 3).reshape(rows, out_w, s * s)
     reg = field.region[block]
+    # one evaluation where every sample lies in one region and no wall between two of its
+    # cells (a visible edge inside the region) crosses the pixel
     uniform = (reg == reg[..., :1]).all(axis=2)
+    uniform &= ~(field.occluders.wall[block].any(axis=2) & (block != block[..., :1]).any(axis=2))
 
     colour = np.empty((rows, out_w, 4))
     centre = (s // 2) * s + s // 2
