@@ -12,6 +12,7 @@ bytes per sprite (frames listed on their own). Not part of the test suite
     python benchmarks/judge_corpus.py --simplify 0 --simplify 0.1 --simplify 0.25
     python benchmarks/judge_corpus.py --layout cutout --renderer resvg --renderer chromium
     python benchmarks/judge_corpus.py --stage cells --stage splines --layers --frames
+    python benchmarks/judge_corpus.py --renderer resvg --shading flat   # the bands alone
 """
 from __future__ import annotations
 
@@ -27,7 +28,7 @@ from pathlib import Path
 
 from depixel import STAGES, depixelize, load_image, to_svg
 from depixel.svg.outlines import LAYOUTS
-from depixel.svg.writer import DEFAULT_SIMPLIFY
+from depixel.svg.writer import DEFAULT_SIMPLIFY, SHADINGS
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared"
 RENDERERS = ("cairosvg", "rsvg", "resvg", "chromium", "inkscape")
@@ -41,6 +42,8 @@ def main() -> int:
     parser.add_argument("--simplify", action="append", type=float,
                         help=f"tolerance(s) in pixels (default: {DEFAULT_SIMPLIFY}, the default output)")
     parser.add_argument("--renderer", action="append", choices=RENDERERS, help="renderer(s) (default: cairosvg)")
+    parser.add_argument("--shading", choices=SHADINGS, default="smooth",
+                        help="smooth (the default output; cairosvg draws it flat) or flat")
     parser.add_argument("--layers", action="store_true", help="also count shapes with holes (slow)")
     parser.add_argument("--frames", action="store_true", help="also the three 256x224 game frames")
     parser.add_argument("--scale", type=float, default=1.0, help="SVG width/height scale (default 1)")
@@ -63,7 +66,7 @@ def main() -> int:
         for src in sources:
             vector = depixelize(load_image(src), stage=stage).vector
             svg = folder / f"{src.stem}.svg"
-            svg.write_text(to_svg(vector, scale=args.scale, layout=layout, simplify=tolerance))
+            svg.write_text(to_svg(vector, scale=args.scale, layout=layout, simplify=tolerance, shading=args.shading))
             pairs.append(f"{src}\t{svg}")
         listing = folder / "pairs.tsv"
         listing.write_text("\n".join(pairs) + "\n")

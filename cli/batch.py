@@ -42,7 +42,7 @@ class Options:
     background: tuple[int, int, int] | None
     max_pixels: int | None
     force: bool  # reconvert outputs that are up to date, and overwrite those that are not depixel's or edited
-    shading: str = "smooth"  # PNG: the paper's smooth renderer, or "flat" (the SVG rasterized)
+    shading: str = "smooth"  # the paper's smooth shading (SVG filter, PNG renderer), or "flat" bands
     precision: int = DEFAULT_PRECISION  # decimals of SVG coordinates
     layout: str = "stacked"  # SVG: shapes stacked (each continues under those above) or cut out
     simplify: float = DEFAULT_SIMPLIFY  # SVG: tolerance of the curve simplification, pixels (0: exact)

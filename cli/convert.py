@@ -141,8 +141,8 @@ def add_parser(sub, name: str, help: str) -> None:
     out.add_argument("--background", type=colour, metavar="COLOR",
                      help="flatten the image onto this colour first (#rgb, #rrggbb or a name like white)")
     out.add_argument("--shading", choices=api.SHADINGS, default="smooth",
-                     help="PNG output: smooth, the paper's edge-aware smooth shading (default), or flat, "
-                          "the SVG's per-cell colours rasterized")
+                     help="smooth (default): the paper's edge-aware smooth shading (SVG: a blur filter inside "
+                          "each shaded region; PNG: the paper's renderer); flat: flat colour bands")
     out.add_argument("--frames", type=frames_option, default="first", metavar="first|all|N",
                      help="frames of an animated image: the first (default), all (name-000.svg, ...) or frame N")
     out.add_argument("--stage", choices=STAGES, default="optimized",

@@ -23,13 +23,10 @@ from .prepare.image import ImageSource, as_rgba, check_indexable, check_pixels, 
 from .prepare.inputs import AUTO, PixelSize, PreparedImage, pil_lossy, prepare
 from .render.overlay import overlay_raster, overlay_svg
 from .svg.outlines import LAYOUTS
-from .svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY, MAX_SIMPLIFY, to_svg
+from .svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY, MAX_SIMPLIFY, SHADINGS, SIGMA_RATIO, to_svg
 
 #: Output formats, chosen from the file extension or given explicitly.
 FORMATS = ("svg", "png", "pdf")
-#: how PNG output is shaded: "smooth" is the paper's renderer (§3.5, depixel.render.shading),
-#: "flat" rasterizes the SVG (per-cell flat fills) through cairosvg
-SHADINGS = ("smooth", "flat")
 
 def _pixels(image, name: str = "<image>", max_pixels: int | None = DEFAULT_MAX_PIXELS) -> None:
     """Refuse what is not an image in memory (a file name gets a pointer to the file
@@ -98,7 +95,8 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
             width: int | None = None, height: int | None = None,
             max_pixels: int | None = DEFAULT_MAX_PIXELS, layout: str = "stacked",
             simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
-            transparent: Colour | str | None = None, transparent_everywhere: bool = False) -> str:
+            transparent: Colour | str | None = None, transparent_everywhere: bool = False,
+            shading: str = "smooth") -> str:
     """Depixelize an image (``(H, W[, C])`` array, PIL image or :class:`PreparedImage`) → SVG text.
 
     ``scale`` sets the SVG's width/height as a multiple of the input's size (or ``width`` or
@@ -108,6 +106,8 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
     ``layout`` is "stacked" (every shape continues under the shapes drawn above it) or
     "cutout" (shapes that tile the image); ``simplify`` is the tolerance in pixels within
     which fewer curves replace the exact spline (0: the exact spline; docs/svg.md).
+    ``shading="smooth"`` blends the tones of each shaded region with a filter (paper §3.5,
+    σ from ``params.shading_sigma``); ``"flat"`` draws them as flat bands.
     ``pixel_size``, ``denoise``, ``transparent`` and ``transparent_everywhere`` prepare the input first
     (:func:`depixel.prepare.inputs.prepare`, docs/inputs.md): upscaled art is converted at 1× and
     laid exactly over the input. Images over ``max_pixels`` pixels are refused (``None``:
@@ -117,8 +117,10 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
                                layout=layout, simplify=simplify, pixel_size=pixel_size, denoise=denoise,
                                transparent=transparent, transparent_everywhere=transparent_everywhere)
     _check_page("svg", prepared, scale, width, height, "<image>")
+    validate.choice("shading", shading, SHADINGS)
     vector = depixelize(prepared.rgba, params, stage=stage).vector  # the other stages' products are freed here
-    svg = to_svg(vector, scale=scale, precision=precision, title=title, layout=layout, simplify=simplify)
+    svg = to_svg(vector, scale=scale, precision=precision, title=title, layout=layout, simplify=simplify,
+                 shading=shading, sigma=SIGMA_RATIO * params.shading_sigma)
     return overlay_svg(svg, prepared, scale)
 
 
@@ -187,9 +189,10 @@ def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: 
                   transparent: Colour | str | None = None, transparent_everywhere: bool = False) -> bytes:
     """Like :func:`convert`, returning the bytes of an SVG, PNG or PDF file.
 
-    PNG output is rendered with the paper's smooth shading unless ``shading="flat"``, which
-    rasterizes the SVG instead (SVG and PDF are always the vector result). A PNG of more
-    than ``max_output_pixels`` pixels is refused before it is rendered.
+    ``shading="smooth"`` renders PNG output with the paper's smooth renderer and gives the
+    SVG its smooth-shading filter; ``"flat"`` draws flat colour bands (the SVG without the
+    filter; PNG that SVG rasterized). A PDF has the flat bands (cairosvg draws no filters).
+    A PNG of more than ``max_output_pixels`` pixels is refused before it is rendered.
     """
     return conversion_bytes(image, fmt, params, stage=stage, scale=scale, background=background, title=title,
                             shading=shading, name=name, precision=precision, width=width, height=height,
@@ -230,7 +233,8 @@ def conversions(image, formats: Mapping[str, str | None], params, *, stage, scal
     for fmt in formats:
         _check_page(fmt, prepared, scale, width, height, name)
     vector = depixelize(prepared.rgba, params, stage=stage).vector
-    blobs, svg = {}, None
+    blobs: dict[str, bytes] = {}
+    svgs: dict[str, str] = {}  # by shading: an SVG is smooth unless flat; PDF and a flat PNG are drawn flat
     for fmt, keywords in formats.items():
         if fmt == "png" and shading == "smooth":
             import io  # noqa: PLC0415
@@ -245,8 +249,10 @@ def conversions(image, formats: Mapping[str, str | None], params, *, stage, scal
             Image.fromarray(overlay_raster(pixels, prepared, scale), "RGBA").save(buffer, format="PNG")
             blobs[fmt] = buffer.getvalue()
         else:
-            if svg is None:
-                svg = overlay_svg(to_svg(vector, scale=scale, precision=precision, title=title, layout=layout,
-                                         simplify=simplify), prepared, scale)
-            blobs[fmt] = encode(svg, fmt, name=name, keywords=keywords)
+            drawn = shading if fmt == "svg" else "flat"
+            if drawn not in svgs:
+                svgs[drawn] = overlay_svg(to_svg(vector, scale=scale, precision=precision, title=title, layout=layout,
+                                                 simplify=simplify, shading=drawn,
+                                                 sigma=SIGMA_RATIO * params.shading_sigma), prepared, scale)
+            blobs[fmt] = encode(svgs[drawn], fmt, name=name, keywords=keywords)
     return blobs

@@ -31,7 +31,8 @@ def convert(rgba: np.ndarray, stage: str = STAGE, title: str | None = None) -> s
 
 
 def parse(svg: str) -> ET.Element:
-    """Parse the SVG, checking it is self-contained: no href, no url(), no external entity."""
+    """Parse the SVG, checking it is self-contained: no href, no url() but to an element of
+    the file (the smooth shading's filter), no external entity."""
     assert "<!DOCTYPE" not in svg and "<!ENTITY" not in svg
     namespaces = ('xmlns="http://www.w3.org/2000/svg"', 'xmlns:inkscape="http://www.inkscape.org/namespaces/inkscape"')
     bare = svg
@@ -40,10 +41,12 @@ def parse(svg: str) -> ET.Element:
     assert "://" not in bare
     root = ET.fromstring(svg.encode("utf-8"))
     assert root.tag == SVG_NS + "svg"
+    ids = {element.get("id") for element in root.iter()}
     for element in root.iter():
         for key, value in element.attrib.items():
             assert "href" not in key, f"{element.tag} has {key}"
-            assert not re.search(r"url\s*\(", value), f"{element.tag} {key}={value!r}"
+            for target in re.findall(r"url\s*\(([^)]*)\)", value):
+                assert target.startswith("#") and target[1:] in ids, f"{element.tag} {key}={value!r}"
         assert element.tag.split("}")[-1] not in {"image", "use", "style", "script", "foreignObject"}
     return root
 

@@ -1,8 +1,10 @@
-"""PNG output through the command line: the paper's smooth renderer by default, the flat
-SVG render with --shading flat; SVG output is unaffected."""
+"""--shading through the command line: PNG output is the paper's smooth renderer by default,
+the flat SVG rendered with --shading flat; SVG output has the smooth-shading filter by
+default and none with --shading flat."""
 from __future__ import annotations
 
 import io
+import re
 
 import numpy as np
 import pytest
@@ -34,11 +36,17 @@ def test_shading_flag_is_validated(capsys):
     assert "invalid choice" in capsys.readouterr().err
 
 
-def test_svg_ignores_shading(tmp_path):
-    a, b = tmp_path / "a.svg", tmp_path / "b.svg"
-    assert main(["convert", str(FIXTURES / "heart.png"), "-o", str(a)]) == 0
-    assert main(["convert", str(FIXTURES / "heart.png"), "-o", str(b), "--shading", "flat"]) == 0
-    assert a.read_bytes() == b.read_bytes()
+def test_svg_shading(tmp_path):
+    """A shaded image gets the filter unless --shading flat; an image without shaded
+    regions is the same either way (but for the options stamp, which names the shading)."""
+    for name, shaded in (("orb.png", True), ("heart.png", False)):
+        a, b = tmp_path / f"a-{name}.svg", tmp_path / f"b-{name}.svg"
+        assert main(["convert", str(FIXTURES / name), "-o", str(a)]) == 0
+        assert main(["convert", str(FIXTURES / name), "-o", str(b), "--shading", "flat"]) == 0
+        smooth, flat = a.read_text(), b.read_text()
+        assert ('filter="url(#smooth)"' in smooth) == shaded and "filter" not in flat
+        unstamped = [re.sub(r"<!-- depixel-options:.*?-->", "", text) for text in (smooth, flat)]
+        assert (unstamped[0] == unstamped[1]) != shaded
 
 
 def test_stdout_png_uses_the_same_renderer(tmp_path, capsysbinary):

@@ -1,6 +1,7 @@
 """The exported SVG is plain SVG 1.1 that editors open: every element, child and attribute
 value passes svgwrite's SVG 1.1 Full validator (which, e.g., refuses ``rgba()`` fills that
-Inkscape and Illustrator read as black), and nothing references an external resource.
+Inkscape and Illustrator read as black), and nothing references an external resource (the
+smooth shading's filter is referenced by ``url(#smooth)``, inside the file).
 
 Path data is checked against the grammar of SVG 1.1 §8.3.9 itself (tests/svgpath.py):
 svgwrite's checker refuses two forms the specification allows and depixel writes to keep
@@ -24,12 +25,17 @@ def local(tag: str) -> str:
     return tag.replace(SVG_NS, "")
 
 
+FILTER = {"defs", "filter", "feGaussianBlur", "feComponentTransfer", "feFuncA", "feComposite"}
+
+
+@pytest.mark.parametrize("shading", ["smooth", "flat"])
 @pytest.mark.parametrize("stage", ["cells", "splines", "optimized"])
 @pytest.mark.parametrize("path", [p for p in fixture_pngs() if p.name in ("ghost_rgba.png", "potion_rgba.png", "chip.png")],
                          ids=lambda p: p.name)
-def test_svg_passes_the_svg11_full_validator(path, stage):
-    svg = to_svg(depixelize(load_image(path), Params(), stage=stage).vector, scale=4, title=path.name)
+def test_svg_passes_the_svg11_full_validator(path, stage, shading):
+    svg = to_svg(depixelize(load_image(path), Params(), stage=stage).vector, scale=4, title=path.name, shading=shading)
     root = ET.fromstring(svg)
+    ids = {element.get("id") for element in root.iter()}
     validator = get_validator("full", debug=True)
     seen = set()
     for element in root.iter():
@@ -44,7 +50,9 @@ def test_svg_passes_the_svg11_full_validator(path, stage):
                 assert svgpath.parse(value)  # SVG 1.1 path grammar; raises on a bad value
             else:
                 validator.check_svg_attribute_value(name, attribute, value)  # raises on a bad value
-            assert "url(" not in value and "rgba(" not in value
+            assert "rgba(" not in value
+            assert "url(" not in value or (value.startswith("url(#") and value[5:-1] in ids)
         assert not any("href" in a for a in element.attrib)
-    assert seen <= {"svg", "title", "g", "path"}
+    assert seen <= {"svg", "title", "g", "path"} | (FILTER if shading == "smooth" else set())
+    assert ("filter" in seen) == (shading == "smooth" and path.name == "chip.png")  # (chip's pins are shaded)
     assert root.get("viewBox") == "0 0 {} {}".format(*load_image(path).shape[1::-1])

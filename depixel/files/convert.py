@@ -71,8 +71,9 @@ def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: P
                  max_frames: int | None = DEFAULT_MAX_FRAMES) -> Path:
     """Convert one image file (one frame of it) to an SVG, PNG or PDF file; returns the output path.
 
-    The output is written atomically and never replaces ``source``. PNG output uses the
-    smooth renderer unless ``shading="flat"``. The file carries the stamp of the options and
+    The output is written atomically and never replaces ``source``. SVG and PNG output have
+    the smooth shading unless ``shading="flat"`` (:func:`depixel.api.convert_bytes`). The
+    file carries the stamp of the options and
     of the input that made it (:mod:`depixel.files.stamp`), which :func:`output_status`
     compares. ``denoise=None`` denoises JPEG and lossy WebP files; ``on_prepared`` is called
     with what the preparation found (to report it). An input that changes while it is
@@ -246,9 +247,10 @@ def file_options(output: str | os.PathLike, params: Params = Params(), *, fmt: s
                "layout": layout, "simplify": float(simplify), "pixel_size": parse_pixel_size(pixel_size),
                "denoise": denoise, "transparent": parse_transparent(transparent),
                "transparent_everywhere": validate.flag("transparent_everywhere", transparent_everywhere)}
-    # only what changes the bytes: shading is for PNG, which ignores the SVG's settings when smooth
+    # only what changes the bytes: shading is for SVG and PNG (a PDF has the flat bands), and a
+    # smooth PNG ignores the SVG's settings
     smooth_png = options["fmt"] == "png" and shading == "smooth"
-    stamped = {**options, "params": dataclasses.asdict(params), "shading": shading if options["fmt"] == "png" else None,
+    stamped = {**options, "params": dataclasses.asdict(params), "shading": shading if options["fmt"] != "pdf" else None,
                **({"precision": None, "layout": None, "simplify": None} if smooth_png else {})}
     if options["transparent"] is None:  # (an option added with the border flood fill: other stamps are unchanged)
         del stamped["transparent_everywhere"]

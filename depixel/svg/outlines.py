@@ -119,9 +119,10 @@ def build_outlines(image: VectorImage, layout: str = "stacked", grid: float | No
 
 class OutlineShapes:
     """The shapes of a vector image in drawing order, known before their outlines are traced
-    (``face``, ``rgba``, ``region``, ``role`` as in :class:`Outlines`), and their outlines a
-    batch of consecutive shapes at a time (:meth:`batches`): the SVG writer formats each
-    batch as it comes, so the loops and segments of the whole image are never held at once.
+    (``face``, ``rgba``, ``region``, ``role`` as in :class:`Outlines`; ``group`` their smooth
+    groups), and their outlines a batch of consecutive shapes at a time (:meth:`batches`):
+    the SVG writer formats each batch as it comes, so the loops and segments of the whole
+    image are never held at once.
     """
 
     def __init__(self, image: VectorImage, layout: str, grid: float | None, simplify: float) -> None:
@@ -144,6 +145,7 @@ class OutlineShapes:
         self.face = topo.face_of_rank.compress(topo.drawn.take(topo.face_of_rank))
         self.rgba, self.region = topo.face_rgba.take(self.face, axis=0), topo.face_region.take(self.face)
         self.role = topo.role.take(self.face)
+        self.group = topo.group.take(self.face)  # each shape's smooth group (depixel.svg.smoothgroups), -1: none
         clear = (~topo.opaque).nonzero()[0]  # a pixel of each transparent or translucent face
         self.probe_key = probe_keys(topo.first_pixel[clear], self.shape[1]) if clear.size else None
         self.faces = topo.boundaries()  # the rest of the topology is dropped here

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..arrays import batch_bounds, in_sorted, ranges, sums_by_key, unique
 from ..vector import VectorImage, faces_and_regions
+from .smoothgroups import smooth_groups
 
 #: shape roles, for the labels of an editor's layers panel
 ROLES = ("backdrop", "outline", "band", "shape")
@@ -122,6 +123,7 @@ class FaceTopology:
         self.on_border = on_border
         del left, right, boundary
         self.depth = self._depths(pairs)
+        self.group = smooth_groups(cells, labels, self.face_region, self.drawn)
         self.rank, self.face_of_rank = self._ranks(region)
         self.role = self._roles(pairs)
         # the adjacency is kept only as the members it gives (stacked: the underlays, what
@@ -194,7 +196,12 @@ class FaceTopology:
             np.minimum(depth, reach, out=depth)
 
     def _ranks(self, region: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Drawing rank of every face, and the face of every rank."""
+        """Drawing rank of every face, and the face of every rank: by depth, pockets last,
+        then by region, larger faces first, then scanline order. The faces of a smooth group
+        are ranked together, as one face of the group's least depth (a pocket if one of
+        them is), largest area and first pixel, and among themselves by depth, pockets, area
+        and first pixel: a face inside a filled hole of a shape is still drawn after it
+        (docs/design.md, "Smooth groups in the drawing order")."""
         n = self.n_faces
         region_of = self.face_region
         region_depth = np.full(int(region.max()) + 1, n + 1, np.int64)
@@ -203,7 +210,23 @@ class FaceTopology:
         region_key = np.lexsort((np.arange(region_area.size), -region_area, region_depth))
         region_rank = np.empty_like(region_key)
         region_rank[region_key] = np.arange(region_key.size)
-        order = np.lexsort((self.first_pixel, -self.area, region_rank[region_of], self._pockets(), self.depth))
+        pockets = self._pockets()
+        # (depth, pocket, area, first pixel) of what each face is ranked as; within a group
+        # the face's own
+        outer = [self.depth.copy(), pockets.astype(np.int64), self.area.copy(), self.first_pixel.astype(np.int64)]
+        inner = [np.zeros(n, np.int64) for _ in range(4)]
+        grouped = (self.group >= 0).nonzero()[0]
+        if grouped.size:
+            of = self.group.take(grouped)
+            for key, at, reduce in zip(outer, inner, (np.minimum, np.maximum, np.maximum, np.minimum)):
+                own = key.take(grouped)
+                value = np.full(int(of.max()) + 1, np.iinfo(np.int64).max if reduce is np.minimum else -1)
+                reduce.at(value, of, own)
+                key[grouped] = value.take(of)
+                at[grouped] = own
+        depth, pocket, area, first = outer
+        order = np.lexsort((inner[3], -inner[2], inner[1], inner[0], first, -area, region_rank[region_of], pocket,
+                            depth))
         rank = np.empty(n, np.int64)
         rank[order] = np.arange(n)
         return rank, order

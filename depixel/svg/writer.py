@@ -7,6 +7,8 @@ The geometry is decided by :mod:`depixel.svg.outlines`; this module only formats
 * an ``id`` and an ``inkscape:label`` that say what the shape is (``outline-181425`` /
   "outline #181425", ``backdrop-5c94fc``, ``band-e0e0e0``…) so an editor's layers panel reads
   well; consecutive shapes of one region (paper §3.3) in a ``<g>`` when there are several;
+* by default the smooth shading of paper §3.5: the bands of each smooth group blurred
+  inside the group's outline (:mod:`depixel.svg.markup` writes these elements);
 * compact path data: each command in absolute or relative form, whichever is shorter; a
   command letter left out where it repeats; ``H``/``V`` for axis-aligned lines; ``T`` for a
   quadratic whose control point mirrors the previous one (every inner span of a B-spline);
@@ -22,11 +24,13 @@ from functools import cache
 
 import numpy as np
 
+from .. import validate
 from ..arrays import batch_bounds, nan_to_zero, ranges, set_rows
+from ..params import Params
 from ..vector import VectorImage
 from .boundaries import CUBIC, LINE, QUAD
+from .markup import Labels, elements
 from .outlines import Outlines, OutlineShapes, outline_shapes
-from .stacking import ROLES
 from .svgtext import Decimals, Texts, number, stack
 
 SVG_HEADER = '<?xml version="1.0" encoding="UTF-8"?>\n'
@@ -40,6 +44,18 @@ DEFAULT_PRECISION = 2
 #: the largest tolerance accepted: beyond about a pixel a curve could stray over a feature
 MAX_SIMPLIFY = 2.0
 INKSCAPE_NS = "http://www.inkscape.org/namespaces/inkscape"
+#: how the SVG shades a region of several tones: "smooth" blends them (paper §3.5, a filter
+#: inside the region's outline), "flat" draws each tone as a flat band
+SHADINGS = ("smooth", "flat")
+#: not in paper: the SVG blur's standard deviation as a fraction of the paper's σ
+#: (``Params.shading_sigma``). A blur averages the cells' whole areas, where the paper weighs
+#: Gaussians sampled at the cell centroids and cut at 2σ, so the paper's σ would pull the
+#: centre of a one-pixel line of a tone at the similarity limit (|ΔY| = 48) by ~24 levels;
+#: at 0.4σ every pixel centre of the paper corpus but a few stays within 16 levels, and a
+#: 48-level band edge still spreads over ±3 output pixels at 8× (docs/svg.md, "Smooth shading")
+SIGMA_RATIO = 0.4
+#: the blur's standard deviation (pixels) unless told
+DEFAULT_SIGMA = SIGMA_RATIO * Params().shading_sigma
 
 # command codes, and their letters (absolute; relative is lower case) and number of arguments
 M, L, H, V, Q, T, C, Z = range(8)
@@ -63,92 +79,49 @@ def _escape(text: str) -> str:
 
 
 def to_svg(image: VectorImage, scale: float = 1.0, precision: int = DEFAULT_PRECISION, title: str | None = None,
-           layout: str = "stacked", simplify: float = DEFAULT_SIMPLIFY) -> str:
+           layout: str = "stacked", simplify: float = DEFAULT_SIMPLIFY, shading: str = "smooth",
+           sigma: float = DEFAULT_SIGMA) -> str:
     """Write a VectorImage as SVG text; ``scale`` sets width/height, the viewBox stays W×H.
 
-    ``layout`` and ``simplify`` are those of :func:`depixel.svg.outlines.build_outlines`. The
-    outlines are built and written a batch of shapes at a time, so those of the whole image
-    are never held at once."""
+    ``layout`` and ``simplify`` are those of :func:`depixel.svg.outlines.build_outlines`.
+    ``shading="smooth"`` blends the bands of every smooth group with a Gaussian of standard
+    deviation ``sigma`` pixels inside the group's outline (paper §3.5, docs/svg.md);
+    ``"flat"`` draws the bands alone (the same shapes and path data). The outlines are
+    built and written a batch of shapes at a time, so those of the whole image are never
+    held at once."""
+    validate.choice("shading", shading, SHADINGS)
+    validate.positive("sigma", sigma)
     shapes = outline_shapes(image, layout, grid=10.0**-precision, simplify=simplify)
-    return _document(shapes, shapes.batches(), scale, precision, title)
+    return _document(shapes, shapes.batches(), scale, precision, title, sigma if shading == "smooth" else None)
 
 
 def write_svg(outlines: Outlines, scale: float = 1.0, precision: int = DEFAULT_PRECISION,
               title: str | None = None) -> str:
-    """Format outlines (built with ``grid=10**-precision``) as an SVG document."""
-    return _document(outlines, [outlines], scale, precision, title)
+    """Format outlines (built with ``grid=10**-precision``) as an SVG document (flat shading:
+    the smooth groups need the faces, which outlines do not keep)."""
+    return _document(outlines, [outlines], scale, precision, title, None)
 
 
 def _document(shapes: Outlines | OutlineShapes, batches: Iterable[Outlines], scale: float, precision: int,
-              title: str | None) -> str:
-    """The SVG document of ``shapes``, whose outlines are ``batches`` of consecutive shapes."""
+              title: str | None, sigma: float | None) -> str:
+    """The SVG document of ``shapes``, whose outlines are ``batches`` of consecutive shapes,
+    with the smooth shading of a Gaussian of ``sigma`` pixels (None: flat)."""
     h, w = shapes.shape
     width, height = number(w * scale, 3), number(h * scale, 3)
+    labels = Labels(shapes, smooth=sigma is not None)
     head = (
         f'{SVG_HEADER}<svg xmlns="{"http://www.w3.org/2000/svg"}" xmlns:inkscape="{INKSCAPE_NS}" version="1.1" '
         f'width="{width}" height="{height}" viewBox="0 0 {w} {h}">\n'
     )
     if title:
         head += f"<title>{_escape(title)}</title>\n"
-    parts = [head]
-    labels = _Labels(shapes)
+    parts = [head, labels.smooth.defs(sigma) if sigma is not None else ""]
     first = 0
     for batch in batches:
-        parts.append(_elements(batch, first, labels, precision))
+        parts.append(elements(batch, first, labels, path_data(batch, precision)))
         first += len(batch)
     parts.append("</svg>\n")
     return "".join(parts)
-
-
-class _Labels:
-    """What the elements of all shapes say besides their paths: each shape's ``id``
-    (``role-rrggbb``, with ``-2``, ``-3``… where that repeats) and its run of shapes of
-    one region (a ``<g>`` when the run has several)."""
-
-    def __init__(self, shapes: Outlines | OutlineShapes) -> None:
-        region = shapes.region
-        self.run_start = _prepend(True, region[1:] != region[:-1])
-        self.run_end = np.empty_like(self.run_start)  # the last shape of its run
-        self.run_end[:-1], self.run_end[-1:] = self.run_start[1:], True
-        self.run_id = self.run_start.cumsum() - 1
-        self.run_size = np.bincount(self.run_id)
-        self.grouped = self.run_size.take(self.run_id) > 1
-        rgba = shapes.rgba.astype(np.int64)
-        key = (shapes.role.astype(np.int64) << 24) | (rgba[:, 0] << 16) | (rgba[:, 1] << 8) | rgba[:, 2]
-        order = key.argsort(kind="stable")
-        ranked = key[order]
-        self.count = np.empty(key.size, np.int64)  # the how-manieth shape of its id
-        self.count[order] = np.arange(key.size) - ranked.searchsorted(ranked) + 1
-
-
-def _elements(outlines: Outlines, first: int, labels: _Labels, precision: int) -> str:
-    """The ``<g>``/``<path>`` elements of a batch of shapes, the first being shape ``first``."""
-    n = len(outlines)
-    if n == 0:
-        return ""
-    data = path_data(outlines, precision)
-    stop = first + n
-    # Python lists and strings made for the whole batch at once: the loop reads a few values
-    # per shape (numpy scalars cost ~100 ns apiece; the colours' hex digits in one call)
-    grouped = labels.grouped[first:stop]
-    opens = (grouped & labels.run_start[first:stop]).tolist()
-    closes = (grouped & labels.run_end[first:stop]).tolist()
-    colours = outlines.rgba[:, :3].tobytes().hex(" ", 3).split()  # "rrggbb" each
-    lines = []
-    for i, (role, colour, alpha, count, d) in enumerate(zip(outlines.role.tolist(), colours,
-                                                            outlines.rgba[:, 3].tolist(),
-                                                            labels.count[first:stop].tolist(), data)):
-        if opens[i]:
-            run = int(labels.run_id[first + i])
-            lines.append(f'<g id="region-{int(outlines.region[i])}-{run}" '
-                         f'inkscape:label="shading #{colour} ({int(labels.run_size[run])} tones)">\n')
-        name = ROLES[role]
-        opacity = "" if alpha == 255 else f' fill-opacity="{number(alpha / 255.0, 3)}"'
-        ident = f"{name}-{colour}" if count == 1 else f"{name}-{colour}-{count}"
-        lines.append(f'<path id="{ident}" inkscape:label="{name} #{colour}" fill="#{colour}"{opacity} d="{d}"/>\n')
-        if closes[i]:
-            lines.append("</g>\n")
-    return "".join(lines)
 
 
 #: shapes are formatted in batches of about this many segments, to bound temporary memory

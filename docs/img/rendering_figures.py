@@ -4,8 +4,8 @@
 
 Each figure is one PNG: nearest neighbour | flat SVG render (cairosvg) | smooth render,
 all at the same magnification, over a light checkerboard where the image is transparent.
-The orb is drawn here (public domain, like the fixtures): a shaded ball whose neighbouring
-tones are similar, so the smooth renderer has something to shade.
+The orb (fixtures/orb.png) is a shaded ball whose neighbouring tones are similar, so the
+smooth renderer has something to shade.
 """
 from __future__ import annotations
 
@@ -26,22 +26,6 @@ GAP, TITLE = 8, 16
 TITLES = ("nearest neighbour", "flat (SVG, cairosvg)", "smooth (render_smooth)")
 
 
-def orb(size: int = 16) -> np.ndarray:
-    """A dark-outlined ball lit from the top left, in six tones of teal, each similar to the
-    next (|ΔY| = 22) though the darkest and lightest are not (|ΔY| = 110)."""
-    y, x = (np.mgrid[0:size, 0:size] + 0.5) / size * 2 - 1
-    r = np.hypot(x, y)
-    light = np.clip(1.2 - np.hypot(x + 0.45, y + 0.45), 0, 1)
-    tones = np.array([[30, 60, 75]]) + 22 * np.arange(6)[:, None]  # steps of equal R, G, B: only Y changes
-    rgb = tones[np.minimum((light * len(tones)).astype(int), len(tones) - 1)]
-    rgb[np.hypot(x + 0.4, y + 0.4) < 0.16] = (235, 250, 245)  # highlight
-    rgb[(r >= 0.88) & (r < 1.0)] = (5, 10, 20)  # outline
-    alpha = np.where(r < 1.0, 255, 0)
-    rgba = np.concatenate([rgb, alpha[..., None]], axis=-1).astype(np.uint8)
-    rgba[alpha == 0] = 0
-    return rgba
-
-
 def checkerboard(h: int, w: int, cell: int = 8) -> np.ndarray:
     y, x = np.mgrid[0:h, 0:w]
     board = np.where((y // cell + x // cell) % 2, 235, 250).astype(np.uint8)
@@ -59,7 +43,7 @@ def figure(rgba: np.ndarray, scale: int) -> Image.Image:
     vector = depixelize(rgba).vector
     h, w = rgba.shape[:2]
     nearest = np.repeat(np.repeat(rgba, scale, axis=0), scale, axis=1)
-    flat_png = cairosvg.svg2png(bytestring=to_svg(vector, scale=scale).encode())
+    flat_png = cairosvg.svg2png(bytestring=to_svg(vector, scale=scale, shading="flat").encode())
     flat = np.asarray(Image.open(io.BytesIO(flat_png)).convert("RGBA"))
     smooth = render_smooth(vector, scale)
     panels = [over_checkerboard(p) for p in (nearest, flat, smooth)]
@@ -77,7 +61,7 @@ def main() -> None:
         "ghost": (load_image(FIXTURES / "ghost.png"), 12),
         "chip": (load_image(FIXTURES / "chip.png"), 12),
         "heart": (load_image(FIXTURES / "heart.png"), 16),
-        "orb": (orb(), 12),
+        "orb": (load_image(FIXTURES / "orb.png"), 12),
     }
     for name, (rgba, scale) in sources.items():
         figure(rgba, scale).save(HERE / f"rendering_{name}.png", optimize=True)

@@ -7,7 +7,10 @@
 svg_layers_*.png: every shape of the stacked and the cutout layout drawn alone, in drawing
 order, over a checkerboard (a hole shows the checkerboard). svg_nodes.png: the outline
 nodes (segment ends) an editor shows, before (the older checkout), with the exact spline and
-with the default simplification. svg_bands.png: before and after at 12x.
+with the default simplification. svg_bands.png: before and after at 12x. svg_smooth.png:
+the smooth shading (docs/svg.md), flat against smooth (rendered by resvg, which applies SVG
+filters) against the PNG renderer, on the orb and a tone chain (a dark and a light grey
+joined by a middle one at one end of the contour between them).
 """
 from __future__ import annotations
 
@@ -139,6 +142,42 @@ def _nodes(d: str) -> list[tuple[float, float]]:
     return points
 
 
+#: the tone chain of tests/test_smooth_svg.py: 60 ~ 105 ~ 150, the dark and the light side
+#: touching along a contour, the middle grey at its left end
+CHAIN = ["0000000000", "0000000000", "0000000000", "1000000000", "2222222222", "2222222222", "2222222222"]
+
+
+def resvg_render(svg: str, zoom: int, shape: tuple[int, int]) -> Image.Image:
+    import resvg_py  # noqa: PLC0415 (a renderer with SVG filters, in the test extras)
+
+    h, w = shape
+    png = resvg_py.svg_to_bytes(svg_string=svg, width=w * zoom, height=h * zoom)
+    return Image.open(io.BytesIO(bytes(png))).convert("RGBA")
+
+
+def smooth_figure() -> Image.Image:
+    """Rows of the orb and the tone chain: the flat SVG, the smooth SVG (resvg) and the PNG
+    renderer, over a checkerboard."""
+    from depixel.render.shading import render_smooth  # noqa: PLC0415
+
+    greys = np.array([[60, 60, 60, 255], [105, 105, 105, 255], [150, 150, 150, 255]], np.uint8)
+    chain = greys[np.array([[int(c) for c in line] for line in CHAIN])]
+    rows = []
+    for rgba, zoom in ((load_image(ROOT / "fixtures" / "orb.png"), 12), (chain, 20)):
+        vector = depixelize(rgba).vector
+        shape = rgba.shape[:2]
+        views = [(resvg_render(to_svg(vector, shading="flat"), zoom, shape), "flat (--shading flat)"),
+                 (resvg_render(to_svg(vector), zoom, shape), "smooth SVG (resvg)"),
+                 (Image.fromarray(render_smooth(vector, zoom), "RGBA"), "PNG renderer")]
+        cells = []
+        for image, title in views:
+            back = checkerboard(image.size)
+            back.alpha_composite(image)
+            cells.append(label(back, title))
+        rows.append(row(cells))
+    return column(rows)
+
+
 def before_svg(checkout: Path, fixture: str) -> str:
     """The SVG an older checkout's depixel writes for a fixture."""
     code = ("import sys; from depixel import depixelize, load_image, to_svg; "
@@ -154,6 +193,7 @@ def main() -> int:
     args = parser.parse_args()
     layers("mushroom.png", "stacked").save(OUT / "svg_layers_stacked.png")
     layers("mushroom.png", "cutout").save(OUT / "svg_layers_cutout.png")
+    smooth_figure().save(OUT / "svg_smooth.png")
     views, bands = [], []
     for fixture, zoom in (("mushroom.png", 14), ("ghost.png", 14)):
         rgba = load_image(ROOT / "fixtures" / fixture)
