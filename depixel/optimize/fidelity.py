@@ -14,14 +14,20 @@ pixel's colour no longer shows where the pixel was, and the seam-free underlay o
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 
-from ..arrays import either, ranges, set_rows
+from ..arrays import either, ranges, set_rows, unique
 from ..curves.bspline import flatten_edges_planes
 from ..curves.drawing import Drawing
 from ..curves.splines import SplineSet
 from ..graph.cells import CellGraph, link_corners
 from ..vector import VectorImage
+
+if TYPE_CHECKING:  # relax imports this module (through energy)
+    from .relax import Moves
 
 #: stands for "no protected point" (far from every curve)
 FAR = 1e6
@@ -244,11 +250,17 @@ def _clearances(cells: CellGraph, drawings: tuple[Drawing, ...], pixels: np.ndar
 
 def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.ndarray, margin: float,
                         rounds: int = 8, drawing: Drawing | None = None,
-                        initial: Drawing | None = None) -> tuple[np.ndarray, Drawing]:
-    """Undo moves around any cell whose pixel centre came closer than ``margin`` to its
-    boundary (or left it), until none does. Moves made elsewhere on a curve (a T-junction
-    end follows the curve it ends on) can reach a cell the relaxation did not check.
-    Only cells next to an edge whose geometry changed are measured.
+                        initial: Drawing | None = None, moves: Sequence[Moves] = ()) -> tuple[np.ndarray, Drawing]:
+    """Walk back the moves around any cell whose pixel centre came closer than ``margin`` to
+    its boundary (or left it), until none does. Moves made elsewhere on a curve (a T-junction
+    end follows the curve it ends on, neighbours move together) can reach a cell the
+    relaxation did not check. Only cells next to an edge whose geometry changed are measured.
+
+    ``moves``: the relaxation's rounds (:class:`depixel.optimize.relax.Moves`); the curve nodes
+    around a bad cell go back one round at a time (each round of the relaxation kept the
+    curves clear, so a cell is usually fine again a round or two back, and the rest of the
+    relaxation's work stays), the other nodes (moved by the harmonic map) to ``start``; in
+    the last of ``rounds``, or past the first round, every node goes to ``start``.
 
     Returns the positions and their drawing (the last one measured, or a new one when
     the rounds ran out); ``drawing``: that of ``positions``, ``initial`` that of ``start``,
@@ -261,6 +273,9 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
     floor = np.full(n_px, np.nan)  # min(margin, initial clearance), filled in where needed
     reference = initial  # geometry already verified (or initial), to find what changed since
     current = splines.drawing(positions) if drawing is None else drawing
+    back = np.zeros(len(positions), np.int64)  # rounds each node has gone back
+    on_curve = np.zeros(len(positions), bool)
+    on_curve[splines.curve_nodes] = True
     for round_ in range(rounds):
         if round_:
             current = splines.drawing(positions)  # the same curved edges as the reference, in the same order
@@ -302,8 +317,32 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
             on[near] = True
         revert[splines.curve_nodes.compress(on)] = True
         nodes = revert.nonzero()[0]
-        set_rows(positions, nodes, start.take(nodes, axis=0))
+        if round_ == rounds - 1:
+            back[nodes] = len(moves)
+        _walk_back(positions, start, nodes.compress(on_curve.take(nodes)), back, moves)
+        other = nodes.compress(~on_curve.take(nodes))
+        set_rows(positions, other, start.take(other, axis=0))
     return positions, splines.drawing(positions)
+
+
+def _walk_back(positions: np.ndarray, start: np.ndarray, nodes: np.ndarray, back: np.ndarray,
+               moves: Sequence[Moves]) -> None:
+    """Put the curve ``nodes`` one round of ``moves`` further back (``back`` counts each node's
+    rounds gone back; in place); past the first round, at ``start``. A node at k rounds back
+    sits where it was after round R − k, so undoing round R − k gives it its place before
+    that round (a node that did not move in it stays)."""
+    for k in unique(back.take(nodes)).tolist():
+        at = nodes.compress(back.take(nodes) == k)
+        if k < len(moves):
+            undo = moves[len(moves) - 1 - k]
+            index = np.full(len(positions), -1)
+            index[undo.nodes] = np.arange(undo.nodes.size)
+            row = index.take(at)
+            went = row >= 0
+            set_rows(positions, at.compress(went), undo.before.take(row.compress(went), axis=0))
+        else:
+            set_rows(positions, at, start.take(at, axis=0))
+    back[nodes] += 1
 
 
 def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
