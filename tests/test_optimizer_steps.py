@@ -489,16 +489,19 @@ def test_a_curve_closer_than_the_clearance_already_may_move_if_it_comes_no_close
 
 
 def test_a_move_long_enough_to_carry_the_curve_across_a_pixel_centre_is_refused():
-    # with the node 0.1 px from the centre's side of its curve, a trial 0.45 px beyond it
-    # (the chord of its neighbours) would put the centre on the other side of the curve at a
-    # distance the clearance allows; a move can cross a point only if it is at least its
-    # distance before plus after, so it is refused: the node moves by less than that
-    splines, slot, model, anchor, group = step_case()
-    params = Params(radius=0.2, centre_clearance=0.05)
-    trial, energy, clearance = weighed(model, anchor, anchor, group, params.radius)
-    taken, gain = propose(model, anchor, anchor, group, np.array([params.radius]), params)
-    step = np.hypot(*(taken[:, 0] - anchor[slot]))
-    assert gain[0] > 0 and step <= clearance[0] + min(clearance[0], params.centre_clearance)
+    # a curve at distance d from its nearest protected point can cross it only by a move of at
+    # least d plus the distance it keeps after, at least min(d, clearance) for an allowed
+    # trial (either side: the member's own spans, the spans of curves ending on them): longer
+    # trials are refused, shorter ones not, whichever way they point
+    splines, slot, model, ctrl, group = step_case()
+    here = ctrl[slot].reshape(2, 1, 1)
+    for near, bound in (((0.1, np.inf), 0.2), ((0.3, 1.0), 0.45), ((1.0, 0.1), 0.2), ((np.inf, np.inf), np.inf)):
+        steps = np.array([0.0, 0.05, 0.19, 0.21, 0.44, 0.46, 2.0])
+        angle = np.linspace(0.3, 5.0, steps.size)
+        trial = here + (steps * np.stack([np.cos(angle), np.sin(angle)]))[:, None]
+        guard = relax_module._Guard(model, ctrl, np.zeros((2, 4, 1, 1)), group, trial, 0.15)
+        guard.near[0] = near  # of the own spans, of the spans of curves ending on them
+        assert guard.across(here)[0].tolist() == (steps > bound).tolist()
 
 
 def _blob_cut_at_its_corners() -> tuple[SplineSet, np.ndarray, np.ndarray]:

@@ -181,18 +181,20 @@ def _best(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, rad
     np.putmask(energy, too_far, np.inf)
     stay = energy[:, 0].copy()
     guard = _Guard(model, ctrl, knots, group, trial, params.centre_clearance)
-    rows = (~_tied(energy)[:, 0]).nonzero()[0]  # the members that would move
-    if rows.size:
-        guard.measure_staying(rows)
-        np.putmask(energy, guard.across(here), np.inf)
-        tied = _tied(energy)
-        rows = (~tied[:, 0]).nonzero()[0]
-    if rows.size:  # the trials tied for the least energy
+    tied = _tied(energy)
+    rows = (~tied[:, 0]).nonzero()[0]  # the members that would move
+    if rows.size:  # staying and the trials tied for the least energy, measured in one call
         pairs = tied.take(rows, axis=0).ravel().nonzero()[0]
         pick, at = np.divmod(pairs, trial.shape[-1])
-        refused = guard.refused(rows.take(pick), at)
-        rows = unique(rows.take(pick.compress(refused)))
-    if rows.size:  # where one of them is refused, every trial lower than staying
+        member = rows[pick]
+        clear = _clearance(model, ctrl, knots, group, trial, np.concatenate([rows, member]),
+                           np.concatenate([np.zeros(rows.size, np.intp), at]))
+        guard.near[rows] = clear[:rows.size]
+        across = guard.across(here)
+        np.putmask(energy, across, np.inf)
+        refused = guard.closer(clear[rows.size:], member) | across[member, at]
+        rows = unique(member.compress(refused))
+    if rows.size:  # where one of them is refused, every other trial lower than staying
         lower = energy.take(rows, axis=0) < stay.take(rows)[:, None]
         lower[:, 0] = False
         pick, at = np.divmod(lower.ravel().nonzero()[0], trial.shape[-1])
@@ -245,11 +247,6 @@ class _Guard:
         self.clearance = clearance
         self.near = np.full((trial.shape[1], 2), np.inf)  # staying's clearances (M, 2)
 
-    def measure_staying(self, rows: np.ndarray) -> None:
-        """Measure the clearances of the members ``rows`` where they are (trial 0)."""
-        self.near[rows] = _clearance(self.model, self.ctrl, self.knots, self.group, self.trial, rows,
-                                     np.zeros(rows.size, np.intp))
-
     def across(self, here: np.ndarray) -> np.ndarray:
         """(M, T) bool: the trials that move farther than the curve could without crossing a
         protected point: every point of a span moves by at most the member's move, so the curve
@@ -266,7 +263,11 @@ class _Guard:
     def refused(self, member: np.ndarray, at: np.ndarray) -> np.ndarray:
         """(N,) bool: the trials ``at`` of the members ``member`` (N,) that come closer than
         allowed (their clearances measured now, staying's before)."""
-        clear = _clearance(self.model, self.ctrl, self.knots, self.group, self.trial, member, at)
+        return self.closer(_clearance(self.model, self.ctrl, self.knots, self.group, self.trial, member, at), member)
+
+    def closer(self, clear: np.ndarray, member: np.ndarray) -> np.ndarray:
+        """(N,) bool: clearances ``clear`` (N, 2) of trials of the members ``member`` that are
+        under the clearance and under staying's, on either side."""
         closer = (clear < self.clearance - 1e-9) & (clear < self.near.take(member, axis=0) - 1e-9)
         return closer[:, 0] | closer[:, 1]
 
