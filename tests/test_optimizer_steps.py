@@ -13,7 +13,7 @@ from depixel.optimize import energy as energy_module
 from depixel.optimize import harmonic as harmonic_module
 from depixel.optimize import relax as relax_module
 from depixel.optimize.corners import detect_corners, detect_square_corners, excluded_halves
-from depixel.optimize.energy import A2_ROW, A_ROW, B2_ROW, B_ROW, MEMBER_ROW, Energy, Group, smoothness
+from depixel.optimize.energy import A_ROW, B_ROW, MEMBER_ROW, Energy, Group, smoothness
 from depixel.optimize.fidelity import FAR, centre_clearance, keep_centres_inside, protected_points, unique_rows
 from depixel.optimize.harmonic import conjugate_gradients, follow, harmonic_map, row_dots
 from depixel.optimize.relax import propose, relax, shares
@@ -652,28 +652,28 @@ def test_the_pattern_of_trials_is_its_own_image_under_the_symmetries_of_the_squa
     assert TRIALS == 1 + 8 + 2 * CANDIDATES
 
 
-def test_the_candidates_lie_on_the_neighbours_chord_and_on_the_legs_lines():
-    # a member at (1, 1) between a = (0, 0) and b = (2, 0), with a2 = (-1, -1) and b2 = (3, 0)
-    # before and after it, home at (1.5, 0.5)
-    rows = {A2_ROW: (-1.0, -1.0), A_ROW: (0.0, 0.0), MEMBER_ROW: (1.0, 1.0), B_ROW: (2.0, 0.0), B2_ROW: (3.0, 0.0)}
+def test_the_candidates_lie_on_the_neighbours_chord():
+    # a member at (1, 1) between a = (0, 0) and b = (2, 0), home at (1.5, 0.5): both projected
+    # onto the chord; beyond its ends, its ends; the same numbers with a and b swapped
     around = np.zeros((7, 2, 1, 1))
-    for row, xy in rows.items():
-        around[row, :, 0, 0] = xy
+    around[A_ROW, :, 0, 0], around[MEMBER_ROW, :, 0, 0], around[B_ROW, :, 0, 0] = (0.0, 0.0), (1.0, 1.0), (2.0, 0.0)
     home = np.array([1.5, 0.5]).reshape(2, 1, 1)
-    out = candidates(around, home, np.empty((2, 1, CANDIDATES)))[:, 0].T.tolist()
-    assert out == [[1.5, 0.5],  # home
-                   [1.0, 0.0], [1.5, 0.0],  # the member and home onto the chord a-b
-                   [1.0, 1.0],  # home onto the line a2-a (the diagonal)
-                   [1.5, 0.0]]  # home onto the line b-b2 (y = 0)
-    # beyond the chord's ends, the ends; a line of no length (an open end), its point
+    assert candidates(around, home, np.empty((2, 1, CANDIDATES)))[:, 0].T.tolist() == [[1.0, 0.0], [1.5, 0.0]]
+    far = np.array([-3.0, 2.0]).reshape(2, 1, 1)
     around[MEMBER_ROW, :, 0, 0] = (5.0, 1.0)
-    around[A2_ROW] = around[A_ROW]
-    out = candidates(around, np.array([-3.0, 2.0]).reshape(2, 1, 1), np.empty((2, 1, CANDIDATES)))[:, 0].T
-    assert out[1].tolist() == [2.0, 0.0] and out[2].tolist() == [0.0, 0.0] and out[3].tolist() == [0.0, 0.0]
+    assert candidates(around, far, np.empty((2, 1, CANDIDATES)))[:, 0].T.tolist() == [[2.0, 0.0], [0.0, 0.0]]
+    rng = np.random.default_rng(4)
+    around = rng.uniform(-3, 3, (7, 2, 50, 1))
+    home = rng.uniform(-3, 3, (2, 50, 1))
+    swapped = around.copy()
+    swapped[[A_ROW, B_ROW]] = around[[B_ROW, A_ROW]]
+    assert np.array_equal(candidates(around, home, np.empty((2, 50, CANDIDATES))),
+                          candidates(swapped, home, np.empty((2, 50, CANDIDATES))))
     # every trial of a member: staying, the pattern at its radius, the candidates and half-way to them
-    every = trials(around, home, np.array([0.25]))[:, 0].T
-    assert every[0].tolist() == [5.0, 1.0] and np.hypot(*(every[1:9] - [5.0, 1.0]).T) == pytest.approx(0.25)
-    assert every[9 + CANDIDATES:] == pytest.approx((every[9:9 + CANDIDATES] + [5.0, 1.0]) / 2)
+    every = trials(around[:, :, :1], home[:, :1], np.array([0.25]))[:, 0].T
+    here = around[MEMBER_ROW, :, 0, 0]
+    assert every[0].tolist() == here.tolist() and np.hypot(*(every[1:9] - here).T) == pytest.approx(0.25)
+    assert every[9 + CANDIDATES:] == pytest.approx((every[9:9 + CANDIDATES] + here) / 2)
 
 
 def test_each_slot_moves_its_share_of_the_way():

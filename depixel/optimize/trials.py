@@ -10,10 +10,12 @@ way they run, or how the image is turned or mirrored:
   diagonals) at the slot's radius: the pattern is its own image under the eight symmetries of
   the square, exactly (its diagonals' coordinates are one number, ±√½), so a mirrored or
   turned slot tries the mirrored or turned offsets;
-* **the candidates** of :func:`candidates`: the places where E_s is flattest — on the chord
-  of the neighbours (a staircase step straightened), on the lines that continue the legs
-  before and after (a corner's leg extended), and the slot's own home p̂ — and the points
-  half-way to each (a half step leaves room for a neighbour moving at the same time).
+* **the candidates** of :func:`candidates`: the slot and its home p̂ projected onto the chord
+  of its neighbours (where a step of a staircase is straightened: E_s is least there), and
+  the points half-way to them (a half step leaves room for a neighbour moving at the same
+  time). Home itself, and home projected onto the lines that continue the legs before and
+  after, were tried too and left out: the output's mean energy on the paper corpus was lower
+  without them (138.5 against 139.8), and each trial costs every slot every round.
 
 Every construction is symmetric in x and y and in the two directions of a curve.
 """
@@ -21,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .energy import A2_ROW, A_ROW, B2_ROW, B_ROW, MEMBER_ROW
+from .energy import A_ROW, B_ROW, MEMBER_ROW
 
 #: (2, 8) the unit offsets of the pattern: +x, −x, +y, −y, then the four diagonals
 PATTERN = np.array([[1.0, -1.0, 0.0, 0.0, 1.0, -1.0, 1.0, -1.0],
@@ -29,7 +31,7 @@ PATTERN = np.array([[1.0, -1.0, 0.0, 0.0, 1.0, -1.0, 1.0, -1.0],
 PATTERN[:, 4:] *= np.sqrt(0.5)
 PATTERN.flags.writeable = False
 #: geometric candidates a member tries (:func:`candidates`), and as many points half-way to them
-CANDIDATES = 5
+CANDIDATES = 2
 #: trials a member tries in one round: staying, the pattern, the candidates and their halves
 TRIALS = 1 + PATTERN.shape[1] + 2 * CANDIDATES
 
@@ -54,32 +56,28 @@ def trials(around: np.ndarray, home: np.ndarray, radius: np.ndarray) -> np.ndarr
 
 
 def candidates(around: np.ndarray, home: np.ndarray, out: np.ndarray) -> np.ndarray:
-    """The :data:`CANDIDATES` geometric trials of each member into ``out`` (2, M, 5): its home;
-    its own place and its home projected onto the chord from the slot before (a) to the slot
-    after (b), within the chord (where E_s of a step in a staircase is least); its home
-    projected onto the line through the two slots before (a2, a) and onto the line through
-    the two after (b, b2) (where the legs before or after run straight on). A line of zero
-    length (an open-curve end, whose slot before is itself) projects onto its point."""
+    """The :data:`CANDIDATES` geometric trials of each member into ``out`` (2, M, 2): its own
+    place and its home projected onto the chord from the slot before (a) to the slot after
+    (b), within the chord."""
     here, a, b = around[MEMBER_ROW], around[A_ROW], around[B_ROW]
-    out[:, :, :1] = home
-    _project(here, a, b, out[:, :, 1:2], clip=True)
-    _project(home, a, b, out[:, :, 2:3], clip=True)
-    _project(home, around[A2_ROW], a, out[:, :, 3:4], clip=False)
-    _project(home, b, around[B2_ROW], out[:, :, 4:5], clip=False)
+    _project(here, a, b, out[:, :, 0:1])
+    _project(home, a, b, out[:, :, 1:2])
     return out
 
 
-def _project(point: np.ndarray, start: np.ndarray, stop: np.ndarray, out: np.ndarray, clip: bool) -> np.ndarray:
-    """The nearest point to ``point`` on the line through ``start`` and ``stop`` (each (2, M, 1)),
-    or on the segment between them with ``clip``, into ``out``; ``start`` where they coincide.
-    Dot products add x's term to y's (a sum is the same either way round, so a turned or
-    mirrored input gives the turned or mirrored point)."""
-    d = stop - start
-    rel = point - start
+def _project(point: np.ndarray, a: np.ndarray, b: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """The nearest point to ``point`` on the segment from ``a`` to ``b`` (each (2, M, 1)), into
+    ``out``; the midpoint where they coincide. Written from the midpoint m = (a + b) / 2 along
+    d = b − a, so that swapping a and b gives the same numbers (−d, −along: exact), and dot
+    products add x's term to y's (a turned or mirrored input gives the turned or mirrored
+    point)."""
+    middle = a + b
+    middle /= 2.0
+    d = b - a
+    rel = point - middle
     length2 = d[0] * d[0] + d[1] * d[1]
     along = (rel[0] * d[0] + rel[1] * d[1]) / np.where(length2 > 0.0, length2, 1.0)
-    if clip:
-        np.clip(along, 0.0, 1.0, out=along)
+    np.clip(along, -0.5, 0.5, out=along)
     np.multiply(d, along, out=out)
-    out += start
+    out += middle
     return out
