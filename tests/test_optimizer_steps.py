@@ -457,12 +457,15 @@ def test_a_move_closer_to_a_pixel_centre_than_the_clearance_is_refused():
     splines, slot, model, ctrl, group = step_case()
     params = Params(radius=0.2)
     trial, energy, clearance = weighed(model, ctrl, ctrl, group, params.radius)
-    free, gain = propose(model, ctrl, ctrl, group, np.array([params.radius]), params.replace(centre_clearance=0.0))
+    unknown = np.full((1, 2), np.nan)  # staying's clearance, not measured yet
+    free, gain = propose(model, ctrl, ctrl, group, np.array([params.radius]), unknown.copy(),
+                         params.replace(centre_clearance=0.0))
     # the case: unguarded, the best trial comes within 0.2 px of a protected point, staying does not
     best = int(np.argmin(energy))
     assert gain[0] > 0 and np.array_equal(free[:, 0], trial[best]) and clearance[best] < 0.2 <= clearance[0]
     # guarded, it gives way to the best trial allowed, which is not staying here
-    taken, gain = propose(model, ctrl, ctrl, group, np.array([params.radius]), params.replace(centre_clearance=0.2))
+    taken, gain = propose(model, ctrl, ctrl, group, np.array([params.radius]), unknown.copy(),
+                          params.replace(centre_clearance=0.2))
     at = taken[:, 0]
     assert gain[0] > 0 and not np.allclose(at, trial[best]) and not np.array_equal(at, ctrl[slot])
     assert model.clearance(ctrl, group, at[None, None], np.array([0]))[0, 0] >= 0.2
@@ -480,7 +483,7 @@ def test_a_curve_closer_than_the_clearance_already_may_move_if_it_comes_no_close
     params = Params(radius=0.2, centre_clearance=0.25)
     trial, energy, clearance = weighed(model, ctrl, anchor, group, params.radius)
     assert clearance[0] < 0.25 and (clearance < clearance[0]).any() and (energy < energy[0]).any()
-    taken, gain = propose(model, ctrl, anchor, group, np.array([params.radius]), params)
+    taken, gain = propose(model, ctrl, anchor, group, np.array([params.radius]), np.full((1, 2), np.nan), params)
     at = taken[:, 0][None, None]
     assert gain[0] > 0
     assert clearance[0] <= model.clearance(ctrl, group, at, np.array([0]))[0, 0] < 0.25
@@ -501,7 +504,8 @@ def test_a_move_long_enough_to_carry_the_curve_across_a_pixel_centre_is_refused(
         trial = here + (steps * np.stack([np.cos(angle), np.sin(angle)]))[:, None]
         guard = relax_module._Guard(model, ctrl, np.zeros((2, 4, 1, 1)), group, trial, 0.15)
         guard.near[0] = near  # of the own spans, of the spans of curves ending on them
-        assert guard.across(here)[0].tolist() == (steps > bound).tolist()
+        guard.step[0] = np.hypot(*(trial - here)[:, 0])
+        assert guard.across()[0].tolist() == (steps > bound).tolist()
 
 
 def _blob_cut_at_its_corners() -> tuple[SplineSet, np.ndarray, np.ndarray]:
@@ -736,8 +740,8 @@ def test_only_slots_whose_trials_changed_are_weighed_again(monkeypatch):
     rounds: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     best = relax_module._best
 
-    def spy(model, ctrl, anchor, group, radius, params):
-        target, gain = best(model, ctrl, anchor, group, radius, params)
+    def spy(model, ctrl, anchor, group, radius, near, params):
+        target, gain = best(model, ctrl, anchor, group, radius, near, params)
         rounds.append((group.members.copy(), radius.copy(), gain > 0))
         return target, gain
 

@@ -7,10 +7,12 @@ pixel's colour no longer shows where the pixel was, and the seam-free underlay o
 * during the relaxation, a move is refused if it brings one of the node's spans closer
   than ``centre_clearance`` to a **protected point** beside it (:func:`protected_points`:
   the centres of the pixels on both sides, and the lattice corner of a diagonal link, where
-  a thin diagonal feature must stay connected) — unless it was closer already;
-* afterwards, :func:`keep_centres_inside` reverts the nodes around any cell whose centre
-  came nearer than half the clearance to its drawn boundary (a T-junction end follows the
-  curve it ends on, which the per-move check of the node cannot see).
+  a thin diagonal feature must stay connected) — unless it was closer already — or if it is
+  long enough to carry a span across one (:mod:`depixel.optimize.relax`);
+* afterwards, :func:`keep_centres_inside` walks back, one relaxation round at a time, the
+  nodes around any cell whose centre came nearer than half the clearance to its drawn
+  boundary (slots moving together, T-junction ends following their curves: what the
+  per-move check of one node cannot see).
 """
 from __future__ import annotations
 

@@ -87,6 +87,10 @@ def relax(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: 
     members = movable.nonzero()[0]
     chunks = [(part.start, model.prepare(members[part])) for part in batch_slices(members.size, PREPARE_ONCE)]
     radius = np.full(members.size, params.radius)
+    # staying's clearances (M, 2), NaN where not known: they change only when a slot within two
+    # moved or the curve of an end snapped onto the member's spans did
+    near = np.full((members.size, 2), np.nan)
+    ends_on = np.concatenate([whole.ends_on for _, whole in chunks], axis=1) if chunks else np.zeros((3, 0), np.int32)
     active = np.ones(members.size, bool)  # the members weighed this round
     gains = np.zeros(ctrl.shape[0])  # every slot's gain this round (0: it stays)
     rounds = []
@@ -96,11 +100,14 @@ def relax(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: 
             break
         target = np.empty((2, rows.size))
         gain = np.empty(rows.size)
+        known = near.take(rows, axis=0)
         for first, whole in chunks:
             lo, hi = rows.searchsorted([first, first + whole.members.size])
             if hi > lo:
                 group = whole.part(rows[lo:hi] - first)
-                target[:, lo:hi], gain[lo:hi] = propose(model, ctrl, anchor, group, radius.take(rows[lo:hi]), params)
+                target[:, lo:hi], gain[lo:hi] = propose(model, ctrl, anchor, group, radius.take(rows[lo:hi]),
+                                                        known[lo:hi], params)
+        near[rows] = known
         slots = members.take(rows)
         gains[slots] = gain
         share = shares(gains, prev, nxt).take(slots)
@@ -117,7 +124,9 @@ def relax(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: 
         smaller = np.maximum(radius.take(shrunk) * 0.5, MIN_RADIUS)
         changed = smaller < radius.take(shrunk)
         radius[shrunk] = smaller
-        active = model.near(moved).take(members)
+        stale = np.append(model.near(moved), False)  # index -1 (no end) reads False
+        active = stale.take(members)
+        near[active | np.logical_or.reduce(stale.take(ends_on), axis=0)] = np.nan
         active[shrunk.compress(changed)] = True
         went = members.compress(moved.take(members))
         if went.size:
@@ -145,23 +154,25 @@ def shares(gains: np.ndarray, prev: np.ndarray, nxt: np.ndarray) -> np.ndarray:
 
 
 def propose(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, radius: np.ndarray,
-            params: Params) -> tuple[np.ndarray, np.ndarray]:
+            near: np.ndarray, params: Params) -> tuple[np.ndarray, np.ndarray]:
     """Where each member of ``group`` would go with its neighbours where they are, (2, M), and
     how much energy that saves, (M,) (0: it stays); the :func:`depixel.optimize.trials.trials`
     at ``radius`` (M,) are weighed :data:`STEP_TRIALS` at a time (the members do not depend on
-    each other)."""
+    each other). ``near`` (M, 2): staying's clearances where known, NaN elsewhere; those
+    measured are written in."""
     members = group.members.size
     if members * TRIALS <= STEP_TRIALS:
-        return _best(model, ctrl, anchor, group, radius, params)
+        return _best(model, ctrl, anchor, group, radius, near, params)
     target, gain = np.empty((2, members)), np.empty(members)
     for part in batch_slices(members, STEP_TRIALS // TRIALS):
-        target[:, part], gain[part] = _best(model, ctrl, anchor, group.part(part), radius[part], params)
+        target[:, part], gain[part] = _best(model, ctrl, anchor, group.part(part), radius[part], near[part], params)
     return target, gain
 
 
 def _best(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, radius: np.ndarray,
-          params: Params) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`propose` for the members of one batch.
+          near: np.ndarray, params: Params) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`propose` for the members of one batch (``near``: their staying's clearances, NaN
+    where not known, measured here where needed).
 
     A trial is refused (:func:`_refuse`) if it lies farther than ``max_offset`` from home,
     brings a span closer than ``centre_clearance`` to a protected point and closer than
@@ -180,20 +191,18 @@ def _best(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, rad
     too_far[:, 0] = False
     np.putmask(energy, too_far, np.inf)
     stay = energy[:, 0].copy()
-    guard = _Guard(model, ctrl, knots, group, trial, params.centre_clearance)
+    guard = _Guard(model, ctrl, knots, group, trial, params.centre_clearance, near)
     tied = _tied(energy)
     rows = (~tied[:, 0]).nonzero()[0]  # the members that would move
-    if rows.size:  # staying and the trials tied for the least energy, measured in one call
+    if rows.size:  # staying and the trials tied for the least energy, in one call
         pairs = tied.take(rows, axis=0).ravel().nonzero()[0]
         pick, at = np.divmod(pairs, trial.shape[-1])
         member = rows[pick]
-        clear = _clearance(model, ctrl, knots, group, trial, np.concatenate([rows, member]),
-                           np.concatenate([np.zeros(rows.size, np.intp), at]))
-        guard.near[rows] = clear[:rows.size]
-        across = guard.across(here)
+        refused = guard.staying_and(rows, here, member, at)
+        near[rows] = guard.near[rows]
+        across = guard.across()
         np.putmask(energy, across, np.inf)
-        refused = guard.closer(clear[rows.size:], member) | across[member, at]
-        rows = unique(member.compress(refused))
+        rows = unique(member.compress(refused | across[member, at]))
     if rows.size:  # where one of them is refused, every other trial lower than staying
         lower = energy.take(rows, axis=0) < stay.take(rows)[:, None]
         lower[:, 0] = False
@@ -224,14 +233,18 @@ def _weigh_mean(model: Energy, guard: _Guard, home: np.ndarray, here: np.ndarray
     and guarded as a trial of its own: 0 where it is no lower than staying, farther than
     ``max_offset`` from home, or refused by the ``guard``."""
     part = guard.group.part(rows)
-    mean = target.take(rows, axis=1)[..., None]  # (2, R, 1)
-    energy, offset2 = model.evaluate(guard.knots.take(rows, axis=2), home.take(rows, axis=1), part, mean)
-    sub = _Guard(model, guard.ctrl, guard.knots.take(rows, axis=2), part, mean, guard.clearance)
+    both = np.empty((2, rows.size, 2))
+    both[:, :, 0] = here[:, rows, 0]
+    both[:, :, 1] = target[:, rows]
+    energy, offset2 = model.evaluate(guard.knots.take(rows, axis=2), home.take(rows, axis=1), part, both)
+    sub = _Guard(model, guard.ctrl, guard.knots.take(rows, axis=2), part, both, guard.clearance)
     sub.near = guard.near.take(rows, axis=0)
-    zero = np.zeros(rows.size, np.intp)
-    refused = sub.refused(np.arange(rows.size), zero) | sub.across(here.take(rows, axis=1))[:, 0]
-    gain = stay.take(rows) - energy[:, 0]
-    gain[refused | (offset2[:, 0] > params.max_offset**2) | (gain <= TIE)] = 0.0
+    step = both[:, :, 1] - both[:, :, 0]
+    sub.step[:, 1] = np.hypot(step[0], step[1])
+    one = np.ones(rows.size, np.intp)
+    refused = sub.refused(np.arange(rows.size), one) | sub.across()[:, 1]
+    gain = stay.take(rows) - energy[:, 1]
+    gain[refused | (offset2[:, 1] > params.max_offset**2) | (gain <= TIE)] = 0.0
     return gain
 
 
@@ -239,31 +252,66 @@ class _Guard:
     """The clearance verdicts on the trials (2, M, T) of one batch of members: a trial is refused
     if it brings a span closer than ``clearance`` to a protected point and closer than staying
     does, on either side of :func:`_clearance` (both by more than 1e-9: a verdict rounding
-    cannot flip), or if it moves farther than the curve could without crossing one."""
+    cannot flip), or if it moves farther than the curve could without crossing one.
+
+    Every point of the spans a trial shapes (its own, and those of the curves ending on them)
+    moves by at most the trial's step from staying, so a trial whose step is shorter than
+    staying's clearance less ``clearance`` is allowed unmeasured: only the others' clearances
+    are measured, and each verdict is the one a measurement would give."""
 
     def __init__(self, model: Energy, ctrl: np.ndarray, knots: np.ndarray, group: Group, trial: np.ndarray,
-                 clearance: float):
+                 clearance: float, near: np.ndarray | None = None):
         self.model, self.ctrl, self.knots, self.group, self.trial = model, ctrl, knots, group, trial
         self.clearance = clearance
-        self.near = np.full((trial.shape[1], 2), np.inf)  # staying's clearances (M, 2)
+        # staying's clearances (M, 2), NaN where not measured yet
+        self.near = np.full((trial.shape[1], 2), np.nan) if near is None else near.copy()
+        self.step = np.zeros(trial.shape[1:])  # each trial's distance from staying (M, T)
 
-    def across(self, here: np.ndarray) -> np.ndarray:
+    def staying_and(self, rows: np.ndarray, here: np.ndarray, member: np.ndarray, at: np.ndarray) -> np.ndarray:
+        """Measure the clearances of the members ``rows`` where they are (trial 0) where not
+        known, and how far each trial is from there (``here`` (2, M, 1)); return which of the
+        trials ``at`` of the members ``member`` (N,) are refused (:meth:`refused`), measured in
+        the same call (those of members whose staying was not known yet: no bound to spare them)."""
+        step = self.trial - here
+        np.square(step, out=step)
+        np.sqrt(np.add(step[0], step[1], out=self.step), out=self.step)
+        unknown = np.isnan(self.near[:, 0])
+        fresh = rows.compress(unknown.take(rows))
+        doubt = (unknown.take(member) | (self._bound(member, at) < self.clearance)).nonzero()[0]
+        clear = _clearance(self.model, self.ctrl, self.knots, self.group, self.trial,
+                           np.concatenate([fresh, member.take(doubt)]),
+                           np.concatenate([np.zeros(fresh.size, np.intp), at.take(doubt)]))
+        self.near[fresh] = clear[:fresh.size]
+        refused = np.zeros(member.size, bool)
+        refused[doubt] = self.closer(clear[fresh.size:], member.take(doubt))
+        return refused
+
+    def _bound(self, member: np.ndarray, at: np.ndarray) -> np.ndarray:
+        """(N,) a lower bound of the clearances of trials ``at`` of ``member``: staying's less the step."""
+        return self.near.take(member, axis=0).min(axis=1) - self.step[member, at]
+
+    def across(self) -> np.ndarray:
         """(M, T) bool: the trials that move farther than the curve could without crossing a
         protected point: every point of a span moves by at most the member's move, so the curve
         crosses a point only if the move is at least its distance before (d) plus after (at
         least min(d, clearance) for a trial the clearance allows)."""
         reach = self.near.min(axis=1)
         reach += np.minimum(reach, self.clearance)
-        step = self.trial - here
-        np.square(step, out=step)
-        far = np.sqrt(step[0] + step[1]) > reach[:, None] - 1e-9
+        far = self.step > reach[:, None] - 1e-9
         far[:, 0] = False
         return far
 
     def refused(self, member: np.ndarray, at: np.ndarray) -> np.ndarray:
         """(N,) bool: the trials ``at`` of the members ``member`` (N,) that come closer than
-        allowed (their clearances measured now, staying's before)."""
-        return self.closer(_clearance(self.model, self.ctrl, self.knots, self.group, self.trial, member, at), member)
+        allowed; measured only where staying's clearance less the step could be under
+        ``clearance`` (the others are allowed)."""
+        refused = np.zeros(member.size, bool)
+        doubt = (self._bound(member, at) < self.clearance).nonzero()[0]
+        if doubt.size:
+            member, at = member.take(doubt), at.take(doubt)
+            clear = _clearance(self.model, self.ctrl, self.knots, self.group, self.trial, member, at)
+            refused[doubt] = self.closer(clear, member)
+        return refused
 
     def closer(self, clear: np.ndarray, member: np.ndarray) -> np.ndarray:
         """(N,) bool: clearances ``clear`` (N, 2) of trials of the members ``member`` that are

@@ -8,7 +8,7 @@
    each move guarded so that curves keep clear of pixel centres (:mod:`depixel.optimize.fidelity`);
 3. harmonic map (:mod:`depixel.optimize.harmonic`): the nodes off the curves follow them;
 4. fidelity (:mod:`depixel.optimize.fidelity`): nodes around any cell whose centre came too near its
-   boundary are put back.
+   boundary are walked back, a relaxation round at a time.
 """
 from __future__ import annotations
 
@@ -63,7 +63,7 @@ class OptimizedSplines:
 
 def optimize_splines(splines: SplineSet, corners: Corners, params: Params = Params()) -> OptimizedSplines:
     """§3.4 on curves already cut at ``corners``: relax the curve nodes, then move the
-    other nodes by a harmonic map, then undo moves that pushed a pixel centre out."""
+    other nodes by a harmonic map, then walk back moves that pushed a pixel centre out."""
     start = corners.place(splines)
     relaxed = relax(splines, start, corners.nodes, excluded_halves(splines, corners.nodes), params)
     positions = start.copy()
