@@ -204,6 +204,7 @@ def _best(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, rad
         np.putmask(energy, across, np.inf)
         rows = unique(member.compress(refused | across[member, at]))
     if rows.size:  # where one of them is refused, every other trial lower than staying
+        energy.ravel()[(member * trial.shape[-1] + at).compress(refused)] = np.inf
         lower = energy.take(rows, axis=0) < stay.take(rows)[:, None]
         lower[:, 0] = False
         pick, at = np.divmod(lower.ravel().nonzero()[0], trial.shape[-1])
