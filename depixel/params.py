@@ -52,6 +52,14 @@ LIMITS: dict[str, Range] = {
 }
 
 
+#: the fields gone, and why: asked for, they raise a ParameterError saying so
+REMOVED = {
+    "seed": "no longer does anything: the relaxation tries the same places for every slot, with no random draws "
+            "(issue 31)",
+    "candidates": "no longer does anything: every slot tries the same pattern of places (issue 31)",
+}
+
+
 @dataclass(frozen=True)
 class Params:
     """Constants of the depixelization pipeline (all colour values on a 0-255 scale).
@@ -122,10 +130,9 @@ class Params:
         from .errors import ParameterError  # noqa: PLC0415
         from .validate import number  # noqa: PLC0415
 
-        for name, value in (("seed", seed), ("candidates", candidates)):
+        for name, value in zip(REMOVED, (seed, candidates)):
             if value is not None:
-                raise ParameterError(f"{name} no longer does anything: the relaxation tries the same places for "
-                                     "every slot, with no random draws (issue 31); leave it out", parameter=name)
+                raise ParameterError(f"{name} {REMOVED[name]}; leave it out", parameter=name)
 
         for f in fields(self):
             value = getattr(self, f.name)
@@ -139,8 +146,9 @@ class Params:
 
     def replace(self, **changes: Any) -> Params:
         """A copy with some fields changed; an unknown name raises ParameterError with the
-        closest field (``replace(sed=1)``: did you mean seed?), as misspelt options do."""
-        unknown = [name for name in changes if name not in self.names()]
+        closest field (``replace(iteration=1)``: did you mean iterations?), as misspelt options
+        do; ``seed`` and ``candidates`` say they are gone (:data:`REMOVED`)."""
+        unknown = [name for name in changes if name not in self.names() and name not in REMOVED]
         if unknown:
             import difflib  # noqa: PLC0415
 
