@@ -784,8 +784,10 @@ def test_each_rounds_moves_are_recorded_to_walk_them_back():
 
 
 def test_the_revert_walks_a_bad_cells_nodes_back_one_round_at_a_time():
-    # a node pushed past a pixel centre in a last recorded round: the revert puts
-    # it back where it was before that round (not at its start), and the other moves stay
+    # a node pushed past a pixel centre in a recorded round, and a node far away nudged in a
+    # later one: the revert puts the pushed node back where it was before its push (passing
+    # over the later round, in which it did not move), not at its start; the centre is inside
+    # its cell again and the far node keeps its nudge
     splines, corners, excluded, start = ghost_case()
     result = relax(splines, start, corners, excluded)
     positions = start.copy()
@@ -798,13 +800,18 @@ def test_the_revert_walks_a_bad_cells_nodes_back_one_round_at_a_time():
     centre = np.array([pixel % cells.shape[1] + 0.5, pixel // cells.shape[1] + 0.5])
     pushed = positions.copy()
     pushed[node] = 2 * centre - positions[node]  # past the centre: its curve crosses it
-    assert centre_clearance(splines.vector_image(pushed), pixels=np.arange(cells.shape[0] * cells.shape[1]) == pixel
-                            )[pixel] < 0
-    moves = [*result.rounds, relax_module.Moves(np.array([node]), positions[[node]])]
+    wanted = np.arange(cells.shape[0] * cells.shape[1]) == pixel
+    assert centre_clearance(splines.vector_image(pushed), pixels=wanted)[pixel] < 0
+    curve = splines.curve_nodes[result.movable]
+    far = int(curve[np.argmax(np.abs(pushed[curve] - centre).max(axis=1))])
+    pushed[far] += [0.01, 0.0]
+    moves = [*result.rounds, relax_module.Moves(np.array([node]), positions[[node]]),
+             relax_module.Moves(np.array([far]), positions[[far]])]
     back, _ = keep_centres_inside(splines, start, pushed, 0.075, 12, moves=moves)
-    assert np.array_equal(back[node], positions[node])  # one round back
-    assert np.array_equal(back, positions)  # nothing else moved: the relaxed drawing was fine
-    # with no rounds recorded it goes back to its start, as the nodes around it
+    assert np.array_equal(back[node], positions[node])
+    assert np.array_equal(back[far], pushed[far])
+    assert centre_clearance(splines.vector_image(back), pixels=wanted)[pixel] > 0.075
+    # with no rounds recorded the nodes around the cell go back to their start
     back, _ = keep_centres_inside(splines, start, pushed, 0.075, 12)
     assert np.array_equal(back[node], start[node])
 

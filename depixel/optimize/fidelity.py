@@ -329,22 +329,31 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
 
 def _walk_back(positions: np.ndarray, start: np.ndarray, nodes: np.ndarray, back: np.ndarray,
                moves: Sequence[Moves]) -> None:
-    """Put the curve ``nodes`` one round of ``moves`` further back (``back`` counts each node's
-    rounds gone back; in place); past the first round, at ``start``. A node at k rounds back
-    sits where it was after round R − k, so undoing round R − k gives it its place before
-    that round (a node that did not move in it stays)."""
-    for k in unique(back.take(nodes)).tolist():
-        at = nodes.compress(back.take(nodes) == k)
-        if k < len(moves):
-            undo = moves[len(moves) - 1 - k]
+    """Put each of the curve ``nodes`` where it was before the latest round of ``moves`` it
+    moved in and has not gone back past yet (``back`` counts each node's rounds gone back; in
+    place); one that moved in none of them, at ``start``. A node k rounds back sits where it
+    was after round R − k; the rounds it did not move in are passed over, so a node found
+    next to a bad cell always goes somewhere else (or is at its start already)."""
+    rounds = len(moves)
+    pending = nodes
+    while pending.size:
+        level = back.take(pending)
+        done = level >= rounds
+        finished = pending.compress(done)
+        set_rows(positions, finished, start.take(finished, axis=0))
+        pending, level = pending.compress(~done), level.compress(~done)
+        found = np.zeros(pending.size, bool)
+        for k in unique(level).tolist():
+            which = (level == k).nonzero()[0]
+            undo = moves[rounds - 1 - k]
             index = np.full(len(positions), -1)
             index[undo.nodes] = np.arange(undo.nodes.size)
-            row = index.take(at)
+            row = index.take(pending.take(which))
             went = row >= 0
-            set_rows(positions, at.compress(went), undo.before.take(row.compress(went), axis=0))
-        else:
-            set_rows(positions, at, start.take(at, axis=0))
-    back[nodes] += 1
+            set_rows(positions, pending.take(which.compress(went)), undo.before.take(row.compress(went), axis=0))
+            found[which.compress(went)] = True
+        back[pending] += 1
+        pending = pending.compress(~found)
 
 
 def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
