@@ -17,7 +17,7 @@ pixel's colour no longer shows where the pixel was, and the seam-free underlay o
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import NamedTuple
 
 import numpy as np
 
@@ -28,8 +28,14 @@ from ..curves.splines import SplineSet
 from ..graph.cells import CellGraph, link_corners
 from ..vector import VectorImage
 
-if TYPE_CHECKING:  # relax imports this module (through energy)
-    from .relax import Moves
+
+class Moves(NamedTuple):
+    """What one round of the relaxation moved: the nodes and their places before it (the
+    record :func:`keep_centres_inside` walks back)."""
+
+    nodes: np.ndarray  # (K,) nodes of the slots that moved
+    before: np.ndarray  # (K, 2) their positions before the round
+
 
 #: stands for "no protected point" (far from every curve)
 FAR = 1e6

@@ -38,6 +38,7 @@ from ..arrays import batch_slices, set_rows, unique
 from ..curves.splines import SplineSet
 from ..params import Params
 from .energy import MEMBER_ROW, PREPARE_ONCE, Energy, Group, knots_of, trial_points
+from .fidelity import Moves
 from .trials import TRIALS, trials
 
 #: trials weighed together: bounds the memory of their spans (about 150 bytes a trial)
@@ -50,13 +51,6 @@ CLEARANCE_PAIRS = 1 << 12
 TIE = 1e-9
 #: the smallest radius of a slot's pattern of trials (pixels)
 MIN_RADIUS = 0.02
-
-
-class Moves(NamedTuple):
-    """What one round of the relaxation moved: the nodes and their places before it."""
-
-    nodes: np.ndarray  # (K,) nodes of the slots that moved
-    before: np.ndarray  # (K, 2) their positions before the round
 
 
 class Relaxed(NamedTuple):
