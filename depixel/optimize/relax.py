@@ -26,7 +26,8 @@ again: those within two slots of one that moved (their energies changed) and tho
 radius shrank; the others would stay again. The number of rounds is fixed (``iterations``)
 and a slot's move depends only on slots within two of it along its curve (and on the
 T-junction ends those move), so after k rounds a slot's place depends on nothing farther
-than 2k slots: a one-pixel edit leaves the curves far from it as they were, byte for byte.
+than 2k slots along its curve; in practice a change fades within a few pixels (docs/design.md,
+Optimization: over the corpus's one-pixel edits no drawn number changed farther than 7 px).
 """
 from __future__ import annotations
 
@@ -168,7 +169,7 @@ def _best(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, rad
     """:func:`propose` for the members of one batch (``near``: their staying's clearances, NaN
     where not known, measured here where needed).
 
-    A trial is refused (:func:`_refuse`) if it lies farther than ``max_offset`` from home,
+    A trial is refused if it lies farther than ``max_offset`` from home,
     brings a span closer than ``centre_clearance`` to a protected point and closer than
     staying does, or moves farther than the curve could without crossing a protected point.
     Clearances decide only between trials lower than staying, so they are measured where they
