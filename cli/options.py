@@ -175,9 +175,10 @@ TUNING = [
     ("--island-weight", "island_weight", non_negative_float, "vote of the 'islands' heuristic"),
     ("--shading-distance", "shading_distance", non_negative_float,
      "YUV distance up to which an edge is a shading edge"),
-    ("--iterations", "iterations", non_negative_int, "sweeps of the spline optimization"),
-    ("--seed", "seed", non_negative_int, "seed of the optimization's random offsets"),
+    ("--iterations", "iterations", non_negative_int, "rounds of the spline optimization"),
 ]
+#: what ``--seed`` (removed in issue 31) now says instead of seeding anything
+SEED_NOTE = "--seed does nothing any more: the curve optimization has no random draws; leave it out"
 
 
 def add_tuning(parser: argparse.ArgumentParser) -> None:
@@ -187,10 +188,14 @@ def add_tuning(parser: argparse.ArgumentParser) -> None:
                            help=f"{text} (default {_DEFAULTS[name]:g})")
     group.add_argument("--no-optimize", dest="stage", action="store_const", const="splines",
                        help="skip the spline optimization (the same as --stage splines)")
+    group.add_argument("--seed", dest="removed_seed", metavar="N", help=argparse.SUPPRESS)  # SEED_NOTE
 
 
 def params_from_args(args: argparse.Namespace) -> Params:
-    """A Params with the flags the user gave; every other field keeps its default."""
+    """A Params with the flags the user gave; every other field keeps its default. A ``--seed``
+    (gone with the random trials) is noted on stderr and ignored, so old scripts still run."""
+    if getattr(args, "removed_seed", None) is not None and not getattr(args, "quiet", False):
+        print(f"depixel: note: {SEED_NOTE}", file=sys.stderr)
     given = {name: getattr(args, name) for _, name, _, _ in TUNING if getattr(args, name) is not None}
     return Params().replace(**given)
 

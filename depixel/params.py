@@ -5,7 +5,7 @@ Every constant carries its source: "paper" (Kopf & Lischinski 2011, with the sec
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, fields, replace
+from dataclasses import InitVar, dataclass, fields, replace
 from typing import Any, NamedTuple
 
 
@@ -41,16 +41,22 @@ LIMITS: dict[str, Range] = {
     "run_bend": Range(0, 180),
     "run_reach": Range(0, 64),  # a run is followed ~3 steps a pixel, each step weighing all before it
     "iterations": Range(0, 10_000, integer=True),
-    "candidates": Range(1, 1_000, integer=True),
     "radius": Range(0, 4),  # pixels: as far as max_offset lets a node go
     "max_offset": Range(0, 4),  # pixels: past every neighbour of a node's cell
     "centre_clearance": Range(0, 1),  # pixels: a whole pixel from every centre leaves no room to move
-    "seed": Range(0, 2**63 - 1, integer=True),
     "harmonic_reach": Range(0, 1_000, integer=True),
     "revert_rounds": Range(0, 1_000, integer=True),
     "shading_sigma": Range(1e-6, 16),  # pixels
     "shading_radius": Range(1e-6, 16),  # pixels: the render pads the image by it and weighs ~3 r² cells a sample
     "shading_supersample": Range(1, 16, integer=True),  # samples² per contour pixel
+}
+
+
+#: the fields gone, and why: asked for, they raise a ParameterError saying so
+REMOVED = {
+    "seed": "no longer does anything: the relaxation tries the same places for every slot, with no random draws "
+            "(issue 31)",
+    "candidates": "no longer does anything: every slot tries the same pattern of places (issue 31)",
 }
 
 
@@ -94,23 +100,24 @@ class Params:
     run_reach: float = 4.0
 
     # --- §3.4 relaxation -------------------------------------------------------------------
-    # not in paper ("at each iteration"): with the gradient trials (depixel/optimize/relax.py), 4 sweeps reach the
-    # energy of 10 sweeps of random trials alone (docs/design.md, Optimization) [0, 10000]
-    iterations: int = 4
-    candidates: int = 8  # not in paper ("several random offsets"): trial positions per node and sweep [1, 1000]
-    radius: float = 0.2  # not in paper ("a small radius"): trial offsets within 1/5 pixel [0, 4]
+    # not in paper ("at each iteration"): rounds in which every slot moves at once (depixel/optimize/relax.py);
+    # a slot's place depends on slots at most 2 per round away along its curve (docs/design.md) [0, 10000]
+    iterations: int = 10
+    # not in paper ("a small radius"): the pattern of trial offsets first reaches 1/5 pixel [0, 4]
+    radius: float = 0.2
     max_offset: float = 0.5  # not in paper: hard bound on a node's move from its initial place (pixels) [0, 4]
     # not in paper: curves keep this far (pixels) from the centres of their pixels [0, 1]
     centre_clearance: float = 0.15
-    # not in paper: all randomness comes from SplitMix64 seeded with this (depixel/optimize/splitmix.py) [0, 2⁶³-1]
-    seed: int = 0
+    # gone with the random trials (issue 31): the relaxation has no random draws, so nothing to seed or count
+    seed: InitVar[Any] = None
+    candidates: InitVar[Any] = None
 
     # --- §3.4 harmonic map and the fidelity guard --------------------------------------------
     # not in paper: the harmonic map is solved within this many edges of a moved curve node (decayed beyond) [0, 1000]
     harmonic_reach: int = 6
-    # not in paper: rounds of reverting the nodes around cells whose centre came within centre_clearance / 2
-    # of their boundary (after relaxation; the fixtures need at most 2) [0, 1000]
-    revert_rounds: int = 8
+    # not in paper: rounds of walking back the nodes around cells whose centre came within centre_clearance / 2
+    # of their boundary, one relaxation round each, all the way in the last (iterations + 2) [0, 1000]
+    revert_rounds: int = 12
 
     # --- §3.5 smooth shading (PNG output) ---------------------------------------------------
     shading_sigma: float = 1.0  # paper §3.5: Gaussian influence of a cell with σ = 1 pixel [1e-6, 16]
@@ -118,10 +125,14 @@ class Params:
     # not in paper: samples per output pixel along each axis at contours (odd: one at the pixel centre) [1, 16]
     shading_supersample: int = 3
 
-    def __post_init__(self) -> None:
+    def __post_init__(self, seed: Any = None, candidates: Any = None) -> None:
         """Refuse values the pipeline cannot use (runs on construction and on :meth:`replace`)."""
         from .errors import ParameterError  # noqa: PLC0415
         from .validate import number  # noqa: PLC0415
+
+        for name, value in zip(REMOVED, (seed, candidates)):
+            if value is not None:
+                raise ParameterError(f"{name} {REMOVED[name]}; leave it out", parameter=name)
 
         for f in fields(self):
             value = getattr(self, f.name)
@@ -130,13 +141,14 @@ class Params:
             rule = LIMITS.get(f.name)
             if rule is not None:
                 number(f.name, value, low=rule.low, high=rule.high, integer=rule.integer)
-                # whole floats and numpy integers become int (range() and the RNG need it)
+                # whole floats and numpy integers become int (range() needs it)
                 object.__setattr__(self, f.name, int(value) if rule.integer else float(value))
 
     def replace(self, **changes: Any) -> Params:
         """A copy with some fields changed; an unknown name raises ParameterError with the
-        closest field (``replace(sed=1)``: did you mean seed?), as misspelt options do."""
-        unknown = [name for name in changes if name not in self.names()]
+        closest field (``replace(iteration=1)``: did you mean iterations?), as misspelt options
+        do; ``seed`` and ``candidates`` say they are gone (:data:`REMOVED`)."""
+        unknown = [name for name in changes if name not in self.names() and name not in REMOVED]
         if unknown:
             import difflib  # noqa: PLC0415
 

@@ -81,9 +81,12 @@ def test_documented_parameters_exist(name, parameters):
 def test_a_misspelt_parameter_names_the_closest_field():
     import depixel
 
-    with pytest.raises(depixel.ParameterError, match=r"^Params has no field 'sed'; did you mean seed\?$") as info:
-        depixel.Params().replace(sed=1)
-    assert info.value.parameter == "sed"
+    with pytest.raises(depixel.ParameterError, match=r"^Params has no field 'iteration'; did you mean iterations\?$"
+                       ) as info:
+        depixel.Params().replace(iteration=1)
+    assert info.value.parameter == "iteration"
+    with pytest.raises(depixel.ParameterError, match=r"^seed no longer does anything: .*; leave it out$"):
+        depixel.Params().replace(seed=1)  # gone with the random trials (issue 31): said so, not "no field"
     with pytest.raises(depixel.ParameterError, match="'curve_wieght'; did you mean curve_weight"):
         depixel.Params().replace(curve_wieght=2.0)
     with pytest.raises(depixel.ParameterError, match="no field 'zzz'; the fields are threshold_y, "):

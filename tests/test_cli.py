@@ -309,8 +309,8 @@ def test_svg_conversion_loads_only_what_it_needs(tmp_path, name):
     """Start-up cost of every process: SVG output needs no cairo, the graph kernels no scipy,
     numpy 2's ``np.unique`` would import ``numpy.ma`` (~45 ms; depixel/arrays.py), neither
     the atomic write nor the spelling hints need ``tempfile`` or ``difflib`` (~3 and ~2 ms),
-    a PNG needs no JPEG reader (~7 ms with the ``subprocess`` module it imports), and the
-    relaxation draws from depixel/optimize/splitmix.py, not ``numpy.random`` (~13 ms); the options
+    a PNG needs no JPEG reader (~7 ms with the ``subprocess`` module it imports), and nothing
+    imports ``numpy.random`` (~13 ms; the relaxation has no random draws); the options
     stamp takes CPython's own SHA-256, not OpenSSL's through ``hashlib`` (~4 ms); only the
     command run has its arguments and module (``depixel_cli.tools``, ``depixel_cli.inkscape``),
     and the help width does not need ``shutil`` (~4 ms)."""

@@ -141,7 +141,8 @@ def test_arrays_have_a_pixel_limit():
 
 @pytest.mark.parametrize("change,match", [
     ({"sparse_window": 0}, "sparse_window must be between 2 and 64"),
-    ({"seed": -1}, "seed must be between 0"),
+    ({"seed": 0}, "seed no longer does anything"),
+    ({"candidates": 8}, "candidates no longer does anything"),
     ({"threshold_y": float("nan")}, "threshold_y must be a finite number"),
     ({"iterations": 2.5}, "iterations must be an integer"),
     ({"curve_weight": "1"}, "curve_weight must be a number"),

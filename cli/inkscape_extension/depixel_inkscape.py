@@ -57,7 +57,6 @@ FLAGS = (
     ("simplify", "--simplify", 0.25, "Simplify"),
     ("pixel_size", "--pixel-size", "auto", "Pixel size"),
     ("transparent", "--transparent", "", "Backdrop"),
-    ("seed", "--seed", 0, "Random seed"),
 )
 
 #: Ancestors under which an image is not drawn where it stands (a selected group may hold one).
@@ -78,7 +77,6 @@ class DepixelizeEffect(inkex.EffectExtension):
         pars.add_argument("--pixel_size", default="auto", help="auto, 1 (as is), N or NxM")
         pars.add_argument("--backdrop", default="keep", choices=("keep", "auto", "colour"))
         pars.add_argument("--backdrop_colour", default="#ffffff", help="colour removed with --backdrop colour")
-        pars.add_argument("--seed", type=int, default=0)
         pars.add_argument("--keep_bitmap", type=inkex.Boolean, default=False,
                           help="keep the bitmap, hidden, below the shapes")
         pars.add_argument("--depixel", default="", help="the depixel program (empty: found automatically)")
@@ -213,7 +211,6 @@ def convert_flags(options) -> list[str]:
         "simplify": options.simplify,
         "pixel_size": options.pixel_size.strip().lower() or "auto",
         "transparent": {"keep": "", "auto": "auto", "colour": options.backdrop_colour.strip()}[options.backdrop],
-        "seed": options.seed,
     }
     flags = []
     for option, flag, default, _ in FLAGS:

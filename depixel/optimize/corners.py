@@ -16,6 +16,7 @@ is during the relaxation, and the curve halves next to it are left out of E_s
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -144,8 +145,7 @@ def detect_run_corners(splines: SplineSet, params: Params = Params()) -> np.ndar
     A pixel circle is an octagon of runs turning by 45° at a time, over runs longer than a
     bevel: no node of it matches.
     """
-    tolerance, short, long = params.run_tolerance, params.run_short, params.run_long
-    min_turn, min_bend = np.radians(params.run_turn), np.radians(params.run_bend)
+    tolerance = params.run_tolerance
     nodes = splines.cells.nodes
     # the node coordinates (px) as x and y columns: numpy runs an (N, 2) array's rows two
     # elements at a time, and copies them one by one under fancy indexing
@@ -210,10 +210,33 @@ def detect_run_corners(splines: SplineSet, params: Params = Params()) -> np.ndar
     p = node.size
     chord_x, chord_y, far_slot = run(np.concatenate([prev, np.where(nxt >= 0, nxt + p, -1)]),
                                      np.concatenate([node, node]), np.concatenate([interior, interior + p]))
-    ahead_all_x, ahead_all_y = chord_x[p:], chord_y[p:]
-    ahead_end_all = np.where(far_slot[p:] >= 0, far_slot[p:] - p, -1)
+    behind_end = far_slot[:p]
+    ahead_end = np.where(far_slot[p:] >= 0, far_slot[p:] - p, -1)
+    corners = np.zeros(len(nodes), dtype=bool)
+    # each pattern read along the curve and against it: a bevel met from its other end is the
+    # same bevel, so the corners do not depend on which way the curve runs
+    for back, ahead, ahead_end_all in (((chord_x[:p], chord_y[:p]), (chord_x[p:], chord_y[p:]), ahead_end),
+                                       ((chord_x[p:], chord_y[p:]), (chord_x[:p], chord_y[:p]), behind_end)):
+        sharp, bevel, far = _patterns(interior, back, ahead, ahead_end_all, params, turn)
+        corners[node[sharp]] = True
+        corners[node[bevel]] = True
+        corners[node[far]] = True  # the bevel's far end
+    return corners
+
+
+def _patterns(interior: np.ndarray, back: tuple[np.ndarray, np.ndarray], ahead_all: tuple[np.ndarray, np.ndarray],
+              ahead_end_all: np.ndarray, params: Params,
+              turn: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The slots of :func:`detect_run_corners`' two patterns read one way along the curves: the
+    sharp corners, the bevels' near ends and their far ends; ``back`` and ``ahead_all`` the
+    (x, y) chords (P,) to the far ends of the straight runs behind and ahead of every slot,
+    ``ahead_end_all`` the far end of each run ahead (-1: none)."""
+    long, short = params.run_long, params.run_short
+    min_turn, min_bend = np.radians(params.run_turn), np.radians(params.run_bend)
+    ahead_all_x, ahead_all_y = ahead_all
     # both patterns need a long run behind: the rest is tested on those slots alone
-    back_x, back_y = chord_x[:p], chord_y[:p]
+    back_x, back_y = back
     lb = np.sqrt(back_x * back_x + back_y * back_y)
     slot = interior.compress(lb.take(interior) >= long)
     in_x, in_y = -back_x.take(slot), -back_y.take(slot)  # direction of travel arriving at the node
@@ -228,11 +251,7 @@ def detect_run_corners(splines: SplineSet, params: Params = Params()) -> np.ndar
              & (np.sqrt(after_x * after_x + after_y * after_y) >= long)
              & (bend_in >= min_bend) & (turn(ahead_x, ahead_y, after_x, after_y) >= min_bend)
              & (turn(in_x, in_y, after_x, after_y) >= min_turn))
-    corners = np.zeros(len(nodes), dtype=bool)
-    corners[node[slot[sharp]]] = True
-    corners[node[slot[bevel]]] = True
-    corners[node[k[bevel]]] = True  # the bevel's far end
-    return corners
+    return slot.compress(sharp), slot.compress(bevel), k.compress(bevel)
 
 
 def excluded_halves(splines: SplineSet, corners: np.ndarray) -> np.ndarray:

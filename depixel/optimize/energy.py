@@ -20,6 +20,7 @@ import numpy as np
 from ..curves.bspline import Bezier, half_turns, span
 from ..curves.splines import SplineSet
 from .fidelity import protected_points, unique_rows
+from .junctions import Junctions
 
 #: each span is checked against the protected points at t = 0, ¼, ½, ¾, 1
 CLEARANCE_PIECES = 4
@@ -76,20 +77,18 @@ class Group:
     #                   bool: numpy casts a bool operand through a buffer, slower)
     protected: np.ndarray  # (2, Q, M) x and y of the points the spans must keep clear of (float32 beyond
     #                        PREPARE_ONCE members)
-    scale: np.ndarray  # (2, 3, 1, M, 1) d0 and d1 of the spans before, own, after over their control legs
-    slope: np.ndarray  # (3, 3, M, 1) ∂E_s/∂φ of d0, dm, d1 of each span, times how fast each turns
-    #                    with the member (signs of the turns and lengths left out: Energy.descent)
+    ends_on: np.ndarray  # (3K, M) int32: the T-junction ends snapped onto the spans of a, of the member
+    #                      and of b (rows 3k + 0, 1, 2: they follow its moves, :class:`.junctions.Junctions`), or -1
 
     def part(self, members: slice | np.ndarray) -> Group:
         """The group of some of the members (a slice or indices into ``members``); indices are
         gathered with ``take`` (numpy 2's fancy indexing is several times slower here)."""
         if isinstance(members, slice):
             return Group(self.members[members], self.around[:, members], self.ends[:, members],
-                         self.keep[:, :, members], self.protected[..., members], self.scale[..., members, :],
-                         self.slope[:, :, members])
+                         self.keep[:, :, members], self.protected[..., members], self.ends_on[:, members])
         return Group(self.members.take(members), self.around.take(members, axis=1), self.ends.take(members, axis=1),
                      self.keep.take(members, axis=2), self.protected.take(members, axis=2),
-                     self.scale.take(members, axis=3), self.slope.take(members, axis=2))
+                     self.ends_on.take(members, axis=1))
 
 
 #: :attr:`Group.around`'s rows
@@ -104,12 +103,6 @@ _SAMPLE_ROWS = np.repeat([[0, 7, 6], [1, 4, 2], [5, 8, 3]], [CLEARANCE_PIECES, C
 #: (3, 3n+1, 1, 1, 1) the weights of the Bézier points P0-P2 at each of those points
 _SAMPLE_WEIGHTS = np.stack([np.concatenate([w[:-1], w, w[1:]]) for w in ((1 - _T) ** 2, 2 * _T * (1 - _T), _T**2)]
                            )[..., None, None, None]
-#: how dm of the span before and of the span after moves with the member: ½ and -½ (the own
-#: span's dm moves by the difference of its legs' shares, s_a - s_b)
-_DM_SLOPE = np.array([[0.5], [-0.5]])
-#: the smallest positive float64: a floor for the descent's squared lengths
-_TINY = np.finfo(float).tiny
-
 
 class Energy:
     """E_s + E_p of slots and their clearance from protected points, over the curve slots.
@@ -135,6 +128,7 @@ class Energy:
         # frames' relaxation: 25,000-30,000 page faults, ~8,600 with the buffer; docs/performance.md)
         self._distances = np.empty(0)
         self.splines = splines  # protected points are found per class, not held for every slot
+        self.junctions = Junctions(splines)  # the T-junction ends that follow the slots' moves
 
     def prepare(self, members: np.ndarray) -> Group:
         a, b = self.prev.take(members), self.nxt.take(members)
@@ -142,33 +136,21 @@ class Energy:
         b2 = np.where(self.end.take(b), b, self.nxt.take(b))
         slots = np.stack([a2, a, members, b, b2])  # (5, M): the slots whose spans a move changes, and b2
         end = self.end.take(slots)  # (5, M): which is an open-curve end (never the member)
-        # the protected points of the four slots whose spans a move changes; computed once a slot
-        # where that is no more work (nor memory) than four a member (a sprite's one preparation)
-        if self.splines.n_slots <= 4 * members.size:
-            points = protected_points(self.splines).take(slots[:4].T, axis=0)
+        # the protected points of the four edges whose drawing a move changes (a2-a, a-member,
+        # member-b, b-b2: those leaving the slots a2, a, member, b) and the split corners at the
+        # five nodes a2..b2 (the same set read either way along the curve); computed once a slot
+        # where that is no more work (nor memory) than five a member (a sprite's one preparation)
+        if self.splines.n_slots <= 5 * members.size:
+            points = protected_points(self.splines).take(slots.T, axis=0)
         else:
-            points = protected_points(self.splines, slots[:4].T)
-        protected = unique_rows(points.reshape(members.size, -1, 2))
+            points = protected_points(self.splines, slots.T)
+        points = np.concatenate([points[:, :4].reshape(members.size, -1, 2), points[:, 4, 2:]], axis=1)
+        protected = unique_rows(points)
         # halves (first, second) of the spans before, own, after counted in E_s (none of the
         # span of an end a or b)
         keep = self.halves.take(slots[1:4], axis=1)  # (2, 3, M)
         keep[:, 0] &= ~end[1]
         keep[:, 2] &= ~end[3]
-        # a leg's share of a span vector: whole at an open-curve end, half otherwise
-        share = np.where(end, 1.0, 0.5)  # (5, M)
-        s_a, s_b = share[1], share[3]
-        scale = np.full((2, 3, members.size), 0.5)
-        scale[0, :2], scale[1, 1:] = share[:2], share[3:]  # (a2, a) and (b, b2)
-        # how d0, dm, d1 of the spans before, own, after move with the member (multiples of it),
-        # times the halves counted: E_s = Σ |φ(dm) − φ(d0)| (first half) + |φ(d1) − φ(dm)| (second)
-        first, second = keep.astype(float)  # (3, M)
-        slope = np.zeros((3, 3, members.size))
-        slope[0, 1], slope[0, 2] = -s_a * first[1], 0.5 * first[2]  # d0 (before: fixed)
-        dm = np.subtract(first, second, out=slope[1])
-        dm[::2] *= _DM_SLOPE
-        dm[1] *= s_a - s_b
-        slope[2, 0], slope[2, 1] = 0.5 * second[0], -s_b * second[1]  # d1 (after: fixed)
-
         around = np.empty((7, members.size), np.int32)
         around[:5] = slots
         around[5:] = np.where(end[::4], slots[::4], slots[1:4:2])  # the partners of a2 and b2
@@ -181,7 +163,7 @@ class Energy:
             # saves their memory on a large image, but a small one's float64 are subtracted
             # without a cast (its clearance's largest operation, ~1.5x faster)
             protected.transpose(2, 1, 0).astype(np.float64 if members.size <= PREPARE_ONCE else np.float32),
-            scale.astype(np.float32)[:, :, None, :, None], slope.astype(np.float32)[..., None],
+            self.junctions.ending.take(slots[1:4], axis=1).reshape(-1, members.size),
         )
 
     @staticmethod
@@ -256,33 +238,6 @@ class Energy:
         energy += smooth[2]
         energy += np.square(offset2, out=offset[0])
         return energy, offset2
-
-    def descent(self, around: np.ndarray, anchor: np.ndarray, g: Group) -> np.ndarray:
-        """(2, M, 1) unit direction of steepest descent of each member's energy at its place
-        (zero where the gradient vanishes), for ``around`` as in :func:`knots_of` and ``anchor`` as
-        in :meth:`evaluate`."""
-        edge = around[A_ROW:B2_ROW + 1] - around[A2_ROW:B2_ROW]  # (4, 2, M, 1) along a2, a, member, b, b2
-        vec = np.empty((3, 3) + edge.shape[1:])  # (3, 3, 2, M, 1): d0, dm, d1 of each span
-        d0, d1 = vec[0], vec[2]
-        np.multiply(edge[:3], g.scale[0], out=d0)  # P1 - P0 of the spans before, own, after
-        np.multiply(edge[1:], g.scale[1], out=d1)  # P2 - P1
-        np.add(d0, d1, out=vec[1])
-        # x and y together where both are multiplied alike (a call a product, not one a coordinate)
-        cross = d0 * d1[:, ::-1]  # (3, 2, M, 1): x0·y1, y0·x1
-        turn = np.sign(cross[:, 0] - cross[:, 1])  # (3, M, 1) the way each span turns
-        square = np.square(vec)
-        length2 = np.maximum(square[:, :, 0] + square[:, :, 1], _TINY)
-        coef = g.slope * turn / length2  # (3, 3, M, 1)
-        along = np.add.reduce(coef[:, :, None] * vec[:, :, ::-1], axis=(0, 1))  # (2, M, 1): Σ coef·y, Σ coef·x
-        offset = around[MEMBER_ROW] - anchor
-        square = np.square(offset)
-        down = (-4.0 * (square[0] + square[1])) * offset  # E_p = |o|^4: gradient 4 |o|^2 o, negated
-        down[0] += along[0]  # minus the gradient, negated exactly term by term
-        down[1] -= along[1]
-        np.square(down, out=square)
-        norm = np.sqrt(square[0] + square[1])
-        down /= np.where(norm > 0, norm, 1.0)
-        return down
 
     def energy(self, ctrl: np.ndarray, anchor: np.ndarray, g: Group, trial: np.ndarray) -> np.ndarray:
         """(M, K) energy of each member at each trial position ``trial`` (M, K, 2)."""

@@ -7,21 +7,35 @@ pixel's colour no longer shows where the pixel was, and the seam-free underlay o
 * during the relaxation, a move is refused if it brings one of the node's spans closer
   than ``centre_clearance`` to a **protected point** beside it (:func:`protected_points`:
   the centres of the pixels on both sides, and the lattice corner of a diagonal link, where
-  a thin diagonal feature must stay connected) — unless it was closer already;
-* afterwards, :func:`keep_centres_inside` reverts the nodes around any cell whose centre
-  came nearer than half the clearance to its drawn boundary (a T-junction end follows the
-  curve it ends on, which the per-move check of the node cannot see).
+  a thin diagonal feature must stay connected) — unless it was closer already — or if it is
+  long enough to carry a span across one (:mod:`depixel.optimize.relax`);
+* afterwards, :func:`keep_centres_inside` walks back, one relaxation round at a time, the
+  nodes around any cell whose centre came nearer than half the clearance to its drawn
+  boundary (slots moving together, T-junction ends following their curves: what the
+  per-move check of one node cannot see).
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import NamedTuple
+
 import numpy as np
 
-from ..arrays import either, ranges, set_rows
+from ..arrays import either, ranges, set_rows, unique
 from ..curves.bspline import flatten_edges_planes
 from ..curves.drawing import Drawing
 from ..curves.splines import SplineSet
 from ..graph.cells import CellGraph, link_corners
 from ..vector import VectorImage
+
+
+class Moves(NamedTuple):
+    """What one round of the relaxation moved: the nodes and their places before it (the
+    record :func:`keep_centres_inside` walks back)."""
+
+    nodes: np.ndarray  # (K,) nodes of the slots that moved
+    before: np.ndarray  # (K, 2) their positions before the round
+
 
 #: stands for "no protected point" (far from every curve)
 FAR = 1e6
@@ -244,11 +258,17 @@ def _clearances(cells: CellGraph, drawings: tuple[Drawing, ...], pixels: np.ndar
 
 def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.ndarray, margin: float,
                         rounds: int = 8, drawing: Drawing | None = None,
-                        initial: Drawing | None = None) -> tuple[np.ndarray, Drawing]:
-    """Undo moves around any cell whose pixel centre came closer than ``margin`` to its
-    boundary (or left it), until none does. Moves made elsewhere on a curve (a T-junction
-    end follows the curve it ends on) can reach a cell the relaxation did not check.
-    Only cells next to an edge whose geometry changed are measured.
+                        initial: Drawing | None = None, moves: Sequence[Moves] = ()) -> tuple[np.ndarray, Drawing]:
+    """Walk back the moves around any cell whose pixel centre came closer than ``margin`` to
+    its boundary (or left it), until none does. Moves made elsewhere on a curve (a T-junction
+    end follows the curve it ends on, neighbours move together) can reach a cell the
+    relaxation did not check. Only cells next to an edge whose geometry changed are measured.
+
+    ``moves``: the relaxation's rounds (:class:`depixel.optimize.relax.Moves`); the curve nodes
+    around a bad cell go back one round at a time (each round of the relaxation kept the
+    curves clear, so a cell is usually fine again a round or two back, and the rest of the
+    relaxation's work stays), the other nodes (moved by the harmonic map) to ``start``; in
+    the last of ``rounds``, or past the first round, every node goes to ``start``.
 
     Returns the positions and their drawing (the last one measured, or a new one when
     the rounds ran out); ``drawing``: that of ``positions``, ``initial`` that of ``start``,
@@ -261,6 +281,9 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
     floor = np.full(n_px, np.nan)  # min(margin, initial clearance), filled in where needed
     reference = initial  # geometry already verified (or initial), to find what changed since
     current = splines.drawing(positions) if drawing is None else drawing
+    back = np.zeros(len(positions), np.int64)  # rounds each node has gone back
+    on_curve = np.zeros(len(positions), bool)
+    on_curve[splines.curve_nodes] = True
     for round_ in range(rounds):
         if round_:
             current = splines.drawing(positions)  # the same curved edges as the reference, in the same order
@@ -302,8 +325,41 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
             on[near] = True
         revert[splines.curve_nodes.compress(on)] = True
         nodes = revert.nonzero()[0]
-        set_rows(positions, nodes, start.take(nodes, axis=0))
+        if round_ == rounds - 1:
+            back[nodes] = len(moves)
+        _walk_back(positions, start, nodes.compress(on_curve.take(nodes)), back, moves)
+        other = nodes.compress(~on_curve.take(nodes))
+        set_rows(positions, other, start.take(other, axis=0))
     return positions, splines.drawing(positions)
+
+
+def _walk_back(positions: np.ndarray, start: np.ndarray, nodes: np.ndarray, back: np.ndarray,
+               moves: Sequence[Moves]) -> None:
+    """Put each of the curve ``nodes`` where it was before the latest round of ``moves`` it
+    moved in and has not gone back past yet (``back`` counts each node's rounds gone back; in
+    place); one that moved in none of them, at ``start``. A node k rounds back sits where it
+    was after round R − k; the rounds it did not move in are passed over, so a node found
+    next to a bad cell always goes somewhere else (or is at its start already)."""
+    rounds = len(moves)
+    pending = nodes
+    while pending.size:
+        level = back.take(pending)
+        done = level >= rounds
+        finished = pending.compress(done)
+        set_rows(positions, finished, start.take(finished, axis=0))
+        pending, level = pending.compress(~done), level.compress(~done)
+        found = np.zeros(pending.size, bool)
+        for k in unique(level).tolist():
+            which = (level == k).nonzero()[0]
+            undo = moves[rounds - 1 - k]
+            index = np.full(len(positions), -1)
+            index[undo.nodes] = np.arange(undo.nodes.size)
+            row = index.take(pending.take(which))
+            went = row >= 0
+            set_rows(positions, pending.take(which.compress(went)), undo.before.take(row.compress(went), axis=0))
+            found[which.compress(went)] = True
+        back[pending] += 1
+        pending = pending.compress(~found)
 
 
 def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:

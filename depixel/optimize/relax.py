@@ -1,45 +1,57 @@
 """Stage 5b — paper §3.4 — the relaxation: curve control points move to lower the energy
-E_s + E_p of :mod:`depixel.optimize.energy`.
+E_s + E_p of :mod:`depixel.optimize.energy`, the same way whatever the numbering.
 
-The paper's relaxation, vectorized: ``iterations`` sweeps; in each sweep the slots are
-visited class by class, in a random order of the classes (slots of one class are three or
-more slots apart along their curve, so their energies are independent and they move
-together); each tries ``candidates`` random offsets within ``radius`` of its place (a
-turned pattern: :func:`disc_offsets`), :data:`GRADIENT_STEPS` points down the gradient of
-its energy as a line search (analytic: :meth:`Energy.descent`) and its move of the sweep
-before once more, and keeps the best trial the guards allow, or stays (:func:`step`).
-After the first sweep only the slots within two slots of one that moved in the sweep
-before are tried (the others' energies are unchanged: :meth:`Energy.near`), and the sweeps
-stop once none moved. A move farther than ``max_offset`` from p̂ or too close to a
-protected point (:mod:`depixel.optimize.fidelity`) is refused. T-junction ends follow the curve
-they end on after every sweep. All randomness comes from SplitMix64 seeded with ``seed``
-(:mod:`depixel.optimize.splitmix`: ``numpy.random`` would cost every process ~13 ms to import); the
-draws depend only on array sizes and on the moves made, so a run is reproducible.
+The paper optimizes each node locally, in a random order, from random trial offsets. Here
+every movable slot takes part in every round at once, with the same trials built from the
+geometry (:mod:`depixel.optimize.trials`), so the result depends on the picture alone: not
+on draws, slot numbers, the order or direction of the curves, or the image's position. One
+round (:func:`propose`, then :func:`shares`):
+
+1. each slot weighs its trials with its neighbours where they are, and takes the one of least
+   energy that the guards allow (never farther than ``max_offset`` from its home p̂, never
+   bringing a span closer than ``centre_clearance`` to a protected point unless it was
+   closer already); trials whose energies agree within :data:`TIE` are tied, and a slot
+   tied between several places goes to their mean (a slot on a mirror axis stays on it);
+2. neighbours moving together could undo each other (a zigzag's points each jumping onto
+   their neighbours' line would swap sides), so each slot moves only its **share** of the
+   way: its gain over the largest sum of the gains of three consecutive slots whose spans it
+   shapes (:func:`shares`). A slot whose neighbours stay moves all the way; three in a row
+   of equal gains move a third each. With spans convex in their points this never raises
+   the energy, and it is a continuous function of the gains (no discrete choice that a
+   mirrored image's rounding could flip).
+
+A slot that stays halves its pattern's radius (down to :data:`MIN_RADIUS`): coarse steps
+first, fine ones where a slot has settled. Only slots whose trials changed are weighed
+again: those within two slots of one that moved (their energies changed) and those whose
+radius shrank; the others would stay again. The number of rounds is fixed (``iterations``)
+and a slot's move depends only on slots within two of it along its curve (and on the
+T-junction ends those move), so after k rounds a slot's place depends on nothing farther
+than 2k slots along its curve; in practice a change fades within a few pixels (docs/design.md,
+Optimization: over the corpus's one-pixel edits no drawn number changed farther than 7 px).
 """
 from __future__ import annotations
 
-import functools
 from typing import NamedTuple
 
 import numpy as np
 
-from ..arrays import batch_slices, consecutive_slices, set_rows
+from ..arrays import batch_slices, set_rows, unique
 from ..curves.splines import SplineSet
 from ..params import Params
 from .energy import MEMBER_ROW, PREPARE_ONCE, Energy, Group, knots_of, trial_points
-from .splitmix import SplitMix64
+from .fidelity import Moves
+from .trials import TRIALS, trials
 
-#: trials weighed together in one step: bounds the memory of their spans (about 150 bytes a
-#: trial) whatever the number of slots moved at once
+#: trials weighed together: bounds the memory of their spans (about 150 bytes a trial)
+#: whatever the number of slots
 STEP_TRIALS = 1 << 15
 #: trials whose clearance is measured in one call: bounds the memory of their distances (about
 #: 2 KB a trial: 13 points × the protected points, x and y, float64)
 CLEARANCE_PAIRS = 1 << 12
-#: trials down the gradient of a slot's energy, at these multiples of ``radius`` from it (a
-#: short step where the energy curves fast, a long one where it is flat; docs/design.md)
-GRADIENT_STEPS = np.array([0.5, 2.0])
-#: the turn between consecutive trials of a slot's pattern of random trials, π(3 − √5)
-GOLDEN_ANGLE = np.pi * (3.0 - np.sqrt(5.0))
+#: energies closer than this are equal (the rounding of a mirrored image's arithmetic is ~1e-15)
+TIE = 1e-9
+#: the smallest radius of a slot's pattern of trials (pixels)
+MIN_RADIUS = 0.02
 
 
 class Relaxed(NamedTuple):
@@ -49,17 +61,17 @@ class Relaxed(NamedTuple):
     movable: np.ndarray  # (P,) bool: the slots that were free to move
     energy_before: float  # total energy before relaxing
     energy_after: float  # and after
+    rounds: list[Moves]  # each round's moves, first to last (to walk them back: fidelity)
 
 
 def relax(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: np.ndarray,
           params: Params = Params()) -> Relaxed:
-    """Relax the control points of ``splines`` from node positions ``start`` (N, 2).
+    """Relax the control points of ``splines`` from node positions ``start`` (N, 2) in
+    ``params.iterations`` rounds.
 
     Open-curve ends and the slots at ``corners`` (N,) bool stay fixed; ``excluded`` (P, 2)
-    marks the span halves left out of E_s. After the first sweep only the slots of
-    :meth:`Energy.near` a slot that moved in the sweep before are tried again (the others'
-    energies did not change); the sweeps stop early once none moved.
-    """
+    marks the span halves left out of E_s. The rounds stop early once no slot would be weighed
+    again (the rounds left would move nothing)."""
     prev, nxt = splines.neighbours()
     end = (prev < 0) | (nxt < 0)
     movable = ~end & ~corners[splines.curve_nodes]
@@ -67,192 +79,265 @@ def relax(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: 
     ctrl = splines.controls_for(start)  # T-junction ends snapped onto their curves
     anchor = ctrl.copy()
     energy_before = model.total(ctrl, anchor)
-    rng = SplitMix64(params.seed)
-    classes = _prepared_classes(model, independent_classes(splines, movable))
-    active = movable  # the slots tried in this sweep
-    last = np.zeros_like(ctrl)  # each slot's move in the sweep before
-    for sweep in range(params.iterations):
-        before = ctrl.copy()
-        tried = []  # the group of each class with a slot to try, in this sweep's random order
-        for c in rng.permutation(len(classes)):
-            group = classes[c]
-            chosen = active.take(group.members)
-            if not chosen.all():
-                if not chosen.any():
-                    continue
-                group = group.part(chosen.nonzero()[0])
-            tried.append(group)
-        for group, offsets in zip(tried, _sweep_offsets(rng, [g.members.size for g in tried], params)):
-            # no last move to repeat in the first sweep
-            set_rows(ctrl, group.members, step(model, ctrl, anchor, group, offsets, params, last if sweep else None))
-        ctrl = splines.snap(ctrl)  # ends that sit on a moved curve follow it
-        np.subtract(ctrl, before, out=last)
-        moved = last != 0
-        active = model.near(moved[:, 0] | moved[:, 1]) & movable  # (not .any(axis=1): slow over an axis of two)
-        if not active.any():
+    members = movable.nonzero()[0]
+    chunks = [(part.start, model.prepare(members[part])) for part in batch_slices(members.size, PREPARE_ONCE)]
+    radius = np.full(members.size, params.radius)
+    # staying's clearances (M, 2), NaN where not known: they change only when a slot within two
+    # moved or the curve of an end snapped onto the member's spans did
+    near = np.full((members.size, 2), np.nan)
+    ends_on = np.concatenate([whole.ends_on for _, whole in chunks], axis=1) if chunks else np.zeros((3, 0), np.int32)
+    active = np.ones(members.size, bool)  # the members weighed this round
+    gains = np.zeros(ctrl.shape[0])  # every slot's gain this round (0: it stays)
+    rounds = []
+    for _ in range(params.iterations):
+        rows = active.nonzero()[0]
+        if rows.size == 0:
             break
-    return Relaxed(ctrl, movable, energy_before, model.total(ctrl, anchor))
+        target = np.empty((2, rows.size))
+        gain = np.empty(rows.size)
+        known = near.take(rows, axis=0)
+        for first, whole in chunks:
+            lo, hi = rows.searchsorted([first, first + whole.members.size])
+            if hi > lo:
+                group = whole.part(rows[lo:hi] - first)
+                target[:, lo:hi], gain[lo:hi] = propose(model, ctrl, anchor, group, radius.take(rows[lo:hi]),
+                                                        known[lo:hi], params)
+        near[rows] = known
+        slots = members.take(rows)
+        gains[slots] = gain
+        share = shares(gains, prev, nxt).take(slots)
+        gains[slots] = 0.0
+        before = ctrl.copy()
+        here = ctrl.take(slots, axis=0).T  # (2, R)
+        target -= here
+        target *= share
+        target += here
+        set_rows(ctrl, slots, target.T)
+        ctrl = splines.snap(ctrl)  # ends that sit on a moved curve follow it
+        moved = either_differs(ctrl, before)
+        shrunk = rows.compress(gain <= 0.0)
+        smaller = np.maximum(radius.take(shrunk) * 0.5, MIN_RADIUS)
+        changed = smaller < radius.take(shrunk)
+        radius[shrunk] = smaller
+        stale = np.append(model.near(moved), False)  # index -1 (no end) reads False
+        active = stale.take(members)
+        near[active | np.logical_or.reduce(stale.take(ends_on), axis=0)] = np.nan
+        active[shrunk.compress(changed)] = True
+        went = members.compress(moved.take(members))
+        if went.size:
+            rounds.append(Moves(splines.curve_nodes.take(went), before.take(went, axis=0)))
+    return Relaxed(ctrl, movable, energy_before, model.total(ctrl, anchor), rounds)
 
 
-def _prepared_classes(model: Energy, classes: list[np.ndarray]) -> list[Group]:
-    """The :class:`Group` of each non-empty class of slots: slices of one preparation of them
-    all when they are at most :data:`PREPARE_ONCE` (each member's numbers are its own; only
-    the protected points' padding is wider), else one preparation a class."""
-    classes = [c for c in classes if c.size]
-    sizes = [c.size for c in classes]
-    if not classes or sum(sizes) > PREPARE_ONCE:
-        return [model.prepare(c) for c in classes]
-    whole = model.prepare(np.concatenate(classes))
-    return [whole.part(part) for part in consecutive_slices(sizes)]
+def either_differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(P,) bool: row i of ``a`` and ``b`` (P, 2) differ in x or y."""
+    return (a[:, 0] != b[:, 0]) | (a[:, 1] != b[:, 1])
 
 
-def _sweep_offsets(rng: SplitMix64, sizes: list[int], params: Params) -> list[np.ndarray]:
-    """The :func:`disc_offsets` (2, M, K) of each of a sweep's steps of ``sizes`` members, in
-    turn: drawn for the whole sweep in one call when its members are at most
-    :data:`PREPARE_ONCE` (a call is ~25 numpy calls whatever its size, and each member's
-    offsets depend only on its own draw, the next of the stream: the same numbers as a call a
-    step), else a call a step (which bounds their memory on a large image)."""
-    if sum(sizes) > PREPARE_ONCE:
-        return [disc_offsets(rng, size, params.candidates, params.radius) for size in sizes]
-    offsets = disc_offsets(rng, sum(sizes), params.candidates, params.radius)
-    return [offsets[:, part] for part in consecutive_slices(sizes)]
+def shares(gains: np.ndarray, prev: np.ndarray, nxt: np.ndarray) -> np.ndarray:
+    """(P,) the share of its move each slot makes: its gain over the largest sum of the gains of
+    the three slots shaping a span it shapes (its own, the one before, the one after); 0 where
+    it gains nothing. The shares of any three consecutive slots add up to at most 1, so every
+    span's points move by at most a convex combination of the single moves. Sums add the
+    two neighbours first (the same either way along a curve)."""
+    padded = np.append(gains, 0.0)  # index -1 (past an open end) reads 0
+    span = padded.take(prev) + padded.take(nxt)
+    span += gains
+    padded[:-1] = span
+    most = np.maximum(np.maximum(padded.take(prev), padded.take(nxt)), span)
+    return gains / np.where(most > 0.0, most, 1.0)
 
 
-def disc_offsets(rng: SplitMix64, members: int, candidates: int, radius: float) -> np.ndarray:
-    """(2, M, K) random trial offsets within ``radius``: for each member the same pattern of
-    ``candidates`` points, turned by a random angle, its radii shifted by a random fraction.
-    Point i lies at radius ``radius·√((i + u)/K)`` (one point in each ring of equal area) and
-    angle ``θ + i·`` :data:`GOLDEN_ANGLE` (consecutive points far apart): the disc is covered
-    more evenly than by independent draws, so the best of K trials lies lower (docs/design.md).
-    One draw per member, not per trial."""
-    draws = rng.unit_pairs(members)  # (turn θ / 2π, radial shift u) per member
-    index, pattern = _pattern(candidates)
-    turned = np.exp((2j * np.pi) * draws[:, :1]) * pattern  # (M, K) unit
-    turned *= radius * np.sqrt((index + draws[:, 1:]) / candidates)
-    offsets = np.empty((2, members, candidates))
-    offsets[0], offsets[1] = turned.real, turned.imag
-    return offsets
+def propose(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, radius: np.ndarray,
+            near: np.ndarray, params: Params) -> tuple[np.ndarray, np.ndarray]:
+    """Where each member of ``group`` would go with its neighbours where they are, (2, M), and
+    how much energy that saves, (M,) (0: it stays); the :func:`depixel.optimize.trials.trials`
+    at ``radius`` (M,) are weighed :data:`STEP_TRIALS` at a time (the members do not depend on
+    each other). ``near`` (M, 2): staying's clearances where known, NaN elsewhere; those
+    measured are written in."""
+    members = group.members.size
+    if members * TRIALS <= STEP_TRIALS:
+        return _best(model, ctrl, anchor, group, radius, near, params)
+    target, gain = np.empty((2, members)), np.empty(members)
+    for part in batch_slices(members, STEP_TRIALS // TRIALS):
+        target[:, part], gain[part] = _best(model, ctrl, anchor, group.part(part), radius[part], near[part], params)
+    return target, gain
 
 
-@functools.cache
-def _pattern(candidates: int) -> tuple[np.ndarray, np.ndarray]:
-    """The trial indices 0..K-1 and the pattern's own turns e^(i·k·golden angle) of
-    :func:`disc_offsets` (the same every step: computed once a K; read only)."""
-    index = np.arange(candidates)
-    pattern = np.exp((1j * GOLDEN_ANGLE) * index)
-    index.flags.writeable = pattern.flags.writeable = False
-    return index, pattern
+def _best(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, radius: np.ndarray,
+          near: np.ndarray, params: Params) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`propose` for the members of one batch (``near``: their staying's clearances, NaN
+    where not known, measured here where needed).
 
-
-@functools.cache
-def _gradient_lengths(radius: float) -> np.ndarray:
-    """:data:`GRADIENT_STEPS` times ``radius`` (computed once a radius; read only)."""
-    lengths = radius * GRADIENT_STEPS
-    lengths.flags.writeable = False
-    return lengths
-
-
-def step(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, offsets: np.ndarray,
-         params: Params, last: np.ndarray | None = None) -> np.ndarray:
-    """(M, 2) new places of one class of independent slots: each tries its ``offsets``
-    (2, M, K) from its place, the points :data:`GRADIENT_STEPS` down its gradient and, given
-    ``last`` (P, 2) (every slot's move in the sweep before), the same move again; and takes
-    the trial of least energy that the guards allow, or stays. A trial farther than
-    ``max_offset`` from its anchor is never taken, nor one that brings a span closer than
-    ``centre_clearance`` to a protected point (and closer than staying would). The trials are
-    weighed :data:`STEP_TRIALS` at a time (the members do not depend on each other)."""
-    members, k = offsets.shape[1:]
-    repeat = None if last is None else last.take(group.members, axis=0).T[..., None]  # (2, M, 1)
-    trials = 1 + k + len(GRADIENT_STEPS) + (repeat is not None)
-    if members * trials <= STEP_TRIALS:
-        return _best_trials(model, ctrl, anchor, group, offsets, repeat, params).T
-    moved = np.empty((2, members))  # x and y planes
-    for part in batch_slices(members, max(1, STEP_TRIALS // trials)):
-        moved[:, part] = _best_trials(model, ctrl, anchor, group.part(part), offsets[:, part],
-                                      None if repeat is None else repeat[:, part], params)
-    return moved.T
-
-
-def _best_trials(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, offsets: np.ndarray,
-                 repeat: np.ndarray | None, params: Params) -> np.ndarray:
-    """:func:`step` for the members of ``group``, given their random ``offsets`` (2, M, K)
-    and last moves ``repeat`` (2, M, 1) or None.
-    Rows are picked with ``take`` and masks applied with ``putmask``: numpy 2's fancy indexing
-    copies the rows of these arrays one at a time (docs/performance.md)."""
-    members, k = offsets.shape[1:]
-    around = ctrl.take(group.around, axis=0).transpose(0, 2, 1)[..., None]  # (7, 2, M, 1): Group.around's rows
+    A trial is refused if it lies farther than ``max_offset`` from home,
+    brings a span closer than ``centre_clearance`` to a protected point and closer than
+    staying does, or moves farther than the curve could without crossing a protected point.
+    Clearances decide only between trials lower than staying, so they are measured where they
+    can: of staying, of the trials tied for the least energy and, where one of those is
+    refused, of every trial lower than staying. Each verdict is then the one a clearance of
+    every trial would give."""
+    around = ctrl.take(group.around, axis=0).transpose(0, 2, 1)[..., None]  # (7, 2, M, 1)
     here = around[MEMBER_ROW]
     home = anchor.take(group.members, axis=0).T[..., None]
-    # trials (2, M, 1+K+L+R): x and y planes; column 0 = stay, then K random, L down the
-    # gradient and R (0 or 1) the last move again
-    grad = k + 1 + len(GRADIENT_STEPS)
-    trial = np.empty((2, members, grad + (repeat is not None)))
-    trial[:, :, :1] = here
-    np.add(here, offsets, out=trial[:, :, 1:k + 1])
-    descent = model.descent(around, home, group)
-    np.multiply(descent, _gradient_lengths(params.radius), out=trial[:, :, k + 1:grad])
-    trial[:, :, k + 1:grad] += here
-    if repeat is not None:
-        np.add(here, repeat, out=trial[:, :, grad:])
+    trial = trials(around, home, radius)  # (2, M, T)
     knots = knots_of(around)
     energy, offset2 = model.evaluate(knots, home, group, trial)
     too_far = offset2 > params.max_offset**2
     too_far[:, 0] = False
-    np.putmask(energy, too_far, np.inf)  # never taken
-    best = energy.argmin(axis=1)  # ties keep the lower index
-    # the trial taken must not bring a curve closer to a protected point than allowed (unless
-    # it was closer already), so the clearance is measured only where it can decide: of the
-    # best trial, where it is not staying; where the best one comes within the clearance, of
-    # staying and of the trials lower than staying (the others cannot be taken: staying is
-    # always allowed and wins ties) in one call; where the best one is refused (staying is
-    # not as close), the best one of those allowed is taken. Each number is the one a
-    # clearance of every trial would give (a minimum)
-    trials = trial.shape[-1]
-    rows = (best > 0).nonzero()[0]
-    if rows.size:
-        chosen = best.take(rows)
-        near = model.clearance_of(trial_points(knots, group, trial, rows, chosen[:, None]), group, rows).ravel()
-        close = near < params.centre_clearance
-        rows, chosen, near = rows.compress(close), chosen.compress(close), near.compress(close)
-    if rows.size:
-        energy = energy.take(rows, axis=0)  # (R, T)
-        energy.ravel()[np.arange(0, rows.size * trials, trials) + chosen] = np.inf  # the best, not allowed
-        lower = energy < energy[:, :1]  # the others lower than staying
-        lower[:, 0] = True  # and staying, the first of each row
-        pairs = lower.ravel().nonzero()[0]  # flat (row, trial)
-        pick, at = np.divmod(pairs, trials)
-        clear = np.empty(pairs.size)
-        for part in batch_slices(pairs.size, CLEARANCE_PAIRS):
-            member = rows.take(pick[part])
-            clear[part] = model.clearance_of(trial_points(knots, group, trial, member, at[part, None]), group,
-                                             member).ravel()
-        stay = clear.compress(at == 0)  # (R,)
-        refused = near < stay
-        # of the refused rows, the trials coming closer than allowed and than staying
-        closer = (clear < params.centre_clearance) & (clear < stay.take(pick))
-        closer &= refused.take(pick)
-        energy.ravel()[pairs.compress(closer)] = np.inf
-        best[rows.compress(refused)] = energy.compress(refused, axis=0).argmin(axis=1)
-    return trial.reshape(2, -1).take(np.arange(0, best.size * trials, trials) + best, axis=1)  # (2, M)
+    np.putmask(energy, too_far, np.inf)
+    stay = energy[:, 0].copy()
+    guard = _Guard(model, ctrl, knots, group, trial, params.centre_clearance, near)
+    tied = _tied(energy)
+    rows = (~tied[:, 0]).nonzero()[0]  # the members that would move
+    if rows.size:  # staying and the trials tied for the least energy, in one call
+        pairs = tied.take(rows, axis=0).ravel().nonzero()[0]
+        pick, at = np.divmod(pairs, trial.shape[-1])
+        member = rows[pick]
+        refused = guard.staying_and(rows, here, member, at)
+        near[rows] = guard.near[rows]
+        across = guard.across()
+        np.putmask(energy, across, np.inf)
+        rows = unique(member.compress(refused | across[member, at]))
+    if rows.size:  # where one of them is refused, every other trial lower than staying
+        energy.ravel()[(member * trial.shape[-1] + at).compress(refused)] = np.inf
+        lower = energy.take(rows, axis=0) < stay.take(rows)[:, None]
+        lower[:, 0] = False
+        pick, at = np.divmod(lower.ravel().nonzero()[0], trial.shape[-1])
+        member = rows[pick]
+        refused = guard.refused(member, at)
+        energy.ravel()[(member * trial.shape[-1] + at).compress(refused)] = np.inf
+    tied = _tied(energy)
+    count = tied.sum(axis=1)
+    target = np.einsum("cmt,mt->cm", trial, tied) / count
+    gain = stay - energy.min(axis=1)
+    gain[tied[:, 0]] = 0.0
+    target[:, tied[:, 0]] = here[:, tied[:, 0], 0]
+    rows = (count > 1).nonzero()[0]
+    if rows.size:  # tied trials at different places (not one place reached two ways)
+        spread = np.abs(trial.take(rows, axis=1) - target.take(rows, axis=1)[..., None]).max(axis=0)
+        rows = rows.compress(np.logical_or.reduce(tied.take(rows, axis=0) & (spread > 1e-12), axis=1))
+    if rows.size:  # the mean of places tied (mirror images of each other) is a place of its own
+        gain[rows] = _weigh_mean(model, guard, home, here, target, rows, stay, params)
+        still = rows.compress(gain.take(rows) <= 0.0)
+        target[:, still] = here[:, still, 0]
+    return target, gain
 
 
-def independent_classes(splines: SplineSet, movable: np.ndarray) -> list[np.ndarray]:
-    """Split movable slots into classes whose members are ≥ 3 slots apart along each curve
-    (a slot's energy involves its neighbours and theirs): every three slots in a row along a
-    curve, around a closed one's seam too, have three colours. Colours 0-2 by index modulo 3;
-    a closed curve whose length is not a multiple of 3 ends in a slot of colour 3 (length
-    3q + 1) or in two blocks 0, 1, 2, 3 (length 3q + 2, from 8 on); a closed curve of 5
-    slots takes colours 0-4. Four classes, not five: a step is a fixed ~0.3 ms of numpy
-    calls however few members it moves (docs/performance.md)."""
-    curve = splines.slot_curve()
-    first = splines.curve_ptr[:-1][curve]
-    length = np.diff(splines.curve_ptr)[curve]
-    index = np.arange(curve.size) - first
-    closed = splines.curve_closed[curve]
-    colour = index % 3
-    rest = length % 3
-    colour = np.where(closed & (rest == 1) & (index == length - 1), 3, colour)
-    block = closed & (rest == 2) & (index >= length - 8)  # 0, 1, 2, 3, 0, 1, 2, 3 at the end
-    colour = np.where(block, (index - (length - 8)) % 4, colour)
-    colour = np.where(closed & (length == 5), index, colour)
-    return [(movable & (colour == c)).nonzero()[0] for c in range(5)]
+def _weigh_mean(model: Energy, guard: _Guard, home: np.ndarray, here: np.ndarray, target: np.ndarray,
+                rows: np.ndarray, stay: np.ndarray, params: Params) -> np.ndarray:
+    """(R,) the gain of the members ``rows`` at the mean ``target`` of their tied trials, weighed
+    and guarded as a trial of its own: 0 where it is no lower than staying, farther than
+    ``max_offset`` from home, or refused by the ``guard``."""
+    part = guard.group.part(rows)
+    both = np.empty((2, rows.size, 2))
+    both[:, :, 0] = here[:, rows, 0]
+    both[:, :, 1] = target[:, rows]
+    energy, offset2 = model.evaluate(guard.knots.take(rows, axis=2), home.take(rows, axis=1), part, both)
+    sub = _Guard(model, guard.ctrl, guard.knots.take(rows, axis=2), part, both, guard.clearance)
+    sub.near = guard.near.take(rows, axis=0)
+    step = both[:, :, 1] - both[:, :, 0]
+    sub.step[:, 1] = np.hypot(step[0], step[1])
+    one = np.ones(rows.size, np.intp)
+    refused = sub.refused(np.arange(rows.size), one) | sub.across()[:, 1]
+    gain = stay.take(rows) - energy[:, 1]
+    gain[refused | (offset2[:, 1] > params.max_offset**2) | (gain <= TIE)] = 0.0
+    return gain
+
+
+class _Guard:
+    """The clearance verdicts on the trials (2, M, T) of one batch of members: a trial is refused
+    if it brings a span closer than ``clearance`` to a protected point and closer than staying
+    does, on either side of :func:`_clearance` (both by more than 1e-9: a verdict rounding
+    cannot flip), or if it moves farther than the curve could without crossing one.
+
+    Every point of the spans a trial shapes (its own, and those of the curves ending on them)
+    moves by at most the trial's step from staying, so a trial whose step is shorter than
+    staying's clearance less ``clearance`` is allowed unmeasured: only the others' clearances
+    are measured, and each verdict is the one a measurement would give."""
+
+    def __init__(self, model: Energy, ctrl: np.ndarray, knots: np.ndarray, group: Group, trial: np.ndarray,
+                 clearance: float, near: np.ndarray | None = None):
+        self.model, self.ctrl, self.knots, self.group, self.trial = model, ctrl, knots, group, trial
+        self.clearance = clearance
+        # staying's clearances (M, 2), NaN where not measured yet
+        self.near = np.full((trial.shape[1], 2), np.nan) if near is None else near.copy()
+        self.step = np.zeros(trial.shape[1:])  # each trial's distance from staying (M, T)
+
+    def staying_and(self, rows: np.ndarray, here: np.ndarray, member: np.ndarray, at: np.ndarray) -> np.ndarray:
+        """Measure the clearances of the members ``rows`` where they are (trial 0) where not
+        known, and how far each trial is from there (``here`` (2, M, 1)); return which of the
+        trials ``at`` of the members ``member`` (N,) are refused (:meth:`refused`), measured in
+        the same call (those of members whose staying was not known yet: no bound to spare them)."""
+        step = self.trial - here
+        np.square(step, out=step)
+        np.sqrt(np.add(step[0], step[1], out=self.step), out=self.step)
+        unknown = np.isnan(self.near[:, 0])
+        fresh = rows.compress(unknown.take(rows))
+        doubt = (unknown.take(member) | (self._bound(member, at) < self.clearance)).nonzero()[0]
+        clear = _clearance(self.model, self.ctrl, self.knots, self.group, self.trial,
+                           np.concatenate([fresh, member.take(doubt)]),
+                           np.concatenate([np.zeros(fresh.size, np.intp), at.take(doubt)]))
+        self.near[fresh] = clear[:fresh.size]
+        refused = np.zeros(member.size, bool)
+        refused[doubt] = self.closer(clear[fresh.size:], member.take(doubt))
+        return refused
+
+    def _bound(self, member: np.ndarray, at: np.ndarray) -> np.ndarray:
+        """(N,) a lower bound of the clearances of trials ``at`` of ``member``: staying's less the step."""
+        return self.near.take(member, axis=0).min(axis=1) - self.step[member, at]
+
+    def across(self) -> np.ndarray:
+        """(M, T) bool: the trials that move farther than the curve could without crossing a
+        protected point: every point of a span moves by at most the member's move, so the curve
+        crosses a point only if the move is at least its distance before (d) plus after (at
+        least min(d, clearance) for a trial the clearance allows)."""
+        reach = self.near.min(axis=1)
+        reach += np.minimum(reach, self.clearance)
+        far = self.step > reach[:, None] - 1e-9
+        far[:, 0] = False
+        return far
+
+    def refused(self, member: np.ndarray, at: np.ndarray) -> np.ndarray:
+        """(N,) bool: the trials ``at`` of the members ``member`` (N,) that come closer than
+        allowed; measured only where staying's clearance less the step could be under
+        ``clearance`` (the others are allowed)."""
+        refused = np.zeros(member.size, bool)
+        doubt = (self._bound(member, at) < self.clearance).nonzero()[0]
+        if doubt.size:
+            member, at = member.take(doubt), at.take(doubt)
+            clear = _clearance(self.model, self.ctrl, self.knots, self.group, self.trial, member, at)
+            refused[doubt] = self.closer(clear, member)
+        return refused
+
+    def closer(self, clear: np.ndarray, member: np.ndarray) -> np.ndarray:
+        """(N,) bool: clearances ``clear`` (N, 2) of trials of the members ``member`` that are
+        under the clearance and under staying's, on either side."""
+        closer = (clear < self.clearance - 1e-9) & (clear < self.near.take(member, axis=0) - 1e-9)
+        return closer[:, 0] | closer[:, 1]
+
+
+def _tied(energy: np.ndarray) -> np.ndarray:
+    """(M, T) bool: the trials within :data:`TIE` of each row's least energy; a row whose
+    staying is among them stays (only staying is marked)."""
+    tied = energy <= energy.min(axis=1, keepdims=True) + TIE
+    tied[tied[:, 0], 1:] = False
+    return tied
+
+
+def _clearance(model: Energy, ctrl: np.ndarray, knots: np.ndarray, group: Group, trial: np.ndarray,
+               member: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """(N, 2) the clearance of the members ``member`` (N,) at their trials ``at`` (N,): of their
+    three spans, and of the first spans of the curves ending on them (T-junctions; +inf where
+    none does), :data:`CLEARANCE_PAIRS` at a time. Apart, so that a curve already too close
+    on one side does not free the other from its guard."""
+    clear = np.full((member.size, 2), np.inf)
+    for part in batch_slices(member.size, CLEARANCE_PAIRS):
+        rows = member[part]
+        points = trial_points(knots, group, trial, rows, at[part, None])
+        clear[part, 0] = model.clearance_of(points, group, rows).ravel()
+        ends_on = group.ends_on.take(rows, axis=1)
+        snapped = np.logical_or.reduce(ends_on >= 0, axis=0).nonzero()[0]
+        if snapped.size:
+            ending = model.junctions.clearance(points.take(snapped, axis=2), ctrl, ends_on.take(snapped, axis=1))
+            clear[part.start + snapped, 1] = ending.ravel()
+    return clear

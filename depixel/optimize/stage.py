@@ -8,7 +8,7 @@
    each move guarded so that curves keep clear of pixel centres (:mod:`depixel.optimize.fidelity`);
 3. harmonic map (:mod:`depixel.optimize.harmonic`): the nodes off the curves follow them;
 4. fidelity (:mod:`depixel.optimize.fidelity`): nodes around any cell whose centre came too near its
-   boundary are put back.
+   boundary are walked back, a relaxation round at a time.
 """
 from __future__ import annotations
 
@@ -63,12 +63,12 @@ class OptimizedSplines:
 
 def optimize_splines(splines: SplineSet, corners: Corners, params: Params = Params()) -> OptimizedSplines:
     """§3.4 on curves already cut at ``corners``: relax the curve nodes, then move the
-    other nodes by a harmonic map, then undo moves that pushed a pixel centre out."""
+    other nodes by a harmonic map, then walk back moves that pushed a pixel centre out."""
     start = corners.place(splines)
     relaxed = relax(splines, start, corners.nodes, excluded_halves(splines, corners.nodes), params)
     positions = start.copy()
     set_rows(positions, splines.curve_nodes.compress(relaxed.movable), relaxed.ctrl.compress(relaxed.movable, axis=0))
-    energy_before, energy_after = relaxed.energy_before, relaxed.energy_after
+    energy_before, energy_after, moves = relaxed.energy_before, relaxed.energy_after, relaxed.rounds
     del relaxed  # the control points live on in the positions; free them for the steps below
     # the relaxed curves are drawn once: the harmonic map needs their display points, the
     # revert's first round the whole drawing (the harmonic map moves no curve node); the
@@ -77,5 +77,5 @@ def optimize_splines(splines: SplineSet, corners: Corners, params: Params = Para
     mapped = harmonic_map(splines, start, positions, corners.nodes, params.harmonic_reach, drawing.points)
     drawing = drawing._replace(points=follow(drawing.points, positions, mapped))
     positions, drawing = keep_centres_inside(splines, start, mapped, params.centre_clearance / 2,
-                                             params.revert_rounds, drawing, initial)
+                                             params.revert_rounds, drawing, initial, moves)
     return OptimizedSplines(splines, corners, start, positions, energy_before, energy_after, drawing)
