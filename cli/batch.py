@@ -348,4 +348,5 @@ def totals_line(outcomes: list[Outcome], seconds: float, interrupted: bool = Fal
         parts.append(f"{counts.count(INTERRUPTED)} abandoned, {counts.count(CANCELLED)} not started"
                      + (" (interrupted)" if interrupted else ""))
     tail = " (dry run: nothing written)" if dry_run else ""
-    return f"{len(outcomes)} files: {', '.join(parts)}{tail} in {seconds:.1f} s"
+    files = "1 file" if len(outcomes) == 1 else f"{len(outcomes)} files"
+    return f"{files}: {', '.join(parts)}{tail} in {seconds:.1f} s"

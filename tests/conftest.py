@@ -35,7 +35,7 @@ def drop_summary(err: str) -> str:
     """A batch's stderr without the summary line it ends with (``depixel: N files: ...``),
     which must be there."""
     lines = err.rstrip("\n").splitlines()
-    assert lines and re.match(r"depixel: \d+ files: ", lines[-1]), err
+    assert lines and re.match(r"depixel: \d+ files?: ", lines[-1]), err
     return "\n".join(lines[:-1])
 
 

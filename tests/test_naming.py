@@ -57,7 +57,7 @@ def test_format_picks_the_extension_beside_the_input(art, capsys):
     err = capsys.readouterr().err.splitlines()
     assert err == ["depixel: error: sprite.png: output sprite.png would overwrite an input; name the outputs "
                    "otherwise with --name, e.g. --name '{stem}-depixel'", err[-1]]
-    assert err[-1].startswith("depixel: 1 files: 0 converted,")  # the summary line of every batch
+    assert err[-1].startswith("depixel: 1 file: 0 converted,")  # the summary line of every batch
     assert main(["convert", "sprite.png", "--format", "png", "--name", "{stem}-depixel"]) == Exit.OK
     assert Image.open(art / "sprite-depixel.png").size == Image.open(art / "sprite.png").size
 
