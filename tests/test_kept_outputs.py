@@ -26,7 +26,7 @@ from depixel.files import stamp as stamps
 from depixel_cli.main import main
 from depixel_cli.options import Exit
 
-SUMMARY = re.compile(r"depixel: (\d+) files: (\d+) converted, (\d+) up to date, (\d+) kept(, \d+ edited)?"
+SUMMARY = re.compile(r"depixel: (\d+) files?: (\d+) converted, (\d+) up to date, (\d+) kept(, \d+ edited)?"
                      r"(, \d+ changed)?, (\d+) failed in [0-9.]+ s")
 
 

@@ -56,7 +56,7 @@ def lines(err: str) -> list[str]:
 def messages(err: str) -> tuple[list[str], str]:
     """A batch's lines on stderr but its summary line, and the summary (``N files: …``)."""
     found = lines(err)
-    assert re.fullmatch(r"depixel: \d+ files: .* in [0-9.]+ s", found[-1]), err
+    assert re.fullmatch(r"depixel: \d+ files?: .* in [0-9.]+ s", found[-1]), err
     return found[:-1], found[-1]
 
 
