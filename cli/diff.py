@@ -39,7 +39,8 @@ Compare two images (SVG, PDF or PNG) the way a person would. Both are brought to
 (a PNG's size, or the SVGs' own, times --scale; a PNG is enlarged by nearest neighbour, an
 SVG rendered at that size), flattened over a background colour neither contains (default
 magenta, so seams and alpha leaks show) and compared pixel by pixel with pixelmatch's YIQ
-distance; anti-aliasing differences are ignored (docs/cli.md says when a pixel counts as
+distance; anti-aliasing differences are ignored, except in an SVG or PDF drawn at under 3
+pixels an art pixel, where every pixel counts (docs/cli.md says when a pixel counts as
 anti-aliasing). The images are the same when no pixel differs, or when the differing pixels
 are within either tolerance given.
 

@@ -16,7 +16,7 @@ from depixel.diff.compare import (
     yiq_distance,
 )
 from depixel.diff.files import diff_files
-from depixel.diff.sources import SizeMismatchError
+from depixel.diff.sources import SizeMismatchError, read, too_coarse_for_antialiasing
 from depixel_cli.main import main
 from depixel_cli.options import Exit
 
@@ -246,10 +246,8 @@ def test_cli_errors_exit_2(heart_svg, tmp_path, capsys):
 
 @pytest.fixture(scope="module")
 def mushrooms(tmp_path_factory):
-    """mushroom.png and a copy with one red pixel of the cap made dark, both as SVG at 1x (a
-    pixel whose cell stays large: since issue 31 an edit changes the drawing near it only, and
-    the lone dark pixel at (4, 3) that this test edited before is a blob of ~0.25 px²,
-    which no comparison at 1x or 2x can tell from anti-aliasing)."""
+    """mushroom.png and a copy with one red pixel of the cap made dark, both as SVG at 1x
+    (a pixel whose cell stays large; ``mushroom_blob`` edits one drawn smaller than a pixel)."""
     folder = tmp_path_factory.mktemp("mushrooms")
     edited = np.asarray(Image.open(FIXTURES / "mushroom.png").convert("RGB")).copy()
     edited[5, 5] = (24, 20, 37)
@@ -267,6 +265,38 @@ def test_a_one_pixel_edit_is_seen_at_every_scale(mushrooms, scale):
     result, _ = diff_files(old, new, scale=scale)
     assert result.different_pixels > 0
     assert diff_files(old, old, scale=scale)[0].different_pixels == 0
+
+
+@pytest.fixture(scope="module")
+def mushroom_blob(tmp_path_factory):
+    """mushroom.png and a copy with the dark outline pixel (14, 7) made green, both as SVG at
+    1x: the green cell is a blob smaller than a pixel, drawn at 2x as a blend of two pixels
+    that the anti-aliasing rules alone excuse (benchmarks/diff_sensitivity.py)."""
+    folder = tmp_path_factory.mktemp("blob")
+    edited = np.asarray(Image.open(FIXTURES / "mushroom.png").convert("RGB")).copy()
+    edited[7, 14] = (0, 200, 0)
+    Image.fromarray(edited).save(folder / "edited.png")
+    for name, source in (("old", FIXTURES / "mushroom.png"), ("new", folder / "edited.png")):
+        assert main(["convert", str(source), "-o", str(folder / f"{name}.svg")]) == Exit.OK
+    return folder / "old.svg", folder / "new.svg"
+
+
+@pytest.mark.parametrize("scale", range(1, 9))
+def test_an_edit_drawn_smaller_than_a_pixel_is_seen_at_every_scale(mushroom_blob, scale):
+    """Below 3 pixels an art pixel every pixel over the threshold counts (the blob's two
+    blended pixels at 2x); from 3x the anti-aliasing rules see it by themselves."""
+    old, new = mushroom_blob
+    assert diff_files(old, new, scale=scale)[0].different_pixels > 0
+    assert diff_files(old, old, scale=scale)[0].different_pixels == 0
+
+
+def test_anti_aliasing_is_judged_only_from_three_pixels_an_art_pixel(mushroom_blob):
+    old, new = mushroom_blob
+    source = read(old)
+    assert source.art == (16, 14)
+    assert too_coarse_for_antialiasing(source, 32, 28) and not too_coarse_for_antialiasing(source, 48, 42)
+    assert not too_coarse_for_antialiasing(read(FIXTURES / "mushroom.png"), 16, 14)  # a raster's art is unknown
+    assert not diff_files(old, new, scale=2)[0].antialiased.any()  # nothing excused at 2x
 
 
 def test_a_scale_that_hides_the_art_is_refused(mushrooms, heart_svg, capsys):

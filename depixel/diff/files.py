@@ -21,7 +21,7 @@ from ..errors import DepixelError, display_name
 from ..limits import DEFAULT_MAX_DIFF_PIXELS
 from .compare import DEFAULT_THRESHOLD, Comparison, compare, flatten_in_place, pick_background, within
 from .mask import Mask, ignored
-from .sources import Source, draw_pair, pixels, read, sizes
+from .sources import Source, draw_pair, pixels, read, sizes, too_coarse_for_antialiasing
 
 SAME, DIFFERENT, MISSING, NEW, ERROR = "same", "different", "missing", "new", "error"
 VERDICTS = (SAME, DIFFERENT, MISSING, NEW, ERROR)
@@ -145,8 +145,10 @@ def compare_sources(a: Source, b: Source, settings: Settings,
     mask = ignored(settings.mask, w, h, settings.scale, settings.max_pixels)
     background = settings.background or pick_background([first, second])
     originals = (first.copy(), second.copy()) if keep else None
+    every_pixel = settings.include_antialiasing or any(
+        too_coarse_for_antialiasing(s, x.shape[1], x.shape[0]) for s, x in ((a, first), (b, second)))
     result = compare(flatten_in_place(first, background), flatten_in_place(second, background),
-                     settings.threshold, settings.include_antialiasing, mask)
+                     settings.threshold, every_pixel, mask)
     return result, background, originals
 
 

@@ -34,6 +34,10 @@ from ..prepare.image import check_pixels, load_image, read_source
 #: File name extensions of the renders ``diff`` compares in folders.
 EXTENSIONS = (".svg", ".svgz", ".png", ".pdf")
 _PT = 4.0 / 3.0  # CSS pixels per PDF point
+#: Pixels an art pixel of a vector file must be drawn with (a side) for the anti-aliasing test:
+#: at 1x and 2x, 64 of the 2,472 one-pixel edits of mushroom.png that showed were drawn as a
+#: blend of one or two pixels and excused (benchmarks/diff_sensitivity.py); from 3x, none.
+ANTIALIAS_MIN_SCALE = 3
 
 
 class SizeMismatchError(InputError):
@@ -125,6 +129,17 @@ def sizes(a: Source, b: Source, scale: float, allow_size_mismatch: bool = False)
     if out[0] != out[1] and not allow_size_mismatch:
         raise SizeMismatchError(f"{a.name} is {out[0][0]}x{out[0][1]} but {b.name} is {out[1][0]}x{out[1][1]}")
     return out
+
+
+def too_coarse_for_antialiasing(source: Source, width: int, height: int) -> bool:
+    """Is a vector file drawn at ``width`` × ``height`` given fewer than
+    :data:`ANTIALIAS_MIN_SCALE` pixels an art pixel along a side? There, one edited pixel of
+    the art can be drawn as a blend of one or two pixels, like an edge drawn differently, so
+    the anti-aliasing test cannot tell them apart (docs/cli.md, "Anti-aliasing"). A raster's
+    art is not known: never."""
+    if source.kind == "raster":
+        return False
+    return width < ANTIALIAS_MIN_SCALE * source.art[0] - 1e-9 or height < ANTIALIAS_MIN_SCALE * source.art[1] - 1e-9
 
 
 def pixels(source: Source, width: int, height: int, max_pixels: int | None = DEFAULT_MAX_DIFF_PIXELS) -> np.ndarray:
