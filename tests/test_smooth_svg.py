@@ -9,7 +9,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
-from conftest import FIXTURES, art, fixture_pngs
+from conftest import CORPUS, FIXTURES, art, fixture_pngs, needs_corpus
 from robust import SVG_NS, parse
 
 from depixel import Params, depixelize, load_image
@@ -214,3 +214,42 @@ def test_layers_panel_names_the_smooth_group():
     for path in group.iter(SVG_NS + "path"):
         role, colour = path.get(INK_LABEL).split(" ")
         assert colour == path.get("fill")
+
+
+def stepped_pairs(rendered: np.ndarray) -> np.ndarray:
+    """(K, 2) row and column of the left pixel of every stepped pair, as
+    ``shape_checks.py steps`` counts them: horizontal neighbours, opaque, away from contours
+    (7×7 luminance range ≤ 60), whose luminance differs by 6 levels or more."""
+    from scipy.ndimage import maximum_filter, minimum_filter
+
+    luma = rendered[..., :3].astype(float).mean(axis=2)
+    calm = (rendered[..., 3] == 255) & ((maximum_filter(luma, 7) - minimum_filter(luma, 7)) <= 60)
+    pair = calm[:, 1:] & calm[:, :-1] & (np.abs(np.diff(luma, axis=1)) >= 6)
+    return np.argwhere(pair)
+
+
+@needs_corpus
+def test_toads_steps_are_shading_edges_the_paper_keeps_crisp():
+    """docs/svg.md, "Why Toad keeps its steps": in sma_toad's default SVG (resvg, 8×) every
+    stepped pixel lies by cells of two regions, at a visible edge (a shading edge or a
+    contour, which §3.5's influence does not cross), none inside a region, as in the PNG
+    renderer; the flat bands have steps inside its three shaded regions."""
+    from depixel.render.shading import _cell_labels, _flatten, _pieces_per_curve, _Segments, render_smooth
+    from depixel.vector import regions
+
+    vector = depixelize(load_image(CORPUS / "sma_toad.png")).vector
+    h, w = vector.shape
+    segments = _Segments(vector, _flatten(vector, _pieces_per_curve(vector, 0.1 / 8)))
+    region = regions(vector.cells)[_cell_labels(segments, 0, h * 8, 8, 8, w * 8)]  # under each render pixel
+
+    def inside_a_region(rendered: np.ndarray) -> tuple[int, int]:
+        steps = stepped_pairs(rendered)
+        inside = sum(np.unique(region[max(0, y - 1) : y + 2, max(0, x - 1) : x + 3]).size == 1
+                     for y, x in steps.tolist())
+        return len(steps), inside
+
+    smooth, flat = (inside_a_region(render(to_svg(vector, shading=s), w * 8, h * 8)) for s in ("smooth", "flat"))
+    paper = inside_a_region(render_smooth(vector, 8))
+    assert smooth[1] == 0 and paper[1] == 0, (smooth, paper)
+    assert flat[1] > 50, flat
+    assert smooth[0] > 300 and abs(smooth[0] - paper[0]) <= 0.1 * paper[0], (smooth, paper)  # the shading edges
