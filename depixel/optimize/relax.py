@@ -335,9 +335,5 @@ def _clearance(model: Energy, ctrl: np.ndarray, knots: np.ndarray, group: Group,
         rows = member[part]
         points = trial_points(knots, group, trial, rows, at[part, None])
         clear[part, 0] = model.clearance_of(points, group, rows).ravel()
-        ends_on = group.ends_on.take(rows, axis=1)
-        snapped = np.logical_or.reduce(ends_on >= 0, axis=0).nonzero()[0]
-        if snapped.size:
-            ending = model.junctions.clearance(points.take(snapped, axis=2), ctrl, ends_on.take(snapped, axis=1))
-            clear[part.start + snapped, 1] = ending.ravel()
+        clear[part, 1] = model.junctions.clearance(points, ctrl, group.ends_on.take(rows, axis=1)).ravel()
     return clear
