@@ -35,7 +35,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..arrays import batch_slices, row_any, row_count, row_min, set_rows, unique
+from ..arrays import batch_slices, row_any, row_count, row_min, set_rows
 from ..curves.splines import SplineSet
 from ..params import Params
 from .energy import MEMBER_ROW, PREPARE_ONCE, Energy, Group, knots_of, trial_points
@@ -197,7 +197,9 @@ def _best(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, rad
         near[rows] = guard.near[rows]
         across = guard.across()
         np.putmask(energy, across, np.inf)
-        rows = unique(member.compress(refused | across.ravel().take(member * across.shape[1] + at)))
+        again = np.zeros(trial.shape[1], bool)  # the members with such a trial, in order (no sort)
+        again[member.compress(refused | across.ravel().take(member * across.shape[1] + at))] = True
+        rows = again.nonzero()[0]
     if rows.size:  # where one of them is refused, every other trial lower than staying
         energy.ravel()[(member * trial.shape[-1] + at).compress(refused)] = np.inf
         lower = energy.take(rows, axis=0) < stay.take(rows)[:, None]
