@@ -21,7 +21,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..arrays import either, ranges, set_rows, unique
+from ..arrays import either, ranges, set_rows
 from ..curves.bspline import flatten_edges_planes
 from ..curves.drawing import Drawing
 from ..curves.splines import SplineSet
@@ -349,7 +349,7 @@ def _walk_back(positions: np.ndarray, start: np.ndarray, nodes: np.ndarray, back
         set_rows(positions, finished, start.take(finished, axis=0))
         pending, level = pending.compress(~done), level.compress(~done)
         found = np.zeros(pending.size, bool)
-        for k in unique(level).tolist():
+        for k in np.bincount(level).nonzero()[0].tolist():  # the levels present, ascending (no sort)
             which = (level == k).nonzero()[0]
             undo = moves[rounds - 1 - k]
             index = np.full(len(positions), -1)

@@ -20,6 +20,10 @@ _T = np.arange(5) / 4.0
 #: point S of the span of a (P0 before, a, P2 before), of the member (own P0, trial, own P2)
 #: and of b (P0 after, b, P2 after)
 _TIPS = np.array([[0, 1, 5], [7, 4, 8], [6, 2, 3]])
+#: (1, 2, 1) x and y's rows among a point row's two
+_XY = np.arange(2)[None, :, None]
+#: (3, 5, 1, 1, 1) the weights of P0, P1, P2 at those t, computed as :meth:`Junctions.clearance` did
+_W = np.stack([(1 - _T) ** 2, 2 * _T * (1 - _T), _T**2])[:, :, None, None, None]
 
 
 class Junctions:
@@ -51,7 +55,9 @@ class Junctions:
         # same whichever way the curve runs
         centres = protected_points(splines, np.stack([np.minimum(ends, self.c1), np.minimum(self.c1, self.c2)], 1))
         corners = protected_points(splines, np.stack([ends, self.c1, self.c2], 1))[:, :, 2]
-        self.protected = np.concatenate([centres[:, :, :2].reshape(ends.size, 4, 2), corners], axis=1)
+        protected = np.concatenate([centres[:, :, :2].reshape(ends.size, 4, 2), corners], axis=1)
+        self.protected_xy = np.ascontiguousarray(protected.transpose(2, 1, 0))  # (2, 7, T)
+        self.end_c2 = self.end.take(self.c2)  # the joint of C1 and C2 is C2 itself
 
     def clearance(self, points: np.ndarray, ctrl: np.ndarray, ends_on: np.ndarray) -> np.ndarray:
         """(N, J) the smallest distance from the first spans of the curves ending on N members'
@@ -60,26 +66,31 @@ class Junctions:
         (:meth:`depixel.optimize.energy.Energy.points`); +inf where none ends there. The end
         follows the point S = (P0 + 2 P1 + P2) / 4 of the span it is snapped onto (as
         :meth:`depixel.curves.splines.SplineSet.snap`); the span is (S, C1, joint of C1 and C2),
-        sampled at t = 0, ¼, ½, ¾, 1 as the member's own spans are."""
+        sampled at t = 0, ¼, ½, ¾, 1 as the member's own spans are. Every array is gathered by
+        flat indices, x and y on a leading axis (a few calls whatever the number of ends)."""
         n, j = points.shape[2:]
-        out = np.full((n, j), np.inf)
-        which, member = (ends_on >= 0).nonzero()
-        if which.size == 0:
-            return out
-        row = self.row.take(ends_on[which, member])
-        tips = _TIPS.take(which % 3, axis=0)  # (E, 3)
-        pick = np.arange(member.size)
-        chosen = points[:, :, member]  # (9, 2, E, J)
-        start = chosen[tips[:, 0], :, pick] + 2.0 * chosen[tips[:, 1], :, pick]
-        start += chosen[tips[:, 2], :, pick]
-        start /= 4.0  # (E, 2, J)
-        c1, c2 = self.c1.take(row), self.c2.take(row)
-        middle, after = ctrl.take(c1, axis=0), ctrl.take(c2, axis=0)
-        stop = np.where(self.end.take(c2)[:, None], after, (middle + after) / 2.0)
-        t = _T[:, None, None, None]
-        curve = (1 - t) ** 2 * start + 2 * t * (1 - t) * middle[..., None] + t**2 * stop[..., None]  # (5, E, 2, J)
-        d = curve[:, :, None] - self.protected.take(row, axis=0)[None, :, :, :, None]  # (5, E, 7, 2, J)
+        flat = (ends_on.ravel() >= 0).nonzero()[0]  # (which, member) pairs as which * N + member
+        if flat.size == 0:
+            return np.full((n, j), np.inf)
+        which, member = np.divmod(flat, n)
+        row = self.row.take(ends_on.ravel().take(flat))
+        # the three points of the span each end is snapped onto, x and y: rows (3, 2, E) of
+        # points seen as (9 * 2 * N, J)
+        tips = _TIPS.T.take(which % 3, axis=1)[:, None] * 2 + _XY  # (3, 2, E): row * 2 + x or y
+        tips *= n
+        tips += member
+        chosen = points.reshape(-1, j).take(tips.ravel(), axis=0).reshape(tips.shape + (j,))
+        start = chosen[0] + 2.0 * chosen[1]
+        start += chosen[2]
+        start /= 4.0  # (2, E, J)
+        planes = ctrl.T
+        middle = planes.take(self.c1.take(row), axis=1)  # (2, E)
+        after = planes.take(self.c2.take(row), axis=1)
+        stop = np.where(self.end_c2.take(row), after, (middle + after) / 2.0)[..., None]  # (2, E, 1)
+        curve = _W[0] * start + _W[1] * middle[..., None] + _W[2] * stop  # (5, 2, E, J)
+        d = curve[:, :, None] - self.protected_xy.take(row, axis=2)[..., None]  # (5, 2, 7, E, J)
         np.square(d, out=d)
-        near = np.sqrt((d[:, :, :, 0] + d[:, :, :, 1]).min(axis=(0, 2)))  # (E, J)
-        np.minimum.at(out, member, near)
-        return out
+        near = np.add(d[:, 0], d[:, 1], out=d[:, 0]).min(axis=(0, 1))  # (E, J)
+        every = np.full((ends_on.shape[0] * n, j), np.inf)
+        every[flat] = np.sqrt(near, out=near)
+        return every.reshape(-1, n, j).min(axis=0)

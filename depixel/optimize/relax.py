@@ -35,7 +35,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..arrays import batch_slices, set_rows, unique
+from ..arrays import batch_slices, row_any, row_count, row_min, set_rows
 from ..curves.splines import SplineSet
 from ..params import Params
 from .energy import MEMBER_ROW, PREPARE_ONCE, Energy, Group, knots_of, trial_points
@@ -197,7 +197,9 @@ def _best(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, rad
         near[rows] = guard.near[rows]
         across = guard.across()
         np.putmask(energy, across, np.inf)
-        rows = unique(member.compress(refused | across[member, at]))
+        again = np.zeros(trial.shape[1], bool)  # the members with such a trial, in order (no sort)
+        again[member.compress(refused | across.ravel().take(member * across.shape[1] + at))] = True
+        rows = again.nonzero()[0]
     if rows.size:  # where one of them is refused, every other trial lower than staying
         energy.ravel()[(member * trial.shape[-1] + at).compress(refused)] = np.inf
         lower = energy.take(rows, axis=0) < stay.take(rows)[:, None]
@@ -207,15 +209,15 @@ def _best(model: Energy, ctrl: np.ndarray, anchor: np.ndarray, group: Group, rad
         refused = guard.refused(member, at)
         energy.ravel()[(member * trial.shape[-1] + at).compress(refused)] = np.inf
     tied = _tied(energy)
-    count = tied.sum(axis=1)
+    count = row_count(tied)
     target = np.einsum("cmt,mt->cm", trial, tied) / count
-    gain = stay - energy.min(axis=1)
+    gain = stay - row_min(energy)
     gain[tied[:, 0]] = 0.0
     target[:, tied[:, 0]] = here[:, tied[:, 0], 0]
     rows = (count > 1).nonzero()[0]
     if rows.size:  # tied trials at different places (not one place reached two ways)
         spread = np.abs(trial.take(rows, axis=1) - target.take(rows, axis=1)[..., None]).max(axis=0)
-        rows = rows.compress(np.logical_or.reduce(tied.take(rows, axis=0) & (spread > 1e-12), axis=1))
+        rows = rows.compress(row_any(tied.take(rows, axis=0) & (spread > 1e-12)))
     if rows.size:  # the mean of places tied (mirror images of each other) is a place of its own
         gain[rows] = _weigh_mean(model, guard, home, here, target, rows, stay, params)
         still = rows.compress(gain.take(rows) <= 0.0)
@@ -284,14 +286,14 @@ class _Guard:
 
     def _bound(self, member: np.ndarray, at: np.ndarray) -> np.ndarray:
         """(N,) a lower bound of the clearances of trials ``at`` of ``member``: staying's less the step."""
-        return self.near.take(member, axis=0).min(axis=1) - self.step[member, at]
+        return row_min(self.near.take(member, axis=0)) - self.step.ravel().take(member * self.trial.shape[-1] + at)
 
     def across(self) -> np.ndarray:
         """(M, T) bool: the trials that move farther than the curve could without crossing a
         protected point: every point of a span moves by at most the member's move, so the curve
         crosses a point only if the move is at least its distance before (d) plus after (at
         least min(d, clearance) for a trial the clearance allows)."""
-        reach = self.near.min(axis=1)
+        reach = row_min(self.near)
         reach += np.minimum(reach, self.clearance)
         far = self.step > reach[:, None] - 1e-9
         far[:, 0] = False
@@ -319,7 +321,7 @@ class _Guard:
 def _tied(energy: np.ndarray) -> np.ndarray:
     """(M, T) bool: the trials within :data:`TIE` of each row's least energy; a row whose
     staying is among them stays (only staying is marked)."""
-    tied = energy <= energy.min(axis=1, keepdims=True) + TIE
+    tied = energy <= (row_min(energy) + TIE)[:, None]
     tied[tied[:, 0], 1:] = False
     return tied
 
@@ -335,9 +337,5 @@ def _clearance(model: Energy, ctrl: np.ndarray, knots: np.ndarray, group: Group,
         rows = member[part]
         points = trial_points(knots, group, trial, rows, at[part, None])
         clear[part, 0] = model.clearance_of(points, group, rows).ravel()
-        ends_on = group.ends_on.take(rows, axis=1)
-        snapped = np.logical_or.reduce(ends_on >= 0, axis=0).nonzero()[0]
-        if snapped.size:
-            ending = model.junctions.clearance(points.take(snapped, axis=2), ctrl, ends_on.take(snapped, axis=1))
-            clear[part.start + snapped, 1] = ending.ravel()
+        clear[part, 1] = model.junctions.clearance(points, ctrl, group.ends_on.take(rows, axis=1)).ravel()
     return clear
