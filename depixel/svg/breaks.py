@@ -36,8 +36,8 @@ from .reference import planes
 MIN_STRAIGHT = 1.0 - 1e-6
 #: straight runs of the spline (with a quadratic lying within the grid of its chord: a 45-degree
 #: staircase's spans) at least this long are kept straight too, written as one line; shorter
-#: ones are left to the fits (a cut at every short one costs a tenth more commands)
-MIN_STRAIGHT_SPLINE = 3.0 - 1e-6
+#: ones are left to the fits (a cut at every one a pixel long costs a seventh more commands)
+MIN_STRAIGHT_SPLINE = 2.0 - 1e-6
 #: the class of a joint: always a cut, a knot, neither
 BREAK, KNOT, NONE = 0, 1, 2
 #: a unit tangent's component this small is zero (a mirrored image's numbers differ from the
