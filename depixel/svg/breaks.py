@@ -10,7 +10,11 @@ it is walked and after any of the square's symmetries:
 
 * **Straight runs** — :data:`MIN_STRAIGHT` pixels or more of collinear line segments: a pixel
   edge two pixels long or more, a 45° staircase — are kept exactly as they are, never bent
-  into a curve. Their ends always cut, like a piece's ends (:data:`BREAK`).
+  into a curve. Their ends always cut, like a piece's ends (:data:`BREAK`). So do those of
+  the spline's own straight runs, :data:`MIN_STRAIGHT_SPLINE` or more of collinear spans
+  each within the grid of its chord, which the simplification writes as one line: a
+  diagonal fitted together with the bend at its end would be re-drawn whole by an edit
+  that moves the bend.
 * **Knots** (:data:`KNOT`) are the joints where the tangent is horizontal or vertical: where
   the curve is farthest in x or y. A quadratic whose tangent turns through such a direction
   marks its nearer end (both ends when it does so at its middle, within :data:`_TIE`). The

@@ -23,7 +23,8 @@ A fit is kept only when
 So every pixel centre keeps its colour and every thin diagonal stays connected.
 
 Which runs are tried is decided by the curve alone (:mod:`depixel.svg.breaks`): straight runs
-stay as they are; each *stretch* between them and the pieces' ends is tried whole, and
+stay as they are (a straight run of the spline's quadratics becomes one line); each
+*stretch* between them and the pieces' ends is tried whole, and
 where it does not fit it is cut at its knots (where the tangent is horizontal or vertical),
 else at its joint farthest from the chord, and the parts are tried again; at last
 touching fits are merged two at a time, each merge that fits better than both merges it
