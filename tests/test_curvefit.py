@@ -127,9 +127,10 @@ def _plain_worst_distances(exact, lo, hi, c1, c2):
     worst = []
     for a, b, k1, k2 in zip(lo.tolist(), hi.tolist(), c1, c2):
         points = exact.part_start[:, a:b].reshape(2, -1)
-        before = exact.arc_before[a]
-        arc = (exact.arc_before[a:b, None] + exact.arc[a:b]).ravel() - before
-        u = arc / max(exact.arc_before[b - 1] + exact.length[b - 1] - before, 1e-300)
+        lengths = exact.length[a:b]
+        summed = lengths.cumsum()  # (the range's own running sum)
+        arc = ((summed - lengths)[:, None] + exact.arc[a:b]).ravel()
+        u = arc / max(summed[-1], 1e-300)
         q0, q1, q2, q3 = exact.start[a][:, None], k1[:, None], k2[:, None], exact.end[b - 1][:, None]
         d10, d21, d32, e1, e2 = q1 - q0, q2 - q1, q3 - q2, q2 - 2 * q1 + q0, q3 - 2 * q2 + q1
         for _ in range(2):

@@ -57,13 +57,16 @@ def test_a_crop_of_an_upscaled_image_is_overlaid_exactly():
     assert (root.get("width"), root.get("height"), root.get("viewBox")) == ("37", "35", "0.5 0.75 9.25 8.75")
     # the same drawing as the full conversion, only its view cropped; drawn at the input's
     # size it is the same picture, cropped the same way (up to cairo's anti-aliasing of a
-    # curve that crosses the clipped edge: a few levels)
+    # curve that crosses the clipped edge: a few levels inside, 11 on the edge where the
+    # heart's 45-degree side, a line, crosses it)
     full = depixel.convert(HEART, scale=4)
     assert svg[svg.index("<path"):] == full[full.index("<path"):]
     whole = render_rgba(full)
     part = render_rgba(svg)
     assert part.shape == (35, 37, 4)
-    assert np.abs(part.astype(int) - whole[3:38, 2:39]).max() <= 4
+    difference = np.abs(part.astype(int) - whole[3:38, 2:39]).max(axis=-1)
+    assert difference[1:-1, 1:-1].max() <= 4
+    assert difference.max() <= 16
 
 
 def test_non_square_pixels_stretch_the_art():

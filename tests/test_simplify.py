@@ -200,6 +200,41 @@ def test_straight_runs_stay_lines(image, tolerance):
         assert covered == pytest.approx(np.hypot(b[0] - a[0], b[1] - a[1]), abs=1e-9), (a, b)
 
 
+#: a diamond: its four sides 45-degree staircases, which the optimizer draws as straight
+#: runs of spans (their controls rounded to the grid a hundredth off the line)
+DIAMOND = art("""
+..........
+....##....
+...####...
+..######..
+.########.
+.########.
+..######..
+...####...
+....##....
+..........
+""")
+
+
+@pytest.mark.parametrize("tolerance", [0.25, 1.0])
+def test_a_straight_run_of_the_spline_is_one_line(tolerance):
+    """A 45-degree staircase drawn as a straight run of the spline's spans (each within the
+    grid of its chord) two pixels long or more is written as one line, and so cuts the piece:
+    a curve fitted over it and the bend beyond would redraw the whole side when an edit
+    moves the bend (docs/design.md, Locality of the default --simplify)."""
+    exact = _pieces(DIAMOND, 0.0, grid=0.01, stage="optimized")
+    start = _starts(exact)
+    chord = exact.end - start
+    flat = (exact.kind == QUAD) & (np.abs(np.abs(chord[:, 0]) - np.abs(chord[:, 1])) < 1e-9)
+    assert flat.sum() >= 8  # the sides' spans, 45 degrees each
+    simple = _pieces(DIAMOND, tolerance, grid=0.01, stage="optimized")
+    start = _starts(simple)
+    chord = simple.end - start
+    lines = (simple.kind == LINE) & (np.abs(np.abs(chord[:, 0]) - np.abs(chord[:, 1])) < 1e-9)
+    lengths = np.hypot(chord[lines, 0], chord[lines, 1])
+    assert lines.sum() == 4 and (lengths >= 2 - 1e-6).all(), lengths  # one line a side
+
+
 def _on_segment(p, a, b) -> bool:
     a, b, p = np.asarray(a), np.asarray(b), np.asarray(p)
     d, q = b - a, p - a

@@ -10,7 +10,11 @@ it is walked and after any of the square's symmetries:
 
 * **Straight runs** — :data:`MIN_STRAIGHT` pixels or more of collinear line segments: a pixel
   edge two pixels long or more, a 45° staircase — are kept exactly as they are, never bent
-  into a curve. Their ends always cut, like a piece's ends (:data:`BREAK`).
+  into a curve. Their ends always cut, like a piece's ends (:data:`BREAK`). So do those of
+  the spline's own straight runs, :data:`MIN_STRAIGHT_SPLINE` or more of collinear spans
+  each within the grid of its chord, which the simplification writes as one line: a
+  diagonal fitted together with the bend at its end would be re-drawn whole by an edit
+  that moves the bend.
 * **Knots** (:data:`KNOT`) are the joints where the tangent is horizontal or vertical: where
   the curve is farthest in x or y. A quadratic whose tangent turns through such a direction
   marks its nearer end (both ends when it does so at its middle, within :data:`_TIE`). The
@@ -28,12 +32,16 @@ from dataclasses import replace
 import numpy as np
 
 from ..arrays import ranges
-from .boundaries import LINE, BoundaryPieces
+from .boundaries import LINE, QUAD, BoundaryPieces
 from .reference import planes
 
 #: straight runs at least this long (pixels) are kept as lines: the run of lines between the
 #: spans at the ends of a pixel edge two pixels long is one pixel long
 MIN_STRAIGHT = 1.0 - 1e-6
+#: straight runs of the spline (with a quadratic lying within the grid of its chord: a 45-degree
+#: staircase's spans) at least this long are kept straight too, written as one line; shorter
+#: ones are left to the fits (a cut at every one a pixel long costs a seventh more commands)
+MIN_STRAIGHT_SPLINE = 2.0 - 1e-6
 #: the class of a joint: always a cut, a knot, neither
 BREAK, KNOT, NONE = 0, 1, 2
 #: a unit tangent's component this small is zero (a mirrored image's numbers differ from the
@@ -68,8 +76,16 @@ class Breaks:
         leg0 = np.where(line, chord, ctrl - self.start)  # a line's legs: its chord
         leg1 = np.where(line, chord, self.end - ctrl)
         t0, t1 = _unit(leg0), _unit(leg1)
-        self.fixed = _straight_runs(line, t0, np.sqrt(chord[0] * chord[0] + chord[1] * chord[1]), before, first,
-                                    last)
+        length = np.sqrt(chord[0] * chord[0] + chord[1] * chord[1])
+        # a quadratic whose control lies within twice the grid of its chord is within the grid
+        # of it: straight as written (a 45-degree staircase's spans, their controls rounded)
+        off = np.abs((ctrl[0] - self.start[0]) * chord[1] - (ctrl[1] - self.start[1]) * chord[0])
+        flat = (pieces.kind == QUAD) & (length > 0) & (off <= (2 * (pieces.grid or 0.0) + 1e-9) * length)
+        along = (ctrl[0] - self.start[0]) * chord[0] + (ctrl[1] - self.start[1]) * chord[1]
+        flat &= (along > 0) & (along < length * length)
+        straight = line | flat
+        self.fixed, self.run = _straight_runs(straight, np.where(line, t0, _unit(chord)), length, before, first,
+                                              last, flat)
         has_before = before >= 0
         b = np.maximum(before, 0)
         tangent = _unit(t0 + np.where(has_before, t1.take(b, axis=1), 0.0))
@@ -81,7 +97,7 @@ class Breaks:
 
     def reorder(self, order: np.ndarray) -> None:
         """Segment ``order[k]`` becomes segment k (:func:`piece_breaks` starts a closed piece elsewhere)."""
-        self.fixed, self.joint = self.fixed.take(order), self.joint.take(order)
+        self.fixed, self.joint, self.run = self.fixed.take(order), self.joint.take(order), self.run.take(order)
         self.start, self.end = self.start.take(order, axis=1), self.end.take(order, axis=1)
 
     def stretches(self) -> tuple[np.ndarray, np.ndarray]:
@@ -186,9 +202,11 @@ def _unit(v: np.ndarray) -> np.ndarray:
 
 
 def _straight_runs(line: np.ndarray, direction: np.ndarray, length: np.ndarray, before: np.ndarray,
-                   first: np.ndarray, last: np.ndarray) -> np.ndarray:
-    """(K,) bool: the line segments of runs of collinear lines :data:`MIN_STRAIGHT` long or
-    more (on a closed piece a run may go on through its start; ``direction``: (2, K) planes)."""
+                   first: np.ndarray, last: np.ndarray, flat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(K,) bool: the straight segments (``line``: lines and the ``flat`` quadratics) of runs of
+    collinear ones :data:`MIN_STRAIGHT` long or more, :data:`MIN_STRAIGHT_SPLINE` with a flat
+    quadratic (on a closed piece a run may go on through its start; ``direction``: (2, K)
+    planes), and (K,) the run of each (-1: none)."""
     b = np.maximum(before, 0)
     back = direction.take(b, axis=1)
     cont = line & (before >= 0) & line.take(b)
@@ -201,7 +219,12 @@ def _straight_runs(line: np.ndarray, direction: np.ndarray, length: np.ndarray, 
     leading = cont & (gaps == gaps.take(first) - (~cont).take(first))
     label[leading] = label.take(last.compress(leading))
     total = np.bincount(label.compress(line), weights=length.compress(line), minlength=int(run_start.sum()))
-    return line & (total.take(np.maximum(label, 0)) >= MIN_STRAIGHT) if total.size else np.zeros(line.size, bool)
+    if total.size == 0:
+        return np.zeros(line.size, bool), np.full(line.size, -1, np.int64)
+    curved = np.bincount(label.compress(line), weights=flat.compress(line), minlength=total.size) > 0
+    enough = total >= np.where(curved, MIN_STRAIGHT_SPLINE, MIN_STRAIGHT)
+    fixed = line & enough.take(np.maximum(label, 0))
+    return fixed, np.where(fixed, label, -1)
 
 
 def _mark_turns(joint: np.ndarray, leg0: np.ndarray, leg1: np.ndarray, t0: np.ndarray, t1: np.ndarray,

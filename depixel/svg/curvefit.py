@@ -85,10 +85,22 @@ class _Samples:
         self.count = (hi - lo) * T_ORIG.size - 1  # samples of each range, which start at first
         self.first = self.count.cumsum() - self.count
         sample = ranges(lo * T_ORIG.size + 1, self.count)  # flat (segment, sample) of Exact's
-        before = exact.arc_before.take(lo)
-        arc = exact.arc_before.take(sample // T_ORIG.size) + exact.arc.ravel().take(sample) \
-            - before.repeat(self.count)
-        self.total = exact.arc_before[hi - 1] + exact.length[hi - 1] - before
+        # the arc length before each segment of a range, summed from the range's start, a row
+        # of a table per range: a range's parameters are its own numbers, the same bits
+        # whatever the other segments of the image (a running sum over all of them, less its
+        # value at the range's start, would move their last bits with any edit anywhere)
+        n_seg = hi - lo
+        width = int(n_seg.max()) if n_seg.size else 0
+        lengths = np.zeros((lo.size, width))
+        inside = np.arange(width) < n_seg[:, None]
+        lengths[inside] = exact.length.take(ranges(lo, n_seg))
+        summed = lengths.cumsum(axis=1)  # (row by row, in order)
+        self.total = summed[:, -1] if width else np.zeros(0)
+        before = (summed - lengths)[inside]  # (each range's segments in turn)
+        del lengths, summed, inside
+        at = sample // T_ORIG.size - lo.repeat(self.count)  # each sample's segment's place in its range
+        at += (n_seg.cumsum() - n_seg).repeat(self.count)
+        arc = before.take(at) + exact.arc.ravel().take(sample)
         #: (5, S) every range's samples: x, y, their parameters u, (1 - u)³ and u³ (every
         #: candidate's first Newton step uses the cubes); one table, so one gather picks them
         self.table = np.empty((5, sample.size))

@@ -76,7 +76,6 @@ class Exact:
         del dx, dy
         self.length = step.sum(axis=1)  # polyline length of each segment
         self.arc = step.cumsum(axis=1) - step  # arc length of each sample within its segment
-        self.arc_before = self.length.cumsum() - self.length  # arc length before each segment (global)
         self.tolerance = _piece_tolerance(pieces, self, tolerance)  # (K,) each segment's own limit
 
 

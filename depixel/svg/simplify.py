@@ -23,7 +23,8 @@ A fit is kept only when
 So every pixel centre keeps its colour and every thin diagonal stays connected.
 
 Which runs are tried is decided by the curve alone (:mod:`depixel.svg.breaks`): straight runs
-stay as they are; each *stretch* between them and the pieces' ends is tried whole, and
+stay as they are (a straight run of the spline's quadratics becomes one line); each
+*stretch* between them and the pieces' ends is tried whole, and
 where it does not fit it is cut at its knots (where the tangent is horizontal or vertical),
 else at its joint farthest from the chord, and the parts are tried again; at last
 touching fits are merged two at a time, each merge that fits better than both merges it
@@ -40,7 +41,7 @@ import numpy as np
 
 from ..arrays import batch_bounds, in_sorted, unique
 from ..vector import VectorImage
-from .boundaries import CUBIC, BoundaryPieces
+from .boundaries import CUBIC, LINE, QUAD, BoundaryPieces
 from .breaks import BREAK, Breaks, piece_breaks
 from .curvefit import fit
 from .reference import BATCH, Exact, Protected
@@ -67,7 +68,30 @@ def simplify_pieces(pieces: BoundaryPieces, image: VectorImage, tolerance: float
     curve = hi - lo > 1  # (a single segment is kept as it is)
     lo, hi = lo[curve], hi[curve]
     kind, c1, c2, _, _ = fits.get(lo, hi)
+    line_lo, line_hi = _bent_straight_runs(pieces, breaks)
+    if line_lo.size:
+        nan = np.full((line_lo.size, 2), np.nan)
+        order = np.concatenate([lo, line_lo]).argsort(kind="stable")
+        lo, hi = np.concatenate([lo, line_lo])[order], np.concatenate([hi, line_hi])[order]
+        kind = np.concatenate([kind, np.full(line_lo.size, LINE, np.uint8)])[order]
+        c1, c2 = np.concatenate([c1, nan])[order], np.concatenate([c2, nan])[order]
     return _assemble(pieces, lo, hi, kind, c1, c2)
+
+
+def _bent_straight_runs(pieces: BoundaryPieces, breaks: Breaks) -> Ranges:
+    """The ranges [lo, hi) of the straight runs (:class:`Breaks`) with a quadratic, each to be
+    written as one line (a closed piece starts at a run's start, :func:`piece_breaks`, so no
+    run goes on through a piece's start here)."""
+    run = breaks.run
+    piece_start = np.zeros(run.size, bool)
+    piece_start[pieces.ptr[:-1].compress(pieces.ptr[1:] > pieces.ptr[:-1])] = True
+    begins = (run >= 0) & (piece_start | (run != np.roll(run, 1)))
+    starts = begins.nonzero()[0]
+    stops = np.concatenate([(begins | (run < 0)).nonzero()[0], [run.size]])
+    ends = stops.take(stops.searchsorted(starts, side="right"))
+    quads = np.concatenate([[0], np.cumsum(pieces.kind == QUAD)])
+    bent = quads.take(ends) > quads.take(starts)
+    return starts.compress(bent), ends.compress(bent)
 
 
 #: a pass of fits costs about a quarter of a millisecond of numpy calls whatever its size,
