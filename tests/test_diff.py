@@ -244,17 +244,21 @@ def test_cli_errors_exit_2(heart_svg, tmp_path, capsys):
 
 # --- no missed change, no comparison that cannot see the art -------------------------------
 
-@pytest.fixture(scope="module")
-def mushrooms(tmp_path_factory):
-    """mushroom.png and a copy with one red pixel of the cap made dark, both as SVG at 1x
-    (a pixel whose cell stays large; ``mushroom_blob`` edits one drawn smaller than a pixel)."""
-    folder = tmp_path_factory.mktemp("mushrooms")
+def converted_mushroom_edit(folder, row_col: tuple[int, int], colour: tuple[int, int, int]):
+    """mushroom.png and a copy with the pixel at ``row_col`` set to ``colour``, both
+    converted to SVG at 1x in ``folder``: (old.svg, new.svg)."""
     edited = np.asarray(Image.open(FIXTURES / "mushroom.png").convert("RGB")).copy()
-    edited[5, 5] = (24, 20, 37)
+    edited[row_col] = colour
     Image.fromarray(edited).save(folder / "edited.png")
     for name, source in (("old", FIXTURES / "mushroom.png"), ("new", folder / "edited.png")):
         assert main(["convert", str(source), "-o", str(folder / f"{name}.svg")]) == Exit.OK
     return folder / "old.svg", folder / "new.svg"
+
+@pytest.fixture(scope="module")
+def mushrooms(tmp_path_factory):
+    """mushroom.png and a copy with one red pixel of the cap made dark, both as SVG at 1x
+    (a pixel whose cell stays large; ``mushroom_blob`` edits one drawn smaller than a pixel)."""
+    return converted_mushroom_edit(tmp_path_factory.mktemp("mushrooms"), (5, 5), (24, 20, 37))
 
 
 @pytest.mark.parametrize("scale", range(1, 9))
@@ -272,13 +276,7 @@ def mushroom_blob(tmp_path_factory):
     """mushroom.png and a copy with the dark outline pixel (14, 7) made green, both as SVG at
     1x: the green cell is a blob smaller than a pixel, drawn at 2x as a blend of two pixels
     that the anti-aliasing rules alone excuse (benchmarks/diff_sensitivity.py)."""
-    folder = tmp_path_factory.mktemp("blob")
-    edited = np.asarray(Image.open(FIXTURES / "mushroom.png").convert("RGB")).copy()
-    edited[7, 14] = (0, 200, 0)
-    Image.fromarray(edited).save(folder / "edited.png")
-    for name, source in (("old", FIXTURES / "mushroom.png"), ("new", folder / "edited.png")):
-        assert main(["convert", str(source), "-o", str(folder / f"{name}.svg")]) == Exit.OK
-    return folder / "old.svg", folder / "new.svg"
+    return converted_mushroom_edit(tmp_path_factory.mktemp("blob"), (7, 14), (0, 200, 0))
 
 
 @pytest.mark.parametrize("scale", range(1, 9))
