@@ -23,8 +23,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_batch import DEFAULT_CORPUS, make_inputs  # noqa: E402
 
-import depixel_cli.batch_run as batch_run  # noqa: E402
-from depixel_cli.batch import Outcome, run_job  # noqa: E402
+import depixel_cli.convert.run as batch_run  # noqa: E402
+from depixel_cli.convert.batch import Outcome, run_job  # noqa: E402
 
 
 def timed_run_job(job) -> Outcome:
@@ -53,7 +53,7 @@ def main() -> None:
             report(outcome)
         return run(jobs, workers, record, signals, progress)
 
-    import depixel_cli.convert as convert
+    import depixel_cli.convert.command as convert
     convert.run = recording_run
     with tempfile.TemporaryDirectory() as tmp:
         inputs = Path(tmp) / "in"

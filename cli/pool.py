@@ -47,8 +47,8 @@ DEPTH = 2
 #: that no worker imports it: the job code, the modules a conversion imports on first use
 #: (~0.1 s of each worker's first file otherwise) and the worker loop (this module, and
 #: ctypes for ``worker.die_with_parent``).
-PRELOAD = ["depixel_cli.batch", "PIL.PngImagePlugin", "depixel.curves.splines", "depixel.optimize.stage", "tempfile",
-           "depixel_cli.pool", "depixel_cli.worker", "ctypes"]
+PRELOAD = ["depixel_cli.convert.batch", "PIL.PngImagePlugin", "depixel.curves.splines", "depixel.optimize.stage",
+           "tempfile", "depixel_cli.pool", "depixel_cli.worker", "ctypes"]
 #: How workers start: ``fork`` from the main process on Linux; elsewhere (where a forked
 #: process may not use some system libraries) a ``forkserver``, else ``spawn``.
 START_METHOD = "fork" if sys.platform.startswith("linux") else "forkserver"

@@ -1,4 +1,4 @@
-"""``depixel render`` and ``depixel inspect`` (``depixel diff`` is :mod:`depixel_cli.diff`)."""
+"""``depixel render`` and ``depixel inspect`` (``depixel diff`` is :mod:`depixel_cli.diff.command`)."""
 from __future__ import annotations
 
 import argparse

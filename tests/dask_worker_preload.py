@@ -50,14 +50,14 @@ elif MODE == "other-version":
     depixel.__version__ = depixel.version.__version__ = "0.0.0+other"
 
 elif MODE == "liar":
-    import depixel_cli.batch as batch
+    import depixel_cli.convert.batch as batch
 
     def _claims(job):
         return batch.Outcome(job.source, job.output, written=[job.output])
 
     batch.run_job = _claims
     try:
-        import depixel_cli.dask_task as dask_task
+        import depixel_cli.dask.task as dask_task
 
         dask_task.run_job = _claims
     except ImportError:  # an older depixel: its task is batch.run_job itself

@@ -146,7 +146,7 @@ def test_folder_inputs_leave_out_hidden_files_other_files_and_the_output_folder(
     """A folder gives its images (in subfolders with -r), not hidden ones, not other files,
     not folders named like images, and not what lies in the output folder inside it (unless
     the output folder is the input folder); a file named again is taken once."""
-    from depixel_cli.batch_inputs import expand_inputs
+    from depixel_cli.convert.inputs import expand_inputs
 
     src = tmp_path / "in"
     for name in ("a.png", ".hidden.png", ".cache/b.png", "sub/c.GIF", "out/d.png", "notes.txt"):
@@ -312,10 +312,10 @@ def test_svg_conversion_loads_only_what_it_needs(tmp_path, name):
     a PNG needs no JPEG reader (~7 ms with the ``subprocess`` module it imports), and nothing
     imports ``numpy.random`` (~13 ms; the relaxation has no random draws); the options
     stamp takes CPython's own SHA-256, not OpenSSL's through ``hashlib`` (~4 ms); only the
-    command run has its arguments and module (``depixel_cli.tools``, ``depixel_cli.inkscape``),
+    command run has its arguments and module (``depixel_cli.tools``, ``depixel_cli.inkscape.command``),
     and the help width does not need ``shutil`` (~4 ms)."""
     unneeded = ("cairosvg", "cairocffi", "scipy", "numpy.ma", "tempfile", "difflib", "numpy.random", "_hashlib",
-                "shutil", "depixel_cli.tools", "depixel_cli.inkscape")
+                "shutil", "depixel_cli.tools", "depixel_cli.inkscape.command")
     if name.endswith(".png"):  # nor the JPEG decoder's chroma model (~3 ms)
         unneeded += ("PIL.JpegImagePlugin", "subprocess", "depixel.prepare.chroma", "depixel.prepare.chroma_unmix")
     code = (

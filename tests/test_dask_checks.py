@@ -12,9 +12,9 @@ from conftest import FIXTURES
 from depixel.errors import OutputError
 from depixel.files.output import STILL_WANTED, commit, remove_temporary_in, stage, temporary_path, write_atomic
 from depixel.params import Params
-from depixel_cli.batch import CANCELLED, INTERRUPTED, Job, Options, Outcome, run_job, totals_line
-from depixel_cli.dask_batch import _checked
-from depixel_cli.dask_cluster import DaskError, checked_address
+from depixel_cli.convert.batch import CANCELLED, INTERRUPTED, Job, Options, Outcome, run_job, totals_line
+from depixel_cli.dask.batch import _checked
+from depixel_cli.dask.cluster import DaskError, checked_address
 
 
 @pytest.mark.parametrize("address", ["", "tcp://", "tcp://h:8786/extra", "tcp://h:", ":8786", "tcp://tcp://h:1",

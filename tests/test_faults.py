@@ -318,9 +318,9 @@ def test_workers_are_forked_from_the_command_with_its_imports():
     imports depixel again."""
     from pool_jobs import imported
 
-    import depixel_cli.convert  # noqa: F401  (imported by the command, not by the pool's preload)
+    import depixel_cli.convert.command  # noqa: F401  (imported by the command, not by the pool's preload)
 
-    modules = (*pool.PRELOAD, "depixel_cli.convert")
+    modules = (*pool.PRELOAD, "depixel_cli.convert.command")
     done: list[Finished] = []
     with Signals(raising=False) as signals:
         run_jobs([modules] * 4, 2, imported, done.append, signals)
@@ -351,7 +351,7 @@ def test_progress_bar_starts_no_thread(monkeypatch):
     import pty
     import threading
 
-    from depixel_cli.batch_run import Progress
+    from depixel_cli.convert.run import Progress
 
     master, slave = pty.openpty()
     with os.fdopen(slave, "w") as terminal:
@@ -368,8 +368,8 @@ def test_main_process_converts_only_small_files_itself(tmp_path):
     """Memory: the main process takes a file while its workers start only up to 256×256."""
     from PIL import Image
 
-    from depixel_cli.batch import Job
-    from depixel_cli.batch_run import small
+    from depixel_cli.convert.batch import Job
+    from depixel_cli.convert.run import small
 
     for size, expected in (((256, 256), True), ((257, 256), False)):
         Image.new("RGB", size).save(tmp_path / "x.png")
@@ -433,7 +433,9 @@ def test_an_output_the_dead_worker_completed_counts_as_converted(tmp_path, monke
     finds the output up to date; the batch lists it as converted (written since the batch
     began), not as skipped. An output from before the batch stays up to date."""
     import depixel
-    from depixel_cli import batch, batch_run, pool
+    from depixel_cli import pool
+    from depixel_cli.convert import batch
+    from depixel_cli.convert import run as batch_run
 
     options = batch.Options(depixel.Params(), ("svg",), "cells", 1.0, "first", None, None, force=False)
     (tmp_path / "out").mkdir()

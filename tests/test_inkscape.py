@@ -26,7 +26,7 @@ from PIL import Image
 
 from depixel.render.raster import render_rgba
 from depixel.svg.writer import DEFAULT_SIMPLIFY
-from depixel_cli import inkscape as installer
+from depixel_cli.inkscape import command as installer
 from depixel_cli.main import main
 from depixel_cli.options import Exit
 

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 from test_inkscape import why_not
 
-from depixel_cli import inkscape as installer
+from depixel_cli.inkscape import command as installer
 from depixel_cli.main import main
 from depixel_cli.options import Exit
 

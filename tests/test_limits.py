@@ -209,7 +209,7 @@ def test_over_long_names_are_one_line(tmp_path, capsys):
 def test_frames_all_reads_the_file_once(tmp_path, monkeypatch):
     """17.12: every frame decoded once, in order, from one read of the file."""
     from depixel.prepare import image
-    from depixel_cli.batch import Job, Options, run_job
+    from depixel_cli.convert.batch import Job, Options, run_job
 
     frames = [Image.new("RGB", (8, 8), (8 * i, 255 - 8 * i, 0)) for i in range(30)]
     gif = tmp_path / "many.gif"
@@ -228,7 +228,8 @@ def test_frames_all_reads_the_file_once(tmp_path, monkeypatch):
 def test_auto_jobs_fit_the_memory(tmp_path):
     """17 (memory-aware -j auto): the largest pending image decides how many workers fit."""
     from depixel.limits import PEAK_BYTES_PER_PIXEL, WORKER_BASELINE_BYTES
-    from depixel_cli import batch, batch_run
+    from depixel_cli.convert import batch
+    from depixel_cli.convert import run as batch_run
 
     big = tmp_path / "big.png"
     Image.new("RGB", (1000, 1000)).save(big)

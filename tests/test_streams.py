@@ -294,7 +294,7 @@ def test_explicit_jobs_are_capped_by_memory(tmp_path):
 
     with Image.open(HEART) as img:
         need = WORKER_BASELINE_BYTES + PEAK_BYTES_PER_PIXEL * img.size[0] * img.size[1]
-    code = ("import sys; from depixel_cli import batch_run; "
+    code = ("import sys; from depixel_cli.convert import run as batch_run; "
             f"batch_run.available_memory = lambda: {int(need * 2.5)}; "
             "from depixel_cli.main import main; sys.exit(main(sys.argv[1:]))")
     run = subprocess.run([sys.executable, "-c", code, "convert", str(folder), "--out-dir", str(tmp_path / "out"),

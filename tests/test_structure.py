@@ -30,7 +30,7 @@ def module_name(path: Path) -> str:
 
 
 def sources() -> dict[str, Path]:
-    files = [*LIBRARY.rglob("*.py"), *(p for p in CLI.rglob("*.py") if "inkscape_extension" not in p.parts)]
+    files = [*LIBRARY.rglob("*.py"), *(p for p in CLI.rglob("*.py") if "extension" not in p.parts)]
     return {module_name(p): p for p in sorted(files)}
 
 

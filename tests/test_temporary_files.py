@@ -22,7 +22,7 @@ from PIL import Image
 from depixel.errors import ParameterError
 from depixel.files import output
 from depixel.params import Params
-from depixel_cli.batch import Job, Options, remove_temporary_files
+from depixel_cli.convert.batch import Job, Options, remove_temporary_files
 
 #: what a user may keep beside an output: names the old ``.NAME.*.tmp`` glob matched
 USER_FILES = (".{name}.mine.tmp", ".{name}.0123456789ab.tmp", ".{name}.depixel-1-0123456789ab.tmp",

@@ -42,7 +42,7 @@ _run_token: str | None = None
 #: The temporary files this process created and has not yet renamed or removed.
 _created: set[Path] = set()
 #: Asked just before outputs are renamed into place, when set: False means that the batch
-#: they belong to has stopped, and they are not written (depixel_cli/dask_task.py).
+#: they belong to has stopped, and they are not written (depixel_cli/dask/task.py).
 STILL_WANTED: ContextVar[Callable[[], bool] | None] = ContextVar("depixel_still_wanted", default=None)
 
 

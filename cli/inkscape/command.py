@@ -1,9 +1,9 @@
 """``depixel inkscape install|uninstall|check``: put the Inkscape extension where Inkscape finds it.
 
-The extension (``inkscape_extension/``, shipped as package data) is an ``.inx`` description
+The extension (``extension/``, shipped as package data) is an ``.inx`` description
 and a script; Inkscape runs the script with its own Python, so install also records the
 command that runs this depixel (``RECORDED_COMMAND``) for the script to find it, and first
-checks that this Python has what inkex needs (:mod:`depixel_cli.inkscape_python`).
+checks that this Python has what inkex needs (:mod:`depixel_cli.inkscape.python`).
 """
 from __future__ import annotations
 
@@ -16,11 +16,11 @@ from pathlib import Path
 from depixel.errors import DepixelError, OutputError, display_name
 from depixel.files.output import write_atomic
 
-from .inkscape_python import CHECK_SCRIPT, Finding, check, describe
-from .options import Exit
+from ..options import Exit
+from .python import CHECK_SCRIPT, Finding, check, describe
 
 #: The extension's own files, shipped in the package.
-SOURCE = Path(__file__).resolve().parent / "inkscape_extension"
+SOURCE = Path(__file__).resolve().parent / "extension"
 SHIPPED = ("depixel_inkscape.inx", "depixel_inkscape.py", "depixel_inkscape_place.py", CHECK_SCRIPT)
 #: Written at install: {"command": [...]} runs the depixel that installed the extension (the
 #: script reads it under the same name, depixel_inkscape.py: RECORDED_COMMAND).

@@ -19,21 +19,7 @@ from depixel.prepare.inputs import lossy_format
 from depixel.svg.outlines import LAYOUTS
 from depixel.svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
 
-from .batch import (
-    DONE,
-    Job,
-    Options,
-    Outcome,
-    current_traceback,
-    kept_lines,
-    preview,
-    record_prepared,
-    summary,
-    totals_line,
-)
-from .batch_inputs import DEFAULT_NAME, expand_inputs, make_folders, name_template, plan
-from .batch_run import Progress, Repeats, auto_jobs, cores, run
-from .options import (
+from ..options import (
     Exit,
     add_dask_options,
     add_input_options,
@@ -47,7 +33,21 @@ from .options import (
     positive_int,
     tolerance,
 )
-from .streams import print_stdout, stdin_closed, write_stdout
+from ..streams import print_stdout, stdin_closed, write_stdout
+from .batch import (
+    DONE,
+    Job,
+    Options,
+    Outcome,
+    current_traceback,
+    kept_lines,
+    preview,
+    record_prepared,
+    summary,
+    totals_line,
+)
+from .inputs import DEFAULT_NAME, expand_inputs, make_folders, name_template, plan
+from .run import Progress, Repeats, auto_jobs, cores, run
 
 DESCRIPTION = """\
 examples:
@@ -279,7 +279,7 @@ def _convert_batch(args: argparse.Namespace, options: Options) -> list[Outcome]:
         for outcome in failed:
             _report(outcome, progress, args, step=False)
         if args.dask is not None:
-            from .dask_batch import run_dask  # noqa: PLC0415
+            from ..dask.batch import run_dask  # noqa: PLC0415
 
             return failed + run_dask(jobs, args.dask, args.out_dir, lambda o: _report(o, progress, args), args.signals,
                                      progress, timeout=args.dask_timeout, debug=args.debug)

@@ -15,7 +15,7 @@ from pathlib import Path
 from depixel.errors import display_name
 from depixel.limits import DEFAULT_MAX_DIFF_PIXELS
 
-from .options import (
+from ..options import (
     FLAG_OF_PARAMETER,
     Exit,
     colour,
@@ -24,7 +24,7 @@ from .options import (
     positive_int,
     unit_float,
 )
-from .streams import print_stdout
+from ..streams import print_stdout
 
 DESCRIPTION = """\
 examples:
@@ -53,7 +53,7 @@ or error. Exit 0 when all are same (new/missing accepted with --allow-new/--allo
 
 def add_parser(sub, name: str, help: str) -> None:
     """Define the subcommand ``name`` (diff) with its arguments."""
-    from .convert import jobs_option  # noqa: PLC0415
+    from ..convert.command import jobs_option  # noqa: PLC0415
 
     diff = sub.add_parser(name, help=help, description=DESCRIPTION,
                           formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -108,7 +108,7 @@ def run_diff(args: argparse.Namespace) -> int:
         args.parser.error(f"{display_name(folder)} is a folder but {display_name(other)} is not: "
                           "compare two files or two folders")
     if folders[0]:
-        from .diff_folders import run_folders  # noqa: PLC0415
+        from .folders import run_folders  # noqa: PLC0415
 
         return run_folders(args, settings(args))
     given = [flag for flag, on in (("--html", args.html), ("--junit", args.junit), ("--update", args.update),
@@ -154,7 +154,7 @@ def _files(args: argparse.Namespace) -> int:
     from depixel.diff.compare import within  # noqa: PLC0415
     from depixel.diff.files import diff_files  # noqa: PLC0415
 
-    from .tools import _png, _write  # noqa: PLC0415
+    from ..tools import _png, _write  # noqa: PLC0415
 
     if args.diff_out is not None and args.diff_out != "-" and Path(args.diff_out).suffix.lower() != ".png":
         args.parser.error(f"--diff-out {display_name(args.diff_out)}: the picture of the differences is a PNG; "

@@ -1,6 +1,6 @@
 """``depixel convert … --dask ADDRESS``: the batch's files as tasks on a Dask cluster.
 
-Each task is :func:`depixel_cli.dask_task.run_task`, the same conversion that ``-j`` runs in
+Each task is :func:`depixel_cli.dask.task.run_task`, the same conversion that ``-j`` runs in
 a worker process, so outputs, up-to-date skipping and failure messages are the same, byte
 for byte. Inputs and outputs travel as paths: the workers read and write them on a
 filesystem they share with the command (docs/scale.md explains why paths and not bytes).
@@ -11,7 +11,7 @@ A batch never loses or misreports a file:
 
 * its task keys carry a random token of the run, so two batches on one scheduler never
   share a task (the scheduler would hand one the other's result);
-* the cluster is checked before the first task (:mod:`depixel_cli.dask_cluster`);
+* the cluster is checked before the first task (:mod:`depixel_cli.dask.cluster`);
 * a task's report is checked against the disk: an output the worker says it wrote but
   that is not here, up to date, is a failure with the reason;
 * the batch's *run marker* in the output folder is removed when the batch ends, and a task
@@ -38,7 +38,7 @@ from pathlib import Path
 from depixel.errors import display_name
 from depixel.files.output import remove_temporary_in
 
-from .batch import (
+from ..convert.batch import (
     CANCELLED,
     DONE,
     INTERRUPTED,
@@ -50,8 +50,9 @@ from .batch import (
     claim_outputs_of_the_dead,
     frame_targets,
 )
-from .batch_run import Progress
-from .dask_cluster import (
+from ..convert.run import Progress
+from ..options import say
+from .cluster import (
     check_workers,
     checked_address,
     close,
@@ -61,8 +62,7 @@ from .dask_cluster import (
     reachable,
     wait_for_a_worker,
 )
-from .dask_task import run_task, running_keys
-from .options import say
+from .task import run_task, running_keys
 
 #: Seconds between two looks at the signals while waiting for tasks.
 POLL_SECONDS = 0.2
@@ -75,7 +75,7 @@ SETTLE_SECONDS = 0.1
 def run_dask(jobs: list[Job], address: str, folder: Path | None, report, signals, progress: Progress | None,
              timeout: float, debug: bool = False) -> list[Outcome]:
     """Run the jobs, whose outputs are under ``folder`` (None: beside their inputs), as tasks
-    on the Dask scheduler at ``address``; like :func:`depixel_cli.batch_run.run`, returns
+    on the Dask scheduler at ``address``; like :func:`depixel_cli.convert.run.run`, returns
     the outcomes in the order of ``jobs``. No wait on the cluster lasts more than ``timeout`` seconds; a cluster that
     cannot run the batch is a :class:`DaskError` (one line) before any task; ``debug``
     shows Dask's own logs."""

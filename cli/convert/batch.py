@@ -2,14 +2,14 @@
 
 Every file is one :class:`Job`, converted by :func:`run_job` in a worker process
 (:mod:`depixel_cli.pool`), in this process for ``-j 1``, or as a Dask task
-(:mod:`depixel_cli.dask_batch`). A job never raises: it returns an :class:`Outcome` with
+(:mod:`depixel_cli.dask.batch`). A job never raises: it returns an :class:`Outcome` with
 the files written, those already up to date, those kept (not depixel's, or edited since
 depixel wrote them: never overwritten without ``--force``) and, on failure, a one-line
 reason, so one bad file never stops the batch. Each file's output depends only on the file
 and the options, so the results are the same whatever runs them.
 
-Finding the inputs and naming the outputs is :mod:`depixel_cli.batch_inputs`; running the
-jobs (how many workers, the run loop, the progress bar) is :mod:`depixel_cli.batch_run`.
+Finding the inputs and naming the outputs is :mod:`depixel_cli.convert.inputs`; running the
+jobs (how many workers, the run loop, the progress bar) is :mod:`depixel_cli.convert.run`.
 """
 from __future__ import annotations
 
@@ -27,7 +27,7 @@ from depixel.prepare.image import frame_count
 from depixel.prepare.inputs import PreparedImage
 from depixel.svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
 
-from .options import error_message
+from ..options import error_message
 
 
 @dataclass(frozen=True, eq=False)  # never compared: eq would cost ~1 ms a start to create

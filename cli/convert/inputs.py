@@ -1,5 +1,5 @@
 """Converting many files, the first step: finding the inputs (files, folders, globs) and
-naming their outputs, as :class:`depixel_cli.batch.Job` values.
+naming their outputs, as :class:`depixel_cli.convert.batch.Job` values.
 
 Its own module so that the rules for which files a folder or glob gives and where their
 outputs go (``--out-dir``, ``-r``, existing outputs) read apart from running the jobs.
@@ -15,8 +15,8 @@ from depixel.files import convert as files
 from depixel.files import stamp as stamps
 from depixel.prepare.image import frame_count
 
+from ..options import error_message
 from .batch import Job, Options, Outcome
-from .options import error_message
 
 #: File extensions taken from folders and globs (explicitly named files are always tried).
 IMAGE_SUFFIXES = frozenset({".png", ".gif", ".bmp", ".webp", ".tga", ".tif", ".tiff", ".ppm", ".pgm",

@@ -3,7 +3,7 @@
 Everything that can make a batch hang or misreport is checked before the first task is
 sent, each failure one line naming what to fix: the address (its form at once, then the
 host and the port), a worker to run on (waited for at most ``--dask-timeout`` seconds), and,
-on every worker, a probe (:func:`depixel_cli.dask_task.probe`) that imports depixel, compares
+on every worker, a probe (:func:`depixel_cli.dask.task.probe`) that imports depixel, compares
 its version with this machine's, and exchanges files with this machine in the output folder:
 the worker reads the batch's *run marker* written here, and writes a file read back here.
 """
@@ -23,7 +23,7 @@ from pathlib import Path
 import depixel
 from depixel.errors import DepixelError, display_name
 
-from .dask_task import probe
+from .task import probe
 
 #: The form of a scheduler address's location: a host name, an IPv4 address or a bracketed
 #: IPv6 address, then an optional port.

@@ -1,4 +1,4 @@
-"""What a Dask worker runs for ``depixel convert --dask`` (:mod:`depixel_cli.dask_batch`):
+"""What a Dask worker runs for ``depixel convert --dask`` (:mod:`depixel_cli.dask.batch`):
 the probe before a batch, and each file's task.
 
 Both are sent by reference (module and name), so a worker must have this package: a worker
@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 import socket
 
-from .batch import Job, Outcome, run_job
+from ..convert.batch import Job, Outcome, run_job
 
 
 def probe(folder: str, token: str, marker: str) -> dict[str, str | bool | None]:
@@ -45,7 +45,7 @@ def probe(folder: str, token: str, marker: str) -> dict[str, str | bool | None]:
 
 
 def run_task(job: Job, marker: str) -> tuple[Outcome, str]:
-    """Convert one file as :func:`depixel_cli.batch.run_job` does, each output renamed into
+    """Convert one file as :func:`depixel_cli.convert.batch.run_job` does, each output renamed into
     place only while the command's run ``marker`` exists (a stopped batch removes it).
     Returns the outcome and the address of the worker (for the command's messages). Never
     raises."""

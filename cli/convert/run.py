@@ -3,7 +3,7 @@
 the memory.
 
 Its own module because the scheduling (worker count, interrupts, progress) is apart from
-what one job does (:mod:`depixel_cli.batch`).
+what one job does (:mod:`depixel_cli.convert.batch`).
 """
 from __future__ import annotations
 
@@ -38,7 +38,7 @@ def run(jobs: list[Job], workers: int, report, signals, progress: Progress | Non
     process converts files too while the workers start), until done or stopped by
     ``signals``; ``report(outcome)`` is called as each one ends. Returns the outcomes in the
     order of ``jobs``; after a stop, the unfinished ones are INTERRUPTED or CANCELLED."""
-    from .pool import Finished, Interrupted, run_jobs  # noqa: PLC0415
+    from ..pool import Finished, Interrupted, run_jobs  # noqa: PLC0415
 
     outcomes: dict[int, Outcome] = {}
     begun = time.time_ns()

@@ -17,10 +17,10 @@ from depixel.errors import display_name
 from depixel.files.output import write_atomic
 from depixel.limits import DIFF_BYTES_PER_PIXEL, WORKER_BASELINE_BYTES
 
-from .batch_run import Progress
-from .options import Exit, say
-from .pool import Finished, run_jobs
-from .streams import print_stdout
+from ..convert.run import Progress
+from ..options import Exit, say
+from ..pool import Finished, run_jobs
+from ..streams import print_stdout
 
 EXIT_OF_STATUS = {"same": Exit.OK, "different": Exit.FAILED, "error": Exit.USAGE}
 
@@ -152,7 +152,7 @@ def _settings_entry(args: argparse.Namespace) -> dict:
 def workers(option: str | int, pairs: int, max_pixels: int) -> int:
     """``-j``: the number given, or one per core when each worker's largest comparison
     (``max_pixels`` at DIFF_BYTES_PER_PIXEL) fits in the available memory."""
-    from .batch_run import available_memory, cores  # noqa: PLC0415
+    from ..convert.run import available_memory, cores  # noqa: PLC0415
 
     if option != "auto":
         return max(1, min(int(option), pairs))

@@ -6,7 +6,7 @@ folder, the parent of the user extensions folder), else the first ``python3`` (t
 ``python``) on PATH, with its own extension folders first on PYTHONPATH. That Python needs
 lxml, cssselect and numpy for inkex, which Debian and Ubuntu only recommend. This module
 finds the interpreter as Inkscape does and runs the extension's own check under it
-(``inkscape_extension/depixel_inkscape_check.py``, which also gives the exact fix).
+(``extension/depixel_inkscape_check.py``, which also gives the exact fix).
 
 Inkscape for Windows and macOS (and the Flatpak and AppImage builds) bundle their own Python
 with these modules; there the check cannot see that Python, and says so.

@@ -1,0 +1,1 @@
+"""``depixel diff``: two images (:mod:`.command`) or two folders of renders (:mod:`.folders`)."""
