@@ -127,3 +127,36 @@ def batch_bounds(sizes: np.ndarray, batch: int) -> list[tuple[int, int]]:
         return [(0, int(total.size))]
     cuts = unique(np.concatenate(([0], total.searchsorted(np.arange(batch, int(total[-1]), batch)), [total.size])))
     return list(zip(cuts[:-1].tolist(), cuts[1:].tolist()))
+
+
+def component_roots(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(n,) int64: the smallest node of each node's connected component (edges a[i]—b[i]).
+
+    Invariant: ``root[x] <= x`` is a node of x's component. Each round hooks the larger of
+    two different roots joined by an edge under the smaller, then jumps pointers until
+    every node points at a root; at the fixed point each component has one root, its
+    smallest node.
+    """
+    root = np.arange(n, dtype=np.int64)
+    a = np.asarray(a, dtype=np.int64)
+    b = np.asarray(b, dtype=np.int64)
+    while a.size:
+        ra, rb = root.take(a), root.take(b)
+        differ = ra != rb
+        if not np.logical_or.reduce(differ):
+            break
+        # settled edges stay settled
+        a, b, ra, rb = a.compress(differ), b.compress(differ), ra.compress(differ), rb.compress(differ)
+        np.minimum.at(root, np.maximum(ra, rb), np.minimum(ra, rb))
+        root = _jump_to_roots(root)
+    return root
+
+
+
+def _jump_to_roots(parent: np.ndarray) -> np.ndarray:
+    """Pointer jumping until every element points at a root (``parent[r] == r``)."""
+    while True:
+        grand = parent.take(parent)
+        if not np.logical_or.reduce(grand != parent):  # (np.array_equal's checks cost more on a sprite)
+            return parent
+        parent = grand

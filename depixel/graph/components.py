@@ -1,4 +1,5 @@
-"""Graph kernels in plain numpy: connected components and the cycles of a permutation.
+"""Graph kernels in plain numpy: connected components (:func:`depixel.arrays.component_roots`,
+which prepare/ uses too) and the cycles of a permutation.
 
 Written out rather than taken from ``scipy.sparse.csgraph`` because importing scipy costs
 about 0.3 s of CPU per process, more than converting a sprite. Both kernels are
@@ -11,28 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-
-def component_roots(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(n,) int64: the smallest node of each node's connected component (edges a[i]—b[i]).
-
-    Invariant: ``root[x] <= x`` is a node of x's component. Each round hooks the larger of
-    two different roots joined by an edge under the smaller, then jumps pointers until
-    every node points at a root; at the fixed point each component has one root, its
-    smallest node.
-    """
-    root = np.arange(n, dtype=np.int64)
-    a = np.asarray(a, dtype=np.int64)
-    b = np.asarray(b, dtype=np.int64)
-    while a.size:
-        ra, rb = root.take(a), root.take(b)
-        differ = ra != rb
-        if not np.logical_or.reduce(differ):
-            break
-        # settled edges stay settled
-        a, b, ra, rb = a.compress(differ), b.compress(differ), ra.compress(differ), rb.compress(differ)
-        np.minimum.at(root, np.maximum(ra, rb), np.minimum(ra, rb))
-        root = _jump_to_roots(root)
-    return root
+from ..arrays import component_roots  # noqa: F401 (the graph's kernel, kept on the ground floor for prepare/)
 
 
 def cycle_leaders(nxt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -75,12 +55,3 @@ def cycle_leaders(nxt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     position -= to_leader
     position *= to_leader != 0
     return leader, position
-
-
-def _jump_to_roots(parent: np.ndarray) -> np.ndarray:
-    """Pointer jumping until every element points at a root (``parent[r] == r``)."""
-    while True:
-        grand = parent.take(parent)
-        if not np.logical_or.reduce(grand != parent):  # (np.array_equal's checks cost more on a sprite)
-            return parent
-        parent = grand

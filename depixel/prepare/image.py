@@ -1,5 +1,5 @@
-"""Stage 0 — input: any image Pillow reads → RGBA uint8 array (the YUV space is in
-:mod:`depixel.colour`)."""
+"""Stage 0 — input: any image Pillow reads, or an Aseprite file (:mod:`.aseprite`) → RGBA
+uint8 array (the YUV space is in :mod:`depixel.colour`)."""
 from __future__ import annotations
 
 import contextlib
@@ -40,7 +40,8 @@ def load_image(source: ImageSource, max_pixels: int | None = DEFAULT_MAX_PIXELS,
                max_frames: int | None = DEFAULT_MAX_FRAMES, name: str | None = None) -> np.ndarray:
     """Read one frame of an image into an ``(H, W, 4) uint8`` RGBA array, alpha kept.
 
-    ``source`` is a path, raw file bytes or a binary file object. Every Pillow mode is
+    ``source`` is a path, raw file bytes or a binary file object: an image Pillow reads, or
+    an Aseprite file (its frame composited, :mod:`depixel.prepare.aseprite`). Every Pillow mode is
     accepted (docs/colour.md, "Input modes"): palette and grey images with a tRNS
     transparency key keep it as alpha, 16-bit and 32-bit data are scaled to 8 bits.
     The size of the frame (or page) decoded is checked against ``max_pixels`` (``None``:
@@ -76,6 +77,12 @@ def _frames(source: ImageSource, max_pixels: int | None, only: int | None, max_f
     max_frames = limit("max_frames", max_frames)
     name = _describe(source, name)
     data = read_source(source)
+    if _is_aseprite(data):
+        from .aseprite_compose import aseprite_frames  # noqa: PLC0415 (~15 ms to import: only for Aseprite files)
+        from .aseprite_format import parse_aseprite  # noqa: PLC0415
+
+        yield from aseprite_frames(parse_aseprite(data, name, max_pixels), only, max_pixels, max_frames)
+        return
     with _quiet_pillow(), _open(data, name) as img:
         width, height = img.size
         check_pixels(name, width, height, max_pixels)
@@ -119,13 +126,24 @@ def frame_count(source: ImageSource, max_frames: int | None = None, *, name: str
     (to convert every one) is refused, before anything is made per frame."""
     name = _describe(source, name)
     data = read_source(source)
-    with _quiet_pillow(), _open(data, name) as img:
-        try:
-            n_frames = int(getattr(img, "n_frames", 1))
-        except Exception:
-            raise InputError(f"{name}: truncated or corrupt image data") from None
+    if _is_aseprite(data):
+        from .aseprite_format import parse_aseprite  # noqa: PLC0415
+
+        n_frames = parse_aseprite(data, name, None).n_frames
+    else:
+        with _quiet_pillow(), _open(data, name) as img:
+            try:
+                n_frames = int(getattr(img, "n_frames", 1))
+            except Exception:
+                raise InputError(f"{name}: truncated or corrupt image data") from None
     check_frames(name, n_frames, max_frames)
     return n_frames
+
+
+def _is_aseprite(data: bytes) -> bool:
+    """Whether ``data`` starts like an Aseprite file: its magic number 0xA5E0 at byte 4
+    (:func:`depixel.prepare.aseprite_format.is_aseprite`, not imported for every image)."""
+    return data[4:6] == b"\xe0\xa5"
 
 
 def read_source(source: ImageSource) -> bytes:

@@ -1,0 +1,60 @@
+"""Make the sprite-sheet figure of docs/inputs.md from the project's own fixtures.
+
+    python docs/img/sheet_figures.py
+
+A 3 × 2 sheet of five fixtures (one cell left empty) with 2-pixel transparent gutters: the
+sheet with the cells :func:`depixel.prepare.sheet.find_sprites` finds outlined, the SVG of
+:func:`depixel.files.sheet.convert_sheet` (a layer per sprite), and that SVG with one layer
+left alone.
+"""
+from __future__ import annotations
+
+import re
+
+import numpy as np
+from inputs_figures import FIXTURES, HERE, PANEL, nearest, row, svg_panel
+from PIL import ImageDraw
+
+from depixel.files.sheet import convert_sheet
+from depixel.prepare.image import load_image
+from depixel.prepare.sheet import find_sprites
+
+CELL, GAP = (18, 16), 2
+NAMES = ["ghost_rgba.png", "potion_rgba.png", "orb.png", "leaf_la.png", None, "heart_trns.png"]
+
+
+def make_sheet() -> np.ndarray:
+    sheet = np.zeros((2 * CELL[1] + GAP, 3 * CELL[0] + 2 * GAP, 4), np.uint8)
+    for i, name in enumerate(NAMES):
+        if name is None:
+            continue
+        sprite = load_image(FIXTURES / name)
+        x = (i % 3) * (CELL[0] + GAP) + (CELL[0] - sprite.shape[1]) // 2
+        y = (i // 3) * (CELL[1] + GAP) + (CELL[1] - sprite.shape[0]) // 2
+        sheet[y:y + sprite.shape[0], x:x + sprite.shape[1]] = sprite
+    return sheet
+
+
+def main() -> None:
+    sheet = make_sheet()
+    found = find_sprites(sheet)
+    print(found.description)
+    svg = convert_sheet(sheet, found.sprites)
+    cells = nearest(sheet, PANEL)
+    zoom = PANEL / sheet.shape[1]
+    draw = ImageDraw.Draw(cells)
+    for sprite in found.sprites:
+        box = [sprite.x * zoom, sprite.y * zoom, (sprite.x + sprite.width) * zoom - 1,
+               (sprite.y + sprite.height) * zoom - 1]
+        draw.rectangle(box, outline=(230, 40, 40))
+        draw.text((box[0] + 2, box[1] + 1), sprite.name, fill=(230, 40, 40))
+    # every layer but r0c1 emptied: what an editor shows with the others hidden
+    alone = re.sub(r'(<g id="(?!r0c1")[^"]*" inkscape:groupmode="layer"[^>]*>).*?(</g>\n(?=<g id="[^"]*" '
+                   r'inkscape:groupmode|</svg>))', r"\1\2", svg, flags=re.S)
+    row([("sheet: the cells found", cells),
+         ("a layer per sprite", svg_panel(svg, PANEL)),
+         ("layer r0c1 alone", svg_panel(alone, PANEL))]).save(HERE / "inputs_sheet.png", optimize=True)
+
+
+if __name__ == "__main__":
+    main()
