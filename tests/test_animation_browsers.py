@@ -1,6 +1,7 @@
 """The animated SVG in the renderers people open it with: headless Chromium plays it (an inline
-SVG paused at a time inside each frame shows that frame), Inkscape exports the first frame.
-Skipped where the program is not installed (``apt-get install chromium inkscape``)."""
+SVG paused at a time inside each frame shows that frame), Inkscape and rsvg-convert draw the
+first frame as its own conversion. Skipped where the program is not installed (``apt-get
+install chromium inkscape librsvg2-bin``)."""
 from __future__ import annotations
 
 import shutil
@@ -76,5 +77,19 @@ def test_inkscape_exports_the_first_frame(tmp_path):
     for name in ("walk", "first"):
         subprocess.run([INKSCAPE, str(tmp_path / f"{name}.svg"), f"--export-filename={tmp_path / name}.png",
                         f"--export-width={WIDTH}"], check=True, capture_output=True, timeout=120)
+    walk, first = (np.asarray(Image.open(tmp_path / f"{n}.png").convert("RGBA")) for n in ("walk", "first"))
+    np.testing.assert_array_equal(walk, first)
+
+
+@pytest.mark.skipif(shutil.which("rsvg-convert") is None, reason="rsvg-convert not installed")
+def test_rsvg_draws_the_first_frame(tmp_path):
+    from PIL import Image
+
+    frames = blinking()
+    (tmp_path / "walk.svg").write_text(animate(Animation(frames, DURATIONS, 0)))
+    (tmp_path / "first.svg").write_text(depixel.convert(frames[0]))
+    for name in ("walk", "first"):
+        subprocess.run(["rsvg-convert", "-w", str(WIDTH), "-o", str(tmp_path / f"{name}.png"),
+                        str(tmp_path / f"{name}.svg")], check=True, capture_output=True, timeout=120)
     walk, first = (np.asarray(Image.open(tmp_path / f"{n}.png").convert("RGBA")) for n in ("walk", "first"))
     np.testing.assert_array_equal(walk, first)
