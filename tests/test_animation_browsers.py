@@ -1,6 +1,7 @@
 """The animated SVG in the renderers people open it with: headless Chromium plays it (an inline
 SVG paused at a time inside each frame shows that frame), Inkscape and rsvg-convert draw the
-first frame as its own conversion. Skipped where the program is not installed (``apt-get
+first frame as its own conversion; Chromium's decoder gives the GIF and APNG frames depixel
+reads. Skipped where the program is not installed (``apt-get
 install chromium inkscape librsvg2-bin``)."""
 from __future__ import annotations
 
@@ -93,3 +94,57 @@ def test_rsvg_draws_the_first_frame(tmp_path):
                         str(tmp_path / f"{name}.svg")], check=True, capture_output=True, timeout=120)
     walk, first = (np.asarray(Image.open(tmp_path / f"{n}.png").convert("RGBA")) for n in ("walk", "first"))
     np.testing.assert_array_equal(walk, first)
+
+
+DECODE_PAGE = """<!doctype html><html><body><script>
+(async () => {
+  const bytes = Uint8Array.from(atob("DATA"), c => c.charCodeAt(0));
+  const decoder = new ImageDecoder({data: bytes, type: "TYPE"});
+  await decoder.tracks.ready;
+  const frames = [];
+  for (let i = 0; i < decoder.tracks.selectedTrack.frameCount; i++) {
+    const image = (await decoder.decode({frameIndex: i})).image;
+    const canvas = new OffscreenCanvas(image.displayWidth, image.displayHeight);
+    const context = canvas.getContext("2d");
+    context.drawImage(image, 0, 0);
+    frames.push(Array.from(context.getImageData(0, 0, canvas.width, canvas.height).data));
+  }
+  const out = document.createElement("pre");
+  out.id = "frames";
+  out.textContent = JSON.stringify(frames);
+  document.body.appendChild(out);
+})().catch(e => { document.title = "error " + e; });
+</script></body></html>"""
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="chromium not installed")
+@pytest.mark.parametrize("kind", ["gif", "apng"])
+def test_frames_are_those_chromium_decodes(kind, tmp_path):
+    """Chromium's own decoder (WebCodecs ImageDecoder, which composites as the browser shows
+    an animation) gives the frames depixel reads, on the files that catch Pillow out."""
+    import base64
+    import json
+    import re
+
+    from test_animation_read import disposal_apng, disposal_gif
+
+    from depixel.prepare.animation import read_animation
+
+    data = disposal_gif() if kind == "gif" else disposal_apng()
+    page = tmp_path / "decode.html"
+    page.write_text(DECODE_PAGE.replace("DATA", base64.b64encode(data).decode())
+                    .replace("TYPE", "image/gif" if kind == "gif" else "image/apng"))
+    command = [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+               "--no-first-run", f"--user-data-dir={tmp_path}/profile", "--virtual-time-budget=10000", "--dump-dom",
+               page.as_uri()]
+    for _ in range(3):  # the decoding runs beside the page's virtual time: a loaded machine may need another go
+        dom = subprocess.run(command, check=True, capture_output=True, text=True, timeout=120).stdout
+        found = re.search(r'<pre id="frames">([^<]*)</pre>', dom)
+        if found or "<title>error" in dom:
+            break
+    assert found, dom[:300]
+    decoded = [np.array(f, np.uint8).reshape(4, 4, 4) for f in json.loads(found.group(1))]
+    ours = read_animation(data).frames
+    assert len(decoded) == len(ours)
+    for n, (theirs, mine) in enumerate(zip(decoded, ours)):
+        np.testing.assert_array_equal(mine, theirs, err_msg=f"frame {n}")
