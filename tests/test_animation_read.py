@@ -173,6 +173,11 @@ def test_animation_checks_what_it_holds():
         Animation((frame, frame), (100.0,))
     with pytest.raises(InputError, match="plays"):
         Animation((frame,), (100.0,), -1)
-    animation = Animation((frame,), (100.0,))
+    with pytest.raises(InputError, match="positive"):
+        Animation((frame,), ("100",))
+    animation = Animation([frame], [np.float32(100)])
+    assert np.shares_memory(animation.frames[0], frame) and frame.flags.writeable
+    assert animation.durations == (100.0,)
+    assert type(animation.durations[0]) is float
     assert not animation.frames[0].flags.writeable
     assert "uint8[2, 3, 4]" in repr(animation)

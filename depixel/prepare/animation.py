@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 
 import numpy as np
 
@@ -47,6 +48,11 @@ class Animation:
     plays: int = 0
 
     def __post_init__(self) -> None:
+        # read-only views: the caller's arrays stay writable, this product's are not
+        object.__setattr__(self, "frames", tuple(np.asarray(f).view() for f in self.frames))
+        if not all(isinstance(d, numbers.Real) and not isinstance(d, bool) for d in self.durations):
+            raise InputError(f"frame durations must be positive milliseconds, not {list(self.durations)}")
+        object.__setattr__(self, "durations", tuple(float(d) for d in self.durations))
         if not self.frames:
             raise InputError("an animation needs at least one frame")
         shape = self.frames[0].shape
@@ -55,7 +61,7 @@ class Animation:
                              f"not {sorted({(f.shape, str(f.dtype)) for f in self.frames})}")
         if len(self.durations) != len(self.frames):
             raise InputError(f"{len(self.frames)} frames but {len(self.durations)} durations")
-        if not all(isinstance(d, (int, float)) and math.isfinite(d) and d > 0 for d in self.durations):
+        if not all(math.isfinite(d) and d > 0 for d in self.durations):
             raise InputError(f"frame durations must be positive milliseconds, not {list(self.durations)}")
         if isinstance(self.plays, bool) or not isinstance(self.plays, int) or self.plays < 0:
             raise InputError(f"plays must be a whole number >= 0 (0: for ever), not {self.plays!r}")
