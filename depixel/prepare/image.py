@@ -83,7 +83,9 @@ def _frames(source: ImageSource, max_pixels: int | None, only: int | None, max_f
         from .aseprite_compose import aseprite_frames  # noqa: PLC0415 (~15 ms to import: only for Aseprite files)
         from .aseprite_format import parse_aseprite  # noqa: PLC0415
 
-        yield from aseprite_frames(parse_aseprite(data, name, max_pixels), only, max_pixels, max_frames)
+        ase = parse_aseprite(data, name, max_pixels)
+        for index, rgba in aseprite_frames(ase, only, max_pixels, max_frames):
+            yield index, rgba, {"duration": ase.durations[index]}  # as Pillow's info gives it
         return
     with _quiet_pillow(), _open(data, name) as img:
         width, height = img.size
