@@ -2,7 +2,7 @@
 
 :mod:`.compare` compares two images pixel by pixel (YIQ distance, anti-aliasing);
 :mod:`.sources` reads and draws the files at one size (refusing what cannot be seen),
-:mod:`.mask` the regions left out, :mod:`.pdf` PDF pages; :mod:`.files` gives one pair its
+:mod:`.mask` the regions left out, :mod:`.pdf` PDF pages; :mod:`.pairs` gives one pair its
 verdict and pictures; :mod:`.folders` pairs two folders; :mod:`.reports` (JSON, JUnit) and
 :mod:`.html` report them, :mod:`.staging` writes report folders whole, :mod:`.update`
 approves a change.

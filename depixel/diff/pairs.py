@@ -67,7 +67,7 @@ class Pictures:
 
 
 @dataclass(frozen=True)
-class Result:
+class PairResult:
     """The verdict on one pair, with its figures (pixel counts at the comparison size)."""
 
     name: str
@@ -99,10 +99,10 @@ class Result:
 
 
 def compare_pair(pair: Pair, baseline: str | os.PathLike, current: str | os.PathLike, settings: Settings,
-                 pictures: Pictures = Pictures()) -> Result:
+                 pictures: Pictures = Pictures()) -> PairResult:
     """The verdict on one pair of ``baseline``/``current`` files; never raises (a problem is
     an ``error`` verdict). Identical files are ``same`` without being rendered."""
-    base = Result(pair.name, ERROR, pair.baseline, pair.current)
+    base = PairResult(pair.name, ERROR, pair.baseline, pair.current)
     try:
         if pair.baseline is None or pair.current is None:
             lone = pair.current if pair.baseline is None else pair.baseline
@@ -215,6 +215,6 @@ class Job:
     pictures: Pictures = Pictures()
 
 
-def run_job(job: Job) -> Result:
+def run_job(job: Job) -> PairResult:
     """:func:`compare_pair` on a job (never raises)."""
     return compare_pair(job.pair, job.baseline, job.current, job.settings, job.pictures)
