@@ -432,12 +432,12 @@ def test_an_output_the_dead_worker_completed_counts_as_converted(tmp_path, monke
     """A worker killed after renaming its output into place but before reporting: the retry
     finds the output up to date; the batch lists it as converted (written since the batch
     began), not as skipped. An output from before the batch stays up to date."""
-    import depixel
+    from depixel.options import ConvertOptions
     from depixel_cli import pool
     from depixel_cli.convert import batch
     from depixel_cli.convert import run as batch_run
 
-    options = batch.Options(depixel.Params(), ("svg",), "cells", 1.0, "first", None, None, force=False)
+    options = batch.Options(ConvertOptions.build(stage="cells", max_pixels=None), ("svg",), "first", force=False)
     (tmp_path / "out").mkdir()
     jobs = [batch.Job(FIXTURES / name, tmp_path / "out" / f"{name}.svg", options) for name in ("heart.png", "ghost.png")]
 
