@@ -128,7 +128,7 @@ def run_render(args: argparse.Namespace) -> int:
         svg, name, protect = read_source(sys.stdin.buffer), "<stdin>", ()
     else:
         svg, name, protect = files.read_input(args.input), display_name(args.input), (Path(args.input),)
-    data = render(svg, str(fmt), scale=args.scale, width=args.width, height=args.height, background=args.background,
+    data = render(svg, str(fmt), scale=args.scale, size=(args.width, args.height), background=args.background,
                   name=name, max_output_pixels=args.max_output_pixels)
     _write(args.output, data, protect)
     return Exit.OK

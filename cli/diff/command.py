@@ -160,10 +160,7 @@ def _files(args: argparse.Namespace) -> int:
         args.parser.error(f"--diff-out {display_name(args.diff_out)}: the picture of the differences is a PNG; "
                           "name it .png")
     chosen = settings(args)
-    comparison, background = diff_files(args.a, args.b, scale=chosen.scale, threshold=chosen.threshold,
-                                        background=chosen.background, allow_size_mismatch=chosen.allow_size_mismatch,
-                                        include_antialiasing=chosen.include_antialiasing,
-                                        max_pixels=chosen.max_pixels, mask=chosen.mask)
+    comparison, background = diff_files(args.a, args.b, chosen)
     count, ratio = comparison.different_pixels, comparison.ratio
     same = within(comparison, args.max_pixels_diff, args.max_ratio)
     if args.diff_out:

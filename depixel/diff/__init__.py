@@ -8,9 +8,5 @@ verdict and pictures; :mod:`.folders` pairs two folders; :mod:`.reports` (JSON, 
 approves a change.
 """
 
-
-def __getattr__(name: str):
-    """Submodules load on first use (:func:`depixel.load_submodule`)."""
-    import depixel  # noqa: PLC0415 (an attribute read while depixel itself imports is a plain miss)
-
-    return depixel.load_submodule(__name__, name)
+#: its modules, each imported on first use (``depixel/__init__.py``)
+__all__ = ["compare", "folders", "html", "mask", "pairs", "pdf", "reports", "sources", "staging", "update"]

@@ -55,6 +55,10 @@ class Settings:
     mask: Mask = Mask()
     names: Mapping[str, str] = field(default_factory=dict)  # parameter → CLI flag, for messages
 
+    def __post_init__(self) -> None:
+        validate.number("threshold", self.threshold, low=0, high=1)
+        object.__setattr__(self, "max_pixels", validate.limit("max_pixels", self.max_pixels))
+
 
 @dataclass(frozen=True)
 class Pictures:
@@ -152,18 +156,15 @@ def compare_sources(a: Source, b: Source, settings: Settings,
     return result, background, originals
 
 
-def diff_files(path_a: str | os.PathLike, path_b: str | os.PathLike, *, scale: float = 1.0,
-               threshold: float = DEFAULT_THRESHOLD, background: Colour | None = None,
-               allow_size_mismatch: bool = False, include_antialiasing: bool = False,
-               max_pixels: int | None = DEFAULT_MAX_DIFF_PIXELS, mask: Mask = Mask()) -> tuple[Comparison, Colour]:
-    """Load, flatten and compare two SVG/PDF/raster files; returns the comparison and the
-    background used."""
-    validate.number("threshold", threshold, low=0, high=1)
-    max_pixels = validate.limit("max_pixels", max_pixels)
-    settings = Settings(scale=scale, threshold=threshold, background=background,
-                        allow_size_mismatch=allow_size_mismatch, include_antialiasing=include_antialiasing,
-                        max_pixels=max_pixels, mask=mask)
-    comparison, colour, _ = compare_sources(read(path_a, max_pixels), read(path_b, max_pixels), settings)
+def diff_files(path_a: str | os.PathLike, path_b: str | os.PathLike, settings: Settings = Settings(),
+               **changes) -> tuple[Comparison, Colour]:
+    """Load, flatten and compare two SVG/PDF/raster files with ``settings`` (``changes``, its
+    field names as keywords, as ``scale=8``, replace some of them); returns the comparison and
+    the background used."""
+    if changes:
+        settings = replace(settings, **changes)
+    comparison, colour, _ = compare_sources(read(path_a, settings.max_pixels), read(path_b, settings.max_pixels),
+                                            settings)
     return comparison, colour
 
 

@@ -162,7 +162,7 @@ def _render_svg(source: Source, width: int, height: int, max_pixels: int | None)
 
     from ..render.raster import render  # noqa: PLC0415
 
-    png = render(source.data, "png", width=width, height=height, name=source.name, max_output_pixels=max_pixels)
+    png = render(source.data, "png", size=(width, height), name=source.name, max_output_pixels=max_pixels)
     with Image.open(io.BytesIO(png)) as img:
         del png
         img.load()

@@ -275,7 +275,7 @@ def render_file(source: str | os.PathLike, output: str | os.PathLike, *, fmt: st
         raise OutputError(f"{display_name(output)}: render writes PNG or PDF, not SVG", parameter="fmt")
     colour = as_colour(background)
     svg = read_input(source)
-    data = render(svg, fmt, scale=scale, width=width, height=height, background=colour,
+    data = render(svg, fmt, scale=scale, size=(width, height), background=colour,
                   name=display_name(source), max_output_pixels=max_output_pixels)
     write_atomic(output, data, protect=(Path(source),))
     return Path(output)

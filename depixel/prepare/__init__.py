@@ -6,9 +6,5 @@ Loads and checks images (:mod:`.image`), finds the grid of art saved upscaled
 runs them and gives a :class:`~depixel.prepare.inputs.PreparedImage`.
 """
 
-
-def __getattr__(name: str):
-    """Submodules load on first use (:func:`depixel.load_submodule`)."""
-    import depixel  # noqa: PLC0415 (an attribute read while depixel itself imports is a plain miss)
-
-    return depixel.load_submodule(__name__, name)
+#: its modules, each imported on first use (``depixel/__init__.py``)
+__all__ = ["backdrop", "chroma", "chroma_unmix", "image", "inputs", "noisy", "palette", "pixelgrid"]

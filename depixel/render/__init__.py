@@ -5,9 +5,5 @@ renders any SVG through cairosvg, :mod:`.overlay` lays a conversion over its ups
 :mod:`.figure` draws every stage in one picture (``depixel inspect``).
 """
 
-
-def __getattr__(name: str):
-    """Submodules load on first use (:func:`depixel.load_submodule`)."""
-    import depixel  # noqa: PLC0415 (an attribute read while depixel itself imports is a plain miss)
-
-    return depixel.load_submodule(__name__, name)
+#: its modules, each imported on first use (``depixel/__init__.py``)
+__all__ = ["figure", "overlay", "raster", "references", "shading", "visibility"]

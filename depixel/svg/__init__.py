@@ -5,9 +5,6 @@
 cubics within a tolerance, :mod:`.writer` and :mod:`.svgtext` write the text.
 """
 
-
-def __getattr__(name: str):
-    """Submodules load on first use (:func:`depixel.load_submodule`)."""
-    import depixel  # noqa: PLC0415 (an attribute read while depixel itself imports is a plain miss)
-
-    return depixel.load_submodule(__name__, name)
+#: its modules, each imported on first use (``depixel/__init__.py``)
+__all__ = ["boundaries", "breaks", "curvefit", "holes", "loops", "markup", "outlines", "reference", "simplify",
+           "smoothgroups", "stacking", "svgtext", "writer"]
