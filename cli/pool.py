@@ -33,7 +33,7 @@ import sys
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 from .worker import serve
 
@@ -114,8 +114,7 @@ class Finished:
     cancelled: bool = False  # not started when the stop came
 
 
-@dataclass(frozen=True, eq=False)
-class Meanwhile:
+class Meanwhile(NamedTuple):
     """What this process does while workers that take time to start (not forked from it)
     start: ``run(job)`` on jobs from the end of the queue (None: interrupted, cleaned up), as
     long as the next is ``local(job)``."""

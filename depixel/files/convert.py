@@ -16,6 +16,7 @@ import time
 from collections.abc import Callable, Sequence
 from functools import partial
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -152,8 +153,7 @@ class Written:
     changed: bool = False  # the input changed during the conversion
 
 
-@dataclasses.dataclass(frozen=True)
-class Target:
+class Target(NamedTuple):  # (a NamedTuple: ~0.05 ms to define at each start, a dataclass ~0.5 ms)
     """One output file to make: where, in which format, of which frame, and the digest of the
     options that make it (:func:`options_digest`: its stamp's OPTIONS)."""
 
