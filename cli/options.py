@@ -6,6 +6,7 @@ import enum
 import sys
 from dataclasses import fields
 
+from depixel.options import ConvertOptions, Limits, OutputOptions, PrepareOptions
 from depixel.params import Params
 
 
@@ -199,10 +200,8 @@ def from_args(kind, args: argparse.Namespace, **given):
                    for item in fields(kind)})
 
 
-def convert_options(args: argparse.Namespace):
+def convert_options(args: argparse.Namespace) -> ConvertOptions:
     """The :class:`depixel.options.ConvertOptions` of a conversion's arguments."""
-    from depixel.options import ConvertOptions, Limits, OutputOptions, PrepareOptions  # noqa: PLC0415
-
     return ConvertOptions(params_from_args(args), from_args(PrepareOptions, args), from_args(OutputOptions, args),
                           from_args(Limits, args))
 

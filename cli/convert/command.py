@@ -309,8 +309,8 @@ def _convert_stream(source: str, output: str, options: Options) -> Outcome:
 
 def _to_stdout(source: files.InputFile, options: Options, out: Outcome) -> None:
     """``-o -``: one frame's SVG, PNG or PDF on stdout, unstamped."""
-    frame, fmt, limits = 0 if options.frames == "first" else int(options.frames), options.formats[0], \
-        options.convert.limits
+    frame = 0 if options.frames == "first" else int(options.frames)
+    fmt, limits = options.formats[0], options.convert.limits
     rgba = load_image(source.data, limits.max_pixels, frame, max_frames=limits.max_frames, name=source.name)
     blob = api.conversions(rgba, {fmt: None}, options.convert, name=source.name,
                            title=None if source.path is None else source.path.name, lossy=lossy_format(source.data),

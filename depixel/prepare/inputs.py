@@ -192,7 +192,7 @@ def prepare(image, options: PrepareOptions | None = None, *, lossy: str | None =
     lossy : the lossy format the pixels were decoded from, if any (see :func:`lossy_format`);
         a PIL image opened from a JPEG file says so itself.
     """
-    options = replace(options or PrepareOptions(), **changes) if changes else options or PrepareOptions()
+    options = replace(options or PrepareOptions(), **changes)  # (checked again: a change is checked too)
     if isinstance(image, PreparedImage):
         return image
     size = cast("str | tuple[int, int]", options.pixel_size)  # normalized: "auto" or (x, y)
