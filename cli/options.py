@@ -6,6 +6,7 @@ import enum
 import sys
 from dataclasses import fields
 
+from depixel.options import ConvertOptions, Limits, OutputOptions, PrepareOptions
 from depixel.params import Params
 
 
@@ -189,6 +190,20 @@ def add_tuning(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--no-optimize", dest="stage", action="store_const", const="splines",
                        help="skip the spline optimization (the same as --stage splines)")
     group.add_argument("--seed", dest="removed_seed", metavar="N", help=argparse.SUPPRESS)  # SEED_NOTE
+
+
+def from_args(kind, args: argparse.Namespace, **given):
+    """An options dataclass (``kind``: :class:`depixel.options.OutputOptions`, ``PrepareOptions``,
+    ``Limits``) of the arguments of the same names, ``given`` overriding some: a field is its
+    flag's ``dest``, so a new field without its flag fails here, at once."""
+    return kind(**{item.name: given[item.name] if item.name in given else getattr(args, item.name)
+                   for item in fields(kind)})
+
+
+def convert_options(args: argparse.Namespace) -> ConvertOptions:
+    """The :class:`depixel.options.ConvertOptions` of a conversion's arguments."""
+    return ConvertOptions(params_from_args(args), from_args(PrepareOptions, args), from_args(OutputOptions, args),
+                          from_args(Limits, args))
 
 
 def params_from_args(args: argparse.Namespace) -> Params:

@@ -11,6 +11,7 @@ import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+from . import validate
 from .frozen import compact_repr
 from .graph.cells import CellGraph, build_cell_graph
 from .graph.crossings import CrossingResolution, resolve_crossings
@@ -48,8 +49,7 @@ class Result:
 
 def depixelize(image, params: Params = Params(), stage: str = "optimized") -> Result:
     """Run the pipeline on an RGBA image (array or PIL image) up to ``stage``."""
-    if stage not in STAGES:
-        raise ValueError(f"unknown stage {stage!r}; choose one of {', '.join(STAGES)}")
+    validate.choice("stage", stage, STAGES)
     timings: dict[str, float] = {}
     clock = time.perf_counter
 

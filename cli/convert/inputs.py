@@ -158,7 +158,7 @@ def plan(found: list[tuple[Path, Path]], out_dir: Path | None, options: Options,
         n_frames = 1
         if options.frames == "all":
             try:
-                n_frames = frame_count(path, options.max_frames)
+                n_frames = frame_count(path, options.convert.limits.max_frames)
             except DepixelError as exc:
                 failed.append(Outcome(path, folder / f"{path.stem}.{options.formats[0]}", error=error_message(exc)))
                 continue

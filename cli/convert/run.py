@@ -38,7 +38,7 @@ def run(jobs: list[Job], workers: int, report, signals, progress: Progress | Non
     process converts files too while the workers start), until done or stopped by
     ``signals``; ``report(outcome)`` is called as each one ends. Returns the outcomes in the
     order of ``jobs``; after a stop, the unfinished ones are INTERRUPTED or CANCELLED."""
-    from ..pool import Finished, Interrupted, run_jobs  # noqa: PLC0415
+    from ..pool import Finished, Interrupted, Meanwhile, run_jobs  # noqa: PLC0415
 
     outcomes: dict[int, Outcome] = {}
     begun = time.time_ns()
@@ -99,7 +99,7 @@ def run(jobs: list[Job], workers: int, report, signals, progress: Progress | Non
 
         # while the fork server imports depixel, this process converts small files itself
         run_jobs([jobs[i] for i in todo], workers, run_job, renumbered, signals, cleanup=remove_temporary_files,
-                 started=lambda i: started(todo[i]), here=here, local=small)
+                 started=lambda i: started(todo[i]), meanwhile=Meanwhile(here, small))
     return [outcomes[i] for i in range(len(jobs))]
 
 

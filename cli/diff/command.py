@@ -121,7 +121,7 @@ def run_diff(args: argparse.Namespace) -> int:
 
 def settings(args: argparse.Namespace):
     """The library's comparison settings from the options."""
-    from depixel.diff.files import Settings  # noqa: PLC0415
+    from depixel.diff.pairs import Settings  # noqa: PLC0415
 
     return Settings(scale=args.scale, threshold=args.threshold, background=args.background,
                     allow_size_mismatch=args.allow_size_mismatch, include_antialiasing=args.include_aa,
@@ -152,7 +152,7 @@ def _mask(args: argparse.Namespace):
 def _files(args: argparse.Namespace) -> int:
     """Two files: one verdict, as a line or JSON."""
     from depixel.diff.compare import within  # noqa: PLC0415
-    from depixel.diff.files import diff_files  # noqa: PLC0415
+    from depixel.diff.pairs import diff_files  # noqa: PLC0415
 
     from ..tools import _png, _write  # noqa: PLC0415
 
@@ -160,10 +160,7 @@ def _files(args: argparse.Namespace) -> int:
         args.parser.error(f"--diff-out {display_name(args.diff_out)}: the picture of the differences is a PNG; "
                           "name it .png")
     chosen = settings(args)
-    comparison, background = diff_files(args.a, args.b, scale=chosen.scale, threshold=chosen.threshold,
-                                        background=chosen.background, allow_size_mismatch=chosen.allow_size_mismatch,
-                                        include_antialiasing=chosen.include_antialiasing,
-                                        max_pixels=chosen.max_pixels, mask=chosen.mask)
+    comparison, background = diff_files(args.a, args.b, chosen)
     count, ratio = comparison.different_pixels, comparison.ratio
     same = within(comparison, args.max_pixels_diff, args.max_ratio)
     if args.diff_out:

@@ -1,6 +1,6 @@
 """``depixel diff BASELINE CURRENT`` on two folders: run the pairs, print, report, update.
 
-Every pair is a job of :func:`depixel.diff.files.run_job`, run ``-j`` processes at a time
+Every pair is a job of :func:`depixel.diff.pairs.run_job`, run ``-j`` processes at a time
 by :mod:`depixel_cli.pool` (this process for one) with ``convert``'s progress bar. The
 report folders are written under a temporary name and moved into place at the end
 (:mod:`depixel.diff.staging`): an error or an interrupt leaves no half-written report.
@@ -11,8 +11,8 @@ import argparse
 import json
 from pathlib import Path
 
-from depixel.diff.files import ERROR, SAME, Job, Pictures, Result, Settings, run_job
 from depixel.diff.folders import pair_folders, status, totals
+from depixel.diff.pairs import ERROR, SAME, Job, PairResult, Pictures, Settings, run_job
 from depixel.errors import display_name
 from depixel.files.output import write_atomic
 from depixel.limits import DIFF_BYTES_PER_PIXEL, WORKER_BASELINE_BYTES
@@ -53,9 +53,9 @@ def run_folders(args: argparse.Namespace, settings: Settings) -> int:
         raise
 
 
-def _run(jobs: list[Job], count: int, args: argparse.Namespace) -> list[Result] | None:
+def _run(jobs: list[Job], count: int, args: argparse.Namespace) -> list[PairResult] | None:
     """Every job's result in order; None when a signal stopped the run."""
-    results: list[Result | None] = [None] * len(jobs)
+    results: list[PairResult | None] = [None] * len(jobs)
     progress = Progress(len(jobs))
     signals = args.signals
 
@@ -64,7 +64,7 @@ def _run(jobs: list[Job], count: int, args: argparse.Namespace) -> list[Result] 
         if done.result is not None:
             results[done.index] = done.result
         elif done.died:
-            results[done.index] = Result(job.pair.name, ERROR, job.pair.baseline, job.pair.current,
+            results[done.index] = PairResult(job.pair.name, ERROR, job.pair.baseline, job.pair.current,
                                          error=f"worker process died ({done.died}), also when retried")
         progress.step()
 
@@ -87,7 +87,7 @@ def _run(jobs: list[Job], count: int, args: argparse.Namespace) -> list[Result] 
     return [r for r in results if r is not None]
 
 
-def _finish(args: argparse.Namespace, settings: Settings, results: list[Result], html, diffs) -> int:
+def _finish(args: argparse.Namespace, settings: Settings, results: list[PairResult], html, diffs) -> int:
     """Update the baseline if asked, write the reports, print the verdicts; the exit code."""
     from depixel.diff.html import html_report  # noqa: PLC0415
     from depixel.diff.reports import json_report, junit_report  # noqa: PLC0415
@@ -117,7 +117,7 @@ def _finish(args: argparse.Namespace, settings: Settings, results: list[Result],
     return EXIT_OF_STATUS[final]
 
 
-def _totals_line(results: list[Result], final: str, args: argparse.Namespace) -> str:
+def _totals_line(results: list[PairResult], final: str, args: argparse.Namespace) -> str:
     counts = totals(results)
     parts = [f"{n} {verdict}" for verdict, n in counts.items() if n]
     allowed = [what for what, on in (("new", args.allow_new), ("missing", args.allow_missing)) if on]

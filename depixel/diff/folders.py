@@ -15,7 +15,7 @@ import os
 from pathlib import Path
 
 from ..errors import InputError, display_name
-from .files import DIFFERENT, ERROR, MISSING, NEW, SAME, VERDICTS, Pair, Result
+from .pairs import DIFFERENT, ERROR, MISSING, NEW, SAME, VERDICTS, Pair, PairResult
 from .sources import EXTENSIONS
 
 
@@ -60,12 +60,12 @@ def _by_stem(names) -> dict[str, list[str]]:
 
 
 
-def totals(results: list[Result]) -> dict[str, int]:
+def totals(results: list[PairResult]) -> dict[str, int]:
     """How many results have each verdict."""
     return {verdict: sum(1 for r in results if r.verdict == verdict) for verdict in VERDICTS}
 
 
-def status(results: list[Result], allow_new: bool = False, allow_missing: bool = False) -> str:
+def status(results: list[PairResult], allow_new: bool = False, allow_missing: bool = False) -> str:
     """The verdict on the whole comparison: ``"same"`` when every pair is the same (new and
     missing files accepted when allowed), ``"error"`` when nothing could be compared (no
     file at all, or every pair an error), else ``"different"``."""

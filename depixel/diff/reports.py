@@ -9,14 +9,14 @@ from __future__ import annotations
 import re
 import xml.etree.ElementTree as ET
 
-from .files import DIFFERENT, ERROR, MISSING, NEW, Result
 from .folders import totals
+from .pairs import DIFFERENT, ERROR, MISSING, NEW, PairResult
 
 #: Characters XML 1.0 cannot hold (a file name may have them): written as \\xNN.
 _NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
 
 
-def result_entry(result: Result, pictures_in: dict[str, str] | None = None) -> dict:
+def result_entry(result: PairResult, pictures_in: dict[str, str] | None = None) -> dict:
     """One pair as a JSON object; ``pictures_in`` maps a picture kind to the folder it was
     written in (the paths listed are joined to it)."""
     total = None if result.width is None or result.height is None else \
@@ -34,7 +34,7 @@ def result_entry(result: Result, pictures_in: dict[str, str] | None = None) -> d
     return entry
 
 
-def json_report(results: list[Result], status: str, settings: dict, pictures_in: dict[str, str] | None = None,
+def json_report(results: list[PairResult], status: str, settings: dict, pictures_in: dict[str, str] | None = None,
                 updated: list[tuple[str, str]] | None = None) -> dict:
     """The ``--json`` report of a folder comparison: the overall status, the totals, the
     settings, every pair, and what ``--update`` changed."""
@@ -45,7 +45,7 @@ def json_report(results: list[Result], status: str, settings: dict, pictures_in:
     return report
 
 
-def junit_report(results: list[Result], allow_new: bool = False, allow_missing: bool = False,
+def junit_report(results: list[PairResult], allow_new: bool = False, allow_missing: bool = False,
                  suite: str = "depixel diff") -> bytes:
     """JUnit XML: one testcase per pair; a difference, or a missing or new file not allowed,
     is a failure with its figures; a file that could not be compared is an error; an
@@ -72,7 +72,7 @@ def junit_report(results: list[Result], allow_new: bool = False, allow_missing: 
     return ET.tostring(root, encoding="utf-8", xml_declaration=True) + b"\n"
 
 
-def _details(result: Result) -> str:
+def _details(result: PairResult) -> str:
     lines = [_xml(result.summary()), f"baseline: {_xml(result.baseline or '(none)')}",
              f"current: {_xml(result.current or '(none)')}"]
     if result.verdict == DIFFERENT:

@@ -72,11 +72,6 @@ def kind_of(data: bytes, path: str | os.PathLike = "") -> str:
     return "svg" if head.startswith(b"<?xml") or head.startswith(b"<svg") else "raster"
 
 
-def is_svg(data: bytes, path: str | os.PathLike = "") -> bool:
-    """SVG by extension, or by content starting with an XML declaration or ``<svg``."""
-    return kind_of(data, path) == "svg"
-
-
 def read(path: str | os.PathLike, max_pixels: int | None = DEFAULT_MAX_DIFF_PIXELS) -> Source:
     """Read a file and find its size; a raster is decoded (refused over ``max_pixels``)."""
     from ..render.raster import svg_size  # noqa: PLC0415
@@ -167,26 +162,17 @@ def _render_svg(source: Source, width: int, height: int, max_pixels: int | None)
 
     from ..render.raster import render  # noqa: PLC0415
 
-    png = render(source.data, "png", width=width, height=height, name=source.name, max_output_pixels=max_pixels)
+    png = render(source.data, "png", size=(width, height), name=source.name, max_output_pixels=max_pixels)
     with Image.open(io.BytesIO(png)) as img:
         del png
         img.load()
         return np.array(img if img.mode == "RGBA" else img.convert("RGBA"))
 
 
-def load_pair(path_a: str | os.PathLike, path_b: str | os.PathLike, *, scale: float = 1.0,
-              allow_size_mismatch: bool = False,
-              max_pixels: int | None = DEFAULT_MAX_DIFF_PIXELS) -> tuple[np.ndarray, np.ndarray]:
-    """Both files as ``(H, W, 4) uint8`` RGBA of the same size, not yet flattened (module
-    docstring). So ``scale=8`` compares a sprite's SVG with its 1x PNG at 8x."""
-    max_pixels = validate.limit("max_pixels", max_pixels)
-    a, b = read(path_a, max_pixels), read(path_b, max_pixels)
-    return draw_pair(a, b, scale=scale, allow_size_mismatch=allow_size_mismatch, max_pixels=max_pixels)
-
-
 def draw_pair(a: Source, b: Source, *, scale: float = 1.0, allow_size_mismatch: bool = False,
               max_pixels: int | None = DEFAULT_MAX_DIFF_PIXELS) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`load_pair` on two files already read."""
+    """Both files (:func:`read`) as ``(H, W, 4) uint8`` RGBA of the same size, not yet flattened
+    (module docstring). So ``scale=8`` compares a sprite's SVG with its 1x PNG at 8x."""
     (wa, ha), (wb, hb) = sizes(a, b, scale, allow_size_mismatch)
     first = pixels(a, wa, ha, max_pixels)
     second = pixels(b, wb, hb, max_pixels)

@@ -16,17 +16,17 @@ from pathlib import Path
 from ..errors import OutputError, display_name
 from ..files.output import write_atomic
 from ..prepare.image import read_source
-from .files import DIFFERENT, MISSING, NEW, SAME, Result
+from .pairs import DIFFERENT, MISSING, NEW, SAME, PairResult
 
 UPDATED, ADDED, REMOVED = "updated", "added", "removed"
 
 
-def update_baseline(results: list[Result], baseline: str | os.PathLike, current: str | os.PathLike,
-                    prune: bool = False) -> tuple[list[tuple[str, str]], list[Result]]:
+def update_baseline(results: list[PairResult], baseline: str | os.PathLike, current: str | os.PathLike,
+                    prune: bool = False) -> tuple[list[tuple[str, str]], list[PairResult]]:
     """Copy the current files over the baseline; returns what changed, as (action, name),
     and the results as they stand after the update (updated pairs are now the same)."""
     changed: list[tuple[str, str]] = []
-    after: list[Result] = []
+    after: list[PairResult] = []
     for result in results:
         if result.verdict in (DIFFERENT, NEW) and result.current is not None:
             target = Path(baseline, result.current)

@@ -5,9 +5,5 @@
 pixel centres inside their cells; :mod:`.stage` runs them (:class:`~depixel.optimize.stage.OptimizedSplines`).
 """
 
-
-def __getattr__(name: str):
-    """Submodules load on first use (:func:`depixel.load_submodule`)."""
-    import depixel  # noqa: PLC0415 (an attribute read while depixel itself imports is a plain miss)
-
-    return depixel.load_submodule(__name__, name)
+#: its modules, each imported on first use (``depixel/__init__.py``)
+__all__ = ["corners", "energy", "fidelity", "harmonic", "junctions", "relax", "stage", "trials"]

@@ -20,6 +20,18 @@ from .palette import SNAP_RADIUS
 from .pixelgrid import AUTO, colour_keys
 
 
+def over_colour(rgba: np.ndarray, colour: Colour) -> np.ndarray:
+    """``(H, W, 4)`` RGBA composited over an opaque ``(r, g, b)`` → ``(H, W, 4) uint8``, alpha 255
+    (:func:`depixel.flatten`; the input option ``background``)."""
+    rgb = np.array(colour, dtype=np.int64)
+    pixels = rgba.astype(np.int64)
+    alpha = pixels[..., 3:4]
+    out = np.empty(pixels.shape, np.uint8)
+    out[..., :3] = (pixels[..., :3] * alpha + rgb * (255 - alpha) + 127) // 255
+    out[..., 3] = 255
+    return out
+
+
 class Backdrop(NamedTuple):
     """What :func:`make_transparent` did."""
 

@@ -82,14 +82,14 @@ def reproducible_date() -> str:
     return moment.strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
-def render(svg: str | bytes, fmt: str = "png", *, scale: float | None = None, width: int | None = None,
-           height: int | None = None, background: tuple[int, int, int] | None = None,
+def render(svg: str | bytes, fmt: str = "png", *, scale: float | None = None,
+           size: tuple[int | None, int | None] = (None, None), background: tuple[int, int, int] | None = None,
            name: str = "<svg>", max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS,
            keywords: str | None = None) -> bytes:
     """Render SVG (or gzip-compressed SVG) text to PNG or PDF bytes.
 
-    The size is the SVG's own width/height times ``scale`` (default 1); ``width`` and/or
-    ``height`` in pixels override it (one of them alone keeps the aspect ratio). A PNG is
+    The size is the SVG's own width/height times ``scale`` (default 1); ``size``, a width
+    and/or height in pixels, overrides it (one of them alone keeps the aspect ratio). A PNG is
     that size rounded to whole pixels, with the drawing stretched by the rounding (under a
     pixel) so that it covers the last row and column. A PNG of more than
     ``max_output_pixels`` is refused before it is allocated. ``background`` is an opaque RGB
@@ -97,6 +97,7 @@ def render(svg: str | bytes, fmt: str = "png", *, scale: float | None = None, wi
     of :func:`reproducible_date` and ``keywords`` in its metadata, so it is byte-stable.
     """
     validate.choice("format", fmt, RASTER_FORMATS)
+    width, height = size
     if scale is not None:
         validate.positive("scale", scale)
     for key, value in (("width", width), ("height", height)):
@@ -244,7 +245,7 @@ def render_rgba(svg: str | bytes, *, width: int | None = None, height: int | Non
     """Render SVG text to an ``(H, W, 4) uint8`` RGBA array on a transparent background."""
     from PIL import Image  # noqa: PLC0415
 
-    png = render(svg, "png", scale=scale, width=width, height=height, name=name,
+    png = render(svg, "png", scale=scale, size=(width, height), name=name,
                  max_output_pixels=max_output_pixels)
     with Image.open(io.BytesIO(png)) as img:
         return np.ascontiguousarray(np.asarray(img.convert("RGBA"), dtype=np.uint8))

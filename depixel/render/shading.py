@@ -234,7 +234,7 @@ class _ShadingField:
         self.pad_region = np.pad(self.region.reshape(h, w), pad, constant_values=-1).ravel()
         self.pad_colour = np.pad(self.premultiplied.reshape(h, w, 4), pad + ((0, 0),)).reshape(-1, 4).astype(np.float32)
         coarse = _flatten(image, _pieces_per_curve(image, VISIBILITY_TOLERANCE))
-        self.occluders = Occluders(image, *coarse, self.centroid, self.region, self.premultiplied, self.radius,
+        self.occluders = Occluders(image, coarse, self.centroid, self.region, self.premultiplied, self.radius,
                                    self.offsets)
 
     def _flat_cells(self, radius: int) -> np.ndarray:

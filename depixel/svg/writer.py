@@ -19,7 +19,6 @@ The text is assembled with whole-array operations (:mod:`depixel.svg.svgtext`).
 """
 from __future__ import annotations
 
-from collections.abc import Iterable
 from functools import cache
 
 import numpy as np
@@ -92,19 +91,11 @@ def to_svg(image: VectorImage, scale: float = 1.0, precision: int = DEFAULT_PREC
     validate.choice("shading", shading, SHADINGS)
     validate.positive("sigma", sigma)
     shapes = outline_shapes(image, layout, grid=10.0**-precision, simplify=simplify)
-    return _document(shapes, shapes.batches(), scale, precision, title, sigma if shading == "smooth" else None)
+    return _document(shapes, scale, precision, title, sigma if shading == "smooth" else None)
 
 
-def write_svg(outlines: Outlines, scale: float = 1.0, precision: int = DEFAULT_PRECISION,
-              title: str | None = None) -> str:
-    """Format outlines (built with ``grid=10**-precision``) as an SVG document (flat shading:
-    the smooth groups need the faces, which outlines do not keep)."""
-    return _document(outlines, [outlines], scale, precision, title, None)
-
-
-def _document(shapes: Outlines | OutlineShapes, batches: Iterable[Outlines], scale: float, precision: int,
-              title: str | None, sigma: float | None) -> str:
-    """The SVG document of ``shapes``, whose outlines are ``batches`` of consecutive shapes,
+def _document(shapes: OutlineShapes, scale: float, precision: int, title: str | None, sigma: float | None) -> str:
+    """The SVG document of ``shapes``, their outlines built a batch of consecutive shapes at a time,
     with the smooth shading of a Gaussian of ``sigma`` pixels (None: flat)."""
     h, w = shapes.shape
     width, height = number(w * scale, 3), number(h * scale, 3)
@@ -117,7 +108,7 @@ def _document(shapes: Outlines | OutlineShapes, batches: Iterable[Outlines], sca
         head += f"<title>{_escape(title)}</title>\n"
     parts = [head, labels.smooth.defs(sigma) if sigma is not None else ""]
     first = 0
-    for batch in batches:
+    for batch in shapes.batches():
         parts.append(elements(batch, first, labels, path_data(batch, precision)))
         first += len(batch)
     parts.append("</svg>\n")
