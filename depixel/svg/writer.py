@@ -44,6 +44,8 @@ DEFAULT_PRECISION = 2
 #: the largest tolerance accepted: beyond about a pixel a curve could stray over a feature
 MAX_SIMPLIFY = 2.0
 INKSCAPE_NS = "http://www.inkscape.org/namespaces/inkscape"
+#: the xlink namespace, declared when the masks of the smooth shading refer to shapes
+XLINK = ' xmlns:xlink="http://www.w3.org/1999/xlink"'
 #: how the SVG shades a region of several tones: "smooth" blends them (paper §3.5, a filter
 #: inside the region's outline), "flat" draws each tone as a flat band
 SHADINGS = ("smooth", "flat")
@@ -110,7 +112,8 @@ def _document(shapes: Outlines | OutlineShapes, batches: Iterable[Outlines], sca
     width, height = number(w * scale, 3), number(h * scale, 3)
     labels = Labels(shapes, smooth=sigma is not None)
     head = (
-        f'{SVG_HEADER}<svg xmlns="{"http://www.w3.org/2000/svg"}" xmlns:inkscape="{INKSCAPE_NS}" version="1.1" '
+        f'{SVG_HEADER}<svg xmlns="{"http://www.w3.org/2000/svg"}" xmlns:inkscape="{INKSCAPE_NS}"'
+        f'{XLINK if sigma is not None and labels.smooth.masks else ""} version="1.1" '
         f'width="{width}" height="{height}" viewBox="0 0 {w} {h}">\n'
     )
     if title:
