@@ -50,12 +50,12 @@ XLINK = ' xmlns:xlink="http://www.w3.org/1999/xlink"'
 #: inside the region's outline), "flat" draws each tone as a flat band
 SHADINGS = ("smooth", "flat")
 #: not in paper: the SVG blur's standard deviation as a fraction of the paper's σ
-#: (``Params.shading_sigma``). A blur averages the cells' whole areas, where the paper weighs
-#: Gaussians sampled at the cell centroids and cut at 2σ, so the paper's σ would pull the
-#: centre of a one-pixel line of a tone at the similarity limit (|ΔY| = 48) by ~24 levels;
-#: at 0.4σ every pixel centre of the paper corpus but a few stays within 16 levels, and a
-#: 48-level band edge still spreads over ±3 output pixels at 8× (docs/svg.md, "Smooth shading")
-SIGMA_RATIO = 0.4
+#: (``Params.shading_sigma``). The paper weighs each cell by a Gaussian (σ = 1) at its
+#: centroid, lowered by its value at the radius 2 and cut there: a cell's influence spreads
+#: with a variance of 0.544 px² per axis. A blur weighs the cell's whole area, a Gaussian
+#: convolved with the pixel's box (variance σ² + 1/12), so the blur of the same spread has
+#: σ = √(0.544 − 1/12) = 0.68 (docs/svg.md, "σ")
+SIGMA_RATIO = 0.68
 #: the blur's standard deviation (pixels) unless told
 DEFAULT_SIGMA = SIGMA_RATIO * Params().shading_sigma
 
