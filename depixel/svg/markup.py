@@ -16,7 +16,9 @@ whole run of its region) filtered by one shared filter:
   clip to the bands' outline would do, without new path data. Against a shape drawn
   before (beneath) the group that is the contour itself, so nothing of the blur leaves the
   group and the contour stays crisp. In the stacked layout the bands continue under the
-  shapes drawn above them, which cover that part as they cover the flat bands.
+  shapes drawn above them, which cover that part as they cover the flat bands; a
+  ``<g mask>`` inside the group keeps that hidden part out of the blur
+  (:mod:`depixel.svg.hiding`).
 
 A renderer without filters draws the flat bands; the document paints the same areas as the
 flat one, in the same order, so it never opens a seam.
