@@ -215,6 +215,7 @@ FLAG_OF_PARAMETER = {
     "simplify": "--simplify",
     "pixel_size": "--pixel-size",
     "transparent": "--transparent",
+    "allow_size_mismatch": "--allow-size-mismatch",
     **{name: flag for flag, name, _, _ in TUNING},
 }
 
