@@ -59,7 +59,8 @@ def checked_address(address: str) -> tuple[str, str, int]:
     try:
         from distributed.security import Security  # noqa: PLC0415
     except ImportError:
-        raise DaskError("--dask needs the Dask extra: pip install 'depixel[dask]'") from None
+        raise DaskError("--dask needs the Dask extra, not installed here: pip install '/path/to/depixel[dask]' "
+                        "(depixel's source folder, or its wheel, with [dask])") from None
     if scheme == "tls" and Security().get_connection_args("client")["ssl_context"] is None:
         raise DaskError(f"--dask {address}: no TLS certificate is configured for this client: set "
                         "distributed.comm.tls.ca-file, .client.cert and .client.key in the Dask configuration")
