@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 from depixel.errors import DepixelError, OutputError, display_name
-from depixel.files.output import make_folders, write_atomic
+from depixel.files.output import make_folders, remove_file, write_atomic
 
 from ..options import Exit
 from .python import CHECK_SCRIPT, Finding, check, describe
@@ -228,12 +228,12 @@ def run_uninstall(args: argparse.Namespace) -> int:
         if not (path.is_symlink() or path.exists()):
             continue
         if args.force or _ours(path, known.get(name), (SOURCE / name).read_bytes()):
-            _remove(path)
+            remove_file(path)
             removed.append(name)
         else:
             kept.append(name)
     if not kept and installed_files(folder) is not None:
-        _remove(folder / RECORDED_COMMAND)
+        remove_file(folder / RECORDED_COMMAND)
         removed.append(RECORDED_COMMAND)
     if removed:
         print(f"removed from {display_name(folder)}: {', '.join(removed)}")
@@ -243,13 +243,3 @@ def run_uninstall(args: argparse.Namespace) -> int:
     if not removed and not kept:
         print(f"the extension is not installed in {display_name(folder)}: nothing removed")
     return Exit.OK
-
-
-def _remove(path: Path) -> None:
-    """Remove a file (a link: the link itself)."""
-    try:
-        path.unlink()
-    except FileNotFoundError:
-        pass
-    except OSError as exc:
-        raise OutputError(f"{display_name(path)}: cannot remove ({exc.strerror or exc})") from None

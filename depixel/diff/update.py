@@ -26,7 +26,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..errors import OutputError, display_name
-from ..files.output import make_folders, remove_stale_in, signals_deferred, write_atomic
+from ..files.output import make_folders, remove_file, remove_stale_in, signals_deferred, write_atomic
 from ..prepare.image import read_source
 from .files import DIFFERENT, MISSING, NEW, SAME, Result
 
@@ -87,7 +87,7 @@ def update_baseline(results: list[Result], baseline: str | os.PathLike, current:
     except OSError as exc:  # the record itself
         raise UpdateStopped(f"{display_name(record)}: cannot write ({exc.strerror or exc}); --update stopped "
                             f"after {len(done)} of {len(plan)} changes", list(done)) from None
-    _remove(record)
+    remove_file(record)
     return done, after
 
 
@@ -126,7 +126,7 @@ def _apply(change: _Change) -> None:
         make_folders(change.write.parent)
         write_atomic(change.write, read_source(change.source), protect=(change.source,), replace_link=True)
     if change.remove is not None:
-        _remove(change.remove)
+        remove_file(change.remove)
 
 
 def _within(path: str, folder: str) -> bool:
@@ -141,13 +141,3 @@ def _link_on_the_way(path: Path, baseline: Path) -> Path:
         if here.is_symlink():
             return here
     return path
-
-
-def _remove(path: Path) -> None:
-    """Remove a file (a link: the link itself)."""
-    try:
-        path.unlink()
-    except FileNotFoundError:
-        pass
-    except OSError as exc:
-        raise OutputError(f"{display_name(path)}: cannot remove ({exc.strerror or exc})") from None

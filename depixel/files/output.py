@@ -297,6 +297,17 @@ def make_folders(folder: str | os.PathLike) -> None:
             raise OutputError(f"{display_name(path)}: cannot create folder ({exc.strerror or exc})") from None
 
 
+def remove_file(path: str | os.PathLike) -> None:
+    """Remove a file (a symbolic link: the link itself, never what it points to); one that
+    is already gone is no error; any other failure is a one-line :class:`OutputError`."""
+    try:
+        os.unlink(path)
+    except FileNotFoundError:
+        pass
+    except OSError as exc:
+        raise OutputError(f"{display_name(path)}: cannot remove ({exc.strerror or exc})") from None
+
+
 def discard(staged: Sequence[Staged]) -> None:
     """Remove staged outputs' temporary files (those not committed)."""
     for item in staged:
