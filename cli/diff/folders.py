@@ -167,7 +167,7 @@ def _finish(args: argparse.Namespace, settings: Settings, results: list[Result],
     else:
         lines = [r.summary() for r in results if r.verdict != SAME]
         lines += [f"{action}: {display_name(name)}" for action, name in updated or []]
-        lines.append(_totals_line(results, final, args))
+        lines.append(_totals_line(results, final, args, updated is not None))
         print_lines(lines)
     if problem is not None:
         say(f"error: {problem}")
@@ -185,14 +185,14 @@ def _named(staged, write) -> None:
         raise OutputError(text) from None
 
 
-def _totals_line(results: list[Result], final: str, args: argparse.Namespace) -> str:
+def _totals_line(results: list[Result], final: str, args: argparse.Namespace, updated: bool) -> str:
     counts = totals(results)
     parts = [f"{n} {verdict}" for verdict, n in counts.items() if n]
     allowed = [what for what, on in (("new", args.allow_new), ("missing", args.allow_missing)) if on]
     note = f" ({' and '.join(allowed)} allowed)" if allowed else ""
-    updated = " after --update" if args.update else ""
+    after = " after --update" if updated else ""  # (not when the update was refused)
     files = f"{len(results)} file{'' if len(results) == 1 else 's'}"
-    return f"{final}{updated}: {files}: {', '.join(parts) or 'none found'}{note}"
+    return f"{final}{after}: {files}: {', '.join(parts) or 'none found'}{note}"
 
 
 def describe(args: argparse.Namespace) -> str:

@@ -82,8 +82,9 @@ def update_baseline(results: list[Result], baseline: str | os.PathLike, current:
                     log.write(f"{change.action}: {change.name}\n")
                     log.flush()
     except OutputError as exc:
-        raise UpdateStopped(f"{exc}; --update stopped after {len(done)} of {len(plan)} changes "
-                            f"(listed in {display_name(record)})", list(done)) from None
+        listed = f" (listed in {display_name(record)})" if record.exists() else ""
+        raise UpdateStopped(f"{exc}; --update stopped after {len(done)} of {len(plan)} changes{listed}",
+                            list(done)) from None
     except OSError as exc:  # the record itself
         raise UpdateStopped(f"{display_name(record)}: cannot write ({exc.strerror or exc}); --update stopped "
                             f"after {len(done)} of {len(plan)} changes", list(done)) from None
