@@ -71,8 +71,8 @@ POLL_SECONDS = 0.2
 LOOK_SECONDS = 1.0
 #: Seconds given, after the run marker is removed, to a task that saw it just before.
 SETTLE_SECONDS = 0.1
-#: Times a task that ran on a worker failing the probe is sent again (to the others, preferred
-#: but not required: a task bound to workers that all left would wait for good).
+#: Times a task that ran on a worker failing the probe is sent again, bound to the workers that
+#: passed it (sent again, at the next look, when those all left).
 MAX_TRIES = 3
 
 
@@ -114,7 +114,9 @@ class _Run:
         self.begun = 0  # the marker's modification time: the shared filesystem's clock, not this machine's
         self.good: set[str] = set()  # workers that passed the probe
         self.bad: dict[str, str] = {}  # workers that failed it (joined during the batch): why
-        self.tries: dict[int, int] = {}  # job index → times its task was sent again
+        self.tries: dict[int, int] = {}  # job index → times its task was sent again from a failing worker
+        self.bound: dict[str, set[str]] = {}  # the key of a task sent again → the workers it is bound to
+        self.sent_again = 0  # tasks sent again, for their keys
 
     def run(self, todo: list[int], host: str, port: int, outcomes: dict[int, Outcome]) -> None:
         stopped = lambda: self.signals.signum is not None  # noqa: E731
@@ -188,9 +190,21 @@ class _Run:
                     break
                 assigned, alive = looked
                 self._check_joined(alive)
-                alone_since = None if alive else alone_since or now
+                self.good &= alive
+                for future in [f for f in pending if f.key in self.bound and not self.bound[f.key] & alive]:
+                    if self.good:  # sent again to workers that all left: to those that passed now
+                        self.bound.pop(future.key)
+                        again = self._send(index[future.key], sent[index[future.key]])
+                        future.cancel()
+                        pending.discard(future)
+                        index[again.key] = index[future.key]
+                        pending.add(again)
+                        finished.add(again)
+                usable = alive & self.good  # the workers that may convert this batch
+                alone_since = None if usable else alone_since or now
                 if alone_since is not None and now - max(alone_since, last_event) >= self.timeout:
-                    stop = (f"the Dask scheduler at {self.address} has had no worker for {self.timeout:g} s "
+                    which = "worker" if not alive else "worker that can convert this batch"
+                    stop = (f"the Dask scheduler at {self.address} has had no {which} for {self.timeout:g} s "
                             "(--dask-timeout)")
             if not done:
                 time.sleep(POLL_SECONDS)
@@ -237,11 +251,19 @@ class _Run:
             self._check_joined({worker})
         if worker not in self.bad or not self.good or self.tries.get(i, 0) >= MAX_TRIES:
             return None
-        assert self.client is not None and self.marker is not None
         self.tries[i] = self.tries.get(i, 0) + 1
-        return self.client.submit(partial(run_task, marker=str(self.marker)), job, pure=False,
-                                  key=f"depixel-{self.token}-{i}-again{self.tries[i]}-{self.jobs[i].source.name}",
-                                  workers=sorted(self.good), allow_other_workers=True)
+        return self._send(i, job)
+
+    def _send(self, i: int, job: Job):
+        """Send the task of job ``i`` again, bound to the workers that passed the probe (only
+        them: the scheduler would otherwise give it to whichever is idle, the others too)."""
+        assert self.client is not None and self.marker is not None
+        self.sent_again += 1
+        future = self.client.submit(partial(run_task, marker=str(self.marker)), job, pure=False,
+                                    key=f"depixel-{self.token}-{i}-again{self.sent_again}-{self.jobs[i].source.name}",
+                                    workers=sorted(self.good), allow_other_workers=False)
+        self.bound[future.key] = set(self.good)
+        return future
 
     def _stop(self, pending: set, index: dict, assigned: set[str], outcomes: dict[int, Outcome]) -> None:
         """Cancel the queued tasks, close the run marker to the running ones, and report each
