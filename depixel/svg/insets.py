@@ -143,29 +143,38 @@ def inset_runs(kind: np.ndarray, ctrl: np.ndarray, ctrl2: np.ndarray, end: np.nd
     n0, n1 = _right(t0), _right(t1)
     m = margin[:, None]
     ins_prev, ins_next = inset.take(prev), inset.take(nxt)
-    # (an end of a run or of a convex corner moves along its segment at most half the
-    # segment's leg there)
-    last_leg, first_leg = np.hypot(*(end - trail).T) / 2, np.hypot(*(lead - start).T) / 2
-    joint, bevel = _joints(end, t1, n1, m, t0.take(nxt, axis=0), n0.take(nxt, axis=0), m.take(nxt, axis=0),
-                           np.minimum(last_leg, first_leg.take(nxt)))
+    # where each inset segment starts and ends, and how far along itself from its ends (an
+    # end of a run or of a convex corner moves at most a third of the segment's leg there)
+    degree = np.where(line, 1, np.where(cubic, 3, 2))
+    first_leg, last_leg = np.hypot(*(lead - start).T), np.hypot(*(end - trail).T)
+    joint, bevel, back_a, back_b = _joints(end, t1, n1, m, t0.take(nxt, axis=0), n0.take(nxt, axis=0),
+                                           m.take(nxt, axis=0), np.minimum(last_leg, first_leg.take(nxt)) / 3)
     bevel &= inset & ins_next
     run_end = inset & ~ins_next
-    new_end = np.where(run_end[:, None], _corner(end, -t1, n1, f_out, m, last_leg),
-                       np.where(bevel[:, None], end + m * n1, joint))
-    new_start = _corner(start, t0, n0, f_in, m, first_leg)
-    # a quadratic's control where its moved legs meet; a cubic's controls where its moved
-    # middle leg meets the moved first and last legs (Tiller and Hanson)
-    n_mid = _right(_unit(ctrl2 - ctrl, end - start))
-    new_ctrl = ctrl + m * np.where(cubic[:, None], _meet(n0, n_mid), _meet(n0, n1))
-    new_ctrl2 = ctrl2 + m * _meet(n_mid, n1)
+    run_start = inset & ~ins_prev
+    end_at, end_back = _corner(end, -t1, n1, f_out, m, last_leg / 3)
+    start_at, start_ahead = _corner(start, t0, n0, f_in, m, first_leg / 3)
+    end_back = np.where(run_end, end_back, np.where(bevel, 0.0, back_a))
+    start_ahead = np.where(run_start, start_ahead, np.where(bevel.take(prev), 0.0, back_b.take(prev)))
+    new_end = np.where(run_end[:, None], end_at, np.where(bevel[:, None], end + m * n1, joint))
+    # the part of the segment between those places (de Casteljau), moved: a line along its
+    # normal, a quadratic's control where its moved legs meet, a cubic's controls where its
+    # moved middle leg meets the moved first and last legs (Tiller and Hanson)
+    a = start_ahead / np.maximum(degree * first_leg, 1e-12)
+    b = 1.0 - end_back / np.maximum(degree * last_leg, 1e-12)
+    p0, c1, c2, p1 = _part(kind, start, ctrl, ctrl2, end, a, b)
+    s0 = _right(_unit(np.where(line[:, None], p1, c1) - p0, p1 - p0))
+    s1 = _right(_unit(p1 - np.where(line[:, None], p0, np.where(cubic[:, None], c2, c1)), p1 - p0))
+    s_mid = _right(_unit(c2 - c1, p1 - p0))
+    new_ctrl = c1 + m * np.where(cubic[:, None], _meet(s0, s_mid), _meet(s0, s1))
+    new_ctrl2 = c2 + m * _meet(s_mid, s1)
     # lines added: before a run (from its start node to its inset), after a run (back to its
     # end node) and at a sharp reflex turn (round the corner to the next inset's start)
-    before = inset & ~ins_prev
     after = run_end + 2 * bevel
-    count = 1 + before + after
+    count = 1 + run_start + after
     pos = np.concatenate(([0], count.cumsum()))
     total = int(pos[-1])
-    at = pos[:-1] + before  # where each segment lands
+    at = pos[:-1] + run_start  # where each segment lands
     out_kind = np.full(total, LINE, np.uint8)
     out_ctrl, out_ctrl2 = np.full((total, 2), np.nan), np.full((total, 2), np.nan)
     out_end = np.empty((total, 2))
@@ -173,8 +182,8 @@ def inset_runs(kind: np.ndarray, ctrl: np.ndarray, ctrl2: np.ndarray, end: np.nd
     set_rows(out_end, at, np.where(inset[:, None], _on_grid(new_end, grid), end))
     set_rows(out_ctrl, at, np.where((inset & ~line)[:, None], _on_grid(new_ctrl, grid), ctrl))
     set_rows(out_ctrl2, at, np.where((inset & cubic)[:, None], _on_grid(new_ctrl2, grid), ctrl2))
-    lead_in = before.nonzero()[0]
-    set_rows(out_end, pos.take(lead_in), _on_grid(new_start.take(lead_in, axis=0), grid))
+    lead_in = run_start.nonzero()[0]
+    set_rows(out_end, pos.take(lead_in), _on_grid(start_at.take(lead_in, axis=0), grid))
     lead_out = run_end.nonzero()[0]
     set_rows(out_end, at.take(lead_out) + 1, end.take(lead_out, axis=0))
     round_corner = bevel.nonzero()[0]
@@ -185,14 +194,38 @@ def inset_runs(kind: np.ndarray, ctrl: np.ndarray, ctrl2: np.ndarray, end: np.nd
     return out_kind, out_ctrl, out_ctrl2, out_end, pos.take(loop_ptr)
 
 
+def _part(kind: np.ndarray, p0: np.ndarray, c1: np.ndarray, c2: np.ndarray, p1: np.ndarray, a: np.ndarray,
+          b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The points ``(start, ctrl, ctrl2, end)`` of the part of each segment between
+    parameters ``a`` and ``b`` (blossoms: exact for lines, quadratics and cubics)."""
+    a, b = a[:, None], b[:, None]
+    line, cubic = (kind == LINE)[:, None], (kind == CUBIC)[:, None]
+    q1 = np.where(line, p1, c1)  # (a line as a degenerate quadratic: its blossoms are its points)
+
+    def quad(s, t):
+        return (1 - s) * (1 - t) * p0 + ((1 - s) * t + s * (1 - t)) * q1 + s * t * p1
+
+    def cub(r, s, t):
+        return ((1 - r) * (1 - s) * (1 - t) * p0 + ((1 - r) * (1 - s) * t + (1 - r) * s * (1 - t) + r * (1 - s) * (1 - t)) * c1
+                + ((1 - r) * s * t + r * (1 - s) * t + r * s * (1 - t)) * c2 + r * s * t * p1)
+
+    start = np.where(cubic, cub(a, a, a), quad(a, a))
+    stop = np.where(cubic, cub(b, b, b), quad(b, b))
+    first = np.where(cubic, cub(a, a, b), quad(a, b))
+    second = np.where(cubic, cub(a, b, b), np.nan)
+    return start, first, second, stop
+
+
 def _joints(point: np.ndarray, t_a: np.ndarray, n_a: np.ndarray, m_a: np.ndarray, t_b: np.ndarray,
-            n_b: np.ndarray, m_b: np.ndarray, limit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            n_b: np.ndarray, m_b: np.ndarray, limit: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Where the insets of two segments meet at their joint ``point`` (the first arriving
     in unit direction ``t_a``, the second leaving in ``t_b``, normals ``n``, margins ``m``):
     on the bisector of the corner, at the mean margin from both. At a convex corner (the
     insets cross) at most ``limit`` along either segment, nearer the corner if need be; at a
     reflex one the mitre, and past a turn of 120° (``bevel``) the point of the bisector at
-    the mean margin from the corner, joined by lines to both insets."""
+    the mean margin from the corner, joined by lines to both insets. Also how far back along
+    each segment the point lies (negative: beyond)."""
     cos = (n_a * n_b).sum(axis=1)
     reflex = (t_b * n_a).sum(axis=1) < 0
     half_cos = np.sqrt(np.maximum((1.0 + cos) / 2, 0.0))
@@ -206,7 +239,22 @@ def _joints(point: np.ndarray, t_a: np.ndarray, n_a: np.ndarray, m_a: np.ndarray
     reach = np.where(reflex, m / np.maximum(half_cos, 0.5),
                      np.minimum(m / np.maximum(half_cos, 1e-9), limit / np.maximum(half_sin, 1e-9)))
     reach = np.where(bevel, m, reach)
-    return point + reach[:, None] * u, bevel
+    offset = reach[:, None] * u
+    return point + offset, bevel, -(offset * t_a).sum(axis=1), (offset * t_b).sum(axis=1)
+
+
+def _corner(node: np.ndarray, along: np.ndarray, normal: np.ndarray, other: np.ndarray, m: np.ndarray,
+            limit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The point on the bisector of the corner at ``node`` between an edge leaving it in
+    direction ``along`` and the ``other`` edge there (unit directions; the corner on the
+    ``normal`` side) at distance ``m`` from the edge, or nearer the node where that lies more
+    than ``limit`` along the edge, and how far along the edge it lies. A reflex corner, or
+    no other edge known (NaN), gives the point ``m`` along the normal."""
+    cos, sin = (along * other).sum(axis=1), (normal * other).sum(axis=1)
+    cot = np.nan_to_num(np.where(sin > 0, (1.0 + cos) / np.where(sin > 0, sin, 1.0), 0.0))  # cot(α/2)
+    shift = np.minimum(cot * m[:, 0], limit)
+    depth = np.where(cot > 0, shift / np.where(cot > 0, cot, 1.0), m[:, 0])
+    return node + depth[:, None] * normal + shift[:, None] * along, shift
 
 
 def merge_lines(kind, ctrl, ctrl2, end, loop_ptr, margin, f_in, f_out, grid):
@@ -244,20 +292,6 @@ def merge_lines(kind, ctrl, ctrl2, end, loop_ptr, margin, f_in, f_out, grid):
     loop_ptr = loop_of.compress(keep).searchsorted(np.arange(loop_ptr.size)).astype(np.int64)
     ctrl, ctrl2, end, f_in, f_out = (a.compress(keep, axis=0) for a in (ctrl, ctrl2, end, f_in, f_out))
     return kind.compress(keep), ctrl, ctrl2, end, loop_ptr, margin.compress(keep), f_in, f_out
-
-
-def _corner(node: np.ndarray, along: np.ndarray, normal: np.ndarray, other: np.ndarray, m: np.ndarray,
-            limit: np.ndarray) -> np.ndarray:
-    """The point on the bisector of the corner at ``node`` between an edge leaving it in
-    direction ``along`` and the ``other`` edge there (unit directions; the corner on the
-    ``normal`` side) at distance ``m`` from the edge, or nearer the node where that lies more
-    than ``limit`` along the edge. A reflex corner, or no other edge known (NaN), gives the
-    point ``m`` along the normal."""
-    cos, sin = (along * other).sum(axis=1), (normal * other).sum(axis=1)
-    cot = np.nan_to_num(np.where(sin > 0, (1.0 + cos) / np.where(sin > 0, sin, 1.0), 0.0))  # cot(α/2)
-    shift = np.minimum(cot * m[:, 0], limit)
-    depth = np.where(cot > 0, shift / np.where(cot > 0, cot, 1.0), m[:, 0])
-    return node + depth[:, None] * normal + shift[:, None] * along
 
 
 def _meet(n_a: np.ndarray, n_b: np.ndarray) -> np.ndarray:
