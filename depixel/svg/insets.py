@@ -89,9 +89,10 @@ def segment_insets(guide: InsetGuide | None, inset_face: np.ndarray, he: np.ndar
                    y: np.ndarray, loop_of: np.ndarray, n_seg: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per segment of the loops' steps (half-edges ``he`` in loop order, from node ``x`` to
     node ``y``, loop ``loop_of``, ``n_seg`` segments each, laid out in order): the margin
-    (0: not inset) and, at a run's first and last segment, the direction of the face's
-    other edge at the run's start and end node (NaN elsewhere). ``inset_face``: per
-    half-edge, the face an inset moves into, -1 for none."""
+    (0: not inset, the owner's own edge; -1: not inset, hidden under shapes above) and, at a
+    run's first and last segment, the direction of the face's other edge at the run's start
+    and end node (NaN elsewhere). ``inset_face``: per half-edge, the face an inset moves
+    into, or -1 (the owner's own edge) or -2 (another face's)."""
     total = int(n_seg.sum())
     f_in, f_out = np.full((total, 2), np.nan), np.full((total, 2), np.nan)
     q = inset_face.take(he)
@@ -104,7 +105,7 @@ def segment_insets(guide: InsetGuide | None, inset_face: np.ndarray, he: np.ndar
     q_prev, q_next = q.take(np.where(k == first, last, k - 1)), q.take(np.where(k == last, first, k + 1))
     seg_end = n_seg.cumsum()
     step = np.arange(q.size).repeat(n_seg)
-    margin = np.where(q >= 0, guide.margin.take(np.maximum(q, 0)), 0.0).take(step)
+    margin = np.where(q >= 0, guide.margin.take(np.maximum(q, 0)), np.where(q == -2, -1.0, 0.0)).take(step)
     begin = ((q >= 0) & (q_prev < 0)).nonzero()[0]
     set_rows(f_in, seg_end.take(begin) - n_seg.take(begin), guide.turn(q.take(begin), x.take(begin), True))
     finish = ((q >= 0) & (q_next < 0)).nonzero()[0]
@@ -128,6 +129,7 @@ def inset_runs(kind: np.ndarray, ctrl: np.ndarray, ctrl2: np.ndarray, end: np.nd
     inset = margin > 0
     if not np.logical_or.reduce(inset, initial=False):
         return kind, ctrl, ctrl2, end, loop_ptr
+    hidden, margin = margin < 0, np.maximum(margin, 0.0)
     n = kind.size
     n_loops = loop_ptr.size - 1
     loop_of = np.arange(n_loops).repeat(loop_ptr[1:] - loop_ptr[:-1])
@@ -169,12 +171,13 @@ def inset_runs(kind: np.ndarray, ctrl: np.ndarray, ctrl2: np.ndarray, end: np.nd
     new_ctrl = c1 + m * np.where(cubic[:, None], _meet(s0, s_mid), _meet(s0, s1))
     new_ctrl2 = c2 + m * _meet(s_mid, s1)
     # lines added: before a run (from its start node to its inset), after a run (back to its
-    # end node) and at a sharp reflex turn (round the corner to the next inset's start)
-    after = run_end + 2 * bevel
-    count = 1 + run_start + after
+    # end node) and at a sharp reflex turn (round the corner to the next inset's start); a
+    # hidden segment next to a run instead ends (or starts) where the inset does
+    lead_in, lead_out = run_start & ~hidden.take(prev), run_end & ~hidden.take(nxt)
+    count = 1 + lead_in + lead_out + 2 * bevel
     pos = np.concatenate(([0], count.cumsum()))
     total = int(pos[-1])
-    at = pos[:-1] + run_start  # where each segment lands
+    at = pos[:-1] + lead_in  # where each segment lands
     out_kind = np.full(total, LINE, np.uint8)
     out_ctrl, out_ctrl2 = np.full((total, 2), np.nan), np.full((total, 2), np.nan)
     out_end = np.empty((total, 2))
@@ -182,10 +185,12 @@ def inset_runs(kind: np.ndarray, ctrl: np.ndarray, ctrl2: np.ndarray, end: np.nd
     set_rows(out_end, at, np.where(inset[:, None], _on_grid(new_end, grid), end))
     set_rows(out_ctrl, at, np.where((inset & ~line)[:, None], _on_grid(new_ctrl, grid), ctrl))
     set_rows(out_ctrl2, at, np.where((inset & cubic)[:, None], _on_grid(new_ctrl2, grid), ctrl2))
-    lead_in = run_start.nonzero()[0]
-    set_rows(out_end, pos.take(lead_in), _on_grid(start_at.take(lead_in, axis=0), grid))
-    lead_out = run_end.nonzero()[0]
-    set_rows(out_end, at.take(lead_out) + 1, end.take(lead_out, axis=0))
+    into = lead_in.nonzero()[0]
+    set_rows(out_end, pos.take(into), _on_grid(start_at.take(into, axis=0), grid))
+    back = lead_out.nonzero()[0]
+    set_rows(out_end, at.take(back) + 1, end.take(back, axis=0))
+    moved = (run_start & hidden.take(prev)).nonzero()[0]
+    set_rows(out_end, at.take(prev.take(moved)), _on_grid(start_at.take(moved, axis=0), grid))
     round_corner = bevel.nonzero()[0]
     set_rows(out_end, at.take(round_corner) + 1, _on_grid(joint.take(round_corner, axis=0), grid))
     beyond = nxt.take(round_corner)
@@ -206,8 +211,9 @@ def _part(kind: np.ndarray, p0: np.ndarray, c1: np.ndarray, c2: np.ndarray, p1: 
         return (1 - s) * (1 - t) * p0 + ((1 - s) * t + s * (1 - t)) * q1 + s * t * p1
 
     def cub(r, s, t):
-        return ((1 - r) * (1 - s) * (1 - t) * p0 + ((1 - r) * (1 - s) * t + (1 - r) * s * (1 - t) + r * (1 - s) * (1 - t)) * c1
-                + ((1 - r) * s * t + r * (1 - s) * t + r * s * (1 - t)) * c2 + r * s * t * p1)
+        near = (1 - r) * (1 - s) * t + (1 - r) * s * (1 - t) + r * (1 - s) * (1 - t)
+        far = (1 - r) * s * t + r * (1 - s) * t + r * s * (1 - t)
+        return (1 - r) * (1 - s) * (1 - t) * p0 + near * c1 + far * c2 + r * s * t * p1
 
     start = np.where(cubic, cub(a, a, a), quad(a, a))
     stop = np.where(cubic, cub(b, b, b), quad(b, b))

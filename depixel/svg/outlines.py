@@ -237,7 +237,8 @@ def _batch_entries(faces: FaceBoundaries, face: np.ndarray, shape: np.ndarray, m
     ``face``), ``member_key`` of all pairs of the image (sorted). ``inset``: where the entry
     bounds a face drawn above the owner against a face that no shape above the owner covers
     (drawn below it, transparent or translucent), that face (:mod:`depixel.svg.insets`
-    pulls the outline back into it), else -1."""
+    pulls the outline back into it), else -2 where the entry bounds another face than the
+    owner's (hidden under the shapes above), -1 where it bounds the owner's own."""
     lo = faces.entry_ptr.take(member)
     count = faces.entry_ptr.take(member + 1) - lo
     entry = ranges(lo, count)
@@ -261,7 +262,8 @@ def _batch_entries(faces: FaceBoundaries, face: np.ndarray, shape: np.ndarray, m
     owner, entry, other = face.take(place.compress(outside)), entry.compress(outside), other.compress(outside)
     covered = (other >= 0) & faces.opaque.take(other) & (faces.rank.take(other) > faces.rank.take(owner))
     inside = member.repeat(count).compress(outside)
-    return owner, entry, np.where((inside != owner) & (other >= 0) & ~covered, inside, -1)
+    pulled = (inside != owner) & (other >= 0) & ~covered
+    return owner, entry, np.where(pulled, inside, np.where(inside != owner, -2, -1))
 
 
 #: a batch's members are looked up in a dense (shape, face) table of booleans while it has at
