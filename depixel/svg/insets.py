@@ -10,19 +10,26 @@ outline is replaced by its *inset*, the same curve moved a margin into Q along i
 S still lies under Q wherever Q borders S or a face above S, so hiding Q shows S there.
 
 * **Margin.** :data:`MARGIN` (0.25 px), less in a face too small for it: at most an eighth
-  of the face's width measured as 4 × area / perimeter (a one-pixel square: 0.125 px), so
-  the insets of a small face's sides never cross.
+  of the face's width measured as 4 × area / perimeter of its cells (a one-pixel square:
+  0.125 px), so the insets of a small face's sides do not cross.
 * **Ends.** Where a run starts or ends at a node, Q's boundary turns there from the Q–X
-  edge onto another edge f of Q, inside S's shape. The run's inset is joined to the node by
-  a line along the bisector of Q's corner between the two, which leaves both edges at the
-  same angle (a line along the normal would run along f wherever Q's corner is a right
-  angle, and there S's edge would coincide with Q's again). The inset is shortened or
-  lengthened to meet that line.
+  edge onto another edge f of Q, inside S's shape. The inset is joined to the node by a line
+  along the bisector of Q's corner between the two, which leaves both edges at the same
+  angle (a line along the normal would run along f wherever Q's corner is a right angle, and
+  there S's edge would coincide with Q's again); at a sharp corner it meets the bisector
+  nearer the node, never more than a third of the curve's leg along it. Where the outline
+  next to the run is hidden itself (it bounds a face drawn above S against another), that
+  segment ends (or starts) where the inset does instead: no line.
 * **Curves.** The inset of a segment moves its ends along their normals and its control
-  points with them (a quadratic's control to where the two moved tangents meet): not the
-  exact offset curve, which no Bézier is, but within a small fraction of the margin of it
-  on the gentle segments of a depixelized boundary. Consecutive insets meet where their
-  end tangents' insets meet (a mitre), or, at a turn sharper than 120°, are joined by a line.
+  points with them (a quadratic's control to where its two moved legs meet, a cubic's to
+  where its moved middle leg meets the moved first and last, as Tiller and Hanson): not the
+  exact offset curve, which no Bézier is, but close to it on the gentle segments of a
+  depixelized boundary. A segment shortened at a run's end or at a convex corner is cut
+  there first (de Casteljau), so the part kept is the same curve.
+* **Corners.** Consecutive insets meet on the bisector of their corner, at the mean of
+  their margins; at a convex corner (where the insets cross) at most a third of either
+  curve's leg from the corner, nearer to it if need be; at a reflex turn of more than 120°
+  round the corner by two lines through the bisector's point at the margin.
 """
 from __future__ import annotations
 
@@ -37,8 +44,8 @@ from .stacking import FaceBoundaries
 #: in pixels: more than a render pixel's diagonal at 8x (0.18), so no render pixel at 8x
 #: or finer is touched by both edges, and less than half the width of a one-pixel line
 MARGIN = 0.25
-#: a turn between two inset segments is joined by a mitre while the cosine of the angle
-#: between their normals exceeds this (turns up to 120 degrees), else by a line
+#: a reflex turn between two inset segments is joined by a mitre while the cosine of the
+#: angle between their normals exceeds this (turns up to 120 degrees), else by two lines
 SHARP = -0.5
 
 

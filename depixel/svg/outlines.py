@@ -13,7 +13,10 @@ Layouts:
   encloses unless the hole holds transparent or translucent pixels. So no shape cuts a hole
   for a shape on top of it, the lower of two touching shapes lies beneath their common
   boundary (no renderer can leave a seam there), and each shape's outline is made of its
-  own boundary and of boundaries of the shapes above it, never of hidden fragments.
+  own boundary and of boundaries of the shapes above it, never of hidden fragments; where
+  such a boundary is one that a shape above draws against a face below, the outline is
+  pulled back under that shape (:mod:`depixel.svg.insets`: no thread of the lower colour
+  through the upper shape's edge).
 * ``"cutout"``: every shape is exactly its face, with holes; the shapes tile the image
   without overlap. Renderers that anti-alias each shape on its own leave a faint seam where
   two shapes meet (docs/svg.md).
