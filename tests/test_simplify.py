@@ -201,7 +201,7 @@ def test_straight_runs_stay_lines(image, tolerance):
 
 
 #: a diamond: its four sides 45-degree staircases, which the optimizer draws as straight
-#: runs of spans (their controls rounded to the grid a hundredth off the line)
+#: runs of spans (their controls rounded to the grid a hundredth off the line), 4.2 px long
 DIAMOND = art("""
 ..........
 ....##....
@@ -214,20 +214,33 @@ DIAMOND = art("""
 ....##....
 ..........
 """)
+#: a smaller one: its sides' straight runs are 2.8 px long
+SMALL_DIAMOND = art("""
+........
+...##...
+..####..
+.######.
+.######.
+..####..
+...##...
+........
+""")
 
 
 @pytest.mark.parametrize("tolerance", [0.25, 1.0])
-def test_a_straight_run_of_the_spline_is_one_line(tolerance):
+@pytest.mark.parametrize("image", [DIAMOND, SMALL_DIAMOND], ids=["diamond", "small"])
+def test_a_straight_run_of_the_spline_is_one_line(image, tolerance):
     """A 45-degree staircase drawn as a straight run of the spline's spans (each within the
     grid of its chord) two pixels long or more is written as one line, and so cuts the piece:
     a curve fitted over it and the bend beyond would redraw the whole side when an edit
-    moves the bend (docs/design.md, Locality of the default --simplify)."""
-    exact = _pieces(DIAMOND, 0.0, grid=0.01, stage="optimized")
+    moves the bend (docs/design.md, Locality of the default --simplify). The small diamond's
+    runs, under 3 px, pin the 2 px."""
+    exact = _pieces(image, 0.0, grid=0.01, stage="optimized")
     start = _starts(exact)
     chord = exact.end - start
     flat = (exact.kind == QUAD) & (np.abs(np.abs(chord[:, 0]) - np.abs(chord[:, 1])) < 1e-9)
     assert flat.sum() >= 8  # the sides' spans, 45 degrees each
-    simple = _pieces(DIAMOND, tolerance, grid=0.01, stage="optimized")
+    simple = _pieces(image, tolerance, grid=0.01, stage="optimized")
     start = _starts(simple)
     chord = simple.end - start
     lines = (simple.kind == LINE) & (np.abs(np.abs(chord[:, 0]) - np.abs(chord[:, 1])) < 1e-9)
