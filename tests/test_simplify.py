@@ -50,10 +50,19 @@ def _same_curves(a: np.ndarray, b: np.ndarray, tol: float) -> bool:
     each segment of one within ``tol`` of one of the other, in either direction."""
     if a.shape != b.shape:
         return False
-    forward = np.abs(a[:, None] - b[None]).max(axis=(2, 3))
-    backward = np.abs(a[:, None] - b[None, :, ::-1]).max(axis=(2, 3))
-    d = np.minimum(forward, backward)
-    return bool((d.min(axis=1) <= tol).all() and (d.min(axis=0) <= tol).all())
+    if not a.size:
+        return True
+    from scipy.spatial import cKDTree
+
+    def nearest(these: np.ndarray, those: np.ndarray) -> np.ndarray:
+        """Each segment of ``these``: the largest coordinate difference to the nearest
+        segment of ``those``, either way along it (a k-d tree under the maximum norm)."""
+        flat = these.reshape(len(these), -1)
+        forward = cKDTree(those.reshape(len(those), -1)).query(flat, p=np.inf)[0]
+        backward = cKDTree(those[:, ::-1].reshape(len(those), -1)).query(flat, p=np.inf)[0]
+        return np.minimum(forward, backward)
+
+    return bool((nearest(a, b) <= tol).all() and (nearest(b, a) <= tol).all())
 
 
 # the square's symmetries: the image's, and the map of a point of the result back
@@ -68,15 +77,19 @@ def _equivariant(rgba: np.ndarray, tolerance: float, grid: float | None = None, 
     """For each symmetry, whether the pieces of the transformed image, mapped back, are the
     image's own (``None`` where the exact spline already differs: nothing to ask then)."""
     h, w = rgba.shape[:2]
+
+    def curves(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The points along the exact and the simplified pieces of one conversion."""
+        vector = depixelize(image, stage="splines").vector
+        return tuple(_curve_points(OutlineShapes(vector, "stacked", grid, t).pieces)  # type: ignore[return-value]
+                     for t in (0.0, tolerance))
+
+    own = curves(rgba)
     out = {}
     for name, (transform, back) in SYMMETRIES.items():
-        moved = np.ascontiguousarray(transform(rgba))
-        exact = [_curve_points(_pieces(x, 0.0, grid)) for x in (rgba, moved)]
-        if not _same_curves(exact[0], back(exact[1], h, w), tol):
-            out[name] = None
-            continue
-        simple = [_curve_points(_pieces(x, tolerance, grid)) for x in (rgba, moved)]
-        out[name] = _same_curves(simple[0], back(simple[1], h, w), tol)
+        exact, simple = curves(np.ascontiguousarray(transform(rgba)))
+        out[name] = _same_curves(own[1], back(simple, h, w), tol) if _same_curves(own[0], back(exact, h, w), tol) \
+            else None
     return out
 
 
