@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import re
+import signal
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +14,11 @@ from hypothesis import settings
 # each ``@settings``, which names only what it changes.
 settings.register_profile("depixel", derandomize=True, database=None)
 settings.load_profile("depixel")
+
+# A suite started in the background of a script (``nohup pytest &``) inherits SIGINT ignored,
+# and so would every command it runs: the tests of Ctrl-C need the terminal's default.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 ROOT = Path(__file__).resolve().parent.parent
 FIXTURES = ROOT / "fixtures"
