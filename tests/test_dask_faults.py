@@ -35,7 +35,7 @@ def local_cluster(workers: int = 1, fault: str | None = None, **options):
     if fault:
         options = {**options, "preload": [str(PRELOAD)],
                    "env": {"DEPIXEL_TEST_WORKER": fault, **options.get("env", {})}}
-    with distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+    with distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
                                   **options) as local:
         yield local
 
