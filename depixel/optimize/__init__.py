@@ -6,4 +6,4 @@ pixel centres inside their cells; :mod:`.stage` runs them (:class:`~depixel.opti
 """
 
 #: its modules, each imported on first use (``depixel/__init__.py``)
-__all__ = ["corners", "energy", "fidelity", "harmonic", "junctions", "relax", "stage", "trials"]
+__all__ = ["corners", "energy", "fidelity", "harmonic", "junctions", "relax", "stage", "straight", "trials"]
