@@ -230,6 +230,8 @@ FLAG_OF_PARAMETER = {
     "simplify": "--simplify",
     "pixel_size": "--pixel-size",
     "transparent": "--transparent",
+    "animate": "--animate",
+    "frame": "--frames",
     **{name: flag for flag, name, _, _ in TUNING},
 }
 

@@ -12,10 +12,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_animation import DURATIONS, blinking
+from test_animation import DURATIONS, animate, blinking
 
 import depixel
-from depixel.files.animation import animate
 from depixel.prepare.animation import Animation
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
