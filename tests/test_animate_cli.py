@@ -206,3 +206,12 @@ def test_what_cannot_go_with_animate_is_a_usage_error(walk, tmp_path, capsys, mo
     assert stopped.value.code == Exit.USAGE
     assert message in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["walk.gif"]
+
+
+def test_a_folder_gives_its_aseprite_files_too(tmp_path):
+    src = tmp_path / "art"
+    src.mkdir()
+    (src / "walk.aseprite").write_bytes(aseprite_bytes(6, 6, [LayerSpec("Layer 1")],
+                                                       [FrameSpec([rgba_cel(0, rgba(c))]) for c in (1, 2)]))
+    assert main(["convert", str(src), "--out-dir", str(tmp_path / "out"), "--animate", "-q"]) == Exit.OK
+    assert len(layers(tmp_path / "out" / "walk.svg")) == 2
