@@ -18,7 +18,7 @@ import numpy as np
 
 from . import validate
 from .colour import Colour, as_colour
-from .errors import ParameterError, RenderError, display_name
+from .errors import InputError, ParameterError, RenderError, display_name
 from .limits import DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS, check_frames_pixels, check_rendered_frames
 from .options import ConvertOptions, OutputOptions, PrepareOptions
 from .params import Params
@@ -281,6 +281,10 @@ def animated(animation: Animation, formats: Mapping[str, str | None], options: C
                                     on_prepared=on_prepared)
     drawn = [made[frame.tobytes()] for frame in animation.frames]
     blobs = {}
+    grids = {d["svg"].partition(b"<svg")[2].partition(b">")[0] for d in drawn} if "svg" in formats else ()
+    if len(grids) > 1:  # each frame is prepared alone: an upscaled grid found in some frames only
+        raise InputError(f"{name}: its frames were found to be pixel art of different sizes (upscaled in some, "
+                         "not in others); give the grid of all with pixel_size", parameter="pixel_size")
     for fmt in formats:
         if fmt == "svg":
             svg = compose([d["svg"].decode("utf-8") for d in drawn], animation.durations, animation.plays)

@@ -215,3 +215,19 @@ def test_a_folder_gives_its_aseprite_files_too(tmp_path):
                                                        [FrameSpec([rgba_cel(0, rgba(c))]) for c in (1, 2)]))
     assert main(["convert", str(src), "--out-dir", str(tmp_path / "out"), "--animate", "-q"]) == Exit.OK
     assert len(layers(tmp_path / "out" / "walk.svg")) == 2
+
+
+def test_frames_found_upscaled_apart_ask_for_the_pixel_size(tmp_path, capsys):
+    from depixel.render.animation import encode_apng
+
+    frames = [np.repeat(np.repeat(rgba(c), 4, axis=0), 4, axis=1) for c in (1, 2, 3)]
+    frames[1][5, 7] = (1, 2, 3, 255)  # one odd pixel: frame 2 is not 4× upscaled art
+    (tmp_path / "walk.png").write_bytes(encode_apng(frames, [100.0] * 3, 0))
+    argv = ["convert", str(tmp_path / "walk.png"), "-o", str(tmp_path / "walk.svg"), "--animate", "-q"]
+    assert main(argv) == Exit.FAILED
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "different sizes (upscaled in some, not in others); give the grid of all " \
+        "with --pixel-size" in err, err
+    assert not (tmp_path / "walk.svg").exists()
+    assert main(argv + ["--pixel-size", "4"]) == Exit.OK
+    assert 'viewBox="0 0 6 6"' in (tmp_path / "walk.svg").read_text()
