@@ -118,10 +118,8 @@ def run_job(job: Job) -> Outcome:
                 (out.edited if now == stamps.EDITED else out.kept).append(target)
             if result.changed:
                 out.changed = f"{display_name(job.source)}: {files.CHANGED}"
-            if opt.frames == "first" and out.written and \
-                    (n := frame_count(source.data, name=display_name(job.source))) > 1:
-                out.notes.append(f"{display_name(job.source)}: has {n} frames, converted the first "
-                                 "(--frames all converts each)")
+            if out.written:
+                out.notes += frames_note(source.data, display_name(job.source), opt)
         if opt.explicit and (out.kept or out.edited):
             out.error = kept_lines(out)[0][1]
     except DepixelError as exc:
@@ -151,6 +149,18 @@ def kept_lines(out: Outcome) -> list[tuple[str, str]]:
     """(kind, :func:`kept_line`) for every output of ``out`` that was kept."""
     return [(kind, kept_line(kind, target)) for kind, targets in (("kept", out.kept), ("edited", out.edited))
             for target in targets]
+
+
+def frames_note(data: bytes, name: str, options: Options) -> list[str]:
+    """The note on the frames an output holds, when it is not what the input suggests: the
+    first of an animation (without ``--frames``), the one frame of a still (``--animate``)."""
+    if options.frames != "first":
+        return []
+    n = frame_count(data, name=name)
+    if options.convert.output.animate:
+        return [f"{name}: a still image, written as its one frame (--animate)"] if n == 1 else []
+    return [f"{name}: has {n} frames, converted the first (--frames all converts each, --animate plays them "
+            "in one file)"] if n > 1 else []
 
 
 def _outputs_to_make(job: Job, out: Outcome) -> list[files.Target]:
@@ -187,7 +197,8 @@ def preview(job: Job) -> Outcome:
     write are ``planned``)."""
     out = Outcome(job.source, job.output)
     try:
-        frames = frame_count(job.source, job.options.convert.limits.max_frames if job.options.frames == "all" else None)
+        whole = job.options.frames == "all" or job.options.convert.output.animate
+        frames = frame_count(job.source, job.options.convert.limits.max_frames if whole else None)
         if job.options.frames == "all" and job.frames == 0:  # the header is read: an unreadable input fails
             job = replace(job, frames=frames)
         out.planned = [target.path for target in _outputs_to_make(job, out)]
