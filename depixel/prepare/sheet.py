@@ -139,6 +139,23 @@ def parse_grid(spec: str) -> tuple[tuple[int, int], tuple[int, int], tuple[int, 
     return (cell[0], cell[1]), (gaps[0], gaps[-1]), (corner[0], corner[1])
 
 
+#: ``sheet="auto"``: find the sprites (:func:`find_sprites`)
+AUTO = "auto"
+
+
+def sheet_spec(value: str) -> str:
+    """The ``sheet`` option normalized: ``"auto"``, or the grid :func:`parse_grid` reads
+    written the shortest way (``"32x32+2@1,1"``; ``"32x32+0"`` is ``"32x32"``), so that two
+    spellings of one grid are one option."""
+    if not isinstance(value, str):
+        raise ParameterError(f"sheet must be auto or a grid like 32x32+2, not {value!r}", parameter="sheet")
+    if value.strip().lower() == AUTO:
+        return AUTO
+    (w, h), (gx, gy), (ox, oy) = parse_grid(value)
+    gap = "" if gx == gy == 0 else f"+{gx}" if gx == gy else f"+{gx},{gy}"
+    return f"{w}x{h}{gap}" + (f"@{ox},{oy}" if ox or oy else "")
+
+
 def grid_sprites(rgba: np.ndarray, spec: str) -> Sheet:
     """The sprites of a grid of the cell size ``spec`` gives (:func:`parse_grid`): every
     whole cell on the sheet that holds something but background."""
