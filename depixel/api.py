@@ -15,7 +15,7 @@ import io
 import os
 from collections.abc import Callable, Mapping
 from dataclasses import replace
-from typing import cast
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -29,11 +29,12 @@ from .pipeline import depixelize
 from .prepare.backdrop import over_colour
 from .prepare.image import ImageSource, as_rgba, check_indexable, check_pixels, image_array, load_image
 from .prepare.inputs import AUTO, PixelSize, PreparedImage, pil_lossy, prepare
-from .prepare.sheet import Sheet, find_sprites, grid_sprites
-from .prepare.sheet_json import SheetJson
 from .render.overlay import overlay_raster, overlay_svg
-from .svg.layers import Placed, compose_layers
 from .svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY, SHADINGS, SIGMA_RATIO, to_svg
+
+if TYPE_CHECKING:  # a sheet's modules are imported when a sheet is converted (~10 ms of every start)
+    from .prepare.sheet import Sheet
+    from .prepare.sheet_json import SheetJson
 
 #: Output formats, chosen from the file extension or given explicitly.
 FORMATS = ("svg", "png", "pdf")
@@ -245,9 +246,11 @@ def cut_sheet(image, sheet: str | None = None, *, sheet_json: SheetJson | str | 
 def sheet_of(rgba: np.ndarray, output: OutputOptions, name: str = "<image>") -> Sheet:
     """The sprites ``output.sheet`` or ``output.sheet_json`` (:func:`cut_sheet`) find on the
     sheet ``rgba``; a sheet with none is an :class:`InputError`."""
+    from .prepare.sheet import find_sprites, grid_sprites  # noqa: PLC0415
+
     height, width = rgba.shape[:2]
     if output.sheet_json is not None:
-        sheet = cast(SheetJson, output.sheet_json).sheet((width, height))  # (normalized: a SheetJson)
+        sheet = cast("SheetJson", output.sheet_json).sheet((width, height))  # (normalized: a SheetJson)
     elif output.sheet == "auto":
         sheet = find_sprites(rgba)
     else:
@@ -266,6 +269,8 @@ def sheet_conversions(rgba: np.ndarray, sheet: Sheet, formats: Mapping[str, str 
     (:func:`depixel.svg.layers.compose_layers`), the PDF the same drawn flat, the PNG each
     sprite's PNG at its place. The sheet's size sets the scale (``options.output``); its
     sprites count against ``max_frames`` and, in all, ``max_pixels``."""
+    from .svg.layers import Placed, compose_layers  # noqa: PLC0415
+
     output, limits = options.output, options.limits
     height, width = rgba.shape[:2]
     check_sprites(name, len(sheet.sprites), sum(s.width * s.height for s in sheet.sprites), limits.max_pixels,

@@ -15,6 +15,7 @@ A file's stamp digests every field of the prepare and output options
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
+from typing import TYPE_CHECKING
 
 from . import validate
 from .errors import ParameterError
@@ -23,10 +24,11 @@ from .limits import DEFAULT_MAX_FRAMES, DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_P
 from .params import Params
 from .pipeline import STAGES
 from .prepare.inputs import PrepareOptions
-from .prepare.sheet import sheet_spec
-from .prepare.sheet_json import SheetJson, sheet_json_of
 from .svg.outlines import LAYOUTS
 from .svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY, MAX_SIMPLIFY, SHADINGS
+
+if TYPE_CHECKING:
+    from .prepare.sheet_json import SheetJson
 
 __all__ = ["ConvertOptions", "Limits", "OutputOptions", "PrepareOptions"]
 
@@ -61,12 +63,16 @@ class OutputOptions:
         normal |= {"precision": int(validate.number("precision", self.precision, low=0, high=12, integer=True)),
                    "layout": validate.choice("layout", self.layout, LAYOUTS),
                    "simplify": float(validate.number("simplify", self.simplify, low=0, high=MAX_SIMPLIFY)),
-                   "shading": validate.choice("shading", self.shading, SHADINGS),
-                   "sheet": None if self.sheet is None else sheet_spec(self.sheet),
-                   "sheet_json": sheet_json_of(self.sheet_json)}
-        if normal["sheet"] is not None and normal["sheet_json"] is not None:
-            raise ParameterError("give sheet or sheet_json, not both (the JSON places the sprites itself)",
-                                 parameter="sheet")
+                   "shading": validate.choice("shading", self.shading, SHADINGS)}
+        if self.is_sheet:  # (the sheet's modules are imported only then: ~10 ms of every start otherwise)
+            from .prepare.sheet import sheet_spec  # noqa: PLC0415
+            from .prepare.sheet_json import sheet_json_of  # noqa: PLC0415
+
+            normal |= {"sheet": None if self.sheet is None else sheet_spec(self.sheet),
+                       "sheet_json": sheet_json_of(self.sheet_json)}
+            if normal["sheet"] is not None and normal["sheet_json"] is not None:
+                raise ParameterError("give sheet or sheet_json, not both (the JSON places the sprites itself)",
+                                     parameter="sheet")
         for name, value in normal.items():
             object.__setattr__(self, name, value)
 

@@ -17,7 +17,7 @@ import time
 from collections.abc import Callable, Sequence
 from functools import partial
 from pathlib import Path
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -37,11 +37,13 @@ from ..options import ConvertOptions
 from ..params import Params
 from ..prepare.image import load_frames, load_image, read_source
 from ..prepare.inputs import AUTO, PixelSize, PreparedImage, lossy_format
-from ..prepare.sheet_json import SheetJson
 from ..svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
 from . import output as outputs
 from . import stamp as stamps
 from .output import write_atomic
+
+if TYPE_CHECKING:
+    from ..prepare.sheet_json import SheetJson
 
 
 def output_format(path: str | os.PathLike, fmt: str | None = None) -> str:
