@@ -15,7 +15,6 @@ from depixel.files import stamp as stamps
 from depixel.limits import DEFAULT_MAX_FRAMES, DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
 from depixel.pipeline import STAGES
 from depixel.prepare.image import frame_count, load_image, read_source
-from depixel.prepare.inputs import lossy_format
 from depixel.svg.outlines import LAYOUTS
 from depixel.svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
 
@@ -39,15 +38,18 @@ from .batch import (
     Job,
     Options,
     Outcome,
+    chosen_frames,
     current_traceback,
     kept_lines,
+    numbered,
     preview,
     record_prepared,
     summary,
     totals_line,
 )
-from .inputs import DEFAULT_NAME, expand_inputs, make_folders, name_template, plan
+from .inputs import DEFAULT_NAME, SHEET_NAME, expand_inputs, make_folders, name_template, plan
 from .run import Progress, Repeats, auto_jobs, cores, run
+from .sheets import add_sheet_options, check_sheet_options, converted
 
 DESCRIPTION = """\
 examples:
@@ -59,6 +61,9 @@ examples:
   cat sprite.png | depixel convert - -o - > sprite.svg  stdin to stdout
   depixel convert sprite.png -o cells.svg --stage cells     only the reshaped pixel cells
   depixel convert ghost_x4.jpg -o ghost.svg --transparent auto   upscaled JPEG on a backdrop
+  depixel convert sheet.png --sheet auto -o sheet.svg   a sprite sheet: a layer per sprite
+  depixel convert sheet.png --sheet 32x32+2 --out-dir out   a file per sprite: sheet-r0c0.svg, ...
+  depixel convert hero.aseprite --tag walk --frames all --out-dir out   an Aseprite tag's frames
 
 Convert pixel art to SVG, PNG or PDF (Kopf & Lischinski, Depixelizing Pixel Art, 2011).
 Upscaled pixel art is detected and converted at 1x, the SVG laid over the input (same
@@ -130,7 +135,8 @@ def add_parser(sub, name: str, help: str) -> None:
     out.add_argument("--name", type=template_option, metavar="TEMPLATE",
                      help="name of each output without -o, the format's extension added: {stem} (the "
                           "input's name without extension, the default), {suffix} (its extension without the "
-                          "dot), {frame} (the frame number, 000, 001, ...); e.g. --name '{stem}-{suffix}'")
+                          "dot), {frame} (the frame number, 000, 001, ...), {sprite} (with --sheet: a file per "
+                          "sprite, its name; the default there is {stem}-{sprite}); e.g. --name '{stem}-{suffix}'")
     size = out.add_mutually_exclusive_group()
     size.add_argument("--scale", type=positive_float, default=1.0,
                       help="size as a multiple of the input's size: SVG width/height, PNG pixels, PDF size "
@@ -164,6 +170,7 @@ def add_parser(sub, name: str, help: str) -> None:
     out.add_argument("--max-frames", type=positive_int, default=DEFAULT_MAX_FRAMES, metavar="N",
                      help=f"refuse animations of more frames with --frames all, and frame numbers from N on "
                           f"(default {DEFAULT_MAX_FRAMES}); --max-pixels counts the frames' pixels in all")
+    add_sheet_options(p)
     batch = p.add_argument_group("many files")
     batch.add_argument("-r", "--recursive", action="store_true", help="also convert the images in subfolders")
     batch.add_argument("--force", action="store_true",
@@ -190,7 +197,7 @@ def add_parser(sub, name: str, help: str) -> None:
 def run_convert(args: argparse.Namespace) -> int:
     parser = args.parser
     formats = _check_destination(args)
-    options = Options(convert_options(args), formats, args.frames, force=args.force)
+    options = Options(convert_options(args), formats, args.frames, force=args.force, tag=args.tag)
 
     start = time.perf_counter()
     signals = args.signals
@@ -244,6 +251,7 @@ def _check_destination(args: argparse.Namespace) -> tuple[str, ...]:
         parser.error("--dask converts batches: use it with --out-dir DIR (or without -o)")
     if args.output is not None and args.name is not None:
         parser.error("-o FILE names the output itself; --name names those of --out-dir DIR or beside the input")
+    check_sheet_options(args)
     check_input_options(args)
     if args.output is not None and args.format is not None and len(args.format) > 1:
         parser.error("-o writes one file in one format; for several formats use --out-dir DIR or no -o "
@@ -262,7 +270,8 @@ def _convert_batch(args: argparse.Namespace, options: Options) -> list[Outcome]:
     progress bar."""
     beside = args.out_dir is None
     found, problems = expand_inputs(args.inputs, args.recursive, exclude=args.out_dir, skip_outputs=beside)
-    jobs, failed = plan(found, args.out_dir, options, args.name or DEFAULT_NAME)
+    sheet = options.convert.output.is_sheet
+    jobs, failed = plan(found, args.out_dir, options, args.name or (SHEET_NAME if sheet else DEFAULT_NAME))
     if args.dry_run:  # no folder made, nothing written
         outcomes = failed + [Outcome(Path(arg), error=text) for arg, text in problems] + [preview(j) for j in jobs]
         _list_planned(outcomes, args)
@@ -300,7 +309,7 @@ def _convert_stream(source: str, output: str, options: Options) -> Outcome:
             _to_stdout(data, options, out)
         else:
             _stream_to_files(data, Path(output), options, out)
-        if options.frames == "first" and (n := frame_count(data.data, name=data.name)) > 1:
+        if options.frames == "first" and options.tag is None and (n := frame_count(data.data, name=data.name)) > 1:
             out.notes.append(f"{data.name}: has {n} frames, converted the first (--frames all converts each)")
     except DepixelError as exc:
         out.error, out.traceback = error_message(exc), current_traceback()
@@ -309,12 +318,10 @@ def _convert_stream(source: str, output: str, options: Options) -> Outcome:
 
 def _to_stdout(source: files.InputFile, options: Options, out: Outcome) -> None:
     """``-o -``: one frame's SVG, PNG or PDF on stdout, unstamped."""
-    frame = 0 if options.frames == "first" else int(options.frames)
+    frame = chosen_frames(source.data, options, source.name)[0]
     fmt, limits = options.formats[0], options.convert.limits
     rgba = load_image(source.data, limits.max_pixels, frame, max_frames=limits.max_frames, name=source.name)
-    blob = api.conversions(rgba, {fmt: None}, options.convert, name=source.name,
-                           title=None if source.path is None else source.path.name, lossy=lossy_format(source.data),
-                           on_prepared=lambda prepared: record_prepared(out, prepared, source.name, "-"))[fmt]
+    blob = converted(rgba, source, fmt, options.convert, out)
     if fmt != "svg" and sys.stdout is not None and sys.stdout.isatty():
         raise OutputError(f"refusing to write binary {fmt.upper()} to a terminal")
     write_stdout(blob)
@@ -322,11 +329,8 @@ def _to_stdout(source: files.InputFile, options: Options, out: Outcome) -> None:
 
 def _stream_to_files(source: files.InputFile, output: Path, options: Options, out: Outcome) -> None:
     """stdin to ``-o FILE`` (every frame's file with ``--frames all``), all or none."""
-    if options.frames == "all":
-        frames = list(enumerate(files.frame_outputs(output, frame_count(
-            source.data, options.convert.limits.max_frames, name=source.name))))
-    else:
-        frames = [(0 if options.frames == "first" else int(options.frames), output)]
+    chosen = chosen_frames(source.data, options, source.name)
+    frames = zip(chosen, numbered(output, chosen)) if options.frames == "all" else [(chosen[0], output)]
     targets = [files.file_target(path, options.convert, fmt=options.formats[0], frame=frame) for frame, path in frames]
     for target in targets:
         now = stamps.NEW if options.force else stamps.replaceable(target.path)
@@ -339,6 +343,7 @@ def _stream_to_files(source: files.InputFile, output: Path, options: Options, ou
                                   on_prepared=lambda frame, target, prepared:
                                       record_prepared(out, prepared, source.name, target))
     out.written, out.seconds, out.sizes = result.written, result.seconds, result.sizes
+    out.notes.extend(result.notes)
     for path, now in result.kept.items():
         (out.edited if now == stamps.EDITED else out.kept).append(path)
     if out.kept or out.edited:
