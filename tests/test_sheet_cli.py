@@ -390,3 +390,16 @@ def test_an_aseprite_files_frames_count_against_the_limits(run):
     code, err = run("hero.aseprite", "--tag", "back", "--frames", "all", "--out-dir", "out", "--max-frames", "3")
     assert code == Exit.FAILED and "declares 4 frames, over the limit of 3" in err  # the file's, not the tag's
     assert not list(Path(".").glob("out/*"))
+
+
+def test_a_real_files_tags(run):
+    """tags3.aseprite, from Aseprite's own tests (fixtures/aseprite/LICENSE.txt): 12 frames,
+    tags forward 0-3, reverse 4-7, pingpong 8-11."""
+    source = FIXTURES / "aseprite" / "tags3.aseprite"
+    assert run(source, "--tag", "reverse", "--frames", "all", "-o", "t.svg")[0] == Exit.OK
+    assert sorted(p.name for p in Path(".").glob("t*.svg")) == [f"t-00{n}.svg" for n in (4, 5, 6, 7)]
+    assert run(source, "--frames", "5", "-o", "five.svg")[0] == Exit.OK
+    assert Path("t-005.svg").read_bytes() == Path("five.svg").read_bytes()
+    code, err = run(source, "--tag", "idle", "-o", "idle.svg")
+    assert err == ("depixel: error: " + str(source) + ": no tag 'idle'; its tags: 'forward', 'reverse', "
+                   "'pingpong'\n") and code == Exit.FAILED

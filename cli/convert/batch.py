@@ -111,7 +111,7 @@ def chosen_frames(source: ImageSource, options: Options, name: str) -> list[int]
         if not is_aseprite(data):
             raise InputError(f"{name}: not an Aseprite file, so it has no tags for --tag")
         ase = parse_aseprite(data, name, None)
-        played = tag_frames(ase, options.tag, source=name)  # (--frames all then checks every frame's limits)
+        played = tag_frames(ase, options.tag, name=name)  # (--frames all then checks every frame's limits)
         return sorted(set(played)) if options.frames == "all" else played[:1]
     if options.frames == "all":
         return list(range(frame_count(source, options.convert.limits.max_frames, name=name)))

@@ -61,20 +61,20 @@ def read_aseprite(source: ImageSource, *, max_pixels: int | None = DEFAULT_MAX_P
                     pixel_ratio=ase.pixel_ratio)
 
 
-def tag_frames(tags: Aseprite | AsepriteFile | Sequence[Tag], name: str, *, source: str = "<aseprite>") -> list[int]:
-    """The frames the tag ``name`` plays, in the order of one pass of its direction (of an
+def tag_frames(ase: Aseprite | AsepriteFile | Sequence[Tag], tag: str, *, name: str = "<aseprite>") -> list[int]:
+    """The frames the tag ``tag`` plays, in the order of one pass of its direction (of an
     :class:`Aseprite`, an :class:`AsepriteFile` or their ``tags``): ``forward`` first to
     last, ``reverse`` last to first, ``pingpong`` there and back without repeating either
     end (``[4, 5, 6, 5]``: looped, each frame is shown as Aseprite shows it), ``pingpong
     reverse`` back and there. An unknown tag is one :class:`InputError` line naming the
-    tags there are (``source`` names the file)."""
-    found = tags if isinstance(tags, Sequence) else tags.tags
-    tag = next((tag for tag in found if tag.name == name), None)
-    if tag is None:
-        there = f"its tags: {', '.join(repr(t.name) for t in found)}" if found else "it has no tags"
-        raise InputError(f"{source}: no tag {name!r}; {there}", parameter="tag")
-    ahead = list(range(tag.first, tag.last + 1))
-    order = ahead[::-1] if tag.direction in ("reverse", "pingpong reverse") else ahead
-    if tag.direction.startswith("pingpong"):
+    tags there are (``name`` names the file)."""
+    tags = ase if isinstance(ase, Sequence) else ase.tags
+    found = next((item for item in tags if item.name == tag), None)
+    if found is None:
+        there = f"its tags: {', '.join(repr(item.name) for item in tags)}" if tags else "it has no tags"
+        raise InputError(f"{name}: no tag {tag!r}; {there}", parameter="tag")
+    ahead = list(range(found.first, found.last + 1))
+    order = ahead[::-1] if found.direction in ("reverse", "pingpong reverse") else ahead
+    if found.direction.startswith("pingpong"):
         order += order[-2:0:-1]
     return order
