@@ -273,6 +273,21 @@ def test_the_stamp_digests_the_jsons_content_not_its_name(run):
     assert code == Exit.OK and "1 converted, 0 up to date" in err
 
 
+def test_two_sprites_never_write_one_file(run):
+    save(grid_sheet(GRID[:3]), "sheet.png")
+    Path("a.json").write_text(json.dumps({"frames": {"hero/a.png": frame(0, 0, 18, 16),
+                                                     "hero_a.png": frame(20, 0, 18, 16)}}))
+    code, err = run("sheet.png", "--sheet-json", "a.json", "--out-dir", "out", "--format", "svg,pdf")
+    assert code == Exit.FAILED
+    assert ("depixel: error: sheet.png: sprites 'hero/a' and 'hero_a' would both be written to "
+            "out/sheet-hero_a.svg; name them apart with --name") in err
+    assert not list(Path(".").glob("out/*"))
+    assert run("sheet.png", "--sheet-json", "a.json", "-o", "sheet.pdf")[0] == Exit.OK  # one file: both layers
+    Path("a.json").write_text(json.dumps({"frames": {"hero/a.png": frame(0, 0, 18, 16)}}))
+    assert run("sheet.png", "--sheet-json", "a.json", "--out-dir", "out", "--format", "pdf")[0] == Exit.OK
+    assert Path("out/sheet-hero_a.pdf").read_bytes()[:5] == b"%PDF-"
+
+
 @pytest.mark.parametrize("document, message", [
     ('{"frames": ', "a.json: not JSON"),
     ({"frames": {"x.png": {**frame(0, 0, 18, 16), "rotated": True}}}, "a.json: frame 'x.png' is rotated"),
