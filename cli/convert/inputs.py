@@ -152,7 +152,9 @@ def output_targets(source: Path, folder: Path, options: Options, n_frames: int,
     """(frame, format, path) of every output of ``source`` in ``folder``: ``name`` filled in
     (``{stem}``, ``{suffix}`` the input's extension without the dot, ``{frame}`` the frame
     number, 000, 001, …) plus each format's extension. Several frames and no ``{frame}``
-    in the name: ``name-000.svg``, ``name-001.svg``, …"""
+    in the name: ``name-000.svg``, ``name-001.svg``, … A name that comes out empty for this
+    input (``{suffix}`` of a file without extension) raises ValueError: a hidden ``.svg``
+    is never what was meant."""
     if options.frames == "all":
         frames = list(range(n_frames))
     else:
@@ -163,6 +165,9 @@ def output_targets(source: Path, folder: Path, options: Options, n_frames: int,
     for fmt in options.formats:
         named = [(frame, name.format(stem=source.stem, suffix=source.suffix[1:], frame=f"{frame:0{digits}d}"))
                  for frame in frames]
+        if not named[0][1].strip(". "):
+            raise ValueError(f"{display_name(source)}: --name {name!r} names nothing for it (it has no "
+                             "extension); e.g. --name '{stem}-{suffix}'")
         if len(frames) > 1 and not uses_frame:
             paths = files.frame_outputs(folder / f"{named[0][1]}.{fmt}", len(frames))
         else:
@@ -193,7 +198,11 @@ def plan(found: list[tuple[Path, Path]], out_dir: Path | None, options: Options,
             except DepixelError as exc:
                 failed.append(Outcome(path, folder / f"{path.stem}.{options.formats[0]}", error=error_message(exc)))
                 continue
-        targets = output_targets(path, folder, options, n_frames, name)
+        try:
+            targets = output_targets(path, folder, options, n_frames, name)
+        except ValueError as exc:
+            failed.append(Outcome(path, folder / f"{path.stem}.{options.formats[0]}", error=str(exc)))
+            continue
         job = Job(path, targets[0][2], options, n_frames, targets)
         clash = next((target for *_, target in targets if target.resolve() in inputs or target.resolve() in owner),
                      None)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from functools import partial
 from pathlib import Path
 from typing import NamedTuple
@@ -26,7 +26,7 @@ from ..colour import Colour, as_colour
 from ..errors import InputError, OutputError, display_name
 from ..frozen import stamp_fields
 from ..limits import DEFAULT_MAX_FRAMES, DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS, check_rendered_frames
-from ..options import ConvertOptions
+from ..options import ConvertOptions, Limits
 from ..params import Params
 from ..prepare.image import load_frames, load_image, read_source
 from ..prepare.inputs import AUTO, PixelSize, PreparedImage, lossy_format
@@ -146,7 +146,7 @@ class Written:
     """What :func:`convert_frames` did."""
 
     written: list[Path] = dataclasses.field(default_factory=list)
-    #: outputs that became someone else's while they were converted: stamp.UNSTAMPED or EDITED
+    #: outputs that became someone else's while they were converted: stamp.UNSTAMPED, EDITED or OLD
     kept: dict[Path, str] = dataclasses.field(default_factory=dict)
     seconds: dict[Path, float] = dataclasses.field(default_factory=dict)  # each output's share of the work
     sizes: dict[Path, int] = dataclasses.field(default_factory=dict)  # bytes of each output
@@ -203,9 +203,7 @@ def convert_frames(source: InputFile, targets: Sequence[Target], options: Conver
     by_frame: dict[int, list[Target]] = {}
     for target in targets:
         by_frame.setdefault(target.frame, []).append(target)
-    frames = load_frames(source.data, limits.max_pixels, max_frames=limits.max_frames, name=name) if every_frame \
-        else ((frame, load_image(source.data, limits.max_pixels, frame, max_frames=limits.max_frames, name=name))
-              for frame in by_frame)
+    frames = decoded_frames(source, by_frame, limits, every_frame)
     done = Written()
     staged: dict[Path, outputs.Staged | None] = {}  # None: a device, written in place
     pngs = sum(target.fmt == "png" for target in targets)
@@ -233,12 +231,25 @@ def convert_frames(source: InputFile, targets: Sequence[Target], options: Conver
         done.changed = source.changed()
         if not overwrite:
             done.kept = {path: now for path in staged
-                         if (now := stamps.replaceable(path)) in (stamps.UNSTAMPED, stamps.EDITED)}
+                         if (now := stamps.replaceable(path)) in stamps.KEPT}
         done.written = [path for path in staged if path not in done.kept]
         outputs.commit([item for path in done.written if (item := staged.pop(path)) is not None])
     finally:
         outputs.discard([item for item in staged.values() if item is not None])
     return done
+
+
+def decoded_frames(source: InputFile, frames: Iterable[int], limits: Limits,
+                   every_frame: bool = False) -> Iterator[tuple[int, np.ndarray]]:
+    """The frames a conversion of ``source`` decodes, as ``(index, (H, W, 4) uint8 RGBA)``:
+    ``frames``, each decoded from the start, or with ``every_frame`` all of them in order
+    (checked against ``limits`` in all). A file that cannot be decoded raises
+    :class:`InputError` (``--dry-run`` decodes them to report it as the conversion would)."""
+    name = source.name
+    if every_frame:
+        return load_frames(source.data, limits.max_pixels, max_frames=limits.max_frames, name=name)
+    return ((frame, load_image(source.data, limits.max_pixels, frame, max_frames=limits.max_frames, name=name))
+            for frame in frames)
 
 
 def _converted(rgba: np.ndarray, source: InputFile, wanted: Sequence[Target], options: ConvertOptions,
@@ -256,8 +267,8 @@ def _converted(rgba: np.ndarray, source: InputFile, wanted: Sequence[Target], op
 def output_status(source: str | os.PathLike, target: Target) -> str:
     """What the existing output ``target`` is for a conversion of ``source``: ``stamp.NEW``,
     ``CURRENT`` (made from this input with these options: up to date), ``STALE`` (depixel's,
-    unchanged since: safe to replace), ``UNSTAMPED`` (not depixel's) or ``EDITED`` (changed
-    since depixel wrote it)."""
+    unchanged since: safe to replace), ``UNSTAMPED`` (not depixel's), ``EDITED`` (changed
+    since depixel wrote it) or ``OLD`` (stamped before edits could be told)."""
     return stamps.status(source, target.path, target.digest)
 
 
