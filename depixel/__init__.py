@@ -15,6 +15,7 @@ from .errors import DepixelError, InputError, OutputError, ParameterError, Rende
 from .files.convert import convert_file, render_file
 from .params import Params
 from .pipeline import STAGES, Result, depixelize
+from .prepare.animation import Animation, read_animation
 from .prepare.image import load_image
 from .prepare.inputs import PreparedImage
 from .svg.writer import to_svg
@@ -34,6 +35,8 @@ __all__ = [
     "PreparedImage",
     "prepare_input",
     "load_image",
+    "Animation",
+    "read_animation",
     "to_svg",
     "convert",
     "convert_bytes",

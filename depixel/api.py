@@ -1,7 +1,8 @@
 """Python API in memory: convert pixel art without the command line.
 
 :func:`convert` takes an image (numpy array or PIL image) and returns SVG text;
-:func:`convert_bytes` returns the bytes of an SVG, PNG or PDF file. PNG and PDF go through
+:func:`convert_bytes` returns the bytes of an SVG, PNG or PDF file; with ``animate=True`` both
+take an :class:`~depixel.prepare.animation.Animation` too (:func:`animated`). PNG and PDF go through
 cairosvg, which is imported only when one of them is asked for (:mod:`depixel.render.raster`).
 File to file (:func:`~depixel.files.convert.convert_file`, :func:`~depixel.files.convert.render_file`)
 is :mod:`depixel.files.convert`. The keyword functions make one
@@ -9,6 +10,7 @@ is :mod:`depixel.files.convert`. The keyword functions make one
 """
 from __future__ import annotations
 
+import dataclasses
 import os
 from collections.abc import Callable, Mapping
 
@@ -16,11 +18,12 @@ import numpy as np
 
 from . import validate
 from .colour import Colour, as_colour
-from .errors import ParameterError, RenderError, display_name
-from .limits import DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
+from .errors import InputError, ParameterError, RenderError, display_name
+from .limits import DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS, check_frames_pixels, check_rendered_frames
 from .options import ConvertOptions, OutputOptions, PrepareOptions
 from .params import Params
 from .pipeline import depixelize
+from .prepare.animation import Animation
 from .prepare.backdrop import over_colour
 from .prepare.image import ImageSource, as_rgba, check_indexable, check_pixels, image_array, load_image
 from .prepare.inputs import AUTO, PixelSize, PreparedImage, pil_lossy, prepare
@@ -29,8 +32,8 @@ from .svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY, SHADINGS, SIGMA_RAT
 
 #: Output formats, chosen from the file extension or given explicitly.
 FORMATS = ("svg", "png", "pdf")
-__all__ = ["FORMATS", "SHADINGS", "conversions", "convert", "convert_bytes", "encode", "flatten", "load",
-           "prepare_input", "prepared_input"]
+__all__ = ["FORMATS", "SHADINGS", "animated", "conversions", "convert", "convert_bytes", "encode", "flatten",
+           "load", "prepare_input", "prepared_input"]
 
 
 def _pixels(image, name: str = "<image>", max_pixels: int | None = DEFAULT_MAX_PIXELS) -> None:
@@ -78,7 +81,7 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
             max_pixels: int | None = DEFAULT_MAX_PIXELS, layout: str = "stacked",
             simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
             transparent: Colour | str | None = None, transparent_everywhere: bool = False,
-            shading: str = "smooth") -> str:
+            shading: str = "smooth", animate: bool = False) -> str:
     """Depixelize an image (``(H, W[, C])`` array, PIL image or :class:`PreparedImage`) → SVG text.
 
     ``scale`` sets the SVG's width/height as a multiple of the input's size (or ``width`` or
@@ -93,12 +96,14 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
     ``pixel_size``, ``denoise``, ``transparent`` and ``transparent_everywhere`` prepare the input first
     (:func:`depixel.prepare.inputs.prepare`, docs/inputs.md): upscaled art is converted at 1× and
     laid exactly over the input. Images over ``max_pixels`` pixels are refused (``None``:
-    no limit).
+    no limit; an animation's frames count in all). ``animate=True`` converts an
+    :class:`~depixel.prepare.animation.Animation` (:func:`depixel.read_animation`) into one
+    animated SVG, a layer a frame (docs/animation.md); a still image is its one frame.
     """
     options = ConvertOptions.build(params, stage=stage, scale=scale, background=background, precision=precision,
                                    width=width, height=height, max_pixels=max_pixels, layout=layout,
                                    simplify=simplify, pixel_size=pixel_size, denoise=denoise, transparent=transparent,
-                                   transparent_everywhere=transparent_everywhere, shading=shading)
+                                   transparent_everywhere=transparent_everywhere, shading=shading, animate=animate)
     return conversions(image, {"svg": None}, options, title=title)["svg"].decode("utf-8")
 
 
@@ -141,19 +146,22 @@ def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: 
                   max_pixels: int | None = DEFAULT_MAX_PIXELS,
                   max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS, layout: str = "stacked",
                   simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
-                  transparent: Colour | str | None = None, transparent_everywhere: bool = False) -> bytes:
+                  transparent: Colour | str | None = None, transparent_everywhere: bool = False,
+                  animate: bool = False) -> bytes:
     """Like :func:`convert`, returning the bytes of an SVG, PNG or PDF file.
 
     ``shading="smooth"`` renders PNG output with the paper's smooth renderer and gives the
     SVG its smooth-shading filter; ``"flat"`` draws flat colour bands (the SVG without the
     filter; PNG that SVG rasterized). A PDF has the flat bands (cairosvg draws no filters).
     A PNG of more than ``max_output_pixels`` pixels is refused before it is rendered.
+    ``animate=True``: an animation's SVG, or its PNG as an animated PNG (APNG) of the frames'
+    renders (their pixels in all within ``max_output_pixels``); no PDF.
     """
     options = ConvertOptions.build(params, stage=stage, scale=scale, background=background, shading=shading,
                                    precision=precision, width=width, height=height, max_pixels=max_pixels,
                                    max_output_pixels=max_output_pixels, layout=layout, simplify=simplify,
                                    pixel_size=pixel_size, denoise=denoise, transparent=transparent,
-                                   transparent_everywhere=transparent_everywhere)
+                                   transparent_everywhere=transparent_everywhere, animate=animate)
     return conversions(image, {fmt: None}, options, name=name, title=title)[fmt]
 
 
@@ -164,9 +172,23 @@ def conversions(image, formats: Mapping[str, str | None], options: ConvertOption
     bytes}``: the input is prepared and depixelized once, then each format is made from the
     same vector image (``depixel convert --format svg,png``). ``name`` names the image in
     messages, ``title`` is the SVG's title, ``lossy`` the lossy format the pixels came from
-    (:func:`prepared_input`); ``on_prepared`` is told what the preparation found."""
+    (:func:`prepared_input`); ``on_prepared`` is told what the preparation found. With
+    ``options.output.animate``, ``image`` may be an :class:`Animation`: each format holds
+    every frame (:func:`animated`); an animation of one frame, or a still, is that frame."""
     for fmt in formats:
         validate.choice("format", fmt, FORMATS)
+        check_animated_format(fmt, options)
+    if isinstance(image, Animation):
+        if not options.output.animate:
+            raise ParameterError("an Animation is converted whole with animate=True (or convert one of its "
+                                 "frames, animation.frames[0])", parameter="animate")
+        if len(image.frames) > 1:
+            return animated(image, formats, options, name=name, title=title, lossy=lossy, on_prepared=on_prepared)
+        image = image.frames[0]
+    elif options.output.animate and int(getattr(image, "n_frames", 1)) > 1:
+        raise ParameterError("a PIL image is one frame: read an animated file with depixel.read_animation(path) "
+                             "(Pillow composites some GIF and APNG frames otherwise than browsers)",
+                             parameter="image")
     params, output, limits = options.params, options.output, options.limits
     if not isinstance(image, PreparedImage):
         _pixels(image, name, limits.max_pixels)
@@ -219,3 +241,59 @@ def _check_page(fmt: str, prepared: PreparedImage, scale: float, output: OutputO
     naming what set its size."""
     w, h = prepared.input_size
     validate.page_size(fmt, w * scale, h * scale, name, output.size_parameter)
+
+
+def check_animated_format(fmt: str, options: ConvertOptions) -> None:
+    """Refuse a PDF of an animation (``animate``): a page cannot play frames."""
+    if fmt == "pdf" and options.output.animate:
+        raise ParameterError("animate writes an SVG or a PNG (an animated PNG); a PDF cannot play frames: "
+                             "convert one frame to PDF", parameter="animate")
+
+
+def animated(animation: Animation, formats: Mapping[str, str | None], options: ConvertOptions, *,
+             name: str = "<image>", title: str | None = None, lossy: str | None = None,
+             on_prepared: Callable[[PreparedImage], None] | None = None) -> dict[str, bytes]:
+    """:func:`conversions` of every frame of ``animation`` → ``{format: bytes}``: one SVG of
+    all the frames (:func:`depixel.svg.animation.compose`: a layer a frame, SMIL in the file's
+    timing, shared shapes once) or one APNG of their renders
+    (:func:`depixel.render.animation.encode_apng`). Each frame is converted alone, as a still
+    of it is; frames of the same pixels once. The frames' pixels in all are checked against
+    ``max_pixels``, and for a PNG the renders' in all against ``max_output_pixels``, first."""
+    import io  # noqa: PLC0415
+
+    from PIL import Image  # noqa: PLC0415
+
+    from .render.animation import encode_apng  # noqa: PLC0415
+    from .svg.animation import compose  # noqa: PLC0415
+
+    n, limits = len(animation.frames), options.limits
+    height, width = animation.frames[0].shape[:2]
+    check_frames_pixels(name, n, n * width * height, limits.max_pixels)
+    if "png" in formats:
+        scale = options.output.scale_for(width, height)
+        check_rendered_frames(name, n, n * max(1, round(width * scale)) * max(1, round(height * scale)),
+                              limits.max_output_pixels)
+    still = dataclasses.replace(options, output=dataclasses.replace(options.output, animate=False))
+    made: dict[bytes, dict[str, bytes]] = {}
+    for frame in animation.frames:
+        if (key := frame.tobytes()) not in made:
+            made[key] = conversions(frame, dict.fromkeys(formats), still, name=name, title=title, lossy=lossy,
+                                    on_prepared=on_prepared)
+    drawn = [made[frame.tobytes()] for frame in animation.frames]
+    blobs = {}
+    grids = {d["svg"].partition(b"<svg")[2].partition(b">")[0] for d in drawn} if "svg" in formats else ()
+    if len(grids) > 1:  # each frame is prepared alone: an upscaled grid found in some frames only
+        raise InputError(f"{name}: its frames were found to be pixel art of different sizes (upscaled in some, "
+                         "not in others); give the grid of all with pixel_size", parameter="pixel_size")
+    for fmt in formats:
+        if fmt == "svg":
+            svg = compose([d["svg"].decode("utf-8") for d in drawn], animation.durations, animation.plays)
+            blobs[fmt] = svg.encode("utf-8")
+        else:
+            renders: dict[int, np.ndarray] = {}  # by the identity of a frame's bytes: each decoded once
+            for d in drawn:
+                if id(d) not in renders:
+                    with Image.open(io.BytesIO(d["png"])) as png:
+                        renders[id(d)] = np.asarray(png.convert("RGBA"))
+            blobs[fmt] = encode_apng([renders[id(d)] for d in drawn], animation.durations, animation.plays)
+    return blobs

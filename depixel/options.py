@@ -18,6 +18,7 @@ from dataclasses import dataclass, fields
 
 from . import validate
 from .errors import ParameterError
+from .frozen import added
 from .limits import DEFAULT_MAX_FRAMES, DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
 from .params import Params
 from .pipeline import STAGES
@@ -40,6 +41,7 @@ class OutputOptions:
     layout: str = "stacked"  # SVG shapes stacked (each continues under those above) or "cutout"
     simplify: float = DEFAULT_SIMPLIFY  # tolerance in pixels of the curves that replace the spline (0: exact)
     shading: str = "smooth"  # the paper's smooth shading (SVG filter, PNG renderer), or "flat" bands
+    animate: bool = added(False)  # every frame of an animation in one file: an animated SVG or PNG (APNG)
 
     def __post_init__(self) -> None:
         normal: dict[str, object] = {"stage": validate.choice("stage", self.stage, STAGES),
@@ -53,7 +55,8 @@ class OutputOptions:
         normal |= {"precision": int(validate.number("precision", self.precision, low=0, high=12, integer=True)),
                    "layout": validate.choice("layout", self.layout, LAYOUTS),
                    "simplify": float(validate.number("simplify", self.simplify, low=0, high=MAX_SIMPLIFY)),
-                   "shading": validate.choice("shading", self.shading, SHADINGS)}
+                   "shading": validate.choice("shading", self.shading, SHADINGS),
+                   "animate": validate.flag("animate", self.animate)}
         for name, value in normal.items():
             object.__setattr__(self, name, value)
 

@@ -15,7 +15,6 @@ from conftest import FIXTURES
 import depixel
 from depixel.api import convert_bytes, load
 from depixel.errors import ParameterError
-from depixel.files.animation import animate, animate_png
 from depixel.prepare.animation import Animation, read_animation
 from depixel.render.raster import render_rgba
 from depixel.svg.animation import compose, key_times
@@ -24,6 +23,16 @@ SVG = "{http://www.w3.org/2000/svg}"
 XLINK = "{http://www.w3.org/1999/xlink}href"
 INKSCAPE = "{http://www.inkscape.org/namespaces/inkscape}"
 DURATIONS = (120.0, 40.0, 250.0)
+
+
+def animate(animation, **options) -> str:
+    """The animated SVG, as the API makes it."""
+    return depixel.convert(animation, animate=True, **options)
+
+
+def animate_png(animation, **options) -> bytes:
+    """The animated PNG, as the API makes it."""
+    return depixel.convert_bytes(animation, "png", animate=True, **options)
 
 
 def blinking(name: str = "chip") -> tuple[np.ndarray, ...]:
@@ -130,9 +139,15 @@ def test_smil_switches_each_frame_over_the_cycle():
 
 
 def test_a_still_is_one_layer_without_animation():
-    svg = animate(Animation.still(blinking()[0]))
+    svg = compose([depixel.convert(blinking()[0])], [100.0])
     assert "<animate" not in svg and 'display="none"' not in svg
     assert [g.get(f"{INKSCAPE}label") for g in layers(svg)] == ["frame 1 (100 ms)"]
+
+
+def test_animating_a_still_writes_its_one_frame():
+    frame = blinking()[0]
+    assert animate(Animation.still(frame)) == animate(frame) == depixel.convert(frame)
+    assert animate_png(Animation.still(frame), scale=2) == convert_bytes(frame, "png", scale=2)
 
 
 def test_key_times_keep_the_frames_apart():
@@ -202,8 +217,8 @@ def test_compose_refuses_frames_of_other_sizes():
     large = depixel.convert(blinking()[0], scale=2)
     with pytest.raises(ValueError, match="differ in size"):
         compose([small, large], [100.0, 100.0])
-    with pytest.raises(ParameterError, match="Animation"):
-        animate(blinking()[0])
+    with pytest.raises(ParameterError, match="animate=True"):
+        depixel.convert(Animation(blinking(), DURATIONS, 0))
 
 
 def test_apng_has_the_frames_renders_and_timing():

@@ -83,6 +83,7 @@ def test_the_parameter_count_sees_every_kind_of_parameter(tmp_path):
     (lambda: OutputOptions(layout="tiled"), "unknown layout 'tiled'"),
     (lambda: OutputOptions(simplify=3), "simplify must be between 0 and 2, not 3"),
     (lambda: OutputOptions(shading="soft"), "unknown shading 'soft'"),
+    (lambda: OutputOptions(animate="yes"), "animate must be True or False, not 'yes'"),
     (lambda: PrepareOptions(background="nocolour"), "unknown colour 'nocolour'"),
     (lambda: PrepareOptions(pixel_size="big"), "pixel_size must be auto, N or NxM"),
     (lambda: PrepareOptions(denoise="yes"), "denoise must be True, False or None, not 'yes'"),
@@ -128,7 +129,7 @@ def test_depixelize_refuses_an_unknown_stage_as_every_entry_does():
 EXAMPLES = {"stage": "cells", "scale": 2.0, "width": 8, "height": 8, "precision": 3, "layout": "cutout",
             "simplify": 0.0, "shading": "flat", "background": (255, 0, 0), "pixel_size": (1, 1), "denoise": True,
             "transparent": (255, 255, 255), "transparent_everywhere": True, "max_pixels": 4096,
-            "max_output_pixels": 65536, "max_frames": 3}
+            "max_output_pixels": 65536, "max_frames": 3, "animate": True}
 #: options a keyword function has no use for: an SVG renders no PNG and takes no frames
 NOT_TAKEN = {"convert": {"max_output_pixels", "max_frames"}, "convert_bytes": {"max_frames"}, "convert_file": set()}
 OPTION_FIELDS = [item for part in (OutputOptions, PrepareOptions, Limits) for item in dataclasses.fields(part)]
@@ -245,8 +246,8 @@ def test_the_command_line_builds_the_same_options_as_the_keywords():
         "convert", "a.png", "--stage", "splines", "--width", "64", "--precision", "3", "--layout", "cutout",
         "--simplify", "0", "--shading", "flat", "--background", "white", "--pixel-size", "4", "--no-denoise",
         "--transparent", "auto", "--transparent-everywhere", "--max-pixels", "99", "--max-output-pixels", "98",
-        "--max-frames", "7", "--iterations", "2"])
+        "--max-frames", "7", "--iterations", "2", "--animate"])
     assert convert_options(args) == ConvertOptions.build(
         depixel.Params().replace(iterations=2), stage="splines", width=64, precision=3, layout="cutout", simplify=0,
         shading="flat", background="white", pixel_size=4, denoise=False, transparent="auto",
-        transparent_everywhere=True, max_pixels=99, max_output_pixels=98, max_frames=7)
+        transparent_everywhere=True, max_pixels=99, max_output_pixels=98, max_frames=7, animate=True)

@@ -119,10 +119,8 @@ def run_job(job: Job) -> Outcome:
                 keep(out, target, now)
             if result.changed:
                 out.changed = f"{display_name(job.source)}: {files.CHANGED}"
-            if opt.frames == "first" and out.written and \
-                    (n := frame_count(source.data, name=display_name(job.source))) > 1:
-                out.notes.append(f"{display_name(job.source)}: has {n} frames, converted the first "
-                                 "(--frames all converts each)")
+            if out.written:
+                out.notes += frames_note(source.data, display_name(job.source), opt)
         if opt.explicit and (out.kept or out.edited):
             out.error = kept_lines(out)[0][1]
     except DepixelError as exc:
@@ -167,6 +165,18 @@ def keep(out: Outcome, target: Path, now: str) -> None:
             out.old.append(target)
 
 
+def frames_note(data: bytes, name: str, options: Options) -> list[str]:
+    """The note on the frames an output holds, when it is not what the input suggests: the
+    first of an animation (without ``--frames``), the one frame of a still (``--animate``)."""
+    if options.frames != "first":
+        return []
+    n = frame_count(data, name=name)
+    if options.convert.output.animate:
+        return [f"{name}: a still image, written as its one frame (--animate)"] if n == 1 else []
+    return [f"{name}: has {n} frames, converted the first (--frames all converts each, --animate plays them "
+            "in one file)"] if n > 1 else []
+
+
 def _outputs_to_make(job: Job, out: Outcome) -> list[files.Target]:
     """The outputs to convert; the others are added to ``out.up_to_date`` (made from this
     input with these options), ``out.kept`` (not depixel's, or stamped before edits could be
@@ -201,13 +211,14 @@ def preview(job: Job) -> Outcome:
     out = Outcome(job.source, job.output)
     opt = job.options
     try:
-        frames = frame_count(job.source, opt.convert.limits.max_frames if opt.frames == "all" else None)
+        whole = opt.frames == "all" or opt.convert.output.animate
+        frames = frame_count(job.source, opt.convert.limits.max_frames if whole else None)
         if opt.frames == "all" and job.frames == 0:  # the header is read: an unreadable input fails
             job = replace(job, frames=frames)
         todo = _outputs_to_make(job, out)
         if todo:
             for _ in files.decoded_frames(files.InputFile.read(job.source), dict.fromkeys(t.frame for t in todo),
-                                          opt.convert.limits, every_frame=opt.frames == "all"):
+                                          opt.convert, every_frame=opt.frames == "all"):
                 pass
         out.planned = [target.path for target in todo]
         if opt.explicit and (out.kept or out.edited):

@@ -8,12 +8,15 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
+
 from depixel import api
 from depixel.errors import DepixelError, OutputError, display_name
 from depixel.files import convert as files
 from depixel.files import stamp as stamps
 from depixel.limits import DEFAULT_MAX_FRAMES, DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
 from depixel.pipeline import STAGES
+from depixel.prepare.animation import Animation, read_animation
 from depixel.prepare.image import frame_count, load_image, read_source
 from depixel.prepare.inputs import lossy_format
 from depixel.svg.outlines import LAYOUTS
@@ -40,6 +43,7 @@ from .batch import (
     Options,
     Outcome,
     current_traceback,
+    frames_note,
     keep,
     kept_lines,
     preview,
@@ -57,6 +61,7 @@ examples:
   depixel convert sprite.png -o sprite.png --scale 8    rendered 8x as PNG (or .pdf)
   depixel convert icons/ -r --out-dir svg/ -j 4         a whole folder tree, 4 files at a time
   depixel convert 'art/*.gif' --out-dir out --frames all    every frame: name-000.svg, ...
+  depixel convert walk.gif -o walk.svg --animate        one SVG that plays every frame (or .png: an APNG)
   depixel convert art/ --out-dir out --format svg,png --name '{stem}-{suffix}'   two formats
   cat sprite.png | depixel convert - -o - > sprite.svg  stdin to stdout
   depixel convert sprite.png -o cells.svg --stage cells     only the reshaped pixel cells
@@ -147,6 +152,10 @@ def add_parser(sub, name: str, help: str) -> None:
                           "each shaded region; PNG: the paper's renderer); flat: flat colour bands")
     out.add_argument("--frames", type=frames_option, default="first", metavar="first|all|N",
                      help="frames of an animated image: the first (default), all (name-000.svg, ...) or frame N")
+    out.add_argument("--animate", action="store_true",
+                     help="every frame of an animated GIF, APNG, WebP or Aseprite file in one output, in the file's "
+                          "timing: an SVG with a layer a frame that plays in browsers (other renderers show the "
+                          "first), or an animated PNG; a still image is its one frame (no PDF)")
     out.add_argument("--stage", choices=STAGES, default="optimized",
                      help="stop at this pipeline stage (default: optimized, the final result)")
     out.add_argument("--precision", type=int_range(0, 12), default=DEFAULT_PRECISION, metavar="N",
@@ -247,6 +256,9 @@ def _check_destination(args: argparse.Namespace) -> tuple[str, ...]:
         parser.error("- reads the image from standard input, which is closed")
     if args.output == "-" and (args.frames == "all" or args.json):
         parser.error("-o - writes one image to stdout: no --frames all or --json with it")
+    if args.animate and args.frames != "first":
+        parser.error(f"--animate writes every frame into one file; --frames {args.frames} picks frames for a file "
+                     "each: give one of them")
     if args.dry_run and (args.output == "-" or "-" in args.inputs):
         parser.error("--dry-run looks at output files: not with - (stdin or stdout)")
     if args.prune and args.out_dir is None:
@@ -262,12 +274,16 @@ def _check_destination(args: argparse.Namespace) -> tuple[str, ...]:
         parser.error("-o writes one file in one format; for several formats use --out-dir DIR or no -o "
                      "(each output is then written beside its input)")
     if args.output in (None, "-"):
-        return args.format or ("svg",)
-    try:
-        fmt = files.output_format(args.output, args.format and args.format[0])
-    except OutputError as exc:
-        parser.error(str(exc).replace("the format", "--format").replace("give --format", "use --format"))
-    return (fmt,)
+        formats = args.format or ("svg",)
+    else:
+        try:
+            formats = (files.output_format(args.output, args.format and args.format[0]),)
+        except OutputError as exc:
+            parser.error(str(exc).replace("the format", "--format").replace("give --format", "use --format"))
+    if args.animate and "pdf" in formats:
+        parser.error("--animate writes an SVG or a PNG (an animated PNG); a PDF cannot play frames: convert one "
+                     "with --frames N")
+    return formats
 
 
 def _convert_batch(args: argparse.Namespace, options: Options) -> list[Outcome]:
@@ -315,8 +331,7 @@ def _convert_stream(source: str, output: str, options: Options) -> Outcome:
             _to_stdout(data, options, out)
         else:
             _stream_to_files(data, Path(output), options, out)
-        if options.frames == "first" and (n := frame_count(data.data, name=data.name)) > 1:
-            out.notes.append(f"{data.name}: has {n} frames, converted the first (--frames all converts each)")
+        out.notes += frames_note(data.data, data.name, options)
     except DepixelError as exc:
         out.error, out.traceback = error_message(exc), current_traceback()
     return out
@@ -326,8 +341,12 @@ def _to_stdout(source: files.InputFile, options: Options, out: Outcome) -> None:
     """``-o -``: one frame's SVG, PNG or PDF on stdout, unstamped."""
     frame = 0 if options.frames == "first" else int(options.frames)
     fmt, limits = options.formats[0], options.convert.limits
-    rgba = load_image(source.data, limits.max_pixels, frame, max_frames=limits.max_frames, name=source.name)
-    blob = api.conversions(rgba, {fmt: None}, options.convert, name=source.name,
+    if options.convert.output.animate:
+        image: np.ndarray | Animation = read_animation(source.data, limits.max_pixels, max_frames=limits.max_frames,
+                                                       name=source.name)
+    else:
+        image = load_image(source.data, limits.max_pixels, frame, max_frames=limits.max_frames, name=source.name)
+    blob = api.conversions(image, {fmt: None}, options.convert, name=source.name,
                            title=None if source.path is None else source.path.name, lossy=lossy_format(source.data),
                            on_prepared=lambda prepared: record_prepared(out, prepared, source.name, "-"))[fmt]
     if fmt != "svg" and sys.stdout is not None and sys.stdout.isatty():

@@ -22,7 +22,7 @@ from .batch import Job, Options, Outcome
 
 #: File extensions taken from folders and globs (explicitly named files are always tried).
 IMAGE_SUFFIXES = frozenset({".png", ".gif", ".bmp", ".webp", ".tga", ".tif", ".tiff", ".ppm", ".pgm",
-                            ".pbm", ".pcx", ".ico", ".jpg", ".jpeg", ".qoi"})
+                            ".pbm", ".pcx", ".ico", ".jpg", ".jpeg", ".qoi", ".aseprite", ".ase"})
 
 
 def expand_inputs(args: list[str], recursive: bool, exclude: Path | None = None,

@@ -13,7 +13,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import time
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from functools import partial
 from pathlib import Path
 from typing import NamedTuple
@@ -21,13 +21,14 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import validate
-from ..api import FORMATS, conversions
+from ..api import FORMATS, check_animated_format, conversions
 from ..colour import Colour, as_colour
-from ..errors import InputError, OutputError, display_name
+from ..errors import InputError, OutputError, ParameterError, display_name
 from ..frozen import stamp_fields
 from ..limits import DEFAULT_MAX_FRAMES, DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS, check_rendered_frames
-from ..options import ConvertOptions, Limits
+from ..options import ConvertOptions
 from ..params import Params
+from ..prepare.animation import Animation, read_animation
 from ..prepare.image import load_frames, load_image, read_source
 from ..prepare.inputs import AUTO, PixelSize, PreparedImage, lossy_format
 from ..svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
@@ -72,7 +73,7 @@ def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: P
                  simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
                  transparent: Colour | str | None = None, transparent_everywhere: bool = False,
                  on_prepared: Callable[[PreparedImage], None] | None = None,
-                 max_frames: int | None = DEFAULT_MAX_FRAMES) -> Path:
+                 max_frames: int | None = DEFAULT_MAX_FRAMES, animate: bool = False) -> Path:
     """Convert one image file (one frame of it) to an SVG, PNG or PDF file; returns the output path.
 
     The output is written atomically and never replaces ``source``. SVG and PNG output have
@@ -82,13 +83,15 @@ def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: P
     compares. ``denoise=None`` denoises JPEG and lossy WebP files; ``on_prepared`` is called
     with what the preparation found (to report it). An input that changes while it is
     converted raises :class:`InputError` once the output is written (of the version read,
-    stamped as such: never up to date).
+    stamped as such: never up to date). ``animate=True`` writes every frame of an animated
+    GIF, APNG, WebP or Aseprite file into one animated SVG or PNG (docs/animation.md); a
+    still image is its one frame; ``frame`` must then stay 0.
     """
     options = ConvertOptions.build(params, stage=stage, scale=scale, background=background, shading=shading,
                                    precision=precision, width=width, height=height, layout=layout, simplify=simplify,
                                    pixel_size=pixel_size, denoise=denoise, transparent=transparent,
                                    transparent_everywhere=transparent_everywhere, max_pixels=max_pixels,
-                                   max_output_pixels=max_output_pixels, max_frames=max_frames)
+                                   max_output_pixels=max_output_pixels, max_frames=max_frames, animate=animate)
     target = file_target(output, options, fmt=fmt, frame=frame)
     result = convert_frames(InputFile.read(source), [target], options,
                             on_prepared=None if on_prepared is None else lambda frame, target, p: on_prepared(p))
@@ -169,6 +172,10 @@ def file_target(output: str | os.PathLike, options: ConvertOptions, *, fmt: str 
     ``frame`` converted with ``options``."""
     fmt = output_format(output, fmt)
     frame = int(validate.number("frame", frame, low=0, integer=True))
+    check_animated_format(fmt, options)
+    if frame and options.output.animate:
+        raise ParameterError(f"animate writes every frame into one file; frame={frame} picks one: give one of them",
+                             parameter="frame")
     return Target(Path(output), fmt, frame, options_digest(options, fmt, frame))
 
 
@@ -195,7 +202,9 @@ def convert_frames(source: InputFile, targets: Sequence[Target], options: Conver
     place together once every one is made (a failure in frame k leaves no partial set).
     ``every_frame``: the input is an animation converted whole (its frames decoded in order,
     checked against ``max_frames`` and, in all, ``max_pixels``; PNG frames' pixels in all
-    against ``max_output_pixels``, before each is converted). Without ``overwrite``, an
+    against ``max_output_pixels``, before each is converted). With ``options.output.animate``
+    the targets (of frame 0) each hold every frame (:func:`depixel.api.animated`), within
+    the same limits. Without ``overwrite``, an
     output that became unstamped or edited while converting is kept. ``token``: the run's
     (:mod:`depixel.files.output`). The outputs are stamped with the input's identity as read;
     whether it changed meanwhile is in the result."""
@@ -203,7 +212,7 @@ def convert_frames(source: InputFile, targets: Sequence[Target], options: Conver
     by_frame: dict[int, list[Target]] = {}
     for target in targets:
         by_frame.setdefault(target.frame, []).append(target)
-    frames = decoded_frames(source, by_frame, limits, every_frame)
+    frames = decoded_frames(source, by_frame, options, every_frame)
     done = Written()
     staged: dict[Path, outputs.Staged | None] = {}  # None: a device, written in place
     pngs = sum(target.fmt == "png" for target in targets)
@@ -214,8 +223,8 @@ def convert_frames(source: InputFile, targets: Sequence[Target], options: Conver
                 continue
             wanted = by_frame[frame]
             for target in wanted:
-                if target.fmt == "png" and pngs > 1:  # the PNGs' pixels in all, this one's size
-                    height, width = rgba.shape[:2]  # for each of those still to come
+                if target.fmt == "png" and pngs > 1 and isinstance(rgba, np.ndarray):  # the PNGs' pixels in all
+                    height, width = rgba.shape[:2]  # this one's size for each of those still to come
                     scale = options.output.scale_for(width, height)
                     each = max(1, round(width * scale)) * max(1, round(height * scale))
                     check_rendered_frames(name, pngs, rendered + each * (pngs - pngs_done), limits.max_output_pixels)
@@ -239,23 +248,26 @@ def convert_frames(source: InputFile, targets: Sequence[Target], options: Conver
     return done
 
 
-def decoded_frames(source: InputFile, frames: Iterable[int], limits: Limits,
-                   every_frame: bool = False) -> Iterator[tuple[int, np.ndarray]]:
-    """The frames a conversion of ``source`` decodes, as ``(index, (H, W, 4) uint8 RGBA)``:
-    ``frames``, each decoded from the start, or with ``every_frame`` all of them in order
-    (checked against ``limits`` in all). A file that cannot be decoded raises
+def decoded_frames(source: InputFile, frames: Iterable[int], options: ConvertOptions,
+                   every_frame: bool = False) -> Iterable[tuple[int, np.ndarray | Animation]]:
+    """What a conversion of ``source`` with ``options`` decodes, ``(index, (H, W, 4) uint8
+    RGBA)`` a frame: ``frames``, each decoded from the start, or with ``every_frame`` all of
+    them in order (checked against the limits in all); with ``options.output.animate`` the
+    whole :class:`Animation` as frame 0. A file that cannot be decoded raises
     :class:`InputError` (``--dry-run`` decodes them to report it as the conversion would)."""
-    name = source.name
+    name, limits = source.name, options.limits
+    if options.output.animate:
+        return [(0, read_animation(source.data, limits.max_pixels, max_frames=limits.max_frames, name=name))]
     if every_frame:
         return load_frames(source.data, limits.max_pixels, max_frames=limits.max_frames, name=name)
     return ((frame, load_image(source.data, limits.max_pixels, frame, max_frames=limits.max_frames, name=name))
             for frame in frames)
 
 
-def _converted(rgba: np.ndarray, source: InputFile, wanted: Sequence[Target], options: ConvertOptions,
+def _converted(rgba: np.ndarray | Animation, source: InputFile, wanted: Sequence[Target], options: ConvertOptions,
                on_prepared: Callable[[PreparedImage], None] | None) -> list[bytes]:
-    """The stamped bytes of each output of a frame: decoded pixels of ``source`` converted
-    once (the file's own format says whether it is lossy: JPEG and lossy WebP are denoised
+    """The stamped bytes of each output of a frame (or of an animation): decoded pixels of
+    ``source`` converted once (the file's own format says whether it is lossy: JPEG and lossy WebP are denoised
     unless ``denoise`` says otherwise)."""
     drafts = {target.fmt: stamps.text(target.digest, source.identity) for target in wanted}
     blobs = conversions(rgba, drafts, options, name=source.name,
