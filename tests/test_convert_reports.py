@@ -126,12 +126,13 @@ def test_dry_run_fails_a_corrupt_input_as_the_run_does(built):
     assert listed.stdout == "failed         art/broken.png: truncated or corrupt image data\n"
 
 
-def test_dry_run_fails_a_corrupt_frame_of_an_animation(built, tmp_path):
-    """``--frames all`` decodes every frame, as the conversion does."""
+@pytest.mark.parametrize("whole", [["--frames", "all"], ["--animate"]])
+def test_dry_run_fails_a_corrupt_frame_of_an_animation(built, whole):
+    """``--frames all`` and ``--animate`` decode every frame, as the conversion does."""
     blob = (FIXTURES / "heart_beat.gif").read_bytes()
     (built / "art" / "beat.gif").write_bytes(blob[:-8])  # its frames all counted, the last one's data cut
-    dry = depixel("convert", "art/beat.gif", "--out-dir", "anim", "--frames", "all", "--dry-run", cwd=built)
-    real = depixel("convert", "art/beat.gif", "--out-dir", "anim", "--frames", "all", "-j", "1", cwd=built)
+    dry = depixel("convert", "art/beat.gif", "--out-dir", "anim", *whole, "--dry-run", cwd=built)
+    real = depixel("convert", "art/beat.gif", "--out-dir", "anim", *whole, "-j", "1", cwd=built)
     assert real.returncode == 1 and dry.returncode == 1, (real.stderr, dry.stdout)
     assert dry.stdout.startswith("failed         art/beat.gif: ")
     assert dry.stdout.split("art/beat.gif: ", 1)[1].strip() in real.stderr
