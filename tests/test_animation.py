@@ -61,7 +61,9 @@ def layers(svg: str) -> list[ET.Element]:
 
 
 def strip_ids(text: str) -> str:
-    return re.sub(r' id="[^"]*"', "", text)
+    """``text`` without ids, and without the names of the masks its groups use (named by what
+    they hide, per animation: a frame's renders check them)."""
+    return re.sub(r'mask="url\(#[^)]*\)"', 'mask="url(#)"', re.sub(r' id="[^"]*"', "", text))
 
 
 def frame_elements(svg: str, number: int) -> list[str]:
@@ -195,7 +197,8 @@ def test_smooth_groups_keep_their_filter_in_every_frame():
     # the orb is one smooth region of six tones: the patch changes its group, not all its bands
     animation = Animation(blinking("orb"), DURATIONS, 0)
     svg = animate(animation)
-    assert svg.count("<filter ") == 1
+    filters = depixel.convert(animation.frames[0]).count("<filter ")  # the blur, and the masks' cover
+    assert svg.count('<filter id="smooth"') == 1 and svg.count("<filter ") == filters
     singles = [depixel.convert(frame) for frame in animation.frames]
     for number, own in enumerate(singles, 1):
         assert own.count('filter="url(#smooth)"') > 0
@@ -242,3 +245,27 @@ def test_apng_counts_the_pixels_of_every_frame():
     with pytest.raises(InputError, match="3 PNG frames are 3060 pixels") as refused:
         animate_png(animation, scale=2, max_output_pixels=3000)
     assert refused.value.parameter == "max_output_pixels"
+
+
+@pytest.mark.parametrize("name", ["orb", "leaf_la"])
+def test_every_frame_draws_as_its_own_conversion_masks_and_all(name):
+    """A smooth group under shapes is masked by them (svg/hiding.py); in an animation each
+    frame's masks must hide what that frame's shapes hide, wherever the shapes are written."""
+    resvg_py = pytest.importorskip("resvg_py")
+    from PIL import Image
+
+    def draw(text: str) -> np.ndarray:
+        png = bytes(resvg_py.svg_to_bytes(svg_string=text, width=160))
+        return np.asarray(Image.open(io.BytesIO(png)).convert("RGBA")).astype(int)
+
+    animation = Animation(blinking(name), DURATIONS, 0)
+    svg = animate(animation)
+    assert "<mask " in svg
+    for number, frame in enumerate(animation.frames, 1):
+        alone = re.sub(r"<animate [^>]*/>\n", "", svg)
+        alone = alone.replace(' display="none"', "")
+        for other in range(1, len(animation.frames) + 1):
+            if other != number:
+                alone = alone.replace(f'<g id="frame-{other}"', f'<g id="frame-{other}" display="none"')
+        np.testing.assert_array_equal(draw(alone), draw(depixel.convert(frame)), err_msg=f"frame {number}")
+

@@ -83,7 +83,7 @@ def prune_batch(args: argparse.Namespace, formats: tuple[str, ...], found: list[
         pruned = Pruned(refused=f"--prune: nothing removed, since {gone[0]} gave no input (a mistyped folder "
                                 "would empty --out-dir)")
     else:
-        pruned = prune(args.out_dir, [target for job in jobs for *_, target in job.targets],
+        pruned = prune(args.out_dir, [target for job in jobs for _, _, target, _ in job.targets],
                        [path for path, _ in found], [o.output.parent for o in unnamed if o.output is not None],
                        formats, args.recursive, args.dry_run)
     listing = args.dry_run and not args.json
