@@ -69,6 +69,7 @@ class Outcome:
     written: list[Path] = field(default_factory=list)
     up_to_date: list[Path] = field(default_factory=list)
     kept: list[Path] = field(default_factory=list)  # existing outputs depixel did not write (no stamp)
+    old: list[Path] = field(default_factory=list)  # those of ``kept`` stamped before edits could be told
     edited: list[Path] = field(default_factory=list)  # existing outputs changed since depixel wrote them
     planned: list[Path] = field(default_factory=list)  # --dry-run: the outputs that would be written
     seconds: dict[Path, float] = field(default_factory=dict)  # each written output's share of the work
@@ -163,7 +164,7 @@ def run_job(job: Job) -> Outcome:
             out.written, out.seconds, out.sizes = result.written, result.seconds, result.sizes
             out.notes.extend(note for note in result.notes if note not in out.notes)
             for target, now in result.kept.items():
-                (out.edited if now == stamps.EDITED else out.kept).append(target)
+                keep(out, target, now)
             if result.changed:
                 out.changed = f"{display_name(job.source)}: {files.CHANGED}"
             if out.written:
@@ -183,20 +184,33 @@ def run_job(job: Job) -> Outcome:
     return out
 
 
-#: Why an existing output is kept, by what it is (a stamp.UNSTAMPED or EDITED output).
+#: Why an existing output is kept, by what it is (a stamp.UNSTAMPED, OLD or EDITED output).
 KEPT_BECAUSE = {"kept": "not written by depixel (it has no depixel stamp)",
+                "old": "written by a depixel too old to tell whether it was edited since (its stamp has no "
+                       "body digest)",
                 "edited": "edited since depixel wrote it (it no longer matches its stamp)"}
 
 
 def kept_line(kind: str, target: Path) -> str:
-    """Why the output ``target`` was kept (``kind``: kept or edited) and what overwrites it."""
+    """Why the output ``target`` was kept (``kind``: kept, old or edited) and what overwrites it."""
     return f"{display_name(target)}: {KEPT_BECAUSE[kind]}; kept, --force overwrites it"
 
 
 def kept_lines(out: Outcome) -> list[tuple[str, str]]:
-    """(kind, :func:`kept_line`) for every output of ``out`` that was kept."""
-    return [(kind, kept_line(kind, target)) for kind, targets in (("kept", out.kept), ("edited", out.edited))
-            for target in targets]
+    """(kind, :func:`kept_line`) for every output of ``out`` that was kept (an old stamp's
+    kind is kept, its line says why)."""
+    return [(kind, kept_line("old" if target in out.old else kind, target))
+            for kind, targets in (("kept", out.kept), ("edited", out.edited)) for target in targets]
+
+
+def keep(out: Outcome, target: Path, now: str) -> None:
+    """Record the existing output ``target`` as kept, by what it is (a stamp.KEPT status)."""
+    if now == stamps.EDITED:
+        out.edited.append(target)
+    else:
+        out.kept.append(target)
+        if now == stamps.OLD:
+            out.old.append(target)
 
 
 def frames_note(data: bytes, name: str, options: Options) -> list[str]:
@@ -213,8 +227,8 @@ def frames_note(data: bytes, name: str, options: Options) -> list[str]:
 
 def _outputs_to_make(job: Job, out: Outcome) -> list[files.Target]:
     """The outputs to convert; the others are added to ``out.up_to_date`` (made from this
-    input with these options), ``out.kept`` (not depixel's) or ``out.edited`` (changed since
-    depixel wrote them)."""
+    input with these options), ``out.kept`` (not depixel's, or stamped before edits could be
+    told) or ``out.edited`` (changed since depixel wrote them)."""
     opt = job.options
     todo: list[files.Target] = []
     for frame, fmt, path, sprite in frame_targets(job):
@@ -224,10 +238,8 @@ def _outputs_to_make(job: Job, out: Outcome) -> list[files.Target]:
         now = stamps.NEW if opt.force else files.output_status(job.source, target)
         if now == stamps.CURRENT and not opt.explicit:
             out.up_to_date.append(path)
-        elif now == stamps.UNSTAMPED:
-            out.kept.append(path)
-        elif now == stamps.EDITED:
-            out.edited.append(path)
+        elif now in stamps.KEPT:
+            keep(out, path, now)
         else:
             todo.append(target)
     return todo
@@ -238,22 +250,6 @@ def _same_file(a: Path, b: Path) -> bool:
         return os.path.samefile(a, b)
     except (OSError, ValueError):
         return False
-
-
-def preview(job: Job) -> Outcome:
-    """``--dry-run``: what :func:`run_job` would do, writing nothing (the outputs it would
-    write are ``planned``)."""
-    out = Outcome(job.source, job.output)
-    try:
-        whole = job.options.frames == "all" or job.options.convert.output.animate
-        frame_count(job.source, job.options.convert.limits.max_frames if whole else None)
-        job = listed(job)  # the header is read: an unreadable input fails
-        out.planned = [target.path for target in _outputs_to_make(job, out)]
-        if job.options.explicit and (out.kept or out.edited):
-            out.error = kept_lines(out)[0][1]
-    except DepixelError as exc:
-        out.error = error_message(exc)
-    return out
 
 
 def already_done(job: Job) -> Outcome | None:
@@ -348,7 +344,8 @@ def summary(outcomes: list[Outcome], seconds: float, interrupted: bool = False, 
                     for p in o.written]
         outputs += [{"output": str(p), "input": str(o.source), "status": "to-convert"} for p in o.planned]
         outputs += [{"output": str(p), "input": str(o.source), "status": "up-to-date"} for p in o.up_to_date]
-        outputs += [{"output": str(p), "input": str(o.source), "status": kind, "reason": KEPT_BECAUSE[kind]}
+        outputs += [{"output": str(p), "input": str(o.source), "status": kind,
+                     "reason": KEPT_BECAUSE["old" if p in o.old else kind]}
                     for kind, targets in (("kept", o.kept), ("edited", o.edited)) for p in targets]
         if o.error or o.state != DONE:
             status = "failed" if o.error else o.state
@@ -372,14 +369,17 @@ def summary(outcomes: list[Outcome], seconds: float, interrupted: bool = False, 
     }
 
 
-def totals_line(outcomes: list[Outcome], seconds: float, interrupted: bool = False, dry_run: bool = False) -> str:
+def totals_line(outcomes: list[Outcome], seconds: float, interrupted: bool = False, dry_run: bool = False,
+                extra: list[str] | None = None) -> str:
     """The summary line every batch ends with: ``N files: a converted, b up to date, c kept,
-    d failed in S s``, with the edited, changed, abandoned and not started ones when there are."""
+    d failed in S s``, with the edited, changed, abandoned and not started ones when there are,
+    and ``extra`` parts (``--prune``'s ``N removed``) after the failed."""
     counts = [category(o) for o in outcomes]
     parts = [f"{counts.count('converted')} {'to convert' if dry_run else 'converted'}",
              f"{counts.count('up to date')} up to date", f"{counts.count('kept')} kept"]
     parts += [f"{counts.count(name)} {name}" for name in ("edited", "changed") if name in counts]
     parts.append(f"{counts.count('failed')} failed")
+    parts += extra or []
     if interrupted or INTERRUPTED in counts or CANCELLED in counts:  # a --dask batch also stops without a signal
         parts.append(f"{counts.count(INTERRUPTED)} abandoned, {counts.count(CANCELLED)} not started"
                      + (" (interrupted)" if interrupted else ""))

@@ -166,13 +166,18 @@ def output_targets(source: Path, folder: Path, options: Options, frames: list[in
     filled in (``{stem}``, ``{suffix}`` the input's extension without the dot, ``{frame}``
     the frame number, 000, 001, …, ``{sprite}`` each of a sheet's ``sprites``) plus each
     format's extension. Several frames and no ``{frame}`` in the name: ``name-000.svg``,
-    ``name-001.svg``, … (:func:`~depixel_cli.convert.batch.numbered`)."""
+    ``name-001.svg``, … (:func:`~depixel_cli.convert.batch.numbered`). A name that comes out
+    empty for this input (``{suffix}`` of a file without extension) raises ValueError: a
+    hidden ``.svg`` is never what was meant."""
     digits = max(3, len(str(max(frames))))
     targets = []
     for fmt in options.formats:
         for sprite in sprites or (None,):
             named = [(frame, name.format(stem=source.stem, suffix=source.suffix[1:], frame=f"{frame:0{digits}d}",
                                          sprite="" if sprite is None else file_part(sprite))) for frame in frames]
+            if not named[0][1].strip(". "):
+                raise ValueError(f"{display_name(source)}: --name {name!r} names nothing for it (it has no "
+                                 "extension); e.g. --name '{stem}-{suffix}'")
             if len(frames) > 1 and not uses(name, "frame"):
                 paths = numbered(folder / f"{named[0][1]}.{fmt}", frames)
             else:
@@ -203,7 +208,11 @@ def plan(found: list[tuple[Path, Path]], out_dir: Path | None, options: Options,
         except DepixelError as exc:
             failed.append(Outcome(path, folder / f"{path.stem}.{options.formats[0]}", error=error_message(exc)))
             continue
-        targets = output_targets(path, folder, options, frames, name, sprites)
+        try:
+            targets = output_targets(path, folder, options, frames, name, sprites)
+        except ValueError as exc:
+            failed.append(Outcome(path, folder / f"{path.stem}.{options.formats[0]}", error=str(exc)))
+            continue
         job = Job(path, targets[0][2], options, len(frames), targets)
         twice = _written_twice(targets)
         if twice is not None:

@@ -20,6 +20,7 @@ from .batch import (
     chosen_frames,
     current_traceback,
     frames_note,
+    keep,
     kept_lines,
     numbered,
     record_prepared,
@@ -67,7 +68,8 @@ def stream_to_files(source: files.InputFile, output: Path, options: Options, out
     targets = [files.file_target(path, options.convert, fmt=options.formats[0], frame=frame) for frame, path in frames]
     for target in targets:
         now = stamps.NEW if options.force else stamps.replaceable(target.path)
-        (out.kept if now == stamps.UNSTAMPED else out.edited if now == stamps.EDITED else []).append(target.path)
+        if now in stamps.KEPT:
+            keep(out, target.path, now)
     if out.kept or out.edited:
         out.error = kept_lines(out)[0][1]
         return
@@ -78,6 +80,6 @@ def stream_to_files(source: files.InputFile, output: Path, options: Options, out
     out.written, out.seconds, out.sizes = result.written, result.seconds, result.sizes
     out.notes.extend(result.notes)
     for path, now in result.kept.items():
-        (out.edited if now == stamps.EDITED else out.kept).append(path)
+        keep(out, path, now)
     if out.kept or out.edited:
         out.error = kept_lines(out)[0][1]

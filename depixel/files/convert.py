@@ -163,7 +163,7 @@ class Written:
     """What :func:`convert_frames` did."""
 
     written: list[Path] = dataclasses.field(default_factory=list)
-    #: outputs that became someone else's while they were converted: stamp.UNSTAMPED or EDITED
+    #: outputs that became someone else's while they were converted: stamp.UNSTAMPED, EDITED or OLD
     kept: dict[Path, str] = dataclasses.field(default_factory=dict)
     seconds: dict[Path, float] = dataclasses.field(default_factory=dict)  # each output's share of the work
     sizes: dict[Path, int] = dataclasses.field(default_factory=dict)  # bytes of each output
@@ -233,14 +233,7 @@ def convert_frames(source: InputFile, targets: Sequence[Target], options: Conver
     by_frame: dict[int, list[Target]] = {}
     for target in targets:
         by_frame.setdefault(target.frame, []).append(target)
-    frames: Iterable[tuple[int, np.ndarray | Animation]]
-    if options.output.animate:
-        frames = [(0, read_animation(source.data, limits.max_pixels, max_frames=limits.max_frames, name=name))]
-    elif every_frame:
-        frames = load_frames(source.data, limits.max_pixels, max_frames=limits.max_frames, name=name)
-    else:
-        frames = ((frame, load_image(source.data, limits.max_pixels, frame, max_frames=limits.max_frames, name=name))
-                  for frame in by_frame)
+    frames = decoded_frames(source, by_frame, options, every_frame)
     done = Written()
     staged: dict[Path, outputs.Staged | None] = {}  # None: a device, written in place
     pngs = sum(target.fmt == "png" and target.sprite is None for target in targets)  # (a sheet's sprites': _converted)
@@ -269,12 +262,28 @@ def convert_frames(source: InputFile, targets: Sequence[Target], options: Conver
         done.changed = source.changed()
         if not overwrite:
             done.kept = {path: now for path in staged
-                         if (now := stamps.replaceable(path)) in (stamps.UNSTAMPED, stamps.EDITED)}
+                         if (now := stamps.replaceable(path)) in stamps.KEPT}
         done.written = [path for path in staged if path not in done.kept]
         outputs.commit([item for path in done.written if (item := staged.pop(path)) is not None])
     finally:
         outputs.discard([item for item in staged.values() if item is not None])
     return done
+
+
+def decoded_frames(source: InputFile, frames: Iterable[int], options: ConvertOptions,
+                   every_frame: bool = False) -> Iterable[tuple[int, np.ndarray | Animation]]:
+    """What a conversion of ``source`` with ``options`` decodes, ``(index, (H, W, 4) uint8
+    RGBA)`` a frame: ``frames``, each decoded from the start, or with ``every_frame`` all of
+    them in order (checked against the limits in all); with ``options.output.animate`` the
+    whole :class:`Animation` as frame 0. A file that cannot be decoded raises
+    :class:`InputError` (``--dry-run`` decodes them to report it as the conversion would)."""
+    name, limits = source.name, options.limits
+    if options.output.animate:
+        return [(0, read_animation(source.data, limits.max_pixels, max_frames=limits.max_frames, name=name))]
+    if every_frame:
+        return load_frames(source.data, limits.max_pixels, max_frames=limits.max_frames, name=name)
+    return ((frame, load_image(source.data, limits.max_pixels, frame, max_frames=limits.max_frames, name=name))
+            for frame in frames)
 
 
 def _converted(rgba: np.ndarray | Animation, source: InputFile, wanted: Sequence[Target], options: ConvertOptions,
@@ -333,8 +342,8 @@ def _converted(rgba: np.ndarray | Animation, source: InputFile, wanted: Sequence
 def output_status(source: str | os.PathLike, target: Target) -> str:
     """What the existing output ``target`` is for a conversion of ``source``: ``stamp.NEW``,
     ``CURRENT`` (made from this input with these options: up to date), ``STALE`` (depixel's,
-    unchanged since: safe to replace), ``UNSTAMPED`` (not depixel's) or ``EDITED`` (changed
-    since depixel wrote it)."""
+    unchanged since: safe to replace), ``UNSTAMPED`` (not depixel's), ``EDITED`` (changed
+    since depixel wrote it) or ``OLD`` (stamped before edits could be told)."""
     return stamps.status(source, target.path, target.digest)
 
 
