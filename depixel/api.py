@@ -2,7 +2,7 @@
 
 :func:`convert` takes an image (numpy array or PIL image) and returns SVG text;
 :func:`convert_bytes` returns the bytes of an SVG, PNG or PDF file; with ``animate=True`` both
-take an :class:`~depixel.prepare.animation.Animation` too (:func:`animated`). PNG and PDF go through
+take an :class:`~depixel.prepare.animation.Animation` too (:func:`~depixel.render.animation.animated`). PNG and PDF go through
 cairosvg, which is imported only when one of them is asked for (:mod:`depixel.render.raster`).
 File to file (:func:`~depixel.files.convert.convert_file`, :func:`~depixel.files.convert.render_file`)
 is :mod:`depixel.files.convert`. The keyword functions make one
@@ -199,7 +199,7 @@ def conversions(image, formats: Mapping[str, str | None], options: ConvertOption
     messages, ``title`` is the SVG's title, ``lossy`` the lossy format the pixels came from
     (:func:`prepared_input`); ``on_prepared`` is told what the preparation found. With
     ``options.output.animate``, ``image`` may be an :class:`Animation`: each format holds
-    every frame (:func:`animated`); an animation of one frame, or a still, is that frame.
+    every frame (:func:`~depixel.render.animation.animated`); an animation of one frame, or a still, is that frame.
     With ``options.output.tag``, the Animation's tag is played (:meth:`Animation.tagged`)."""
     for fmt in formats:
         validate.choice("format", fmt, FORMATS)
