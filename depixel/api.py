@@ -2,8 +2,9 @@
 
 :func:`convert` takes an image (numpy array or PIL image) and returns SVG text;
 :func:`convert_bytes` returns the bytes of an SVG, PNG or PDF file; with ``animate=True`` both
-take an :class:`~depixel.prepare.animation.Animation` too (:func:`~depixel.render.animation.animated`). PNG and PDF go through
-cairosvg, which is imported only when one of them is asked for (:mod:`depixel.render.raster`).
+take an :class:`~depixel.prepare.animation.Animation` too
+(:func:`~depixel.render.animation.animated`). PNG and PDF go through cairosvg, which is
+imported only when one of them is asked for (:mod:`depixel.render.raster`).
 File to file (:func:`~depixel.files.convert.convert_file`, :func:`~depixel.files.convert.render_file`)
 is :mod:`depixel.files.convert`. The keyword functions make one
 :class:`~depixel.options.ConvertOptions` of their keywords and pass it to :func:`conversions`.
