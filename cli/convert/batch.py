@@ -26,6 +26,7 @@ from depixel.prepare.image import ImageSource, frame_count
 from depixel.prepare.inputs import PreparedImage
 
 from ..options import error_message
+from .tags import output_tags, tagged
 
 
 @dataclass(frozen=True, eq=False)  # never compared: eq would cost ~1 ms a start to create
@@ -37,7 +38,7 @@ class Options:
     formats: tuple[str, ...]  # svg, png or pdf: one output of each per input (and frame)
     frames: str | int  # "first", "all" or a frame index
     force: bool  # reconvert outputs that are up to date, and overwrite those that are not depixel's or edited
-    tag: str | None = None  # an Aseprite tag: its frames ("all"), or the first it plays
+    tag: str | None = None  # an Aseprite tag: its frames ("all") or the first it plays; with animate, the one played
     #: an output named by ``-o``: converted even when up to date; one that is not depixel's
     #: (or was edited) is an error without ``force``, not a note
     explicit: bool = False
@@ -52,9 +53,9 @@ class Job:
     output: Path  # its first output; for -o FILE with frames="all", the name the frame names derive from
     options: Options
     frames: int = 1  # frames of the input, known when frames="all"
-    #: (frame, format, path, sprite) of every output, as named when planned (--out-dir, beside
-    #: the input, --name; sprite: a sheet's sprite, or None); empty for -o FILE, whose outputs
-    #: derive from ``output``
+    #: (frame, format, path, part) of every output, as named when planned (--out-dir, beside
+    #: the input, --name; part: a sheet's sprite or an animation's tag, or None); empty for
+    #: -o FILE, whose outputs derive from ``output``
     targets: tuple[tuple[int, str, Path, str | None], ...] = ()
 
 
@@ -90,7 +91,7 @@ def current_traceback() -> str:
 
 
 def frame_targets(job: Job) -> list[tuple[int, str, Path, str | None]]:
-    """(frame index, format, output path, sprite) of every output of a job."""
+    """(frame index, format, output path, sprite or tag) of every output of a job."""
     if job.targets:
         return list(job.targets)
     opt, fmt = job.options, job.options.formats[0]
@@ -103,8 +104,8 @@ def chosen_frames(source: ImageSource, options: Options, name: str) -> list[int]
     """The frames of ``source`` to convert: ``--frames first`` the first, ``N`` frame N,
     ``all`` every one (counted from the header, at most ``max_frames``); with ``--tag``, the
     frames of that Aseprite tag (``all``: each once, in the file's order; ``first``: the
-    first it plays)."""
-    if options.tag is not None:
+    first it plays; an animation is one output: ``[0]``)."""
+    if options.tag is not None and not options.convert.output.animate:
         from depixel.prepare.aseprite import is_aseprite, parse_aseprite, tag_frames  # noqa: PLC0415 (~15 ms)
         from depixel.prepare.image import read_source  # noqa: PLC0415
 
@@ -131,10 +132,14 @@ def numbered(output: Path, frames: list[int]) -> list[Path]:
 
 def listed(job: Job) -> Job:
     """A ``-o FILE`` job with its frames known: counted (``--frames all``) or the tag's, which
-    are named by :func:`numbered` (its outputs then planned like a batch's)."""
+    are named by :func:`numbered` (its outputs then planned like a batch's); with ``animate``,
+    an output per tag (:func:`~depixel_cli.convert.tags.output_tags`)."""
     opt = job.options
     if job.targets:
         return job
+    if opt.convert.output.animate:
+        return replace(job, targets=output_tags(job.source, job.output, opt.tag, opt.formats[0], True,
+                                                display_name(job.source)))
     if opt.tag is not None:
         frames = chosen_frames(job.source, opt, display_name(job.source))
         fmt = opt.formats[0]
@@ -231,8 +236,10 @@ def _outputs_to_make(job: Job, out: Outcome) -> list[files.Target]:
     told) or ``out.edited`` (changed since depixel wrote them)."""
     opt = job.options
     todo: list[files.Target] = []
-    for frame, fmt, path, sprite in frame_targets(job):
-        target = files.file_target(path, opt.convert, fmt=fmt, frame=frame, sprite=sprite)
+    sheet = opt.convert.output.is_sheet
+    for frame, fmt, path, part in frame_targets(job):
+        target = files.file_target(path, opt.convert if sheet else tagged(opt.convert, part), fmt=fmt, frame=frame,
+                                   sprite=part if sheet else None)
         if _same_file(path, job.source):  # said as the writer says it, before any work
             raise OutputError(f"{display_name(path)}: is the input file; refusing to overwrite it")
         now = stamps.NEW if opt.force else files.output_status(job.source, target)
