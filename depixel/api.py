@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Mapping
+from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -25,10 +27,14 @@ from .prepare.backdrop import over_colour
 from .prepare.image import ImageSource, as_rgba, check_indexable, check_pixels, image_array, load_image
 from .prepare.inputs import AUTO, PixelSize, PreparedImage, pil_lossy, prepare
 from .render.overlay import overlay_raster, overlay_svg
+from .svg.swatches import Style
 from .svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY, SHADINGS, SIGMA_RATIO, to_svg
 
+if TYPE_CHECKING:
+    from .prepare.gpl import PaletteMapSource, PaletteSource
+
 #: Output formats, chosen from the file extension or given explicitly.
-FORMATS = ("svg", "png", "pdf")
+FORMATS = ("svg", "png", "pdf", "eps")
 __all__ = ["FORMATS", "SHADINGS", "conversions", "convert", "convert_bytes", "encode", "flatten", "load",
            "prepare_input", "prepared_input"]
 
@@ -78,7 +84,8 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
             max_pixels: int | None = DEFAULT_MAX_PIXELS, layout: str = "stacked",
             simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
             transparent: Colour | str | None = None, transparent_everywhere: bool = False,
-            shading: str = "smooth") -> str:
+            shading: str = "smooth", swatches: bool = False, palette: PaletteSource | None = None,
+            palette_map: PaletteMapSource | None = None) -> str:
     """Depixelize an image (``(H, W[, C])`` array, PIL image or :class:`PreparedImage`) → SVG text.
 
     ``scale`` sets the SVG's width/height as a multiple of the input's size (or ``width`` or
@@ -90,6 +97,11 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
     which fewer curves replace the exact spline (0: the exact spline; docs/svg.md).
     ``shading="smooth"`` blends the tones of each shaded region with a filter (paper §3.5,
     σ from ``params.shading_sigma``); ``"flat"`` draws them as flat bands.
+    ``swatches`` makes every colour an Inkscape swatch, named from ``palette`` (a ``.gpl``
+    or ``.aseprite`` file, or a :class:`~depixel.prepare.gpl.Palette`); ``palette_map``
+    (``"FROM.gpl:TO.gpl"``, a pair of palettes or a :class:`~depixel.prepare.gpl.PaletteMap`)
+    swaps the colours of the output, the shapes staying those of the art's own colours
+    (docs/palettes.md).
     ``pixel_size``, ``denoise``, ``transparent`` and ``transparent_everywhere`` prepare the input first
     (:func:`depixel.prepare.inputs.prepare`, docs/inputs.md): upscaled art is converted at 1× and
     laid exactly over the input. Images over ``max_pixels`` pixels are refused (``None``:
@@ -98,7 +110,8 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
     options = ConvertOptions.build(params, stage=stage, scale=scale, background=background, precision=precision,
                                    width=width, height=height, max_pixels=max_pixels, layout=layout,
                                    simplify=simplify, pixel_size=pixel_size, denoise=denoise, transparent=transparent,
-                                   transparent_everywhere=transparent_everywhere, shading=shading)
+                                   transparent_everywhere=transparent_everywhere, shading=shading, swatches=swatches,
+                                   palette=palette, palette_map=palette_map)
     return conversions(image, {"svg": None}, options, title=title)["svg"].decode("utf-8")
 
 
@@ -141,7 +154,9 @@ def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: 
                   max_pixels: int | None = DEFAULT_MAX_PIXELS,
                   max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS, layout: str = "stacked",
                   simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
-                  transparent: Colour | str | None = None, transparent_everywhere: bool = False) -> bytes:
+                  transparent: Colour | str | None = None, transparent_everywhere: bool = False,
+                  swatches: bool = False, palette: PaletteSource | None = None,
+                  palette_map: PaletteMapSource | None = None) -> bytes:
     """Like :func:`convert`, returning the bytes of an SVG, PNG or PDF file.
 
     ``shading="smooth"`` renders PNG output with the paper's smooth renderer and gives the
@@ -153,7 +168,8 @@ def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: 
                                    precision=precision, width=width, height=height, max_pixels=max_pixels,
                                    max_output_pixels=max_output_pixels, layout=layout, simplify=simplify,
                                    pixel_size=pixel_size, denoise=denoise, transparent=transparent,
-                                   transparent_everywhere=transparent_everywhere)
+                                   transparent_everywhere=transparent_everywhere, swatches=swatches, palette=palette,
+                                   palette_map=palette_map)
     return conversions(image, {fmt: None}, options, name=name, title=title)[fmt]
 
 
@@ -178,9 +194,12 @@ def conversions(image, formats: Mapping[str, str | None], options: ConvertOption
         _check_png_size(prepared, scale, limits.max_output_pixels, name)
     for fmt in formats:
         _check_page(fmt, prepared, scale, output, name)
+    if "eps" in formats:
+        _check_opaque(prepared, output, name)
     vector = depixelize(prepared.rgba, params, stage=output.stage).vector  # the other stages' products are freed
+    style = Style(SIGMA_RATIO * params.shading_sigma, output.swatches, output.palette, output.palette_map)
     blobs: dict[str, bytes] = {}
-    svgs: dict[str, str] = {}  # by shading: an SVG is smooth unless flat; PDF and a flat PNG are drawn flat
+    svgs: dict[tuple[str, bool], str] = {}  # by shading and swatches: PDF, EPS and a flat PNG are drawn flat
     for fmt, keywords in formats.items():
         if fmt == "png" and output.shading == "smooth":
             import io  # noqa: PLC0415
@@ -190,15 +209,16 @@ def conversions(image, formats: Mapping[str, str | None], options: ConvertOption
             from .render.shading import render_smooth  # noqa: PLC0415
 
             # rendered at the art's grid, then laid over the input like the SVG
-            pixels = render_smooth(vector, scale * max(prepared.pixel_size), params=params)
+            swapped = None if output.palette_map is None else output.palette_map.apply(vector.rgba)
+            pixels = render_smooth(vector, scale * max(prepared.pixel_size), params=params, colours=swapped)
             buffer = io.BytesIO()
             Image.fromarray(overlay_raster(pixels, prepared, scale), "RGBA").save(buffer, format="PNG")
             blobs[fmt] = buffer.getvalue()
         else:
-            drawn = output.shading if fmt == "svg" else "flat"
+            drawn = (output.shading, output.swatches) if fmt == "svg" else ("flat", False)  # swatches: SVG only
             if drawn not in svgs:
                 svg = to_svg(vector, scale=scale, precision=output.precision, title=title, layout=output.layout,
-                             simplify=output.simplify, shading=drawn, sigma=SIGMA_RATIO * params.shading_sigma)
+                             simplify=output.simplify, shading=drawn[0], style=replace(style, swatches=drawn[1]))
                 svgs[drawn] = overlay_svg(svg, prepared, scale)
             blobs[fmt] = encode(svgs[drawn], fmt, name=name, keywords=keywords)
     return blobs
@@ -212,6 +232,16 @@ def _check_png_size(prepared: PreparedImage, scale: float, max_output_pixels: in
         raise RenderError(f"{name}: a {shown(width)}x{shown(height)} PNG is {shown(width * height)} pixels, over "
                           f"the limit of {max_output_pixels} (raise it with max_output_pixels)",
                           parameter="max_output_pixels")
+
+
+def _check_opaque(prepared: PreparedImage, output: OutputOptions, name: str) -> None:
+    """Refuse an EPS of semi-transparent colours: PostScript has no transparency, so cairo
+    would draw them as raster images, which stock sites refuse."""
+    alpha = prepared.rgba[..., 3] if output.palette_map is None else output.palette_map.apply(prepared.rgba)[..., 3]
+    translucent = int(((alpha > 0) & (alpha < 255)).sum())
+    if translucent:
+        raise RenderError(f"{name}: EPS cannot hold the {translucent} semi-transparent pixels without raster images; "
+                          "flatten them over a colour with background (e.g. white)", parameter="background")
 
 
 def _check_page(fmt: str, prepared: PreparedImage, scale: float, output: OutputOptions, name: str) -> None:

@@ -15,15 +15,20 @@ A file's stamp digests every field of the prepare and output options
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
+from typing import TYPE_CHECKING
 
 from . import validate
 from .errors import ParameterError
+from .frozen import added
 from .limits import DEFAULT_MAX_FRAMES, DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
 from .params import Params
 from .pipeline import STAGES
 from .prepare.inputs import PrepareOptions
 from .svg.outlines import LAYOUTS
 from .svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY, MAX_SIMPLIFY, SHADINGS
+
+if TYPE_CHECKING:
+    from .prepare.gpl import Palette, PaletteMap
 
 __all__ = ["ConvertOptions", "Limits", "OutputOptions", "PrepareOptions"]
 
@@ -40,6 +45,9 @@ class OutputOptions:
     layout: str = "stacked"  # SVG shapes stacked (each continues under those above) or "cutout"
     simplify: float = DEFAULT_SIMPLIFY  # tolerance in pixels of the curves that replace the spline (0: exact)
     shading: str = "smooth"  # the paper's smooth shading (SVG filter, PNG renderer), or "flat" bands
+    swatches: bool = added(False)  # every colour of the SVG an Inkscape swatch (docs/palettes.md)
+    palette: Palette | None = added(None)  # names the swatches (a .gpl or .aseprite file, or a Palette)
+    palette_map: PaletteMap | None = added(None)  # swaps the output's colours ("FROM.gpl:TO.gpl" or a PaletteMap)
 
     def __post_init__(self) -> None:
         normal: dict[str, object] = {"stage": validate.choice("stage", self.stage, STAGES),
@@ -53,7 +61,13 @@ class OutputOptions:
         normal |= {"precision": int(validate.number("precision", self.precision, low=0, high=12, integer=True)),
                    "layout": validate.choice("layout", self.layout, LAYOUTS),
                    "simplify": float(validate.number("simplify", self.simplify, low=0, high=MAX_SIMPLIFY)),
-                   "shading": validate.choice("shading", self.shading, SHADINGS)}
+                   "shading": validate.choice("shading", self.shading, SHADINGS),
+                   "swatches": validate.flag("swatches", self.swatches)}
+        if self.palette is not None or self.palette_map is not None:
+            from .prepare.gpl import as_palette, as_palette_map  # noqa: PLC0415 (only with a palette)
+
+            normal["palette"] = None if self.palette is None else as_palette(self.palette)
+            normal["palette_map"] = None if self.palette_map is None else as_palette_map(self.palette_map)
         for name, value in normal.items():
             object.__setattr__(self, name, value)
 

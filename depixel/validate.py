@@ -94,18 +94,19 @@ def shown(value: float) -> str:
 
 def page_size(fmt: str, width: float, height: float, name: str, parameter: str = "scale",
               error: type | None = None) -> None:
-    """Refuse an SVG or PDF whose page (``width`` × ``height`` CSS pixels) readers cannot
-    show: a PDF page outside the 3-14400 pt a side the PDF format allows, an SVG side beyond
+    """Refuse an SVG, PDF or EPS whose page (``width`` × ``height`` CSS pixels) readers cannot
+    show: a PDF page outside the 3-14400 pt a side the PDF format allows (an EPS's bounding
+    box too, as Illustrator's artboard), an SVG side beyond
     the coordinates cairo can place (renderers built on it drop path operators there) or so
     small that it is written as 0. The error (a :class:`ParameterError` unless ``error``
     says otherwise) names ``parameter``: the scale, or the width or height that set the size."""
     from .errors import ParameterError  # noqa: PLC0415
     from .limits import PDF_PAGE_POINTS, SVG_SIDE_PIXELS  # noqa: PLC0415
 
-    if fmt == "pdf":
+    if fmt in ("pdf", "eps"):
         low, high = PDF_PAGE_POINTS
         w, h = width * 0.75, height * 0.75  # 96 CSS pixels an inch, 72 points
-        unit, what = " pt", "a PDF page"
+        unit, what = " pt", f"a{'n' if fmt == 'eps' else ''} {fmt.upper()} page"
     elif fmt == "svg":
         (low, high), w, h, unit, what = SVG_SIDE_PIXELS, width, height, " px", "an SVG"
     else:

@@ -18,6 +18,7 @@ from depixel.files import convert as files
 from depixel.files import stamp as stamps
 from depixel.frozen import added
 from depixel.options import ConvertOptions, Limits, OutputOptions, PrepareOptions
+from depixel.prepare.gpl import Palette, PaletteEntry, PaletteMap
 
 MAX_PARAMETERS = 8
 SPRITE = art("""
@@ -128,7 +129,10 @@ def test_depixelize_refuses_an_unknown_stage_as_every_entry_does():
 EXAMPLES = {"stage": "cells", "scale": 2.0, "width": 8, "height": 8, "precision": 3, "layout": "cutout",
             "simplify": 0.0, "shading": "flat", "background": (255, 0, 0), "pixel_size": (1, 1), "denoise": True,
             "transparent": (255, 255, 255), "transparent_everywhere": True, "max_pixels": 4096,
-            "max_output_pixels": 65536, "max_frames": 3}
+            "max_output_pixels": 65536, "max_frames": 3, "swatches": True,
+            "palette": Palette((PaletteEntry((255, 0, 0, 255), "red"),)),
+            "palette_map": PaletteMap(Palette((PaletteEntry((255, 0, 0, 255)),)),
+                                      Palette((PaletteEntry((0, 0, 255, 255)),)))}
 #: options a keyword function has no use for: an SVG renders no PNG and takes no frames
 NOT_TAKEN = {"convert": {"max_output_pixels", "max_frames"}, "convert_bytes": {"max_frames"}, "convert_file": set()}
 OPTION_FIELDS = [item for part in (OutputOptions, PrepareOptions, Limits) for item in dataclasses.fields(part)]

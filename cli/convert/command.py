@@ -23,6 +23,7 @@ from ..options import (
     Exit,
     add_dask_options,
     add_input_options,
+    add_palette_options,
     add_tuning,
     check_input_options,
     colour,
@@ -47,6 +48,7 @@ from .batch import (
     totals_line,
 )
 from .inputs import DEFAULT_NAME, expand_inputs, make_folders, name_template, plan
+from .palette import export_palette, with_input_palette
 from .run import Progress, Repeats, auto_jobs, cores, run
 
 DESCRIPTION = """\
@@ -59,11 +61,13 @@ examples:
   cat sprite.png | depixel convert - -o - > sprite.svg  stdin to stdout
   depixel convert sprite.png -o cells.svg --stage cells     only the reshaped pixel cells
   depixel convert ghost_x4.jpg -o ghost.svg --transparent auto   upscaled JPEG on a backdrop
+  depixel convert hero.png --swatches --palette hero.gpl     every colour a named Inkscape swatch
+  depixel convert icons/ --out-dir red/ --palette-map blue.gpl:red.gpl   a whole set recoloured
 
-Convert pixel art to SVG, PNG or PDF (Kopf & Lischinski, Depixelizing Pixel Art, 2011).
+Convert pixel art to SVG, PNG, PDF or EPS (Kopf & Lischinski, Depixelizing Pixel Art, 2011).
 Upscaled pixel art is detected and converted at 1x, the SVG laid over the input (same
 width/height); JPEG noise is snapped to a palette (see the input options and docs/inputs.md).
-The format comes from the output's extension (--format for a name without .svg/.png/.pdf;
+The format comes from the output's extension (--format for a name without .svg/.png/.pdf/.eps;
 a format that contradicts the extension is refused). Without -o and --out-dir, each output
 is written beside its input (sprite.png -> sprite.svg); with --out-dir, outputs keep the
 inputs' relative folders; an output made from the same input with the same options is up
@@ -124,9 +128,9 @@ def add_parser(sub, name: str, help: str) -> None:
     out.add_argument("-o", "--output", metavar="FILE", help="output file for a single input; - writes to stdout")
     out.add_argument("--out-dir", metavar="DIR", type=Path,
                      help="folder for the outputs, at the inputs' relative places")
-    out.add_argument("--format", type=formats_option, metavar="svg|png|pdf[,...]",
+    out.add_argument("--format", type=formats_option, metavar="svg|png|pdf|eps[,...]",
                      help="output format (default: from -o's extension, else svg); must agree with a "
-                          ".svg/.png/.pdf name; several, comma-separated, write one output of each (without -o)")
+                          ".svg/.png/.pdf/.eps name; several, comma-separated, write one output of each (without -o)")
     out.add_argument("--name", type=template_option, metavar="TEMPLATE",
                      help="name of each output without -o, the format's extension added: {stem} (the "
                           "input's name without extension, the default), {suffix} (its extension without the "
@@ -143,6 +147,7 @@ def add_parser(sub, name: str, help: str) -> None:
     out.add_argument("--shading", choices=api.SHADINGS, default="smooth",
                      help="smooth (default): the paper's edge-aware smooth shading (SVG: a blur filter inside "
                           "each shaded region; PNG: the paper's renderer); flat: flat colour bands")
+    add_palette_options(out)
     out.add_argument("--frames", type=frames_option, default="first", metavar="first|all|N",
                      help="frames of an animated image: the first (default), all (name-000.svg, ...) or frame N")
     out.add_argument("--stage", choices=STAGES, default="optimized",
@@ -213,8 +218,12 @@ def run_convert(args: argparse.Namespace) -> int:
             outcomes = run([job], 1, lambda o: _report(o, Progress(0), args), signals)
     else:
         outcomes = _convert_batch(args, options)
-    seconds = time.perf_counter() - start
     interrupted = signals.signum is not None
+    if args.export_palette is not None and outcomes and not interrupted and not any(o.error for o in outcomes):
+        outcomes[0].error = export_palette(args, options.convert, options.frames)
+        if outcomes[0].error:
+            print(f"depixel: error: {outcomes[0].error}", file=sys.stderr)
+    seconds = time.perf_counter() - start
     if args.json:
         print_stdout(json.dumps(summary(outcomes, seconds, interrupted, args.dry_run), indent=2))
     if (args.output is None and not args.quiet) or interrupted:  # every batch, in a terminal or a log
@@ -238,6 +247,8 @@ def _check_destination(args: argparse.Namespace) -> tuple[str, ...]:
         parser.error("-o - writes one image to stdout: no --frames all or --json with it")
     if args.dry_run and (args.output == "-" or "-" in args.inputs):
         parser.error("--dry-run looks at output files: not with - (stdin or stdout)")
+    if args.export_palette is not None and ("-" in args.inputs or args.dry_run):
+        parser.error("--export-palette reads its input file again: not with - (stdin) or --dry-run")
     if args.out_dir is not None and args.out_dir.exists() and not args.out_dir.is_dir():
         parser.error(f"--out-dir {display_name(args.out_dir)}: is a file, not a folder")
     if args.dask is not None and args.output is not None:
@@ -312,7 +323,8 @@ def _to_stdout(source: files.InputFile, options: Options, out: Outcome) -> None:
     frame = 0 if options.frames == "first" else int(options.frames)
     fmt, limits = options.formats[0], options.convert.limits
     rgba = load_image(source.data, limits.max_pixels, frame, max_frames=limits.max_frames, name=source.name)
-    blob = api.conversions(rgba, {fmt: None}, options.convert, name=source.name,
+    convert = with_input_palette(options.convert, source.data, source.name)
+    blob = api.conversions(rgba, {fmt: None}, convert, name=source.name,
                            title=None if source.path is None else source.path.name, lossy=lossy_format(source.data),
                            on_prepared=lambda prepared: record_prepared(out, prepared, source.name, "-"))[fmt]
     if fmt != "svg" and sys.stdout is not None and sys.stdout.isatty():

@@ -16,7 +16,7 @@ import time
 from collections.abc import Callable, Sequence
 from functools import partial
 from pathlib import Path
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -34,10 +34,14 @@ from ..svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
 from . import output as outputs
 from . import stamp as stamps
 from .output import write_atomic
+from .palette import with_input_palette
+
+if TYPE_CHECKING:
+    from ..prepare.gpl import PaletteMapSource, PaletteSource
 
 
 def output_format(path: str | os.PathLike, fmt: str | None = None) -> str:
-    """The output format: the file extension (svg, png or pdf), or ``fmt`` for a name without
+    """The output format: the file extension (svg, png, pdf or eps), or ``fmt`` for a name without
     one of those extensions (``-``, ``/dev/stdout``, ``out.tmp``). A known extension that
     disagrees with ``fmt`` is refused: SVG text in a file named ``.png`` helps nobody."""
     suffix = Path(path).suffix.lower().lstrip(".")
@@ -49,7 +53,7 @@ def output_format(path: str | os.PathLike, fmt: str | None = None) -> str:
         return fmt
     if suffix not in FORMATS:
         raise OutputError(f"{display_name(path)}: cannot tell the output format from the extension "
-                             f"(use .svg, .png or .pdf, or give the format)", parameter="fmt")
+                             f"(use .svg, .png, .pdf or .eps, or give the format)", parameter="fmt")
     return suffix
 
 
@@ -72,8 +76,9 @@ def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: P
                  simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
                  transparent: Colour | str | None = None, transparent_everywhere: bool = False,
                  on_prepared: Callable[[PreparedImage], None] | None = None,
-                 max_frames: int | None = DEFAULT_MAX_FRAMES) -> Path:
-    """Convert one image file (one frame of it) to an SVG, PNG or PDF file; returns the output path.
+                 max_frames: int | None = DEFAULT_MAX_FRAMES, swatches: bool = False,
+                 palette: PaletteSource | None = None, palette_map: PaletteMapSource | None = None) -> Path:
+    """Convert one image file (one frame of it) to an SVG, PNG, PDF or EPS file; returns the output path.
 
     The output is written atomically and never replaces ``source``. SVG and PNG output have
     the smooth shading unless ``shading="flat"`` (:func:`depixel.api.convert_bytes`). The
@@ -82,13 +87,16 @@ def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: P
     compares. ``denoise=None`` denoises JPEG and lossy WebP files; ``on_prepared`` is called
     with what the preparation found (to report it). An input that changes while it is
     converted raises :class:`InputError` once the output is written (of the version read,
-    stamped as such: never up to date).
+    stamped as such: never up to date). ``swatches``, ``palette`` and ``palette_map`` are
+    :func:`depixel.api.convert`'s (an Aseprite input's own palette names its swatches); an
+    EPS refuses semi-transparent colours unless ``background`` flattens them.
     """
     options = ConvertOptions.build(params, stage=stage, scale=scale, background=background, shading=shading,
                                    precision=precision, width=width, height=height, layout=layout, simplify=simplify,
                                    pixel_size=pixel_size, denoise=denoise, transparent=transparent,
                                    transparent_everywhere=transparent_everywhere, max_pixels=max_pixels,
-                                   max_output_pixels=max_output_pixels, max_frames=max_frames)
+                                   max_output_pixels=max_output_pixels, max_frames=max_frames, swatches=swatches,
+                                   palette=palette, palette_map=palette_map)
     target = file_target(output, options, fmt=fmt, frame=frame)
     result = convert_frames(InputFile.read(source), [target], options,
                             on_prepared=None if on_prepared is None else lambda frame, target, p: on_prepared(p))
@@ -178,8 +186,11 @@ def options_digest(options: ConvertOptions, fmt: str, frame: int) -> str:
     prepare and output options (:func:`depixel.frozen.stamp_fields`: a new field is digested
     unless its metadata says when to leave it out), less what this format does not use."""
     output = stamp_fields(options.output)
-    if fmt == "pdf":
-        output["shading"] = None  # a PDF has the flat bands
+    if fmt != "svg":  # swatches are the SVG's; a palette only names them
+        output.pop("swatches", None)
+        output.pop("palette", None)
+    if fmt in ("pdf", "eps"):
+        output["shading"] = None  # a PDF or EPS has the flat bands
     elif fmt == "png" and options.output.shading == "smooth":  # the smooth renderer ignores the SVG's settings
         output.update(precision=None, layout=None, simplify=None)
     return stamps.options_stamp(fmt=fmt, frame=frame, params=dataclasses.asdict(options.params),
@@ -247,7 +258,7 @@ def _converted(rgba: np.ndarray, source: InputFile, wanted: Sequence[Target], op
     once (the file's own format says whether it is lossy: JPEG and lossy WebP are denoised
     unless ``denoise`` says otherwise)."""
     drafts = {target.fmt: stamps.text(target.digest, source.identity) for target in wanted}
-    blobs = conversions(rgba, drafts, options, name=source.name,
+    blobs = conversions(rgba, drafts, with_input_palette(options, source.data, source.name), name=source.name,
                         title=None if source.path is None else source.path.name,
                         lossy=lossy_format(source.data), on_prepared=on_prepared)
     return [stamps.embed(blobs[target.fmt], target.fmt, target.digest, source.identity) for target in wanted]
