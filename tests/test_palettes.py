@@ -25,12 +25,13 @@ resvg_py = pytest.importorskip("resvg_py")
 
 SVG = "{http://www.w3.org/2000/svg}"
 INKSCAPE = "{http://www.inkscape.org/namespaces/inkscape}"
-#: a sprite with a shaded region (r, a lighter red, y) inside a black outline, on white
+#: a sprite with a shaded region (r, a lighter red s, y) inside a black outline, on white;
+#: r and s cross in a checker, which the similarity of their colours resolves
 SPRITE = art("""
     ........
     .######.
-    .#rrss#.
-    .#rsyy#.
+    .#rsss#.
+    .#sryy#.
     .#ssyy#.
     .######.
     ........
@@ -169,13 +170,13 @@ def test_editing_one_swatch_recolours_exactly_its_shapes_and_tones(shading):
     before, after, expected = renders(svg), renders(edited), renders(swapped)
     for renderer in before:
         assert np.array_equal(after[renderer], expected[renderer]), renderer
-    # flat: exactly the pixels of that colour's shapes changed (pixel centres of the art)
+    # flat: the pixel centres of that colour changed, no other did
     if shading == "flat":
-        centres = {r: image[4::8, 4::8] for r, image in after.items()}
         light = (SPRITE[..., :3] == LIGHT).all(axis=-1)
-        for renderer, image in centres.items():
-            assert (image[light][:, :3] == (60, 70, 235)).all() and \
-                np.array_equal(image[~light], before[renderer][4::8, 4::8][~light]), renderer
+        for renderer, image in after.items():
+            centres, old = image[4::8, 4::8], before[renderer][4::8, 4::8]
+            assert (np.abs(centres[light][:, :3] - (60, 70, 235)) <= 8).all(), renderer
+            assert np.array_equal(centres[~light], old[~light]), renderer
 
 
 def test_a_palette_names_the_swatches_and_odd_names_become_ids():
@@ -204,7 +205,9 @@ def test_an_aseprite_input_names_its_swatches(tmp_path):
 # --- palette swaps ---------------------------------------------------------------------------
 
 FROM = palette(RED, LIGHT, YELLOW, (9, 9, 9))
-TO = palette((30, 60, 220), (70, 90, 235), (130, 240, 250), (1, 1, 1))
+#: the lighter red becomes a green, which is not similar to the blue the red becomes: shapes
+#: drawn from the swapped colours would differ
+TO = palette((30, 60, 220), (40, 200, 90), (130, 240, 250), (1, 1, 1))
 
 
 @pytest.mark.parametrize("shading", ["smooth", "flat"])
@@ -222,7 +225,7 @@ def test_a_palette_map_onto_one_colour_keeps_the_shapes_apart():
     merge = PaletteMap(palette(RED, LIGHT), palette(YELLOW, YELLOW))
     plain, swapped = fills(depixel.convert(SPRITE)), fills(depixel.convert(SPRITE, palette_map=merge))
     assert [d for _, d in swapped] == [d for _, d in plain]
-    assert [f for f, _ in swapped].count("#f0dc28") == 3
+    assert [f for f, _ in swapped].count("#f0dc28") == sum(f in ("#dc1e1e", "#eb463c", "#f0dc28") for f, _ in plain) > 3
 
 
 def test_the_smooth_png_swaps_its_colours_on_the_same_cells():
@@ -317,7 +320,7 @@ def test_the_exported_palette_is_the_picture_s_colours_named_like_its_swatches(t
     # (the map's palette first, in its order: it names them)
     assert depixel.convert(SPRITE, swatches=True, palette=exported) == depixel.convert(SPRITE, swatches=True)
     swapped = palette_of(SPRITE, ConvertOptions.build(palette_map=PaletteMap(FROM, TO)))
-    assert [e.rgba[:3] for e in swapped.entries] == [(30, 60, 220), (70, 90, 235), (130, 240, 250), WHITE, BLACK]
+    assert [e.rgba[:3] for e in swapped.entries] == [(30, 60, 220), (40, 200, 90), (130, 240, 250), WHITE, BLACK]
     export_palette(source, tmp_path / "again.gpl")
     assert (tmp_path / "again.gpl").read_text() == (tmp_path / "s.gpl").read_text()
 
