@@ -24,7 +24,7 @@ from .options import ConvertOptions, OutputOptions, PrepareOptions
 from .params import Params
 from .pipeline import depixelize
 from .prepare.backdrop import over_colour
-from .prepare.image import ImageSource, as_rgba, check_indexable, check_pixels, image_array, load_image
+from .prepare.image import ImageSource, Pixels, as_rgba, check_indexable, check_pixels, image_array, load_image
 from .prepare.inputs import AUTO, PixelSize, PreparedImage, pil_lossy, prepare
 from .render.overlay import overlay_raster, overlay_svg
 from .svg.swatches import Style
@@ -39,7 +39,7 @@ __all__ = ["FORMATS", "SHADINGS", "conversions", "convert", "convert_bytes", "en
            "prepare_input", "prepared_input"]
 
 
-def _pixels(image, name: str = "<image>", max_pixels: int | None = DEFAULT_MAX_PIXELS) -> None:
+def _pixels(image: object, name: str = "<image>", max_pixels: int | None = DEFAULT_MAX_PIXELS) -> None:
     """Refuse what is not an image in memory (a file name gets a pointer to the file
     functions) and images over ``max_pixels``, before any conversion copies them."""
     if isinstance(image, (str, os.PathLike)):
@@ -55,7 +55,7 @@ def _pixels(image, name: str = "<image>", max_pixels: int | None = DEFAULT_MAX_P
         check_indexable(name, int(size[0]), int(size[1]))
 
 
-def flatten(image, colour: Colour | str) -> np.ndarray:
+def flatten(image: Pixels, colour: Colour | str) -> np.ndarray:
     """Composite an image over an opaque colour → ``(H, W, 4) uint8`` with alpha 255.
 
     Useful before converting art whose semi-transparent edges should blend into a known
@@ -78,7 +78,7 @@ def load(source: ImageSource, *, frame: int = 0, background: Colour | str | None
     return rgba if colour is None else flatten(rgba, colour)
 
 
-def convert(image, params: Params = Params(), *, stage: str = "optimized", scale: float = 1.0,
+def convert(image: Pixels | PreparedImage, params: Params = Params(), *, stage: str = "optimized", scale: float = 1.0,
             background: Colour | str | None = None, title: str | None = None, precision: int = DEFAULT_PRECISION,
             width: int | None = None, height: int | None = None,
             max_pixels: int | None = DEFAULT_MAX_PIXELS, layout: str = "stacked",
@@ -115,8 +115,8 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
     return conversions(image, {"svg": None}, options, title=title)["svg"].decode("utf-8")
 
 
-def prepare_input(image, *, background: Colour | str | None = None, pixel_size: PixelSize = AUTO,
-                  denoise: bool | None = None, transparent: Colour | str | None = None,
+def prepare_input(image: Pixels | PreparedImage, *, background: Colour | str | None = None,
+                  pixel_size: PixelSize = AUTO, denoise: bool | None = None, transparent: Colour | str | None = None,
                   transparent_everywhere: bool = False, lossy: str | None = None,
                   max_pixels: int | None = DEFAULT_MAX_PIXELS) -> PreparedImage:
     """:func:`depixel.prepare.inputs.prepare` after flattening over ``background`` (when given);
@@ -127,7 +127,7 @@ def prepare_input(image, *, background: Colour | str | None = None, pixel_size: 
     return prepared_input(image, options, lossy=lossy, max_pixels=max_pixels)
 
 
-def prepared_input(image, options: PrepareOptions, *, lossy: str | None = None,
+def prepared_input(image: Pixels | PreparedImage, options: PrepareOptions, *, lossy: str | None = None,
                    max_pixels: int | None = DEFAULT_MAX_PIXELS) -> PreparedImage:
     """:func:`prepare_input` with its options made: the image checked against ``max_pixels``
     (None: not checked), then prepared; a :class:`PreparedImage` is returned as it is."""
@@ -147,10 +147,10 @@ def encode(svg: str, fmt: str = "svg", *, name: str = "<svg>", keywords: str | N
     return render(svg, fmt, name=name, keywords=keywords)
 
 
-def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: str = "optimized",
-                  scale: float = 1.0, background: Colour | str | None = None, title: str | None = None,
-                  shading: str = "smooth", name: str = "<image>", precision: int = DEFAULT_PRECISION,
-                  width: int | None = None, height: int | None = None,
+def convert_bytes(image: Pixels | PreparedImage, fmt: str = "svg", params: Params = Params(), *,
+                  stage: str = "optimized", scale: float = 1.0, background: Colour | str | None = None,
+                  title: str | None = None, shading: str = "smooth", name: str = "<image>",
+                  precision: int = DEFAULT_PRECISION, width: int | None = None, height: int | None = None,
                   max_pixels: int | None = DEFAULT_MAX_PIXELS,
                   max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS, layout: str = "stacked",
                   simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
@@ -173,8 +173,8 @@ def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: 
     return conversions(image, {fmt: None}, options, name=name, title=title)[fmt]
 
 
-def conversions(image, formats: Mapping[str, str | None], options: ConvertOptions, *, name: str = "<image>",
-                title: str | None = None, lossy: str | None = None,
+def conversions(image: Pixels | PreparedImage, formats: Mapping[str, str | None], options: ConvertOptions, *,
+                name: str = "<image>", title: str | None = None, lossy: str | None = None,
                 on_prepared: Callable[[PreparedImage], None] | None = None) -> dict[str, bytes]:
     """One conversion written in several formats, ``{format: its PDF keywords}`` → ``{format:
     bytes}``: the input is prepared and depixelized once, then each format is made from the
