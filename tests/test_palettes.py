@@ -343,3 +343,21 @@ def test_the_command_line_builds_the_palette_options(tmp_path):
     args = build_parser("convert").parse_args(["convert", "a.png", "--swatches", "--palette", str(tmp_path / "b.gpl"),
                                                "--palette-map", f"{tmp_path / 'a.gpl'}:{tmp_path / 'b.gpl'}"])
     assert convert_options(args) == ConvertOptions.build(swatches=True, palette=TO, palette_map=PaletteMap(FROM, TO))
+
+
+def test_the_swatched_svg_passes_the_svg11_full_validator():
+    from svgwrite.validator2 import get_validator
+
+    image = np.asarray(Image.open(FIXTURES / "potion_rgba.png").convert("RGBA"))
+    root = ET.fromstring(depixel.convert(image, swatches=True, palette=[(0, 0, 0)]))
+    validator = get_validator("full", debug=True)
+    ids = {element.get("id") for element in root.iter()}
+    for element in root.iter():
+        name = element.tag.removeprefix(SVG)
+        for child in element:
+            assert validator.is_valid_children(name, child.tag.removeprefix(SVG)), (name, child.tag)
+        for attribute, value in element.attrib.items():
+            if not attribute.startswith("{") and not (name == "path" and attribute == "d"):
+                validator.check_svg_attribute_value(name, attribute, value)  # raises on a bad value
+            if "url(" in value:
+                assert re.fullmatch(r"url\(#([^)]+)\)( #[0-9a-f]{6})?", value).group(1) in ids
