@@ -46,7 +46,8 @@ class OutputOptions:
     simplify: float = DEFAULT_SIMPLIFY  # tolerance in pixels of the curves that replace the spline (0: exact)
     shading: str = "smooth"  # the paper's smooth shading (SVG filter, PNG renderer), or "flat" bands
     swatches: bool = added(False)  # every colour of the SVG an Inkscape swatch (docs/palettes.md)
-    palette: Palette | None = added(None)  # names the swatches (a .gpl or .aseprite file, or a Palette)
+    # names the swatches (a .gpl or .aseprite file, or a Palette); digested only with them
+    palette: Palette | None = added(None, left_out=lambda options, value: value is None or not options.swatches)
     palette_map: PaletteMap | None = added(None)  # swaps the output's colours ("FROM.gpl:TO.gpl" or a PaletteMap)
 
     def __post_init__(self) -> None:

@@ -236,6 +236,12 @@ def test_a_new_option_field_is_in_the_digest_without_being_named_there(fixed_ver
     assert digest_of(WithSheet(sheet=2)) not in (default, digest_of(WithSheet(sheet=3)))
 
 
+def test_a_palette_is_digested_only_with_the_swatches_it_names(fixed_version):
+    named = Palette((PaletteEntry((255, 0, 0, 255), "red"),))
+    assert digest_of(OutputOptions(palette=named)) == digest_of(OutputOptions())
+    assert digest_of(OutputOptions(palette=named, swatches=True)) != digest_of(OutputOptions(swatches=True))
+
+
 def test_two_options_of_one_name_cannot_share_the_digest():
     names = [item.name for part in (OutputOptions, PrepareOptions) for item in dataclasses.fields(part)]
     assert len(names) == len(set(names)) and not {"fmt", "frame", "params", "version"} & set(names)
