@@ -73,7 +73,7 @@ def render_smooth(image: VectorImage, scale: float, supersample: int | None = No
     if out_h * out_w > MAX_OUTPUT_PIXELS:
         raise RenderError(f"a {out_w}×{out_h} render is too large (at most {MAX_OUTPUT_PIXELS} pixels)")
     pieces = _flatten(image, _pieces_per_curve(image, FLATTEN_TOLERANCE / max(out_h / h, out_w / w)))
-    field = _ShadingField(image, pieces, params, image.rgba if colours is None else colours)
+    field = _ShadingField(image, pieces, params, colours)
     segments = _Segments(image, pieces)
     rows_per_tile = max(1, TILE_SAMPLES // (out_w * supersample * supersample))
     out = np.empty((out_h, out_w, 4), np.uint8)
@@ -202,12 +202,12 @@ def _cell_labels(seg: _Segments, k0: int, k1: int, fy: float, fx: float, width: 
 class _ShadingField:
     """The colour field: per-cell centroids, colours and regions, evaluated at points."""
 
-    def __init__(self, image: VectorImage, pieces: Pieces, params: Params, colours: np.ndarray):
+    def __init__(self, image: VectorImage, pieces: Pieces, params: Params, colours: np.ndarray | None = None):
         h, w = image.shape
         self.shape = (h, w)
         self.centroid = cell_centroids(image, pieces)
         self.region = regions(image.cells)
-        rgba = colours.reshape(-1, 4).astype(np.float64)
+        rgba = (image.rgba if colours is None else colours).reshape(-1, 4).astype(np.float64)
         alpha = rgba[:, 3:] / 255.0
         self.premultiplied = np.concatenate([rgba[:, :3] * alpha, alpha], axis=1)
         self.rgba = rgba
