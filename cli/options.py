@@ -130,7 +130,8 @@ def add_dask_options(group) -> None:
     """``--dask ADDRESS`` and ``--dask-timeout SECONDS`` (docs/scale.md)."""
     group.add_argument("--dask", metavar="ADDRESS",
                        help="run the conversions on a Dask cluster (scheduler address, e.g. tcp://host:8786); "
-                            "inputs and outputs must be on a filesystem the workers share; pip install 'depixel[dask]'")
+                            "inputs and outputs must be on a filesystem the workers share; needs the dask extra: "
+                            "pip install '/path/to/depixel[dask]'")
     group.add_argument("--dask-timeout", type=dask_timeout, default=DASK_TIMEOUT, metavar="SECONDS",
                        help=f"--dask: how long to wait for a worker, before the batch and while none is left "
                             f"(default {DASK_TIMEOUT:g})")
@@ -247,6 +248,9 @@ FLAG_OF_PARAMETER = {
     "simplify": "--simplify",
     "pixel_size": "--pixel-size",
     "transparent": "--transparent",
+    "allow_size_mismatch": "--allow-size-mismatch",
+    "animate": "--animate",
+    "frame": "--frames",
     "palette": "--palette",
     "palette_map": "--palette-map",
     **{name: flag for flag, name, _, _ in TUNING},

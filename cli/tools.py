@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from depixel import api
-from depixel.errors import OutputError, display_name
+from depixel.errors import InputError, OutputError, display_name
 from depixel.files import convert as files
 from depixel.files.output import write_atomic
 from depixel.limits import DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
@@ -128,10 +128,29 @@ def run_render(args: argparse.Namespace) -> int:
         svg, name, protect = read_source(sys.stdin.buffer), "<stdin>", ()
     else:
         svg, name, protect = files.read_input(args.input), display_name(args.input), (Path(args.input),)
+    _not_an_image(svg, name, args.input)
     data = render(svg, str(fmt), scale=args.scale, size=(args.width, args.height), background=args.background,
                   name=name, max_output_pixels=args.max_output_pixels)
     _write(args.output, data, protect)
     return Exit.OK
+
+
+def _not_an_image(data: bytes, name: str, path: str) -> None:
+    """Refuse a raster image given to ``render`` (it draws SVG), saying what to run instead."""
+    head = data[:512].lstrip(b"\xef\xbb\xbf \t\r\n")
+    if head.startswith((b"<", b"\x1f\x8b")):  # XML, or a compressed SVG
+        return
+    from PIL import Image, UnidentifiedImageError  # noqa: PLC0415
+
+    try:
+        with Image.open(io.BytesIO(data)) as img:
+            kind = img.format or "an image"
+    except (UnidentifiedImageError, OSError, ValueError, Image.DecompressionBombError):
+        return
+    stem = Path(path).stem if path != "-" else "sprite"
+    raise InputError(f"{name}: is an image ({kind}), not an SVG: render draws SVG files; to turn pixel art "
+                     f"into smooth shapes use depixel convert (depixel convert {display_name(path)} -o {stem}.svg, "
+                     f"or -o {stem}-smooth.png)")
 
 
 def run_inspect(args: argparse.Namespace) -> int:

@@ -4,13 +4,12 @@ from __future__ import annotations
 import argparse
 
 from depixel.errors import DepixelError
-from depixel.files.palette import with_input_palette
 from depixel.options import ConvertOptions
 
 from ..options import error_message
 from .inputs import expand_inputs
 
-__all__ = ["export_palette", "with_input_palette"]
+__all__ = ["export_palette"]
 
 
 def export_palette(args: argparse.Namespace, options: ConvertOptions, frames: str | int) -> str | None:

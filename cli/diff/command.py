@@ -12,7 +12,7 @@ import json
 import os
 from pathlib import Path
 
-from depixel.errors import display_name
+from depixel.errors import display_name, report_text
 from depixel.limits import DEFAULT_MAX_DIFF_PIXELS
 
 from ..options import (
@@ -156,6 +156,9 @@ def _files(args: argparse.Namespace) -> int:
 
     from ..tools import _png, _write  # noqa: PLC0415
 
+    if args.diff_out == "-" and args.json:
+        args.parser.error("--diff-out - and --json both write to stdout: write the picture to a file "
+                          "(--diff-out d.png)")
     if args.diff_out is not None and args.diff_out != "-" and Path(args.diff_out).suffix.lower() != ".png":
         args.parser.error(f"--diff-out {display_name(args.diff_out)}: the picture of the differences is a PNG; "
                           "name it .png")
@@ -169,11 +172,12 @@ def _files(args: argparse.Namespace) -> int:
     total = comparison.compared_pixels
     if args.json:
         report = {
-            "a": args.a, "b": args.b, "same": same, "width": w, "height": h,
+            "a": report_text(args.a), "b": report_text(args.b), "same": same, "width": w, "height": h,
             "different_pixels": count, "antialiased_pixels": int(comparison.antialiased.sum()),
             "total_pixels": total, "ratio": ratio, "threshold": args.threshold,
             "max_pixels_diff": args.max_pixels_diff, "max_ratio": args.max_ratio,
-            "background": "#{:02x}{:02x}{:02x}".format(*background), "diff_out": args.diff_out,
+            "background": "#{:02x}{:02x}{:02x}".format(*background),
+            "diff_out": args.diff_out and report_text(args.diff_out),
         }
         if w * h != total:
             report["ignored_pixels"] = w * h - total

@@ -14,6 +14,7 @@ from __future__ import annotations
 import html
 from urllib.parse import quote
 
+from ..errors import report_text
 from .folders import totals
 from .pairs import DIFFERENT, ERROR, MISSING, NEW, SAME, PairResult
 
@@ -143,7 +144,8 @@ def _img(path: str, zoom: int, result: PairResult, alt: str) -> str:
     size = ""
     if result.width and result.height:
         size = f' width="{result.width * zoom}" height="{result.height * zoom}"'
-    return f'<img class="{alt}" src="{IMAGES}/{quote(path)}" alt="{alt}"{size}>'
+    # the file's own bytes, a name's bytes that were not UTF-8 included, percent-encoded
+    return f'<img class="{alt}" src="{IMAGES}/{quote(path.encode("utf-8", "surrogateescape"))}" alt="{alt}"{size}>'
 
 
 def _zoom(result: PairResult) -> int:
@@ -153,4 +155,4 @@ def _zoom(result: PairResult) -> int:
 
 
 def _text(text: str) -> str:
-    return html.escape(text.encode("utf-8", "backslashreplace").decode("utf-8"))
+    return html.escape(report_text(text))

@@ -172,13 +172,34 @@ def _pictures(comparison: Comparison, originals: tuple[np.ndarray, np.ndarray] |
               pictures: Pictures) -> tuple[tuple[str, str], ...]:
     written = []
     if pictures.diffs is not None:
-        _save(comparison.diff_image(), Path(pictures.diffs, f"{name}.diff.png"))
-        written.append(("diff_out", f"{name}.diff.png"))
+        _save(comparison.diff_image(), Path(pictures.diffs, picture_name(name, "diff")))
+        written.append(("diff_out", picture_name(name, "diff")))
     if pictures.report is not None and originals is not None:
         for kind, image in (("baseline", originals[0]), ("current", originals[1]), ("diff", comparison.diff_image())):
-            _save(image, Path(pictures.report, f"{name}.{kind}.png"))
-            written.append((kind, f"{name}.{kind}.png"))
+            _save(image, Path(pictures.report, picture_name(name, kind)))
+            written.append((kind, picture_name(name, kind)))
     return tuple(written)
+
+
+#: The longest file name most filesystems take (NAME_MAX), in bytes.
+NAME_BYTES = 255
+
+
+def picture_name(name: str, kind: str) -> str:
+    """``NAME.KIND.png``, the picture of kind ``kind`` of the file ``name`` (a relative path):
+    when its last part would be longer than a file name may be, that part is cut and a
+    digest of the whole name added (``NAME-CUT~1a2b3c4d.KIND.png``), so a long name still
+    gets its picture and two long names never share one."""
+    folder, _, last = name.rpartition("/")
+    tail = f".{kind}.png"
+    raw = os.fsencode(last)
+    if len(raw) + len(tail.encode()) <= NAME_BYTES:
+        return f"{name}{tail}"
+    import hashlib  # noqa: PLC0415
+
+    digest = hashlib.sha1(os.fsencode(name)).hexdigest()[:8]
+    cut = os.fsdecode(raw[:NAME_BYTES - len(tail) - len(digest) - 1])
+    return f"{folder}/{cut}~{digest}{tail}" if folder else f"{cut}~{digest}{tail}"
 
 
 def _lone_picture(path: Path, side: str, name: str, settings: Settings,
@@ -193,15 +214,17 @@ def _lone_picture(path: Path, side: str, name: str, settings: Settings,
         image = pixels(source, width, height, settings.max_pixels)
     except DepixelError:
         return (), (None, None)
-    _save(image, Path(pictures.report, f"{name}.{side}.png"))
-    return ((side, f"{name}.{side}.png"),), (width, height)
+    _save(image, Path(pictures.report, picture_name(name, side)))
+    return ((side, picture_name(name, side)),), (width, height)
 
 
 def _save(image, path: Path) -> None:
     """An ``(H, W, 4) uint8`` array as PNG (its folders made as needed)."""
     from PIL import Image  # noqa: PLC0415
 
-    path.parent.mkdir(parents=True, exist_ok=True)
+    from ..files.output import make_folders  # noqa: PLC0415
+
+    make_folders(path.parent)
     Image.fromarray(image, "RGBA").save(path, "PNG")
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import re
 import xml.etree.ElementTree as ET
 
+from ..errors import report_text
 from .folders import totals
 from .pairs import DIFFERENT, ERROR, MISSING, NEW, PairResult
 
@@ -22,15 +23,16 @@ def result_entry(result: PairResult, pictures_in: dict[str, str] | None = None) 
     total = None if result.width is None or result.height is None else \
         result.width * result.height - result.ignored_pixels
     entry = {
-        "name": result.name, "verdict": result.verdict, "baseline": result.baseline, "current": result.current,
+        "name": report_text(result.name), "verdict": result.verdict, "baseline": _text(result.baseline),
+        "current": _text(result.current),
         "width": result.width, "height": result.height, "different_pixels": result.different_pixels,
         "antialiased_pixels": result.antialiased_pixels, "ignored_pixels": result.ignored_pixels,
-        "total_pixels": total, "ratio": result.ratio, "identical": result.identical, "error": result.error,
+        "total_pixels": total, "ratio": result.ratio, "identical": result.identical, "error": _text(result.error),
     }
     folders = pictures_in or {}
     for kind, path in result.pictures:
         if kind in folders:
-            entry[kind] = f"{folders[kind]}/{path}"
+            entry[kind] = report_text(f"{folders[kind]}/{path}")
     return entry
 
 
@@ -38,10 +40,11 @@ def json_report(results: list[PairResult], status: str, settings: dict, pictures
                 updated: list[tuple[str, str]] | None = None) -> dict:
     """The ``--json`` report of a folder comparison: the overall status, the totals, the
     settings, every pair, and what ``--update`` changed."""
+    settings = {key: report_text(value) if isinstance(value, str) else value for key, value in settings.items()}
     report = {"status": status, "same": status == "same", "totals": totals(results), **settings,
               "files": [result_entry(r, pictures_in) for r in results]}
     if updated is not None:
-        report["updated"] = [{"action": action, "name": name} for action, name in updated]
+        report["updated"] = [{"action": action, "name": report_text(name)} for action, name in updated]
     return report
 
 
@@ -83,5 +86,10 @@ def _details(result: PairResult) -> str:
 
 
 def _xml(text: str) -> str:
-    """``text`` with the characters XML cannot hold written as escapes."""
-    return _NOT_XML.sub(lambda m: f"\\x{ord(m.group()):02x}", text)
+    """``text`` with the characters XML cannot hold written as escapes (the bytes of a name
+    that were not UTF-8 as :func:`~depixel.errors.report_text` writes them)."""
+    return _NOT_XML.sub(lambda m: f"\\x{ord(m.group()):02x}", report_text(text))
+
+
+def _text(text: str | None) -> str | None:
+    return None if text is None else report_text(text)

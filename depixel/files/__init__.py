@@ -3,9 +3,8 @@
 :mod:`.convert` converts and renders file to file, :mod:`.output` writes atomically (never a
 partial file, never over an input), :mod:`.stamp` records the options that made an output;
 :mod:`.palette` reads an Aseprite input's palette and writes a conversion's as a GIMP
-palette; :mod:`.sheet` converts a sprite sheet a sprite at a time, :mod:`.animation` an
-animation a frame at a time.
+palette; :mod:`.sheet` converts a sprite sheet a sprite at a time.
 """
 
 #: its modules, each imported on first use (``depixel/__init__.py``)
-__all__ = ["animation", "convert", "output", "palette", "sheet", "stamp"]
+__all__ = ["convert", "output", "palette", "sheet", "stamp"]

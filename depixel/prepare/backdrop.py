@@ -76,6 +76,18 @@ def make_transparent(rgba: np.ndarray, colour: str | Colour, snapped: bool = Fal
     return Backdrop(out, target, n, kept, None)
 
 
+def backdrop_mask(rgba: np.ndarray) -> np.ndarray:
+    """``(H, W) bool``: the backdrop ``--transparent auto`` would remove (the pixels of the
+    four corners' colour, when all four are that one opaque colour, joined to the border
+    through it), whether or not it was removed; nothing when the corners differ. The smooth
+    shading keeps it out of the art's blend (docs/rendering.md, "The backdrop")."""
+    keys = colour_keys(rgba)
+    corners = keys[[0, 0, -1, -1], [0, -1, 0, -1]]
+    if not (corners == corners[0]).all() or rgba[0, 0, 3] != 255:
+        return np.zeros(rgba.shape[:2], bool)
+    return border_connected(keys == corners[0])
+
+
 def border_connected(mask: np.ndarray) -> np.ndarray:
     """``(H, W) bool``: the pixels of ``mask`` joined to the image's border through ``mask``
     (4-connected), as a flood fill from every border pixel of ``mask`` reaches them.

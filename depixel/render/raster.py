@@ -19,6 +19,7 @@ import numpy as np
 from .. import validate
 from ..errors import RenderError
 from ..limits import DEFAULT_MAX_OUTPUT_PIXELS, MAX_FILE_BYTES, PDF_PAGE_POINTS
+from .images import decoding
 from .references import check_references
 
 #: Formats :func:`render` writes (EPS: Encapsulated PostScript 3.0, vector like the PDF).
@@ -110,11 +111,11 @@ def render(svg: str | bytes, fmt: str = "png", *, scale: float | None = None,
     surface_class = _png_surface(cairosvg) if fmt == "png" else _page_surface(cairosvg, fmt)
     try:
         tree = cairosvg.parser.Tree(bytestring=data)
+        check_finite(tree.xml_tree, name)
         check_references(tree.xml_tree, name)
         with _output_file() as (path, fd):
-            limit = {"max_pixels": max_output_pixels} if fmt == "png" else {}
             surface = surface_class(tree, path, 96, None, None, None, 1.0 if scale is None else scale,
-                                    width, height, colour, **limit)
+                                    width, height, colour, max_pixels=max_output_pixels, name=name)
             if fmt == "pdf":
                 import cairocffi  # noqa: PLC0415
 
@@ -191,10 +192,15 @@ def _page_surface(cairosvg, fmt: str):
         base = cairosvg.surface.PDFSurface if fmt == "pdf" else cairosvg.surface.EPSSurface
 
         class CheckedSurface(base):  # type: ignore[misc,valid-type]
+            def __init__(self, *args, max_pixels: int | None = None, name: str = "<svg>", **kwargs) -> None:
+                self._max_pixels, self._name = max_pixels, name  # the embedded pictures' budget
+                super().__init__(*args, **kwargs)
+
             def _create_surface(self, width, height):
                 low, high = PDF_PAGE_POINTS
                 if not (low <= width <= high and low <= height <= high):
                     raise _PageSize(width, height)
+                decoding(self, self._name, self._max_pixels)
                 return super()._create_surface(width, height)
 
         _PAGE_SURFACES[fmt] = CheckedSurface
@@ -227,8 +233,8 @@ def _png_surface(cairosvg):
         return _PNG_SURFACE
 
     class LimitedPNGSurface(cairosvg.surface.PNGSurface):
-        def __init__(self, *args, max_pixels: int | None = None, **kwargs) -> None:
-            self._max_pixels = max_pixels
+        def __init__(self, *args, max_pixels: int | None = None, name: str = "<svg>", **kwargs) -> None:
+            self._max_pixels, self._name = max_pixels, name
             self._stretch: tuple[float, float] | None = None
             super().__init__(*args, **kwargs)
 
@@ -236,6 +242,7 @@ def _png_surface(cairosvg):
             w, h = int(round(width)), int(round(height))
             if self._max_pixels is not None and w * h > self._max_pixels:
                 raise _TooLarge(w, h)
+            decoding(self, self._name, self._max_pixels)  # the embedded pictures: within the same budget
             if w > 0 and h > 0 and self._stretch is None:
                 self._stretch = (w / width, h / height)
             return super()._create_surface(width, height)
@@ -287,6 +294,37 @@ def svg_size(svg: str | bytes, name: str = "<svg>") -> tuple[float, float]:
             size.append(float(box[2 + i]))
         else:
             raise RenderError(f"{name}: SVG has no usable {attr} or viewBox")
+    check_finite(root, name)
     if not (size[0] > 0 and size[1] > 0):
         raise RenderError(f"{name}: SVG has zero size")
     return size[0], size[1]
+
+
+#: The largest width, height or viewBox number accepted (CSS pixels): far beyond any drawing
+#: (a 1e9-pixel side at 1x is refused by every pixel limit anyway), yet far from the
+#: overflow of a float64 or of cairo's fixed-point coordinates being multiplied.
+MAX_SVG_NUMBER = 1e15
+
+
+def check_finite(root, name: str) -> None:
+    """Refuse (:class:`RenderError`) an SVG root (an ElementTree element) whose width,
+    height or viewBox holds a number over :data:`MAX_SVG_NUMBER` in size (``1e400`` is
+    infinite once read: sizes computed from it overflow or divide by zero)."""
+    for attr in ("width", "height", "viewBox"):
+        for text in re.findall(_NUMBER, root.get(attr, "")):
+            if not abs(float(text)) <= MAX_SVG_NUMBER:
+                raise RenderError(f"{name}: SVG {attr} {text[:24]} is too large a number (at most "
+                                  f"{MAX_SVG_NUMBER:g})")
+
+
+def paste_pngs(pngs: list[tuple[int, int, bytes]], size: tuple[int, int]) -> bytes:
+    """A transparent PNG of ``size`` with each PNG pasted at its ``(x, y)`` (a sheet's sprites)."""
+    from PIL import Image  # noqa: PLC0415
+
+    canvas = Image.new("RGBA", size, (0, 0, 0, 0))
+    for x, y, png in pngs:
+        with Image.open(io.BytesIO(png)) as tile:
+            canvas.paste(tile.convert("RGBA"), (x, y))
+    buffer = io.BytesIO()
+    canvas.save(buffer, format="PNG")
+    return buffer.getvalue()

@@ -44,16 +44,18 @@ DEFAULT_PRECISION = 2
 #: the largest tolerance accepted: beyond about a pixel a curve could stray over a feature
 MAX_SIMPLIFY = 2.0
 INKSCAPE_NS = "http://www.inkscape.org/namespaces/inkscape"
+#: the xlink namespace, declared when the masks of the smooth shading refer to shapes
+XLINK = ' xmlns:xlink="http://www.w3.org/1999/xlink"'
 #: how the SVG shades a region of several tones: "smooth" blends them (paper §3.5, a filter
 #: inside the region's outline), "flat" draws each tone as a flat band
 SHADINGS = ("smooth", "flat")
 #: not in paper: the SVG blur's standard deviation as a fraction of the paper's σ
-#: (``Params.shading_sigma``). A blur averages the cells' whole areas, where the paper weighs
-#: Gaussians sampled at the cell centroids and cut at 2σ, so the paper's σ would pull the
-#: centre of a one-pixel line of a tone at the similarity limit (|ΔY| = 48) by ~24 levels;
-#: at 0.4σ every pixel centre of the paper corpus but a few stays within 16 levels, and a
-#: 48-level band edge still spreads over ±3 output pixels at 8× (docs/svg.md, "Smooth shading")
-SIGMA_RATIO = 0.4
+#: (``Params.shading_sigma``). The paper weighs each cell by a Gaussian (σ = 1) at its
+#: centroid, lowered by its value at the radius 2 and cut there: a cell's influence spreads
+#: with a variance of 0.544 px² per axis. A blur weighs the cell's whole area, a Gaussian
+#: convolved with the pixel's box (variance σ² + 1/12), so the blur of the same spread has
+#: σ = √(0.544 − 1/12) = 0.68 (docs/svg.md, "σ")
+SIGMA_RATIO = 0.68
 #: the blur's standard deviation (pixels) unless told
 DEFAULT_SIGMA = SIGMA_RATIO * Params().shading_sigma
 
@@ -110,7 +112,8 @@ def _document(shapes: OutlineShapes, scale: float, precision: int, title: str | 
     width, height = number(w * scale, 3), number(h * scale, 3)
     labels = Labels(shapes, smooth=sigma is not None, swatches=swatches)
     head = (
-        f'{SVG_HEADER}<svg xmlns="{"http://www.w3.org/2000/svg"}" xmlns:inkscape="{INKSCAPE_NS}" version="1.1" '
+        f'{SVG_HEADER}<svg xmlns="{"http://www.w3.org/2000/svg"}" xmlns:inkscape="{INKSCAPE_NS}"'
+        f'{XLINK if sigma is not None and labels.smooth.masks else ""} version="1.1" '
         f'width="{width}" height="{height}" viewBox="0 0 {w} {h}">\n'
     )
     if title:
