@@ -111,11 +111,9 @@ def compose(svgs: Sequence[str], durations: Sequence[float], plays: int = 0) -> 
     frame_keys: list[dict[str, str]] = []  # per frame: a shape's id → its key
     frames = [_named_masks(split_svg(svg), masks, tokens, frame_keys) for svg in svgs]
     head = frames[0].head
-    if any(f.head != head for f in frames):
+    if any(svg_size(f.head) != svg_size(head) for f in frames):
         raise ValueError("the frames' SVGs differ in size")
-    filters = {f.defs for f in frames if f.defs}
-    if len(filters) > 1:
-        raise ValueError("the frames' SVGs have different filters")
+    filters = _shared_defs([f.defs for f in frames])
     items, relabelled = frame_items([f.nodes for f in frames])
     defs = list(filters)
     bodies: list[list[str]] = [[] for _ in frames]
@@ -164,6 +162,24 @@ def compose(svgs: Sequence[str], durations: Sequence[float], plays: int = 0) -> 
                   switches[index], *body, "</g>\n"]
     parts.append("</svg>\n")
     return "".join(parts)
+
+
+def svg_size(head: str) -> str:
+    """An ``<svg>`` tag without its namespace declarations: its size and viewBox (a frame whose
+    smooth groups are masked declares xlink, another does not)."""
+    return re.sub(r' xmlns(?::\w+)?="[^"]*"', "", head)
+
+
+def _shared_defs(frames: Sequence[str]) -> list[str]:
+    """The ``<defs>`` lines of every frame (filters: the smooth shading's, the masks' cover),
+    each once, in the order they first come; one id for two different lines is refused."""
+    lines: dict[str, None] = {}
+    for defs in frames:
+        lines.update(dict.fromkeys(defs.splitlines(keepends=True)))
+    ids = [found.group(1) for line in lines if (found := _ID.search(line))]
+    if len(ids) != len(set(ids)):
+        raise ValueError("the frames' SVGs have different filters")
+    return list(lines)
 
 
 def _named_masks(frame: FrameSvg, masks: dict[str, str], tokens: dict[str, str],
