@@ -1,9 +1,9 @@
 """Python API in memory: convert pixel art without the command line.
 
 :func:`convert` takes an image (numpy array or PIL image) and returns SVG text;
-:func:`convert_bytes` returns the bytes of an SVG, PNG or PDF file; with ``animate=True`` both
-take an :class:`~depixel.prepare.animation.Animation` too (:func:`animated`). PNG and PDF go through
-cairosvg, which is imported only when one of them is asked for (:mod:`depixel.render.raster`).
+:func:`convert_bytes` returns the bytes of an SVG, PNG, PDF or EPS file; with ``animate=True`` both
+take an :class:`~depixel.prepare.animation.Animation` too (:func:`animated`). PNG, PDF and EPS go
+through cairosvg, which is imported only when one of them is asked for (:mod:`depixel.render.raster`).
 File to file (:func:`~depixel.files.convert.convert_file`, :func:`~depixel.files.convert.render_file`)
 is :mod:`depixel.files.convert`. The keyword functions make one
 :class:`~depixel.options.ConvertOptions` of their keywords and pass it to :func:`conversions`.
@@ -14,20 +14,20 @@ from __future__ import annotations
 
 import io
 import os
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
-from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from . import validate
 from .colour import Colour, as_colour
-from .errors import ParameterError, RenderError, display_name
+from .errors import ParameterError, display_name
 from .limits import (
     DEFAULT_MAX_FRAMES,
     DEFAULT_MAX_OUTPUT_PIXELS,
     DEFAULT_MAX_PIXELS,
+    check_frames_pixels,
     check_sprites,
 )
 from .options import ConvertOptions, OutputOptions, PrepareOptions
@@ -180,15 +180,15 @@ def convert_bytes(image: Pixels | PreparedImage, fmt: str = "svg", params: Param
                   animate: bool = False, sheet: str | None = None, sheet_json: SheetJson | str | None = None,
                   max_frames: int | None = DEFAULT_MAX_FRAMES, swatches: bool = False,
                   palette: PaletteSource | None = None, palette_map: PaletteMapSource | None = None) -> bytes:
-    """Like :func:`convert`, returning the bytes of an SVG, PNG or PDF file.
+    """Like :func:`convert`, returning the bytes of an SVG, PNG, PDF or EPS file.
 
     ``shading="smooth"`` renders PNG output with the paper's smooth renderer and gives the
     SVG its smooth-shading filter; ``"flat"`` draws flat colour bands (the SVG without the
-    filter; PNG that SVG rasterized). A PDF has the flat bands (cairosvg draws no filters).
+    filter; PNG that SVG rasterized). A PDF or EPS has the flat bands (cairosvg draws no filters).
     A PNG of more than ``max_output_pixels`` pixels is refused before it is rendered.
     ``animate=True``: an animation's SVG, or its PNG as an animated PNG (APNG) of the frames'
-    renders (their pixels in all within ``max_output_pixels``); no PDF. A sheet's PNG is each
-    sprite's PNG at its place.
+    renders (their pixels in all within ``max_output_pixels``); no PDF or EPS. A sheet's PNG is
+    each sprite's PNG at its place.
     """
     options = ConvertOptions.build(params, stage=stage, scale=scale, background=background, shading=shading,
                                    precision=precision, width=width, height=height, max_pixels=max_pixels,
@@ -222,8 +222,19 @@ def conversions(image: Pixels | PreparedImage | Animation, formats: Mapping[str,
             from .render.animation import animated  # noqa: PLC0415
 
             still = replace(options, output=replace(options.output, animate=False))
-            convert_frame = partial(conversions, options=still, name=name, title=title, lossy=lossy,
-                                    on_prepared=on_prepared)
+            frames: dict[bytes, PreparedImage] = {}  # with --swatches: prepared first, named from all
+            if options.output.swatches and "svg" in formats:
+                n, (height, width) = len(image.frames), image.frames[0].shape[:2]
+                check_frames_pixels(name, n, n * width * height, options.limits.max_pixels)
+                for frame in image.frames:
+                    if (key := frame.tobytes()) not in frames:
+                        frames[key] = prepared_input(frame, options.prepare, lossy=lossy, max_pixels=None)
+                still = _named_alike(list(frames.values()), still)
+
+            def convert_frame(frame: np.ndarray, made: dict[str, None]) -> dict[str, bytes]:
+                return conversions(frames.get(frame.tobytes(), frame), made, still, name=name, title=title,
+                                   lossy=lossy, on_prepared=on_prepared)
+
             return animated(image, formats, options, convert_frame, name=name)
         image = image.frames[0]
     elif options.output.animate and int(getattr(image, "n_frames", 1)) > 1:
@@ -248,11 +259,11 @@ def conversions(image: Pixels | PreparedImage | Animation, formats: Mapping[str,
     if on_prepared is not None:
         on_prepared(prepared)
     if "png" in formats:
-        _check_png_size(prepared.input_size, scale, limits.max_output_pixels, name)
+        validate.png_size(prepared.input_size, scale, limits.max_output_pixels, name)
     for fmt in formats:
         _check_page(fmt, prepared.input_size, scale, output, name)
     if "eps" in formats:
-        check_opaque(prepared, output, name)
+        validate.opaque(name, prepared.rgba, output.palette_map)
     vector = depixelize(prepared.rgba, params, stage=output.stage).vector  # the other stages' products are freed
     style = Style(SIGMA_RATIO * params.shading_sigma, output.swatches, output.palette, output.palette_map)
     blobs: dict[str, bytes] = {}
@@ -303,9 +314,10 @@ def sheet_conversions(rgba: np.ndarray, sheet: Sheet, formats: Mapping[str, str 
     """:func:`conversions` of a sprite sheet: each of ``sheet``'s sprites converted alone, its
     crop prepared and depixelized on its own (its shapes never reach into a neighbour), and
     put back at its place. The SVG holds one Inkscape layer per sprite
-    (:func:`depixel.svg.layers.compose_layers`), the PDF the same drawn flat, the PNG each
-    sprite's PNG at its place. The sheet's size sets the scale (``options.output``); its
-    sprites count against ``max_frames`` and, in all, ``max_pixels``."""
+    (:func:`depixel.svg.layers.compose_layers`; with swatches, one set named from all the
+    sprites' colours), the PDF and EPS the same drawn flat, the PNG each sprite's PNG at its
+    place. The sheet's size sets the scale (``options.output``); its sprites count against
+    ``max_frames`` and, in all, ``max_pixels``."""
     from .render.raster import paste_pngs  # noqa: PLC0415
     from .svg.layers import Placed, compose_layers  # noqa: PLC0415
 
@@ -315,23 +327,30 @@ def sheet_conversions(rgba: np.ndarray, sheet: Sheet, formats: Mapping[str, str 
                   limits.max_frames)
     scale = output.scale_for(width, height)
     if "png" in formats:
-        _check_png_size((width, height), scale, limits.max_output_pixels, name)
+        validate.png_size((width, height), scale, limits.max_output_pixels, name)
     for fmt in formats:
         _check_page(fmt, (width, height), scale, output, name)
-    alone = replace(output, scale=scale, width=None, height=None, sheet=None, sheet_json=None)
-    runs: dict[str, dict[str, None]] = {}  # by shading: the sprites' formats made from one run each
+    alone = replace(options, output=replace(output, scale=scale, width=None, height=None, sheet=None,
+                                            sheet_json=None))
+    prepared = [prepared_input(rgba[sprite.box], options.prepare, lossy=lossy, max_pixels=None)
+                for sprite in sheet.sprites]
+    for sprite, image in zip(sheet.sprites, prepared) if "eps" in formats else ():
+        validate.opaque(f"{name} sprite {sprite.name}", image.rgba, output.palette_map)
+    if output.swatches and "svg" in formats:
+        alone = _named_alike(prepared, alone)
+    runs: dict[tuple[str, bool], dict[str, None]] = {}  # by how the SVG is drawn: the formats of one run
     for fmt in formats:
-        runs.setdefault("flat" if fmt == "pdf" else output.shading, {})["png" if fmt == "png" else "svg"] = None
-    layers: dict[str, list[Placed]] = {shading: [] for shading in runs}
+        runs.setdefault(_drawn(fmt, output), {})["png" if fmt == "png" else "svg"] = None
+    layers: dict[tuple[str, bool], list[Placed]] = {drawn: [] for drawn in runs}
     pngs: list[tuple[int, int, bytes]] = []
-    for sprite in sheet.sprites:
-        for n, (shading, made) in enumerate(runs.items()):
-            blobs = conversions(rgba[sprite.box], made, replace(options, output=replace(alone, shading=shading)),
-                                name=f"{name} sprite {sprite.name}", lossy=lossy,
+    for sprite, image in zip(sheet.sprites, prepared):
+        for n, (drawn, made) in enumerate(runs.items()):
+            drawing = replace(alone, output=replace(alone.output, shading=drawn[0], swatches=drawn[1]))
+            blobs = conversions(image, made, drawing, name=f"{name} sprite {sprite.name}",
                                 on_prepared=None if n else on_prepared)
             if "svg" in blobs:
                 svg = blobs["svg"].decode("utf-8")
-                layers[shading].append(Placed(sprite.name, svg, sprite.x, sprite.y, sprite.width, sprite.height))
+                layers[drawn].append(Placed(sprite.name, svg, sprite.x, sprite.y, sprite.width, sprite.height))
             if "png" in blobs:
                 pngs.append((round(sprite.x * scale), round(sprite.y * scale), blobs["png"]))
     done: dict[str, bytes] = {}
@@ -339,42 +358,38 @@ def sheet_conversions(rgba: np.ndarray, sheet: Sheet, formats: Mapping[str, str 
         if fmt == "png":
             done[fmt] = paste_pngs(pngs, (max(1, round(width * scale)), max(1, round(height * scale))))
         else:
-            svg = compose_layers(layers["flat" if fmt == "pdf" else output.shading], width, height, scale=scale,
-                                 title=title, precision=output.precision)
+            svg = compose_layers(layers[_drawn(fmt, output)], width, height, scale=scale, title=title,
+                                 precision=output.precision)
             done[fmt] = encode(svg, fmt, name=name, keywords=keywords)
     return done
 
 
-def _check_png_size(size: tuple[int, int], scale: float, max_output_pixels: int | None, name: str) -> None:
-    """Refuse a PNG of more than ``max_output_pixels`` pixels (an input of ``size``, ``scale``
-    times) before it is rendered."""
-    width, height = (max(1, round(side * scale)) for side in size)
-    if max_output_pixels is not None and width * height > max_output_pixels:
-        shown = validate.shown
-        raise RenderError(f"{name}: a {shown(width)}x{shown(height)} PNG is {shown(width * height)} pixels, over "
-                          f"the limit of {max_output_pixels} (raise it with max_output_pixels)",
-                          parameter="max_output_pixels")
+def _drawn(fmt: str, output: OutputOptions) -> tuple[str, bool]:
+    """How a format's SVG is drawn, (shading, swatches): a PDF or EPS flat, without swatches
+    (a PNG ignores them: it shares the SVG's run)."""
+    return ("flat", False) if fmt in ("pdf", "eps") else (output.shading, output.swatches)
 
 
-def check_opaque(prepared: PreparedImage, output: OutputOptions, name: str) -> None:
-    """Refuse an EPS of semi-transparent colours: PostScript has no transparency, so cairo
-    would draw them as raster images, which stock sites refuse."""
-    alpha = prepared.rgba[..., 3] if output.palette_map is None else output.palette_map.apply(prepared.rgba)[..., 3]
-    translucent = int(((alpha > 0) & (alpha < 255)).sum())
-    if translucent:
-        raise RenderError(f"{name}: EPS cannot hold the {translucent} semi-transparent pixels without raster images; "
-                          "flatten them over a colour with background (e.g. white)", parameter="background")
+def _named_alike(prepared: Sequence[PreparedImage], options: ConvertOptions) -> ConvertOptions:
+    """``options`` naming the swatches of one file's documents (an animation's frames, a sheet's
+    sprites: ``prepared``) from the colours of all: one colour, one swatch id in all of them."""
+    from .svg.swatches import shared_names  # noqa: PLC0415
+
+    output = options.output
+    names = shared_names([p.rgba for p in prepared], Style(palette=output.palette, palette_map=output.palette_map))
+    return replace(options, output=replace(output, palette=names))
 
 
 def _check_page(fmt: str, size: tuple[int, int], scale: float, output: OutputOptions, name: str) -> None:
-    """Refuse an SVG or PDF page readers cannot show (:func:`depixel.validate.page_size`),
+    """Refuse an SVG, PDF or EPS page readers cannot show (:func:`depixel.validate.page_size`),
     naming what set its size."""
     w, h = size
     validate.page_size(fmt, w * scale, h * scale, name, output.size_parameter)
 
 
 def check_animated_format(fmt: str, options: ConvertOptions) -> None:
-    """Refuse a PDF of an animation (``animate``): a page cannot play frames."""
-    if fmt == "pdf" and options.output.animate:
-        raise ParameterError("animate writes an SVG or a PNG (an animated PNG); a PDF cannot play frames: "
-                             "convert one frame to PDF", parameter="animate")
+    """Refuse a PDF or EPS of an animation (``animate``): a page cannot play frames."""
+    if fmt in ("pdf", "eps") and options.output.animate:
+        raise ParameterError("animate writes an SVG or a PNG (an animated PNG); "
+                             f"{'an EPS' if fmt == 'eps' else 'a PDF'} cannot play frames: convert one frame to "
+                             f"{fmt.upper()}", parameter="animate")

@@ -8,7 +8,16 @@ from __future__ import annotations
 import math
 import numbers
 from collections.abc import Iterable
-from typing import cast
+from typing import TYPE_CHECKING, Protocol, cast
+
+if TYPE_CHECKING:
+    import numpy as np
+
+
+class Swap(Protocol):
+    """What recolours pixels (:class:`depixel.prepare.gpl.PaletteMap`)."""
+
+    def apply(self, rgba: np.ndarray) -> np.ndarray: ...
 
 
 def number(name: str, value: object, *, low: float | None = None, high: float | None = None,
@@ -116,3 +125,28 @@ def page_size(fmt: str, width: float, height: float, name: str, parameter: str =
     raise (error or ParameterError)(f"{name}: a {shown(w)}x{shown(h)}{unit} page is outside the {shown(low)} to "
                                     f"{shown(high)}{unit} a side {what} can have; choose another {parameter}",
                                     parameter=parameter)
+
+
+def opaque(name: str, rgba: np.ndarray, palette_map: Swap | None = None) -> None:
+    """Refuse an EPS of semi-transparent colours (``rgba``, swapped by ``palette_map``: the
+    colours it paints): PostScript has no transparency, so cairo would draw them as raster
+    images, which stock sites refuse (a :class:`~depixel.errors.RenderError` naming ``background``)."""
+    from .errors import RenderError  # noqa: PLC0415
+
+    alpha = (rgba if palette_map is None else palette_map.apply(rgba))[..., 3]
+    translucent = int(((alpha > 0) & (alpha < 255)).sum())
+    if translucent:
+        raise RenderError(f"{name}: EPS cannot hold the {translucent} semi-transparent pixels without raster images; "
+                          "flatten them over a colour with background (e.g. white)", parameter="background")
+
+
+def png_size(size: tuple[int, int], scale: float, max_output_pixels: int | None, name: str) -> None:
+    """Refuse a PNG of more than ``max_output_pixels`` pixels (an input of ``size``, ``scale``
+    times) before it is rendered (a :class:`~depixel.errors.RenderError`)."""
+    from .errors import RenderError  # noqa: PLC0415
+
+    width, height = (max(1, round(side * scale)) for side in size)
+    if max_output_pixels is not None and width * height > max_output_pixels:
+        raise RenderError(f"{name}: a {shown(width)}x{shown(height)} PNG is {shown(width * height)} pixels, over "
+                          f"the limit of {max_output_pixels} (raise it with max_output_pixels)",
+                          parameter="max_output_pixels")

@@ -276,9 +276,9 @@ def _check_destination(args: argparse.Namespace) -> tuple[str, ...]:
             formats = (files.output_format(args.output, args.format and args.format[0]),)
         except OutputError as exc:
             parser.error(str(exc).replace("the format", "--format").replace("give --format", "use --format"))
-    if args.animate and "pdf" in formats:
-        parser.error("--animate writes an SVG or a PNG (an animated PNG); a PDF cannot play frames: convert one "
-                     "with --frames N")
+    if args.animate and (page := next((f for f in formats if f in ("pdf", "eps")), None)):
+        parser.error(f"--animate writes an SVG or a PNG (an animated PNG); {'an EPS' if page == 'eps' else 'a PDF'} "
+                     "cannot play frames: convert one with --frames N")
     return formats
 
 

@@ -21,7 +21,9 @@ SVG. Ids get the prefix of the frame they come from (``f2-outline-181425``), so 
 unique; the shared filters keep their ids. A smooth group's mask (what the shapes above it
 hide, :mod:`depixel.svg.hiding`) is named by what it holds, the shapes its ``<use>`` draw
 (known by their text, as shared shapes are), so frames whose groups are hidden alike share one
-mask, and it points to wherever those shapes are written.
+mask, and it points to wherever those shapes are written. With ``--swatches`` every frame's
+swatches are written once (:class:`~depixel.svg.swatches.SharedSwatches`; the frames are
+named from the colours of all, so their shapes stay the same text).
 """
 from __future__ import annotations
 
@@ -30,6 +32,7 @@ import re
 from collections.abc import Collection, Sequence
 
 from .svgtext import number
+from .swatches import SharedSwatches
 
 XLINK_NS = "http://www.w3.org/1999/xlink"
 _ID = re.compile(r' id="([^"]*)"')
@@ -106,6 +109,8 @@ def compose(svgs: Sequence[str], durations: Sequence[float], plays: int = 0) -> 
     animation stays on its last frame. The SVGs must be of one size (the same ``<svg>`` tag)."""
     if not svgs or len(svgs) != len(durations):
         raise ValueError(f"{len(svgs)} frame SVGs for {len(durations)} durations")
+    swatches = SharedSwatches()  # (--swatches: one set for every frame)
+    svgs = [swatches.take(svg) for svg in svgs]
     masks: dict[str, str] = {}  # a mask's content, its shapes by token → its id
     tokens: dict[str, str] = {}  # a shape's key → the token masks draw it by
     frame_keys: list[dict[str, str]] = []  # per frame: a shape's id → its key
@@ -115,7 +120,7 @@ def compose(svgs: Sequence[str], durations: Sequence[float], plays: int = 0) -> 
         raise ValueError("the frames' SVGs differ in size")
     filters = _shared_defs([f.defs for f in frames])
     items, relabelled = frame_items([f.nodes for f in frames])
-    defs = list(filters)
+    defs = [*swatches.lines, *filters]
     bodies: list[list[str]] = [[] for _ in frames]
     written: dict[tuple[str, ...], tuple[str, str]] = {}  # a shared block → the id its uses point to, its label
     blocks = shared_blocks([[key for key, _ in frame] for frame in items], relabelled)
@@ -150,7 +155,8 @@ def compose(svgs: Sequence[str], durations: Sequence[float], plays: int = 0) -> 
                 token = tokens.get(frame_keys[int(found.group(1)) - 1].get(found.group(2), ""))
                 if token is not None:  # (a shape some mask draws)
                     written_as.setdefault(token, f"f{found.group(1)}-{found.group(2)}")
-        defs[len(filters):len(filters)] = [
+        at = len(swatches.lines) + len(filters)
+        defs[at:at] = [
             _HREF.sub(lambda m: f'xlink:href="#{written_as[m.group(1)]}"',
                       content.replace("<mask ", f'<mask id="{ident}" ', 1)) for content, ident in masks.items()]
     if defs:

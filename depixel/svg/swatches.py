@@ -9,6 +9,12 @@ bytes. With ``swatches`` every colour is one Inkscape swatch in ``<defs>``, a on
 is filled ``url(#swatch) #rrggbb``: editing the swatch's stop recolours every shape of that
 colour; a renderer that cannot find the swatch draws the colour after the url.
 
+One file made of several documents (an animation's frames, :mod:`depixel.svg.animation`;
+a sheet's sprites, :mod:`depixel.svg.layers`) has one set of swatches: the documents are
+named from the colours of all (:func:`shared_names`), so a colour is one swatch of one id in
+all of them, and :class:`SharedSwatches` writes each swatch once (editing it recolours that
+colour in every frame and sprite).
+
 A swatch holds its colour's opacity (``stop-opacity``): a palette colour is RGBA (GIMP's
 ``Channels: RGBA``, Aseprite), so editing the swatch edits the whole colour, and the shapes
 carry no ``fill-opacity`` of their own (it would multiply the swatch's).
@@ -21,6 +27,7 @@ palette, the map's target palette), else ``pal-NN-rrggbb`` (NN its place in that
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -95,6 +102,53 @@ def document_palette(pixels: np.ndarray, style: Style, title: str | None = None)
     entries = tuple(PaletteEntry((c[0], c[1], c[2], c[3]), name)
                     for c, name in zip(colours.tolist(), swatch_names(colours, style.names)))
     return Palette(entries, title, None, alpha)
+
+
+def shared_names(pixels: Sequence[np.ndarray], style: Style, title: str | None = None) -> Palette:
+    """The palette that names the swatches of several documents of one file (``(H, W, 4)``
+    pixels each: an animation's frames, a sheet's sprites): :func:`document_palette` of all
+    their pixels, so each colour is named (and numbered) once for the whole file."""
+    return document_palette(np.concatenate([np.asarray(p, np.uint8).reshape(-1, 4) for p in pixels]), style, title)
+
+
+#: a swatch's line in a document's ``<defs>`` (:meth:`Swatches.defs`)
+_SWATCH = re.compile(r'<linearGradient id="([^"]*)" inkscape:swatch="solid"[^\n]*</linearGradient>\n')
+
+
+class SharedSwatches:
+    """The swatches of several documents put into one file: each distinct swatch once (the
+    same colour and name: the same swatch), under its id; one id for two different swatches
+    is made unique (``-2``) in the document that comes later, and its fills follow."""
+
+    def __init__(self) -> None:
+        self.lines: list[str] = []  # each swatch's <linearGradient>, in the order they came
+        self.ids: set[str] = set()
+        self._by_text: dict[str, str] = {}  # a swatch's line without its id → its id in the file
+
+    def take(self, svg: str) -> str:
+        """``svg`` without its swatches (and without a ``<defs>`` they alone filled), which
+        join the file's, its fills pointing to them."""
+        renamed: dict[str, str] = {}
+
+        def taken(found: re.Match[str]) -> str:
+            ident = found.group(1)
+            text = found.group(0).replace(f' id="{ident}"', "", 1)
+            if text not in self._by_text:
+                unique, n = ident, 1
+                while unique in self.ids:
+                    n += 1
+                    unique = f"{ident}-{n}"
+                self._by_text[text] = unique
+                self.ids.add(unique)
+                self.lines.append(found.group(0).replace(f' id="{ident}"', f' id="{unique}"', 1))
+            if self._by_text[text] != ident:
+                renamed[ident] = self._by_text[text]
+            return ""
+
+        svg = _SWATCH.sub(taken, svg).replace("<defs>\n</defs>\n", "", 1)
+        if renamed:
+            svg = re.sub(r"url\(#([^)]*)\)", lambda m: f"url(#{renamed.get(m.group(1), m.group(1))})", svg)
+        return svg
 
 
 class Swatches:
