@@ -89,8 +89,8 @@ class _Version(argparse.Action):
 #: The subcommands in ``--help`` order: name, help line, and the module of this package
 #: whose ``add_parser(sub, name, help)`` defines the command's arguments.
 COMMANDS = (
-    ("convert", "convert pixel art to SVG, PNG or PDF", "convert.command"),
-    ("render", "render an SVG to PNG or PDF", "tools"),
+    ("convert", "convert pixel art to SVG, PNG, PDF or EPS", "convert.command"),
+    ("render", "render an SVG to PNG, PDF or EPS", "tools"),
     ("diff", "compare two images, or two folders of renders (for CI)", "diff.command"),
     ("inspect", "draw every pipeline stage (like the paper's Figure 3)", "tools"),
     ("inkscape", "install or remove the Inkscape extension", "inkscape.command"),

@@ -5,6 +5,7 @@ import argparse
 import enum
 import sys
 from dataclasses import fields
+from pathlib import Path
 
 from depixel.options import ConvertOptions, Limits, OutputOptions, PrepareOptions
 from depixel.params import Params
@@ -153,6 +154,22 @@ def add_input_options(parser: argparse.ArgumentParser) -> None:
                        help="with --transparent: every pixel of that colour, inside the art too (a colour key)")
 
 
+def add_palette_options(group) -> None:
+    """``--swatches``, ``--palette``, ``--palette-map`` (the output's colours, docs/palettes.md)
+    and ``--export-palette``."""
+    group.add_argument("--swatches", action="store_true",
+                       help="SVG: every colour an Inkscape swatch (edit one to recolour all its shapes)")
+    group.add_argument("--palette", metavar="FILE",
+                       help="a palette (.gpl: GIMP, Aseprite; or .aseprite) whose names name the swatches "
+                            "(default: an .aseprite input's own palette, else pal-NN-rrggbb)")
+    group.add_argument("--palette-map", metavar="FROM.gpl:TO.gpl",
+                       help="recolour: each colour of FROM becomes the colour at its place in TO (same sizes); "
+                            "the shapes stay those of the art's own colours; SVG, PNG, PDF and EPS")
+    group.add_argument("--export-palette", metavar="OUT.gpl", type=Path,
+                       help="also write the output's colours as a GIMP palette, named like the swatches "
+                            "(one input)")
+
+
 def check_input_options(args: argparse.Namespace) -> None:
     """Refuse input options that need another (a usage error, exit 2)."""
     if args.transparent_everywhere and args.transparent is None:
@@ -234,6 +251,8 @@ FLAG_OF_PARAMETER = {
     "allow_size_mismatch": "--allow-size-mismatch",
     "animate": "--animate",
     "frame": "--frames",
+    "palette": "--palette",
+    "palette_map": "--palette-map",
     **{name: flag for flag, name, _, _ in TUNING},
 }
 

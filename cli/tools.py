@@ -34,7 +34,7 @@ examples:
   depixel render sprite.svg -o sprite.png --width 512   512 pixels wide, height to match
   depixel render sprite.svg -o sprite.pdf --background white
 
-Render an SVG (any SVG, not only depixel's) to PNG or PDF through cairosvg.
+Render an SVG (any SVG, not only depixel's) to PNG, PDF or EPS through cairosvg.
 """
 
 INSPECT_DESCRIPTION = """\
@@ -62,9 +62,9 @@ def _add_render(sub, help: str) -> None:
                             formatter_class=argparse.RawDescriptionHelpFormatter)
     render.set_defaults(run=run_render, parser=render)
     render.add_argument("input", metavar="IN.svg", help="SVG file; - reads stdin")
-    render.add_argument("-o", "--output", required=True, metavar="OUT", help="PNG or PDF file; - writes to stdout")
-    render.add_argument("--format", choices=("png", "pdf"),
-                        help="output format (default: from the extension; must agree with a .png/.pdf name)")
+    render.add_argument("-o", "--output", required=True, metavar="OUT", help="PNG, PDF or EPS file; - writes to stdout")
+    render.add_argument("--format", choices=("png", "pdf", "eps"),
+                        help="output format (default: from the extension; must agree with a .png/.pdf/.eps name)")
     size = render.add_mutually_exclusive_group()
     size.add_argument("--scale", type=positive_float, help="multiple of the SVG's width/height (default 1)")
     size.add_argument("--width", type=positive_int, metavar="W", help="width in pixels, height to match")
@@ -118,8 +118,8 @@ def run_render(args: argparse.Namespace) -> int:
         fmt = args.format or "png" if args.output == "-" else files.output_format(args.output, args.format)
     except OutputError:
         fmt = None
-    if fmt not in ("png", "pdf"):
-        args.parser.error(f"{display_name(args.output)}: render writes PNG or PDF; name OUT .png or .pdf "
+    if fmt not in ("png", "pdf", "eps"):
+        args.parser.error(f"{display_name(args.output)}: render writes PNG, PDF or EPS; name OUT .png, .pdf or .eps "
                           "(or use --format with a name without those extensions)")
     protect: tuple[Path, ...]
     if args.input == "-" and stdin_closed():

@@ -1,9 +1,9 @@
 """Python API in memory: convert pixel art without the command line.
 
 :func:`convert` takes an image (numpy array or PIL image) and returns SVG text;
-:func:`convert_bytes` returns the bytes of an SVG, PNG or PDF file; with ``animate=True`` both
+:func:`convert_bytes` returns the bytes of an SVG, PNG, PDF or EPS file; with ``animate=True`` both
 take an :class:`~depixel.prepare.animation.Animation` too
-(:func:`~depixel.render.animation.animated`). PNG and PDF go through cairosvg, which is
+(:func:`~depixel.render.animation.animated`). PNG, PDF and EPS go through cairosvg, which is
 imported only when one of them is asked for (:mod:`depixel.render.raster`).
 File to file (:func:`~depixel.files.convert.convert_file`, :func:`~depixel.files.convert.render_file`)
 is :mod:`depixel.files.convert`. The keyword functions make one
@@ -15,20 +15,20 @@ from __future__ import annotations
 
 import io
 import os
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
-from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from . import validate
 from .colour import Colour, as_colour
-from .errors import ParameterError, RenderError, display_name
+from .errors import ParameterError, display_name
 from .limits import (
     DEFAULT_MAX_FRAMES,
     DEFAULT_MAX_OUTPUT_PIXELS,
     DEFAULT_MAX_PIXELS,
+    check_frames_pixels,
     check_sprites,
 )
 from .options import ConvertOptions, OutputOptions, PrepareOptions
@@ -36,22 +36,24 @@ from .params import Params
 from .pipeline import depixelize
 from .prepare.animation import Animation
 from .prepare.backdrop import over_colour
-from .prepare.image import ImageSource, as_rgba, check_indexable, check_pixels, image_array, load_image
+from .prepare.image import ImageSource, Pixels, as_rgba, check_indexable, check_pixels, image_array, load_image
 from .prepare.inputs import AUTO, PixelSize, PreparedImage, pil_lossy, prepare
 from .render.overlay import overlay_raster, overlay_svg
+from .svg.swatches import Style
 from .svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY, SHADINGS, SIGMA_RATIO, to_svg
 
 if TYPE_CHECKING:  # a sheet's modules are imported when a sheet is converted (~10 ms of every start)
+    from .prepare.gpl import PaletteMapSource, PaletteSource
     from .prepare.sheet import Sheet
     from .prepare.sheet_json import SheetJson
 
 #: Output formats, chosen from the file extension or given explicitly.
-FORMATS = ("svg", "png", "pdf")
+FORMATS = ("svg", "png", "pdf", "eps")
 __all__ = ["FORMATS", "SHADINGS", "conversions", "convert", "convert_bytes", "cut_sheet", "encode",
            "flatten", "load", "prepare_input", "prepared_input", "sheet_conversions"]
 
 
-def _pixels(image, name: str = "<image>", max_pixels: int | None = DEFAULT_MAX_PIXELS) -> None:
+def _pixels(image: object, name: str = "<image>", max_pixels: int | None = DEFAULT_MAX_PIXELS) -> None:
     """Refuse what is not an image in memory (a file name gets a pointer to the file
     functions) and images over ``max_pixels``, before any conversion copies them."""
     if isinstance(image, (str, os.PathLike)):
@@ -67,7 +69,7 @@ def _pixels(image, name: str = "<image>", max_pixels: int | None = DEFAULT_MAX_P
         check_indexable(name, int(size[0]), int(size[1]))
 
 
-def flatten(image, colour: Colour | str) -> np.ndarray:
+def flatten(image: Pixels, colour: Colour | str) -> np.ndarray:
     """Composite an image over an opaque colour → ``(H, W, 4) uint8`` with alpha 255.
 
     Useful before converting art whose semi-transparent edges should blend into a known
@@ -90,7 +92,7 @@ def load(source: ImageSource, *, frame: int = 0, background: Colour | str | None
     return rgba if colour is None else flatten(rgba, colour)
 
 
-def convert(image, params: Params = Params(), *, stage: str = "optimized", scale: float = 1.0,
+def convert(image: Pixels | PreparedImage, params: Params = Params(), *, stage: str = "optimized", scale: float = 1.0,
             background: Colour | str | None = None, title: str | None = None, precision: int = DEFAULT_PRECISION,
             width: int | None = None, height: int | None = None,
             max_pixels: int | None = DEFAULT_MAX_PIXELS, layout: str = "stacked",
@@ -98,7 +100,8 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
             transparent: Colour | str | None = None, transparent_everywhere: bool = False,
             shading: str = "smooth", animate: bool = False, sheet: str | None = None,
             sheet_json: SheetJson | str | None = None, max_frames: int | None = DEFAULT_MAX_FRAMES,
-            tag: str | None = None) -> str:
+            tag: str | None = None, swatches: bool = False, palette: PaletteSource | None = None,
+            palette_map: PaletteMapSource | None = None) -> str:
     """Depixelize an image (``(H, W[, C])`` array, PIL image or :class:`PreparedImage`) → SVG text.
 
     ``scale`` sets the SVG's width/height as a multiple of the input's size (or ``width`` or
@@ -110,6 +113,11 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
     which fewer curves replace the exact spline (0: the exact spline; docs/svg.md).
     ``shading="smooth"`` blends the tones of each shaded region with a filter (paper §3.5,
     σ from ``params.shading_sigma``); ``"flat"`` draws them as flat bands.
+    ``swatches`` makes every colour an Inkscape swatch, named from ``palette`` (a ``.gpl``
+    or ``.aseprite`` file, or a :class:`~depixel.prepare.gpl.Palette`); ``palette_map``
+    (``"FROM.gpl:TO.gpl"``, a pair of palettes or a :class:`~depixel.prepare.gpl.PaletteMap`)
+    swaps the colours of the output, the shapes staying those of the art's own colours
+    (docs/palettes.md).
     ``pixel_size``, ``denoise``, ``transparent`` and ``transparent_everywhere`` prepare the input first
     (:func:`depixel.prepare.inputs.prepare`, docs/inputs.md): upscaled art is converted at 1× and
     laid exactly over the input. Images over ``max_pixels`` pixels are refused (``None``:
@@ -126,12 +134,13 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
                                    width=width, height=height, max_pixels=max_pixels, layout=layout,
                                    simplify=simplify, pixel_size=pixel_size, denoise=denoise, transparent=transparent,
                                    transparent_everywhere=transparent_everywhere, shading=shading, animate=animate,
-                                   sheet=sheet, sheet_json=sheet_json, max_frames=max_frames, tag=tag)
+                                   sheet=sheet, sheet_json=sheet_json, max_frames=max_frames, tag=tag,
+                                   swatches=swatches, palette=palette, palette_map=palette_map)
     return conversions(image, {"svg": None}, options, title=title)["svg"].decode("utf-8")
 
 
-def prepare_input(image, *, background: Colour | str | None = None, pixel_size: PixelSize = AUTO,
-                  denoise: bool | None = None, transparent: Colour | str | None = None,
+def prepare_input(image: Pixels | PreparedImage, *, background: Colour | str | None = None,
+                  pixel_size: PixelSize = AUTO, denoise: bool | None = None, transparent: Colour | str | None = None,
                   transparent_everywhere: bool = False, lossy: str | None = None,
                   max_pixels: int | None = DEFAULT_MAX_PIXELS) -> PreparedImage:
     """:func:`depixel.prepare.inputs.prepare` after flattening over ``background`` (when given);
@@ -142,7 +151,7 @@ def prepare_input(image, *, background: Colour | str | None = None, pixel_size: 
     return prepared_input(image, options, lossy=lossy, max_pixels=max_pixels)
 
 
-def prepared_input(image, options: PrepareOptions, *, lossy: str | None = None,
+def prepared_input(image: Pixels | PreparedImage, options: PrepareOptions, *, lossy: str | None = None,
                    max_pixels: int | None = DEFAULT_MAX_PIXELS) -> PreparedImage:
     """:func:`prepare_input` with its options made: the image checked against ``max_pixels``
     (None: not checked), then prepared; a :class:`PreparedImage` is returned as it is."""
@@ -162,37 +171,40 @@ def encode(svg: str, fmt: str = "svg", *, name: str = "<svg>", keywords: str | N
     return render(svg, fmt, name=name, keywords=keywords)
 
 
-def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: str = "optimized",
-                  scale: float = 1.0, background: Colour | str | None = None, title: str | None = None,
-                  shading: str = "smooth", name: str = "<image>", precision: int = DEFAULT_PRECISION,
-                  width: int | None = None, height: int | None = None,
+def convert_bytes(image: Pixels | PreparedImage, fmt: str = "svg", params: Params = Params(), *,
+                  stage: str = "optimized", scale: float = 1.0, background: Colour | str | None = None,
+                  title: str | None = None, shading: str = "smooth", name: str = "<image>",
+                  precision: int = DEFAULT_PRECISION, width: int | None = None, height: int | None = None,
                   max_pixels: int | None = DEFAULT_MAX_PIXELS,
                   max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS, layout: str = "stacked",
                   simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
                   transparent: Colour | str | None = None, transparent_everywhere: bool = False,
                   animate: bool = False, sheet: str | None = None, sheet_json: SheetJson | str | None = None,
-                  max_frames: int | None = DEFAULT_MAX_FRAMES, tag: str | None = None) -> bytes:
-    """Like :func:`convert`, returning the bytes of an SVG, PNG or PDF file.
+                  max_frames: int | None = DEFAULT_MAX_FRAMES, tag: str | None = None, swatches: bool = False,
+                  palette: PaletteSource | None = None, palette_map: PaletteMapSource | None = None) -> bytes:
+    """Like :func:`convert`, returning the bytes of an SVG, PNG, PDF or EPS file.
 
     ``shading="smooth"`` renders PNG output with the paper's smooth renderer and gives the
     SVG its smooth-shading filter; ``"flat"`` draws flat colour bands (the SVG without the
-    filter; PNG that SVG rasterized). A PDF has the flat bands (cairosvg draws no filters).
+    filter; PNG that SVG rasterized). A PDF or EPS has the flat bands (cairosvg draws no filters).
     A PNG of more than ``max_output_pixels`` pixels is refused before it is rendered.
     ``animate=True``: an animation's SVG, or its PNG as an animated PNG (APNG) of the frames'
-    renders (their pixels in all within ``max_output_pixels``); no PDF; ``tag``: one tag's, as
-    :func:`convert`. A sheet's PNG is each sprite's PNG at its place.
+    renders (their pixels in all within ``max_output_pixels``); no PDF or EPS; ``tag``: one
+    tag's, as :func:`convert`. A sheet's PNG is each sprite's PNG at its place.
     """
     options = ConvertOptions.build(params, stage=stage, scale=scale, background=background, shading=shading,
                                    precision=precision, width=width, height=height, max_pixels=max_pixels,
                                    max_output_pixels=max_output_pixels, layout=layout, simplify=simplify,
                                    pixel_size=pixel_size, denoise=denoise, transparent=transparent,
                                    transparent_everywhere=transparent_everywhere, animate=animate, sheet=sheet,
-                                   sheet_json=sheet_json, max_frames=max_frames, tag=tag)
+                                   sheet_json=sheet_json, max_frames=max_frames, tag=tag, swatches=swatches,
+                                   palette=palette, palette_map=palette_map)
     return conversions(image, {fmt: None}, options, name=name, title=title)[fmt]
 
 
-def conversions(image, formats: Mapping[str, str | None], options: ConvertOptions, *, name: str = "<image>",
-                title: str | None = None, lossy: str | None = None,
+def conversions(image: Pixels | PreparedImage | Animation, formats: Mapping[str, str | None],
+                options: ConvertOptions, *, name: str = "<image>", title: str | None = None,
+                lossy: str | None = None,
                 on_prepared: Callable[[PreparedImage], None] | None = None) -> dict[str, bytes]:
     """One conversion written in several formats, ``{format: its PDF keywords}`` → ``{format:
     bytes}``: the input is prepared and depixelized once, then each format is made from the
@@ -204,7 +216,7 @@ def conversions(image, formats: Mapping[str, str | None], options: ConvertOption
     With ``options.output.tag``, the Animation's tag is played (:meth:`Animation.tagged`)."""
     for fmt in formats:
         validate.choice("format", fmt, FORMATS)
-        check_animated_format(fmt, options)
+        options.output.check_format(fmt)
     if options.output.tag is not None:
         if not isinstance(image, Animation):
             raise ParameterError("tag plays a tag of an Aseprite file: give the Animation depixel.read_animation(path) "
@@ -218,8 +230,19 @@ def conversions(image, formats: Mapping[str, str | None], options: ConvertOption
             from .render.animation import animated  # noqa: PLC0415
 
             still = replace(options, output=replace(options.output, animate=False, tag=None))
-            convert_frame = partial(conversions, options=still, name=name, title=title, lossy=lossy,
-                                    on_prepared=on_prepared)
+            frames: dict[bytes, PreparedImage] = {}  # with --swatches: prepared first, named from all
+            if options.output.swatches and "svg" in formats:
+                n, (height, width) = len(image.frames), image.frames[0].shape[:2]
+                check_frames_pixels(name, n, n * width * height, options.limits.max_pixels)
+                for frame in image.frames:
+                    if (key := frame.tobytes()) not in frames:
+                        frames[key] = prepared_input(frame, options.prepare, lossy=lossy, max_pixels=None)
+                still = _named_alike(list(frames.values()), still)
+
+            def convert_frame(frame: np.ndarray, made: dict[str, None]) -> dict[str, bytes]:
+                return conversions(frames.get(frame.tobytes(), frame), made, still, name=name, title=title,
+                                   lossy=lossy, on_prepared=on_prepared)
+
             return animated(image, formats, options, convert_frame, name=name)
         image = image.frames[0]
     elif options.output.animate and int(getattr(image, "n_frames", 1)) > 1:
@@ -244,12 +267,15 @@ def conversions(image, formats: Mapping[str, str | None], options: ConvertOption
     if on_prepared is not None:
         on_prepared(prepared)
     if "png" in formats:
-        _check_png_size(prepared.input_size, scale, limits.max_output_pixels, name)
+        validate.png_size(prepared.input_size, scale, limits.max_output_pixels, name)
     for fmt in formats:
         _check_page(fmt, prepared.input_size, scale, output, name)
+    if "eps" in formats:
+        validate.opaque(name, prepared.rgba, output.palette_map)
     vector = depixelize(prepared.rgba, params, stage=output.stage).vector  # the other stages' products are freed
+    style = Style(SIGMA_RATIO * params.shading_sigma, output.swatches, output.palette, output.palette_map)
     blobs: dict[str, bytes] = {}
-    svgs: dict[str, str] = {}  # by shading: an SVG is smooth unless flat; PDF and a flat PNG are drawn flat
+    svgs: dict[tuple[str, bool], str] = {}  # by shading and swatches: PDF, EPS and a flat PNG are drawn flat
     for fmt, keywords in formats.items():
         if fmt == "png" and output.shading == "smooth":
             from PIL import Image  # noqa: PLC0415
@@ -257,21 +283,22 @@ def conversions(image, formats: Mapping[str, str | None], options: ConvertOption
             from .render.shading import render_smooth  # noqa: PLC0415
 
             # rendered at the art's grid, then laid over the input like the SVG
-            pixels = render_smooth(vector, scale * max(prepared.pixel_size), params=params)
+            swapped = None if output.palette_map is None else output.palette_map.apply(vector.rgba)
+            pixels = render_smooth(vector, scale * max(prepared.pixel_size), params=params, colours=swapped)
             buffer = io.BytesIO()
             Image.fromarray(overlay_raster(pixels, prepared, scale), "RGBA").save(buffer, format="PNG")
             blobs[fmt] = buffer.getvalue()
         else:
-            drawn = output.shading if fmt == "svg" else "flat"
+            drawn = (output.shading, output.swatches) if fmt == "svg" else ("flat", False)  # swatches: SVG only
             if drawn not in svgs:
                 svg = to_svg(vector, scale=scale, precision=output.precision, title=title, layout=output.layout,
-                             simplify=output.simplify, shading=drawn, sigma=SIGMA_RATIO * params.shading_sigma)
+                             simplify=output.simplify, shading=drawn[0], style=replace(style, swatches=drawn[1]))
                 svgs[drawn] = overlay_svg(svg, prepared, scale)
             blobs[fmt] = encode(svgs[drawn], fmt, name=name, keywords=keywords)
     return blobs
 
 
-def cut_sheet(image, sheet: str | None = None, *, sheet_json: SheetJson | str | None = None,
+def cut_sheet(image: Pixels, sheet: str | None = None, *, sheet_json: SheetJson | str | None = None,
               max_pixels: int | None = DEFAULT_MAX_PIXELS, name: str = "<image>") -> Sheet:
     """The sprites of a sprite sheet (an array or PIL image, checked against ``max_pixels``):
     found on it (``sheet="auto"``, the default without ``sheet_json``: cells between gutters of
@@ -295,9 +322,10 @@ def sheet_conversions(rgba: np.ndarray, sheet: Sheet, formats: Mapping[str, str 
     """:func:`conversions` of a sprite sheet: each of ``sheet``'s sprites converted alone, its
     crop prepared and depixelized on its own (its shapes never reach into a neighbour), and
     put back at its place. The SVG holds one Inkscape layer per sprite
-    (:func:`depixel.svg.layers.compose_layers`), the PDF the same drawn flat, the PNG each
-    sprite's PNG at its place. The sheet's size sets the scale (``options.output``); its
-    sprites count against ``max_frames`` and, in all, ``max_pixels``."""
+    (:func:`depixel.svg.layers.compose_layers`; with swatches, one set named from all the
+    sprites' colours), the PDF and EPS the same drawn flat, the PNG each sprite's PNG at its
+    place. The sheet's size sets the scale (``options.output``); its sprites count against
+    ``max_frames`` and, in all, ``max_pixels``."""
     from .render.raster import paste_pngs  # noqa: PLC0415
     from .svg.layers import Placed, compose_layers  # noqa: PLC0415
 
@@ -307,23 +335,30 @@ def sheet_conversions(rgba: np.ndarray, sheet: Sheet, formats: Mapping[str, str 
                   limits.max_frames)
     scale = output.scale_for(width, height)
     if "png" in formats:
-        _check_png_size((width, height), scale, limits.max_output_pixels, name)
+        validate.png_size((width, height), scale, limits.max_output_pixels, name)
     for fmt in formats:
         _check_page(fmt, (width, height), scale, output, name)
-    alone = replace(output, scale=scale, width=None, height=None, sheet=None, sheet_json=None)
-    runs: dict[str, dict[str, None]] = {}  # by shading: the sprites' formats made from one run each
+    alone = replace(options, output=replace(output, scale=scale, width=None, height=None, sheet=None,
+                                            sheet_json=None))
+    prepared = [prepared_input(rgba[sprite.box], options.prepare, lossy=lossy, max_pixels=None)
+                for sprite in sheet.sprites]
+    for sprite, image in zip(sheet.sprites, prepared) if "eps" in formats else ():
+        validate.opaque(f"{name} sprite {sprite.name}", image.rgba, output.palette_map)
+    if output.swatches and "svg" in formats:
+        alone = _named_alike(prepared, alone)
+    runs: dict[tuple[str, bool], dict[str, None]] = {}  # by how the SVG is drawn: the formats of one run
     for fmt in formats:
-        runs.setdefault("flat" if fmt == "pdf" else output.shading, {})["png" if fmt == "png" else "svg"] = None
-    layers: dict[str, list[Placed]] = {shading: [] for shading in runs}
+        runs.setdefault(_drawn(fmt, output), {})["png" if fmt == "png" else "svg"] = None
+    layers: dict[tuple[str, bool], list[Placed]] = {drawn: [] for drawn in runs}
     pngs: list[tuple[int, int, bytes]] = []
-    for sprite in sheet.sprites:
-        for n, (shading, made) in enumerate(runs.items()):
-            blobs = conversions(rgba[sprite.box], made, replace(options, output=replace(alone, shading=shading)),
-                                name=f"{name} sprite {sprite.name}", lossy=lossy,
+    for sprite, image in zip(sheet.sprites, prepared):
+        for n, (drawn, made) in enumerate(runs.items()):
+            drawing = replace(alone, output=replace(alone.output, shading=drawn[0], swatches=drawn[1]))
+            blobs = conversions(image, made, drawing, name=f"{name} sprite {sprite.name}",
                                 on_prepared=None if n else on_prepared)
             if "svg" in blobs:
                 svg = blobs["svg"].decode("utf-8")
-                layers[shading].append(Placed(sprite.name, svg, sprite.x, sprite.y, sprite.width, sprite.height))
+                layers[drawn].append(Placed(sprite.name, svg, sprite.x, sprite.y, sprite.width, sprite.height))
             if "png" in blobs:
                 pngs.append((round(sprite.x * scale), round(sprite.y * scale), blobs["png"]))
     done: dict[str, bytes] = {}
@@ -331,32 +366,30 @@ def sheet_conversions(rgba: np.ndarray, sheet: Sheet, formats: Mapping[str, str 
         if fmt == "png":
             done[fmt] = paste_pngs(pngs, (max(1, round(width * scale)), max(1, round(height * scale))))
         else:
-            svg = compose_layers(layers["flat" if fmt == "pdf" else output.shading], width, height, scale=scale,
-                                 title=title, precision=output.precision)
+            svg = compose_layers(layers[_drawn(fmt, output)], width, height, scale=scale, title=title,
+                                 precision=output.precision)
             done[fmt] = encode(svg, fmt, name=name, keywords=keywords)
     return done
 
 
-def _check_png_size(size: tuple[int, int], scale: float, max_output_pixels: int | None, name: str) -> None:
-    """Refuse a PNG of more than ``max_output_pixels`` pixels (an input of ``size``, ``scale``
-    times) before it is rendered."""
-    width, height = (max(1, round(side * scale)) for side in size)
-    if max_output_pixels is not None and width * height > max_output_pixels:
-        shown = validate.shown
-        raise RenderError(f"{name}: a {shown(width)}x{shown(height)} PNG is {shown(width * height)} pixels, over "
-                          f"the limit of {max_output_pixels} (raise it with max_output_pixels)",
-                          parameter="max_output_pixels")
+def _drawn(fmt: str, output: OutputOptions) -> tuple[str, bool]:
+    """How a format's SVG is drawn, (shading, swatches): a PDF or EPS flat, without swatches
+    (a PNG ignores them: it shares the SVG's run)."""
+    return ("flat", False) if fmt in ("pdf", "eps") else (output.shading, output.swatches)
+
+
+def _named_alike(prepared: Sequence[PreparedImage], options: ConvertOptions) -> ConvertOptions:
+    """``options`` naming the swatches of one file's documents (an animation's frames, a sheet's
+    sprites: ``prepared``) from the colours of all: one colour, one swatch id in all of them."""
+    from .svg.swatches import shared_names  # noqa: PLC0415
+
+    output = options.output
+    names = shared_names([p.rgba for p in prepared], Style(palette=output.palette, palette_map=output.palette_map))
+    return replace(options, output=replace(output, palette=names))
 
 
 def _check_page(fmt: str, size: tuple[int, int], scale: float, output: OutputOptions, name: str) -> None:
-    """Refuse an SVG or PDF page readers cannot show (:func:`depixel.validate.page_size`),
+    """Refuse an SVG, PDF or EPS page readers cannot show (:func:`depixel.validate.page_size`),
     naming what set its size."""
     w, h = size
     validate.page_size(fmt, w * scale, h * scale, name, output.size_parameter)
-
-
-def check_animated_format(fmt: str, options: ConvertOptions) -> None:
-    """Refuse a PDF of an animation (``animate``): a page cannot play frames."""
-    if fmt == "pdf" and options.output.animate:
-        raise ParameterError("animate writes an SVG or a PNG (an animated PNG); a PDF cannot play frames: "
-                             "convert one frame to PDF", parameter="animate")

@@ -28,6 +28,7 @@ from .svg.outlines import LAYOUTS
 from .svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY, MAX_SIMPLIFY, SHADINGS
 
 if TYPE_CHECKING:
+    from .prepare.gpl import Palette, PaletteMap
     from .prepare.sheet_json import SheetJson
 
 __all__ = ["ConvertOptions", "Limits", "OutputOptions", "PrepareOptions"]
@@ -53,6 +54,10 @@ class OutputOptions:
     sheet_json: SheetJson | str | None = added(None)
     #: with animate: the Aseprite tag whose frames play, in its direction and repeat count (None: every frame)
     tag: str | None = added(None)
+    swatches: bool = added(False)  # every colour of the SVG an Inkscape swatch (docs/palettes.md)
+    # names the swatches (a .gpl or .aseprite file, or a Palette); digested only with them
+    palette: Palette | None = added(None, left_out=lambda options, value: value is None or not options.swatches)
+    palette_map: PaletteMap | None = added(None)  # swaps the output's colours ("FROM.gpl:TO.gpl" or a PaletteMap)
 
     def __post_init__(self) -> None:
         normal: dict[str, object] = {"stage": validate.choice("stage", self.stage, STAGES),
@@ -67,7 +72,13 @@ class OutputOptions:
                    "layout": validate.choice("layout", self.layout, LAYOUTS),
                    "simplify": float(validate.number("simplify", self.simplify, low=0, high=MAX_SIMPLIFY)),
                    "shading": validate.choice("shading", self.shading, SHADINGS),
-                   "animate": validate.flag("animate", self.animate)}
+                   "animate": validate.flag("animate", self.animate),
+                   "swatches": validate.flag("swatches", self.swatches)}
+        if self.palette is not None or self.palette_map is not None:
+            from .prepare.gpl import as_palette, as_palette_map  # noqa: PLC0415 (only with a palette)
+
+            normal["palette"] = None if self.palette is None else as_palette(self.palette)
+            normal["palette_map"] = None if self.palette_map is None else as_palette_map(self.palette_map)
         if self.is_sheet:  # (the sheet's modules are imported only then: ~10 ms of every start otherwise)
             from .prepare.sheet import sheet_spec  # noqa: PLC0415
             from .prepare.sheet_json import sheet_json_of  # noqa: PLC0415
@@ -106,6 +117,13 @@ class OutputOptions:
     def size_parameter(self) -> str:
         """The option that sets the output's size, for messages: width, height or scale."""
         return "width" if self.width is not None else "height" if self.height is not None else "scale"
+
+    def check_format(self, fmt: str) -> None:
+        """Refuse a PDF or EPS of an animation (``animate``): a page cannot play frames."""
+        if fmt in ("pdf", "eps") and self.animate:
+            raise ParameterError("animate writes an SVG or a PNG (an animated PNG); "
+                                 f"{'an EPS' if fmt == 'eps' else 'a PDF'} cannot play frames: convert one frame to "
+                                 f"{fmt.upper()}", parameter="animate")
 
 
 @dataclass(frozen=True)

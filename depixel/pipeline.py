@@ -17,7 +17,7 @@ from .graph.cells import CellGraph, build_cell_graph
 from .graph.crossings import CrossingResolution, resolve_crossings
 from .graph.similarity import SimilarityGraph, build_similarity_graph
 from .params import Params
-from .prepare.image import as_rgba
+from .prepare.image import Pixels, as_rgba
 from .vector import VectorImage, straight_image
 
 if TYPE_CHECKING:  # the spline stages are imported only when a run reaches them
@@ -47,7 +47,7 @@ class Result:
     timings: dict[str, float] = field(default_factory=dict)  # seconds per stage
 
 
-def depixelize(image, params: Params = Params(), stage: str = "optimized") -> Result:
+def depixelize(image: Pixels, params: Params = Params(), stage: str = "optimized") -> Result:
     """Run the pipeline on an RGBA image (array or PIL image) up to ``stage``."""
     validate.choice("stage", stage, STAGES)
     timings: dict[str, float] = {}

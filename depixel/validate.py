@@ -8,7 +8,16 @@ from __future__ import annotations
 import math
 import numbers
 from collections.abc import Iterable
-from typing import cast
+from typing import TYPE_CHECKING, Protocol, cast
+
+if TYPE_CHECKING:
+    import numpy as np
+
+
+class Swap(Protocol):
+    """What recolours pixels (:class:`depixel.prepare.gpl.PaletteMap`)."""
+
+    def apply(self, rgba: np.ndarray) -> np.ndarray: ...
 
 
 def number(name: str, value: object, *, low: float | None = None, high: float | None = None,
@@ -94,18 +103,19 @@ def shown(value: float) -> str:
 
 def page_size(fmt: str, width: float, height: float, name: str, parameter: str = "scale",
               error: type | None = None) -> None:
-    """Refuse an SVG or PDF whose page (``width`` × ``height`` CSS pixels) readers cannot
-    show: a PDF page outside the 3-14400 pt a side the PDF format allows, an SVG side beyond
+    """Refuse an SVG, PDF or EPS whose page (``width`` × ``height`` CSS pixels) readers cannot
+    show: a PDF page outside the 3-14400 pt a side the PDF format allows (an EPS's bounding
+    box too, as Illustrator's artboard), an SVG side beyond
     the coordinates cairo can place (renderers built on it drop path operators there) or so
     small that it is written as 0. The error (a :class:`ParameterError` unless ``error``
     says otherwise) names ``parameter``: the scale, or the width or height that set the size."""
     from .errors import ParameterError  # noqa: PLC0415
     from .limits import PDF_PAGE_POINTS, SVG_SIDE_PIXELS  # noqa: PLC0415
 
-    if fmt == "pdf":
+    if fmt in ("pdf", "eps"):
         low, high = PDF_PAGE_POINTS
         w, h = width * 0.75, height * 0.75  # 96 CSS pixels an inch, 72 points
-        unit, what = " pt", "a PDF page"
+        unit, what = " pt", f"a{'n' if fmt == 'eps' else ''} {fmt.upper()} page"
     elif fmt == "svg":
         (low, high), w, h, unit, what = SVG_SIDE_PIXELS, width, height, " px", "an SVG"
     else:
@@ -115,3 +125,28 @@ def page_size(fmt: str, width: float, height: float, name: str, parameter: str =
     raise (error or ParameterError)(f"{name}: a {shown(w)}x{shown(h)}{unit} page is outside the {shown(low)} to "
                                     f"{shown(high)}{unit} a side {what} can have; choose another {parameter}",
                                     parameter=parameter)
+
+
+def opaque(name: str, rgba: np.ndarray, palette_map: Swap | None = None) -> None:
+    """Refuse an EPS of semi-transparent colours (``rgba``, swapped by ``palette_map``: the
+    colours it paints): PostScript has no transparency, so cairo would draw them as raster
+    images, which stock sites refuse (a :class:`~depixel.errors.RenderError` naming ``background``)."""
+    from .errors import RenderError  # noqa: PLC0415
+
+    alpha = (rgba if palette_map is None else palette_map.apply(rgba))[..., 3]
+    translucent = int(((alpha > 0) & (alpha < 255)).sum())
+    if translucent:
+        raise RenderError(f"{name}: EPS cannot hold the {translucent} semi-transparent pixels without raster images; "
+                          "flatten them over a colour with background (e.g. white)", parameter="background")
+
+
+def png_size(size: tuple[int, int], scale: float, max_output_pixels: int | None, name: str) -> None:
+    """Refuse a PNG of more than ``max_output_pixels`` pixels (an input of ``size``, ``scale``
+    times) before it is rendered (a :class:`~depixel.errors.RenderError`)."""
+    from .errors import RenderError  # noqa: PLC0415
+
+    width, height = (max(1, round(side * scale)) for side in size)
+    if max_output_pixels is not None and width * height > max_output_pixels:
+        raise RenderError(f"{name}: a {shown(width)}x{shown(height)} PNG is {shown(width * height)} pixels, over "
+                          f"the limit of {max_output_pixels} (raise it with max_output_pixels)",
+                          parameter="max_output_pixels")

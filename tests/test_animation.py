@@ -251,6 +251,14 @@ def test_apng_counts_the_pixels_of_every_frame():
 def test_every_frame_draws_as_its_own_conversion_masks_and_all(name):
     """A smooth group under shapes is masked by them (svg/hiding.py); in an animation each
     frame's masks must hide what that frame's shapes hide, wherever the shapes are written."""
+    animation = Animation(blinking(name), DURATIONS, 0)
+    svg = animate(animation)
+    assert "<mask " in svg
+    assert_frames_draw_alone(svg, animation.frames)
+
+
+def assert_frames_draw_alone(svg: str, frames, **options) -> None:
+    """Each frame of the animated ``svg``, shown alone, renders (resvg) as its own conversion."""
     resvg_py = pytest.importorskip("resvg_py")
     from PIL import Image
 
@@ -258,14 +266,29 @@ def test_every_frame_draws_as_its_own_conversion_masks_and_all(name):
         png = bytes(resvg_py.svg_to_bytes(svg_string=text, width=160))
         return np.asarray(Image.open(io.BytesIO(png)).convert("RGBA")).astype(int)
 
-    animation = Animation(blinking(name), DURATIONS, 0)
-    svg = animate(animation)
-    assert "<mask " in svg
-    for number, frame in enumerate(animation.frames, 1):
+    for number, frame in enumerate(frames, 1):
         alone = re.sub(r"<animate [^>]*/>\n", "", svg)
         alone = alone.replace(' display="none"', "")
-        for other in range(1, len(animation.frames) + 1):
+        for other in range(1, len(frames) + 1):
             if other != number:
                 alone = alone.replace(f'<g id="frame-{other}"', f'<g id="frame-{other}" display="none"')
-        np.testing.assert_array_equal(draw(alone), draw(depixel.convert(frame)), err_msg=f"frame {number}")
+        np.testing.assert_array_equal(draw(alone), draw(depixel.convert(frame, **options)),
+                                      err_msg=f"frame {number}")
 
+
+def test_frames_with_and_without_masked_groups_are_one_animation():
+    """A hit flash: the orb (a smooth group masked by its highlight drawn over it: its SVG
+    declares xlink and has the masks' cover filter), the orb without the highlight (the blur
+    filter alone) and its one-colour silhouette (neither). Still frames of one size, each
+    drawing as its own conversion, whichever comes first."""
+    orb = load(FIXTURES / "orb.png")
+    dull, flash = orb.copy(), orb.copy()
+    dull[(orb == (235, 250, 245, 255)).all(axis=-1)] = (140, 170, 185, 255)
+    flash[..., :3] = np.where(orb[..., 3:] > 0, 40, 0)
+    svgs = [depixel.convert(frame) for frame in (orb, dull, flash)]
+    assert "<mask " in svgs[0] and "<mask " not in svgs[1] and 'id="smooth"' in svgs[1] and "<defs>" not in svgs[2]
+    for frames in ([orb, dull, flash], [flash, dull, orb], [dull, orb, dull]):
+        svg = animate(Animation(frames, DURATIONS, 0))
+        ET.fromstring(svg)  # xlink declared
+        assert svg.count('<filter id="cover"') == svg.count('<filter id="smooth"') == 1
+        assert_frames_draw_alone(svg, frames)

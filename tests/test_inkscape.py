@@ -294,6 +294,27 @@ def test_two_selected_images_get_unique_ids(runtime, tmp_path, depixel_program):
     assert len(ids_a) == len(ids_b) > 2 and not set(ids_a) & set(ids_b)
 
 
+def test_swatches_come_with_their_shapes_and_stay_apart(runtime, tmp_path, depixel_program):
+    # the same sprite twice with --swatches: the second's swatches are renamed, and its
+    # shapes fill from its own (an edit of one drawing's swatch recolours that drawing alone)
+    body = image("a", data_uri("heart.png"), 10, 10, 100, 100) + image("b", data_uri("heart.png"), 150, 60, 50, 50)
+    doc = write_document(tmp_path, body)
+    out = converted(runtime, doc, ["a", "b"], "--swatches=true", "--shading=flat", depixel=depixel_program)
+    assert centre_match(out, sprite("heart.png"), affine((10, 0, 0, 10, 10, 10))) >= 0.99
+    assert centre_match(out, sprite("heart.png"), affine((5, 0, 0, 5, 150, 60))) >= 0.99
+    assert_replaced(doc.read_bytes(), out, ["a", "b"])
+    root = tree(out)
+    for id_ in ("a", "b"):
+        group = by_id(root, id_)
+        swatches = {g.get("id") for g in group.iter(f"{{{SVG}}}linearGradient")
+                    if g.get("{http://www.inkscape.org/namespaces/inkscape}swatch") == "solid"}
+        used = {re.match(r"url\(#([^)]+)\)", p.get("fill")).group(1) for p in group.iter(f"{{{SVG}}}path")}
+        assert swatches and used == swatches, id_
+        assert next(group.iter(f"{{{SVG}}}filter"), None) is None  # --shading flat: no blur
+    assert not {g.get("id") for g in by_id(root, "a").iter(f"{{{SVG}}}linearGradient")} & \
+        {g.get("id") for g in by_id(root, "b").iter(f"{{{SVG}}}linearGradient")}
+
+
 def test_an_animated_bitmap_comes_as_layers_showing_its_first_frame(runtime, tmp_path, depixel_program):
     from test_animate_cli import rgba, walk_gif
 
@@ -436,6 +457,8 @@ def fake_depixel(folder: Path, fail: str = "") -> tuple[Path, Path]:
     (["--stage=cells", "--layout=cutout", "--simplify=0.5", "--pixel_size=4x3", "--backdrop=auto"],
      ["--stage", "cells", "--layout", "cutout", "--simplify", "0.5", "--pixel-size", "4x3",
       "--transparent", "auto"]),
+    (["--shading=flat", "--swatches=true"], ["--shading", "flat", "--swatches"]),
+    (["--shading=smooth", "--swatches=false"], []),
     (["--backdrop=colour", "--backdrop_colour=#5c94fc", "--pixel_size=1"],
      ["--pixel-size", "1", "--transparent", "#5c94fc"]),
     (["--backdrop_colour=#5c94fc", "--tab=program"], []),  # a colour alone removes nothing
@@ -585,3 +608,4 @@ def test_inx_describes_the_script_and_its_options():
         assert f'"--{name}"' in script, name
     assert params["stage"].find("i:option", ns).get("value") == "optimized"  # the CLI's default first
     assert "seed" not in params and float(params["simplify"].text) == DEFAULT_SIMPLIFY and params["pixel_size"].text == "auto"
+    assert params["shading"].find("i:option", ns).get("value") == "smooth" and params["swatches"].text == "false"

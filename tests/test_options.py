@@ -18,6 +18,7 @@ from depixel.files import convert as files
 from depixel.files import stamp as stamps
 from depixel.frozen import added
 from depixel.options import ConvertOptions, Limits, OutputOptions, PrepareOptions
+from depixel.prepare.gpl import Palette, PaletteEntry, PaletteMap
 from depixel.prepare.sheet_json import SheetJson
 
 MAX_PARAMETERS = 8
@@ -132,7 +133,9 @@ EXAMPLES = {"stage": "cells", "scale": 2.0, "width": 8, "height": 8, "precision"
             "transparent": (255, 255, 255), "transparent_everywhere": True, "max_pixels": 4096,
             "max_output_pixels": 65536, "max_frames": 3, "animate": True, "sheet": "16x16+1",
             "sheet_json": SheetJson("a.json", b'{"frames": {"a.png": {"frame": {"x": 0, "y": 0, "w": 2, "h": 2}}}}'),
-            "tag": "walk"}
+            "tag": "walk", "swatches": True, "palette": Palette((PaletteEntry((255, 0, 0, 255), "red"),)),
+            "palette_map": PaletteMap(Palette((PaletteEntry((255, 0, 0, 255)),)),
+                                      Palette((PaletteEntry((0, 0, 255, 255)),)))}
 #: the options an example needs beside it (a tag plays an animation)
 ALONG = {"tag": {"animate": True}}
 #: options a keyword function has no use for: an SVG renders no PNG (a sheet's sprites count as frames)
@@ -236,6 +239,12 @@ def test_a_new_option_field_is_in_the_digest_without_being_named_there(fixed_ver
     assert digest_of(WithLabel()) != default  # a plain field is digested at its default too
     assert digest_of(WithGrain()) == default  # stamps written before it stay up to date
     assert digest_of(WithGrain(grain=2)) not in (default, digest_of(WithGrain(grain=3)))
+
+
+def test_a_palette_is_digested_only_with_the_swatches_it_names(fixed_version):
+    named = Palette((PaletteEntry((255, 0, 0, 255), "red"),))
+    assert digest_of(OutputOptions(palette=named)) == digest_of(OutputOptions())
+    assert digest_of(OutputOptions(palette=named, swatches=True)) != digest_of(OutputOptions(swatches=True))
 
 
 def test_two_options_of_one_name_cannot_share_the_digest():

@@ -141,8 +141,8 @@ def test_api_width_and_height(tmp_path):
 
 @pytest.mark.parametrize("argv,fragment", [
     (["convert", "{heart}", "-o", "boo.png", "--format", "svg"], "the name says PNG but --format is SVG"),
-    (["render", "{svg}", "-o", "boo.webp"], "render writes PNG or PDF"),
-    (["render", "{svg}", "-o", "boo.svg"], "render writes PNG or PDF"),
+    (["render", "{svg}", "-o", "boo.webp"], "render writes PNG, PDF or EPS"),
+    (["render", "{svg}", "-o", "boo.svg"], "render writes PNG, PDF or EPS"),
     (["convert", "{heart}", "-o", "x.svg", "--scael", "8"], "depixel convert: error: unrecognized arguments: "
                                                           "--scael 8 (--scael: did you mean --scale?)"),
     (["convert", "{heart}", "-o", "x.svg", "--stage", "optimised"], "did you mean optimized?"),

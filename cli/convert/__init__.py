@@ -1,2 +1,3 @@
 """``depixel convert``: the command (:mod:`.command`), a batch's jobs and report (:mod:`.batch`),
-finding inputs and naming outputs (:mod:`.inputs`) and running the jobs (:mod:`.run`)."""
+finding inputs and naming outputs (:mod:`.inputs`), running the jobs (:mod:`.run`), standard
+input and output (:mod:`.stream`), sprite sheets (:mod:`.sheets`) and the palettes (:mod:`.palette`)."""

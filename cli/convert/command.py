@@ -20,6 +20,7 @@ from ..options import (
     Exit,
     add_dask_options,
     add_input_options,
+    add_palette_options,
     add_tuning,
     check_input_options,
     colour,
@@ -41,6 +42,7 @@ from .batch import (
 )
 from .dry_run import preview
 from .inputs import DEFAULT_NAME, SHEET_NAME, expand_inputs, make_folders, name_template, plan
+from .palette import export_palette
 from .prune import Pruned, prune_batch, with_pruned
 from .run import Progress, Repeats, auto_jobs, cores, run
 from .sheets import add_sheet_options, check_sheet_options
@@ -60,11 +62,13 @@ examples:
   depixel convert sheet.png --sheet auto -o sheet.svg   a sprite sheet: a layer per sprite
   depixel convert sheet.png --sheet 32x32+2 --out-dir out   a file per sprite: sheet-r0c0.svg, ...
   depixel convert hero.aseprite --tag walk --frames all --out-dir out   an Aseprite tag's frames
+  depixel convert hero.png --swatches --palette hero.gpl     every colour a named Inkscape swatch
+  depixel convert icons/ --out-dir red/ --palette-map blue.gpl:red.gpl   a whole set recoloured
 
-Convert pixel art to SVG, PNG or PDF (Kopf & Lischinski, Depixelizing Pixel Art, 2011).
+Convert pixel art to SVG, PNG, PDF or EPS (Kopf & Lischinski, Depixelizing Pixel Art, 2011).
 Upscaled pixel art is detected and converted at 1x, the SVG laid over the input (same
 width/height); JPEG noise is snapped to a palette (see the input options and docs/inputs.md).
-The format comes from the output's extension (--format for a name without .svg/.png/.pdf;
+The format comes from the output's extension (--format for a name without .svg/.png/.pdf/.eps;
 a format that contradicts the extension is refused). Without -o and --out-dir, each output
 is written beside its input (sprite.png -> sprite.svg); with --out-dir, outputs keep the
 inputs' relative folders; an output made from the same input with the same options is up
@@ -125,9 +129,9 @@ def add_parser(sub, name: str, help: str) -> None:
     out.add_argument("-o", "--output", metavar="FILE", help="output file for a single input; - writes to stdout")
     out.add_argument("--out-dir", metavar="DIR", type=Path,
                      help="folder for the outputs, at the inputs' relative places")
-    out.add_argument("--format", type=formats_option, metavar="svg|png|pdf[,...]",
+    out.add_argument("--format", type=formats_option, metavar="svg|png|pdf|eps[,...]",
                      help="output format (default: from -o's extension, else svg); must agree with a "
-                          ".svg/.png/.pdf name; several, comma-separated, write one output of each (without -o)")
+                          ".svg/.png/.pdf/.eps name; several, comma-separated, write one output of each (without -o)")
     out.add_argument("--name", type=template_option, metavar="TEMPLATE",
                      help="name of each output without -o, the format's extension added: {stem} (the "
                           "input's name without extension, the default), {suffix} (its extension without the "
@@ -145,6 +149,7 @@ def add_parser(sub, name: str, help: str) -> None:
     out.add_argument("--shading", choices=api.SHADINGS, default="smooth",
                      help="smooth (default): the paper's edge-aware smooth shading (SVG: a blur filter inside "
                           "each shaded region; PNG: the paper's renderer); flat: flat colour bands")
+    add_palette_options(out)
     out.add_argument("--frames", type=frames_option, default="first", metavar="first|all|N",
                      help="frames of an animated image: the first (default), all (name-000.svg, ...) or frame N")
     out.add_argument("--animate", action="store_true",
@@ -224,8 +229,12 @@ def run_convert(args: argparse.Namespace) -> int:
             outcomes = run([job], 1, lambda o: _report(o, Progress(0), args), signals)
     else:
         outcomes = _convert_batch(args, options)
-    seconds = time.perf_counter() - start
     interrupted = signals.signum is not None
+    if args.export_palette is not None and outcomes and not interrupted and not any(o.error for o in outcomes):
+        outcomes[0].error = export_palette(args, options.convert, options.frames)
+        if outcomes[0].error:
+            print(f"depixel: error: {outcomes[0].error}", file=sys.stderr)
+    seconds = time.perf_counter() - start
     pruned: Pruned | None = getattr(args, "pruned", None)
     if args.json:
         print_stdout(json.dumps(with_pruned(summary(outcomes, seconds, interrupted, args.dry_run), pruned,
@@ -259,6 +268,8 @@ def _check_destination(args: argparse.Namespace) -> tuple[str, ...]:
         parser.error("--dry-run looks at output files: not with - (stdin or stdout)")
     if args.prune and args.out_dir is None:
         parser.error("--prune removes the outputs in --out-dir DIR whose inputs are gone: give --out-dir DIR")
+    if args.export_palette is not None and ("-" in args.inputs or args.dry_run):
+        parser.error("--export-palette reads its input file again: not with - (stdin) or --dry-run")
     if args.out_dir is not None and args.out_dir.exists() and not args.out_dir.is_dir():
         parser.error(f"--out-dir {display_name(args.out_dir)}: is a file, not a folder")
     if args.dask is not None and args.output is not None:
@@ -277,9 +288,9 @@ def _check_destination(args: argparse.Namespace) -> tuple[str, ...]:
             formats = (files.output_format(args.output, args.format and args.format[0]),)
         except OutputError as exc:
             parser.error(str(exc).replace("the format", "--format").replace("give --format", "use --format"))
-    if args.animate and "pdf" in formats:
-        parser.error("--animate writes an SVG or a PNG (an animated PNG); a PDF cannot play frames: convert one "
-                     "with --frames N")
+    if args.animate and (page := next((f for f in formats if f in ("pdf", "eps")), None)):
+        parser.error(f"--animate writes an SVG or a PNG (an animated PNG); {'an EPS' if page == 'eps' else 'a PDF'} "
+                     "cannot play frames: convert one with --frames N")
     return formats
 
 

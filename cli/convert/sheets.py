@@ -18,6 +18,7 @@ import numpy as np
 from depixel import api
 from depixel.errors import ParameterError
 from depixel.files.convert import InputFile
+from depixel.files.palette import with_input_palette
 from depixel.options import ConvertOptions
 from depixel.prepare.animation import Animation
 from depixel.prepare.inputs import lossy_format
@@ -81,8 +82,10 @@ def check_sheet_options(args: argparse.Namespace) -> None:
 def converted(image: np.ndarray | Animation, source: InputFile, fmt: str, options: ConvertOptions,
               out: Outcome) -> bytes:
     """``-o -``: one frame of ``source`` (or the animation, with ``animate``) as ``fmt``,
-    unstamped; a sheet cut here, to say in ``out.notes`` what was found."""
+    unstamped; a sheet cut here, to say in ``out.notes`` what was found. An Aseprite input's
+    palette names the swatches (:func:`depixel.files.palette.with_input_palette`)."""
     title, lossy = None if source.path is None else source.path.name, lossy_format(source.data)
+    options = with_input_palette(options, source.data, source.name)
     noted = partial(record_prepared, out, source=source.name, target="-")
     if not options.output.is_sheet or isinstance(image, Animation):  # (the options refuse animate with a sheet)
         return api.conversions(image, {fmt: None}, options, name=source.name, title=title, lossy=lossy,

@@ -1,4 +1,4 @@
-"""File to file — an image file → an SVG, PNG or PDF file; an SVG file → PNG or PDF.
+"""File to file — an image file → an SVG, PNG, PDF or EPS file; an SVG file → PNG, PDF or EPS.
 
 :func:`convert_file` and :func:`render_file` read one file and write another atomically
 (:mod:`depixel.files.output`: never a partial file, never over their input). An input is read
@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 from .. import validate
-from ..api import FORMATS, check_animated_format, conversions, sheet_conversions
+from ..api import FORMATS, conversions, sheet_conversions
 from ..colour import Colour, as_colour
 from ..errors import InputError, OutputError, ParameterError, display_name
 from ..frozen import stamp_fields
@@ -42,13 +42,15 @@ from ..svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
 from . import output as outputs
 from . import stamp as stamps
 from .output import write_atomic
+from .palette import with_input_palette
 
 if TYPE_CHECKING:
+    from ..prepare.gpl import PaletteMapSource, PaletteSource
     from ..prepare.sheet_json import SheetJson
 
 
 def output_format(path: str | os.PathLike, fmt: str | None = None) -> str:
-    """The output format: the file extension (svg, png or pdf), or ``fmt`` for a name without
+    """The output format: the file extension (svg, png, pdf or eps), or ``fmt`` for a name without
     one of those extensions (``-``, ``/dev/stdout``, ``out.tmp``). A known extension that
     disagrees with ``fmt`` is refused: SVG text in a file named ``.png`` helps nobody."""
     suffix = Path(path).suffix.lower().lstrip(".")
@@ -60,7 +62,7 @@ def output_format(path: str | os.PathLike, fmt: str | None = None) -> str:
         return fmt
     if suffix not in FORMATS:
         raise OutputError(f"{display_name(path)}: cannot tell the output format from the extension "
-                             f"(use .svg, .png or .pdf, or give the format)", parameter="fmt")
+                             f"(use .svg, .png, .pdf or .eps, or give the format)", parameter="fmt")
     return suffix
 
 
@@ -84,8 +86,9 @@ def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: P
                  transparent: Colour | str | None = None, transparent_everywhere: bool = False,
                  on_prepared: Callable[[PreparedImage], None] | None = None,
                  max_frames: int | None = DEFAULT_MAX_FRAMES, animate: bool = False, sheet: str | None = None,
-                 sheet_json: SheetJson | str | None = None, tag: str | None = None) -> Path:
-    """Convert one image file (one frame of it) to an SVG, PNG or PDF file; returns the output path.
+                 sheet_json: SheetJson | str | None = None, tag: str | None = None, swatches: bool = False,
+                 palette: PaletteSource | None = None, palette_map: PaletteMapSource | None = None) -> Path:
+    """Convert one image file (one frame of it) to an SVG, PNG, PDF or EPS file; returns the output path.
 
     The output is written atomically and never replaces ``source``. SVG and PNG output have
     the smooth shading unless ``shading="flat"`` (:func:`depixel.api.convert_bytes`). The
@@ -99,14 +102,17 @@ def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: P
     still image is its one frame; ``frame`` must then stay 0; ``tag`` plays one tag of an
     Aseprite file as Aseprite plays it (None: every frame). ``sheet``/``sheet_json`` write
     a sprite sheet with a layer per sprite (:func:`depixel.convert`); the stamp digests the
-    JSON's content.
+    JSON's content. ``swatches``, ``palette`` and ``palette_map`` are
+    :func:`depixel.api.convert`'s (an Aseprite input's own palette names its swatches); an
+    EPS refuses semi-transparent colours unless ``background`` flattens them.
     """
     options = ConvertOptions.build(params, stage=stage, scale=scale, background=background, shading=shading,
                                    precision=precision, width=width, height=height, layout=layout, simplify=simplify,
                                    pixel_size=pixel_size, denoise=denoise, transparent=transparent,
                                    transparent_everywhere=transparent_everywhere, max_pixels=max_pixels,
                                    max_output_pixels=max_output_pixels, max_frames=max_frames, animate=animate,
-                                   sheet=sheet, sheet_json=sheet_json, tag=tag)
+                                   sheet=sheet, sheet_json=sheet_json, tag=tag, swatches=swatches, palette=palette,
+                                   palette_map=palette_map)
     target = file_target(output, options, fmt=fmt, frame=frame)
     result = convert_frames(InputFile.read(source), [target], options,
                             on_prepared=None if on_prepared is None else lambda frame, target, p: on_prepared(p))
@@ -191,7 +197,7 @@ def file_target(output: str | os.PathLike, options: ConvertOptions, *, fmt: str 
     ``frame`` (of its sprite ``sprite``, with a sheet's options) converted with ``options``."""
     fmt = output_format(output, fmt)
     frame = int(validate.number("frame", frame, low=0, integer=True))
-    check_animated_format(fmt, options)
+    options.output.check_format(fmt)
     if frame and options.output.animate:
         raise ParameterError(f"animate writes every frame into one file; frame={frame} picks one: give one of them",
                              parameter="frame")
@@ -207,8 +213,11 @@ def options_digest(options: ConvertOptions, fmt: str, frame: int, sprite: str | 
     is digested unless its metadata says when to leave it out), less what this format does
     not use."""
     output = stamp_fields(options.output)
-    if fmt == "pdf":
-        output["shading"] = None  # a PDF has the flat bands
+    if fmt != "svg":  # swatches are the SVG's; a palette only names them
+        output.pop("swatches", None)
+        output.pop("palette", None)
+    if fmt in ("pdf", "eps"):
+        output["shading"] = None  # a PDF or EPS has the flat bands
     elif fmt == "png" and options.output.shading == "smooth":  # the smooth renderer ignores the SVG's settings
         output.update(precision=None, layout=None, simplify=None)
     mine = {} if sprite is None else {"sprite": sprite}
@@ -297,6 +306,7 @@ def _converted(rgba: np.ndarray | Animation, source: InputFile, wanted: Sequence
     from it, and what was found is added to ``notes``."""
     title = None if source.path is None else source.path.name
     lossy = lossy_format(source.data)
+    options = with_input_palette(options, source.data, source.name)
     if not options.output.is_sheet or isinstance(rgba, Animation):  # (the options refuse animate with a sheet)
         by_tag: dict[tuple[str | None, str], bytes] = {}
         for tag in dict.fromkeys(target.tag for target in wanted):  # an animation's tags, each played apart
@@ -358,14 +368,14 @@ def render_file(source: str | os.PathLike, output: str | os.PathLike, *, fmt: st
                 scale: float | None = None, width: int | None = None, height: int | None = None,
                 background: Colour | str | None = None,
                 max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS) -> Path:
-    """Render an SVG file to PNG or PDF (``scale`` × its size, or ``width``/``height`` pixels).
+    """Render an SVG file to PNG, PDF or EPS (``scale`` × its size, or ``width``/``height`` pixels).
 
     A PNG of more than ``max_output_pixels`` pixels is refused before it is allocated."""
     from ..render.raster import render  # noqa: PLC0415
 
     fmt = output_format(output, fmt)
     if fmt == "svg":
-        raise OutputError(f"{display_name(output)}: render writes PNG or PDF, not SVG", parameter="fmt")
+        raise OutputError(f"{display_name(output)}: render writes PNG, PDF or EPS, not SVG", parameter="fmt")
     colour = as_colour(background)
     svg = read_input(source)
     data = render(svg, fmt, scale=scale, size=(width, height), background=colour,

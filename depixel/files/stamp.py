@@ -1,7 +1,9 @@
 """The stamp: what made an output file, and whether it is still as depixel wrote it.
 
 Written inside the file itself (no sidecar file): an XML comment after the SVG's
-declaration, a PNG ``tEXt`` chunk before ``IEND``, the PDF's keywords. Its text is one line,
+declaration, a PNG ``tEXt`` chunk before ``IEND``, the PDF's keywords, a PostScript comment
+after an EPS's header comments (``%%EndComments``: the header stays whole for DSC readers).
+Its text is one line,
 
     depixel-options:OPTIONS;input=SIZE,MTIME_NS,INPUT;body=BODY
 
@@ -128,6 +130,10 @@ def _insert(blob: bytes, fmt: str, line: bytes) -> bytes:
         body = b"tEXt" + KEY.encode("ascii") + b"\0" + line
         chunk = struct.pack(">I", len(body) - 4) + body + struct.pack(">I", zlib.crc32(body))
         return blob[:-12] + chunk + blob[-12:]  # before IEND, the last chunk (12 bytes)
+    if fmt == "eps":
+        end = blob.find(b"%%EndComments\n")
+        end = end + len(b"%%EndComments\n") if end >= 0 else 0
+        return blob[:end] + b"%" + line + b"\n" + blob[end:]
     return blob
 
 

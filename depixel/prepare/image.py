@@ -7,7 +7,7 @@ from __future__ import annotations
 import os
 import stat
 from collections.abc import Iterator
-from typing import BinaryIO
+from typing import TYPE_CHECKING, Any, BinaryIO, TypeAlias
 
 import numpy as np
 
@@ -26,6 +26,12 @@ from . import apng, gif
 from .pillow import bomb_error, is_bomb, mute_stderr_fd, open_image, quiet_pillow, to_rgba
 
 ImageSource = str | os.PathLike | bytes | bytearray | memoryview | BinaryIO
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+    from PIL.Image import Image as PILImage
+#: pixels as the API takes them: an array (``(H, W)``, ``(H, W, 2|3|4)``; :func:`as_rgba`) or a PIL image
+Pixels: TypeAlias = "ArrayLike | PILImage"
 
 def _describe(source: ImageSource, name: str | None = None) -> str:
     if name is not None:
@@ -260,7 +266,7 @@ def check_indexable(name: str, width: int, height: int) -> None:
                          f"{MAX_INDEXED_PIXELS} that depixel's 32-bit indices can address")
 
 
-def as_rgba(image) -> np.ndarray:
+def as_rgba(image: Any) -> np.ndarray:
     """Accept a numpy array or a PIL image; return ``(H, W, 4) uint8`` RGBA.
 
     Arrays are ``(H, W)`` grey, ``(H, W, 2)`` grey + alpha, ``(H, W, 3)`` RGB or
@@ -307,7 +313,7 @@ def as_rgba(image) -> np.ndarray:
     return np.ascontiguousarray(arr)
 
 
-def image_array(image) -> np.ndarray:
+def image_array(image: object) -> np.ndarray:
     """``np.asarray(image)``, with an :class:`InputError` for what is no array of numbers (a
     ragged nested list, where numpy raises a bare ValueError)."""
     try:

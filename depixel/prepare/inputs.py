@@ -42,7 +42,7 @@ from ..colour import Colour, as_colour, parse_colour
 from ..errors import ParameterError
 from ..frozen import added, compact_repr
 from .backdrop import Backdrop, hex_code, make_transparent, over_colour
-from .image import as_rgba
+from .image import Pixels, as_rgba
 from .noisy import noise_hint
 from .palette import LEFTOVER_BLOCK, distinct_colours, snap_colours
 from .pixelgrid import AUTO, MAX_FACTOR, block_medians, find_grid, reduce_blocks
@@ -168,7 +168,7 @@ class PreparedImage:
         }
 
 
-def prepare(image, options: PrepareOptions | None = None, *, lossy: str | None = None,
+def prepare(image: Pixels, options: PrepareOptions | None = None, *, lossy: str | None = None,
             **changes) -> PreparedImage:
     """Turn an image as given into the 1× pixel art to convert.
 

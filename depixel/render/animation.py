@@ -49,7 +49,7 @@ def animated(animation: Animation, formats: Mapping[str, str | None], options: C
     ``max_pixels``, and for a PNG the renders' in all against ``max_output_pixels``, first."""
     from PIL import Image  # noqa: PLC0415
 
-    from ..svg.animation import compose  # noqa: PLC0415
+    from ..svg.animation import compose, svg_size  # noqa: PLC0415
 
     n, limits = len(animation.frames), options.limits
     height, width = animation.frames[0].shape[:2]
@@ -64,7 +64,8 @@ def animated(animation: Animation, formats: Mapping[str, str | None], options: C
             made[key] = convert_frame(frame, dict.fromkeys(formats))
     drawn = [made[frame.tobytes()] for frame in animation.frames]
     blobs = {}
-    grids = {d["svg"].partition(b"<svg")[2].partition(b">")[0] for d in drawn} if "svg" in formats else ()
+    grids = {svg_size(d["svg"].partition(b"<svg")[2].partition(b">")[0].decode()) for d in drawn} \
+        if "svg" in formats else ()
     if len(grids) > 1:  # each frame is prepared alone: an upscaled grid found in some frames only
         raise InputError(f"{name}: its frames were found to be pixel art of different sizes (upscaled in some, "
                          "not in others); give the grid of all with pixel_size", parameter="pixel_size")

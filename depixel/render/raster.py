@@ -22,8 +22,8 @@ from ..limits import DEFAULT_MAX_OUTPUT_PIXELS, MAX_FILE_BYTES, PDF_PAGE_POINTS
 from .images import decoding
 from .references import check_references
 
-#: Formats :func:`render` writes.
-RASTER_FORMATS = ("png", "pdf")
+#: Formats :func:`render` writes (EPS: Encapsulated PostScript 3.0, vector like the PDF).
+RASTER_FORMATS = ("png", "pdf", "eps")
 
 
 def cairosvg_version() -> str | None:
@@ -108,7 +108,7 @@ def render(svg: str | bytes, fmt: str = "png", *, scale: float | None = None,
     cairosvg = _cairosvg()
     data = svg_document(svg, name)
     colour = "#{:02x}{:02x}{:02x}".format(*background) if background is not None else None
-    surface_class = _png_surface(cairosvg) if fmt == "png" else _pdf_surface(cairosvg)
+    surface_class = _png_surface(cairosvg) if fmt == "png" else _page_surface(cairosvg, fmt)
     try:
         tree = cairosvg.parser.Tree(bytestring=data)
         check_finite(tree.xml_tree, name)
@@ -124,7 +124,8 @@ def render(svg: str | bytes, fmt: str = "png", *, scale: float | None = None,
                 if keywords:
                     surface.cairo.set_metadata(cairocffi.PDF_METADATA_KEYWORDS, keywords)
             surface.finish()
-            return _read_all(fd)
+            data = _read_all(fd)
+            return _dated_eps(data) if fmt == "eps" else data
     except RenderError:
         raise
     except _TooLarge as exc:
@@ -134,7 +135,7 @@ def render(svg: str | bytes, fmt: str = "png", *, scale: float | None = None,
                           "(raise it with max_output_pixels)", parameter="max_output_pixels") from None
     except _PageSize as exc:
         parameter = "width" if width is not None else "height" if height is not None else "scale"
-        validate.page_size("pdf", exc.width / 0.75, exc.height / 0.75, name, parameter, RenderError)
+        validate.page_size(fmt, exc.width / 0.75, exc.height / 0.75, name, parameter, RenderError)
         raise  # (page_size refuses what _PageSize refused)
     except MemoryError:
         raise RenderError(f"{name}: not enough memory to render it") from None
@@ -180,16 +181,17 @@ class _PageSize(Exception):
         self.width, self.height = width, height
 
 
-_PDF_SURFACE = None
+_PAGE_SURFACES: dict[str, type] = {}
 
 
-def _pdf_surface(cairosvg):
-    """cairosvg's PDF surface, refusing a page outside the PDF format's range before cairo
-    makes it (``limits.PDF_PAGE_POINTS``: cairo would write a page no reader shows, or drop
-    the drawing's operators)."""
-    global _PDF_SURFACE
-    if _PDF_SURFACE is None:
-        class CheckedPDFSurface(cairosvg.surface.PDFSurface):
+def _page_surface(cairosvg, fmt: str):
+    """cairosvg's PDF or EPS surface, refusing a page outside the PDF format's range before
+    cairo makes it (``limits.PDF_PAGE_POINTS``: cairo would write a page no reader shows, or
+    drop the drawing's operators)."""
+    if fmt not in _PAGE_SURFACES:
+        base = cairosvg.surface.PDFSurface if fmt == "pdf" else cairosvg.surface.EPSSurface
+
+        class CheckedSurface(base):  # type: ignore[misc,valid-type]
             def __init__(self, *args, max_pixels: int | None = None, name: str = "<svg>", **kwargs) -> None:
                 self._max_pixels, self._name = max_pixels, name  # the embedded pictures' budget
                 super().__init__(*args, **kwargs)
@@ -201,8 +203,17 @@ def _pdf_surface(cairosvg):
                 decoding(self, self._name, self._max_pixels)
                 return super()._create_surface(width, height)
 
-        _PDF_SURFACE = CheckedPDFSurface
-    return _PDF_SURFACE
+        _PAGE_SURFACES[fmt] = CheckedSurface
+    return _PAGE_SURFACES[fmt]
+
+
+def _dated_eps(data: bytes) -> bytes:
+    """An EPS with the creation date of :func:`reproducible_date` instead of the clock's
+    (cairo writes the time of the render), so the same drawing gives the same bytes."""
+    head, found, tail = data.partition(b"\n%%CreationDate: ")
+    if not found:
+        return data
+    return head + found + reproducible_date().encode("ascii") + tail[tail.find(b"\n"):]
 
 
 class _TooLarge(Exception):

@@ -44,7 +44,7 @@ MAX_OUTPUT_PIXELS = 1 << 28  # not in paper: the RGBA result alone is 1 GiB at t
 
 
 def render_smooth(image: VectorImage, scale: float, supersample: int | None = None,
-                  params: Params = Params()) -> np.ndarray:
+                  params: Params = Params(), colours: np.ndarray | None = None) -> np.ndarray:
     """Render a VectorImage with the paper's smooth shading.
 
     Parameters
@@ -55,6 +55,9 @@ def render_smooth(image: VectorImage, scale: float, supersample: int | None = No
         (odd values put a sample at the pixel centre); default ``params.shading_supersample``.
     params : the Gaussian's ``shading_sigma`` and ``shading_radius``, and the similarity
         thresholds that bound the shading.
+    colours : ``(H, W, 4) uint8`` the cells' colours, default the image's own: a palette swap
+        (:class:`depixel.prepare.gpl.PaletteMap`) paints the same cells and regions, those
+        of the art's own colours, in other colours.
 
     Returns
     -------
@@ -72,7 +75,7 @@ def render_smooth(image: VectorImage, scale: float, supersample: int | None = No
     if out_h * out_w > MAX_OUTPUT_PIXELS:
         raise RenderError(f"a {out_w}×{out_h} render is too large (at most {MAX_OUTPUT_PIXELS} pixels)")
     pieces = _flatten(image, _pieces_per_curve(image, FLATTEN_TOLERANCE / max(out_h / h, out_w / w)))
-    field = _ShadingField(image, pieces, params)
+    field = _ShadingField(image, pieces, params, colours)
     segments = _Segments(image, pieces)
     rows_per_tile = max(1, TILE_SAMPLES // (out_w * supersample * supersample))
     out = np.empty((out_h, out_w, 4), np.uint8)
@@ -201,12 +204,12 @@ def _cell_labels(seg: _Segments, k0: int, k1: int, fy: float, fx: float, width: 
 class _ShadingField:
     """The colour field: per-cell centroids, colours and regions, evaluated at points."""
 
-    def __init__(self, image: VectorImage, pieces: Pieces, params: Params):
+    def __init__(self, image: VectorImage, pieces: Pieces, params: Params, colours: np.ndarray | None = None):
         h, w = image.shape
         self.shape = (h, w)
         self.centroid = cell_centroids(image, pieces)
         self.region = shading_regions(image)
-        rgba = image.rgba.reshape(-1, 4).astype(np.float64)
+        rgba = (image.rgba if colours is None else colours).reshape(-1, 4).astype(np.float64)
         alpha = rgba[:, 3:] / 255.0
         self.premultiplied = np.concatenate([rgba[:, :3] * alpha, alpha], axis=1)
         self.rgba = rgba

@@ -21,7 +21,9 @@ SVG. Ids get the prefix of the frame they come from (``f2-outline-181425``), so 
 unique; the shared filters keep their ids. A smooth group's mask (what the shapes above it
 hide, :mod:`depixel.svg.hiding`) is named by what it holds, the shapes its ``<use>`` draw
 (known by their text, as shared shapes are), so frames whose groups are hidden alike share one
-mask, and it points to wherever those shapes are written.
+mask, and it points to wherever those shapes are written. With ``--swatches`` every frame's
+swatches are written once (:class:`~depixel.svg.swatches.SharedSwatches`; the frames are
+named from the colours of all, so their shapes stay the same text).
 """
 from __future__ import annotations
 
@@ -30,6 +32,7 @@ import re
 from collections.abc import Collection, Iterator, Sequence
 
 from .svgtext import number
+from .swatches import SharedSwatches
 
 XLINK_NS = "http://www.w3.org/1999/xlink"
 _ID = re.compile(r' id="([^"]*)"')
@@ -106,18 +109,18 @@ def compose(svgs: Sequence[str], durations: Sequence[float], plays: int = 0) -> 
     animation stays on its last frame. The SVGs must be of one size (the same ``<svg>`` tag)."""
     if not svgs or len(svgs) != len(durations):
         raise ValueError(f"{len(svgs)} frame SVGs for {len(durations)} durations")
+    swatches = SharedSwatches()  # (--swatches: one set for every frame)
+    svgs = [swatches.take(svg) for svg in svgs]
     masks: dict[str, str] = {}  # a mask's content, its shapes by token → its id
     tokens: dict[str, str] = {}  # a shape's key → the token masks draw it by
     frame_keys: list[dict[str, str]] = []  # per frame: a shape's id → its key
     frames = [_named_masks(split_svg(svg), masks, tokens, frame_keys) for svg in svgs]
     head = frames[0].head
-    if any(f.head != head for f in frames):
+    if any(svg_size(f.head) != svg_size(head) for f in frames):
         raise ValueError("the frames' SVGs differ in size")
-    filters = {f.defs for f in frames if f.defs}
-    if len(filters) > 1:
-        raise ValueError("the frames' SVGs have different filters")
+    filters = _shared_defs([f.defs for f in frames])
     items, relabelled = frame_items([f.nodes for f in frames])
-    defs = list(filters)
+    defs = [*swatches.lines, *filters]
     bodies: list[list[str]] = [[] for _ in frames]
     written: dict[tuple[str, ...], tuple[str, str]] = {}  # a shared block → the id its uses point to, its label
     blocks = shared_blocks([[key for key, _ in frame] for frame in items], relabelled)
@@ -152,7 +155,8 @@ def compose(svgs: Sequence[str], durations: Sequence[float], plays: int = 0) -> 
                 token = tokens.get(frame_keys[int(found.group(1)) - 1].get(found.group(2), ""))
                 if token is not None:  # (a shape some mask draws)
                     written_as.setdefault(token, f"f{found.group(1)}-{found.group(2)}")
-        defs[len(filters):len(filters)] = [
+        at = len(swatches.lines) + len(filters)
+        defs[at:at] = [
             _HREF.sub(lambda m: f'xlink:href="#{written_as[m.group(1)]}"',
                       content.replace("<mask ", f'<mask id="{ident}" ', 1)) for content, ident in masks.items()]
     if defs:
@@ -164,6 +168,24 @@ def compose(svgs: Sequence[str], durations: Sequence[float], plays: int = 0) -> 
                   switches[index], *body, "</g>\n"]
     parts.append("</svg>\n")
     return "".join(parts)
+
+
+def svg_size(head: str) -> str:
+    """An ``<svg>`` tag without its namespace declarations: its size and viewBox (a frame whose
+    smooth groups are masked declares xlink, another does not)."""
+    return re.sub(r' xmlns(?::\w+)?="[^"]*"', "", head)
+
+
+def _shared_defs(frames: Sequence[str]) -> list[str]:
+    """The ``<defs>`` lines of every frame (filters: the smooth shading's, the masks' cover),
+    each once, in the order they first come; one id for two different lines is refused."""
+    lines: dict[str, None] = {}
+    for defs in frames:
+        lines.update(dict.fromkeys(defs.splitlines(keepends=True)))
+    ids = [found.group(1) for line in lines if (found := _ID.search(line))]
+    if len(ids) != len(set(ids)):
+        raise ValueError("the frames' SVGs have different filters")
+    return list(lines)
 
 
 def _named_masks(frame: FrameSvg, masks: dict[str, str], tokens: dict[str, str],

@@ -9,7 +9,9 @@ an upscaled input: :mod:`depixel.render.overlay`) is mapped onto its rectangle b
 after the translation. The documents' ``id``\\ s (the writer's ``outline-181425``,
 ``region-3-5``, the smooth shading's ``smooth`` filter…) would collide across documents: each
 layer's ids, and every ``url(#…)`` and ``href="#…"`` that points at them, get the layer's own
-prefix. The documents' titles are dropped (the layer's label names it) and so is what comes
+prefix; the swatches (``--swatches``) are the file's, one set in its ``<defs>`` that every
+layer fills from (:class:`~depixel.svg.swatches.SharedSwatches`), so editing one recolours
+that colour in every sprite. The documents' titles are dropped (the layer's label names it) and so is what comes
 before the ``<svg>`` element (the XML declaration, a stamp comment).
 
 This is how a sheet's frames could be put in one animated SVG too: the same per-document
@@ -20,14 +22,16 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import partial
 
 from .svgtext import number
+from .swatches import SharedSwatches
 from .writer import INKSCAPE_NS, SVG_HEADER, XLINK, _escape
 
 _SVG_OPEN = re.compile(r"<svg\b[^>]*>")
 _VIEWBOX = re.compile(r"""\sviewBox\s*=\s*["']([^"']*)["']""")
 _TITLE = re.compile(r"<title>.*?</title>\n?", re.S)
-_REFERENCES = re.compile(r"""(\sid=")|(url\(#)|(href="#)""")
+_REFERENCES = re.compile(r"""(\sid=")|(url\(#)([^)"]*)|(href="#)""")
 
 
 @dataclass(frozen=True)
@@ -69,9 +73,13 @@ def compose_layers(layers: Sequence[Placed], width: int, height: int, *, scale: 
             f'width="{number(width * scale, 3)}" height="{number(height * scale, 3)}" '
             f'viewBox="0 0 {width} {height}">\n')
     parts = [head + (f"<title>{_escape(title)}</title>\n" if title else "")]
-    for layer, ident in zip(layers, layer_ids([layer.name for layer in layers])):
-        content, box = _content(layer.svg, layer.name)
-        content = _REFERENCES.sub(r"\g<0>" + ident + "-", content)  # (ident: letters, digits, - and _)
+    swatches = SharedSwatches()  # (--swatches: one set for every layer, not prefixed)
+    svgs = [swatches.take(layer.svg) for layer in layers]
+    if swatches.lines:
+        parts.append(f"<defs>\n{''.join(swatches.lines)}</defs>\n")
+    for layer, svg, ident in zip(layers, svgs, layer_ids([layer.name for layer in layers])):
+        content, box = _content(svg, layer.name)
+        content = _REFERENCES.sub(partial(_prefixed, ident, swatches.ids), content)
         transform = f"translate({number(layer.x, precision)},{number(layer.y, precision)})"
         if box != (0.0, 0.0, layer.width, layer.height):
             sx, sy = layer.width / box[2], layer.height / box[3]
@@ -82,6 +90,15 @@ def compose_layers(layers: Sequence[Placed], width: int, height: int, *, scale: 
                      f'transform="{transform}">\n{content}</g>\n')
     parts.append("</svg>\n")
     return "".join(parts)
+
+
+def _prefixed(ident: str, shared: set[str], found: re.Match[str]) -> str:
+    """A reference or id of a layer's document with the layer's prefix (``ident``: letters,
+    digits, ``-`` and ``_``), but a url to a shared swatch."""
+    if found.group(2) is None:
+        return f"{found.group(0)}{ident}-"
+    target = found.group(3)
+    return f"url(#{target}" if target in shared else f"url(#{ident}-{target}"
 
 
 def _content(svg: str, name: str) -> tuple[str, tuple[float, float, float, float]]:

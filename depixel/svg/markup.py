@@ -32,6 +32,7 @@ from .hiding import cover_filter, covering_shapes, mask
 from .outlines import Outlines, OutlineShapes
 from .stacking import ROLES
 from .svgtext import number
+from .swatches import Swatches
 
 #: the id of the smooth shading's filter
 FILTER_ID = "smooth"
@@ -41,9 +42,12 @@ class Labels:
     """What the elements of all shapes say besides their paths: each shape's ``id``
     (``role-rrggbb``, with ``-2``, ``-3``… where that repeats), its run of shapes of one
     region (a ``<g>`` when the run has several), and with ``smooth`` the smooth groups of
-    ``shapes`` (an :class:`~depixel.svg.outlines.OutlineShapes`; outlines alone have none)."""
+    ``shapes`` (an :class:`~depixel.svg.outlines.OutlineShapes`; outlines alone have none);
+    the shapes are filled with ``swatches`` (:mod:`depixel.svg.swatches`) when given."""
 
-    def __init__(self, shapes: Outlines | OutlineShapes, smooth: bool = False) -> None:
+    def __init__(self, shapes: Outlines | OutlineShapes, smooth: bool = False,
+                 swatches: Swatches | None = None) -> None:
+        self.swatches = swatches
         region = shapes.region
         self.run_start = np.concatenate(([True], region[1:] != region[:-1]))
         self.run_end = np.empty_like(self.run_start)  # the last shape of its run
@@ -60,6 +64,15 @@ class Labels:
         self.role, self.rgba = shapes.role, shapes.rgba
         group = getattr(shapes, "group", None)
         self.smooth = Smooth(shapes, self, group if smooth and group is not None else np.full(len(shapes), -1))
+
+    def fills(self, rgba: np.ndarray) -> list[str]:
+        """The fill attributes of shapes of colours ``(S, 4) uint8``: ``fill="#rrggbb"`` and
+        ``fill-opacity`` when not opaque, or the swatch (which holds the opacity)."""
+        if self.swatches is not None:
+            return self.swatches.fills(rgba)
+        colours = rgba[:, :3].tobytes().hex(" ", 3).split()  # "rrggbb" each
+        return [f' fill="#{colour}"' + ("" if alpha == 255 else f' fill-opacity="{number(alpha / 255.0, 3)}"')
+                for colour, alpha in zip(colours, rgba[:, 3].tolist())]
 
     def idents(self, first: int, stop: int) -> list[str]:
         """The ``id`` of shapes ``first:stop``."""
@@ -129,9 +142,9 @@ def elements(outlines: Outlines, first: int, labels: Labels, data: list[str]) ->
     closes = (grouped & labels.run_end[first:stop]).tolist()
     colours = outlines.rgba[:, :3].tobytes().hex(" ", 3).split()  # "rrggbb" each
     lines = []
-    for i, (role, colour, alpha, ident, d) in enumerate(zip(outlines.role.tolist(), colours,
-                                                            outlines.rgba[:, 3].tolist(), labels.idents(first, stop),
-                                                            data)):
+    for i, (role, colour, fill, ident, d) in enumerate(zip(outlines.role.tolist(), colours,
+                                                           labels.fills(outlines.rgba), labels.idents(first, stop),
+                                                           data)):
         s = first + i
         if opens[i]:
             run = int(labels.run_id[s])
@@ -139,9 +152,7 @@ def elements(outlines: Outlines, first: int, labels: Labels, data: list[str]) ->
                          f'inkscape:label="shading #{colour} ({int(labels.run_size[run])} tones)">\n')
         if s in smooth.opens:
             lines.append(smooth.opens[s])
-        name = ROLES[role]
-        opacity = "" if alpha == 255 else f' fill-opacity="{number(alpha / 255.0, 3)}"'
-        lines.append(f'<path id="{ident}" inkscape:label="{name} #{colour}" fill="#{colour}"{opacity} d="{d}"/>\n')
+        lines.append(f'<path id="{ident}" inkscape:label="{ROLES[role]} #{colour}"{fill} d="{d}"/>\n')
         if s in smooth.closes:
             lines.append(smooth.closes[s])
         if closes[i]:

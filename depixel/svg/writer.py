@@ -31,6 +31,7 @@ from .boundaries import CUBIC, LINE, QUAD
 from .markup import Labels, elements
 from .outlines import Outlines, OutlineShapes, outline_shapes
 from .svgtext import Decimals, Texts, number, stack
+from .swatches import Style, Swatches, picture_colours
 
 SVG_HEADER = '<?xml version="1.0" encoding="UTF-8"?>\n'
 #: default tolerance of the simplification (pixels), like potrace's opttolerance 0.2: fewer,
@@ -81,27 +82,35 @@ def _escape(text: str) -> str:
 
 def to_svg(image: VectorImage, scale: float = 1.0, precision: int = DEFAULT_PRECISION, title: str | None = None,
            layout: str = "stacked", simplify: float = DEFAULT_SIMPLIFY, shading: str = "smooth",
-           sigma: float = DEFAULT_SIGMA) -> str:
+           style: Style = Style()) -> str:
     """Write a VectorImage as SVG text; ``scale`` sets width/height, the viewBox stays W×H.
 
     ``layout`` and ``simplify`` are those of :func:`depixel.svg.outlines.build_outlines`.
     ``shading="smooth"`` blends the bands of every smooth group with a Gaussian of standard
-    deviation ``sigma`` pixels inside the group's outline (paper §3.5, docs/svg.md);
-    ``"flat"`` draws the bands alone (the same shapes and path data). The outlines are
-    built and written a batch of shapes at a time, so those of the whole image are never
-    held at once."""
+    deviation ``style.sigma`` pixels (default :data:`DEFAULT_SIGMA`) inside the group's
+    outline (paper §3.5, docs/svg.md); ``"flat"`` draws the bands alone (the same shapes and
+    path data). ``style`` also swaps the fills' colours and makes them swatches
+    (:mod:`depixel.svg.swatches`). The outlines are built and written a batch of shapes at a
+    time, so those of the whole image are never held at once."""
     validate.choice("shading", shading, SHADINGS)
-    validate.positive("sigma", sigma)
+    sigma = validate.positive("sigma", DEFAULT_SIGMA if style.sigma is None else style.sigma)
     shapes = outline_shapes(image, layout, grid=10.0**-precision, simplify=simplify)
-    return _document(shapes, scale, precision, title, sigma if shading == "smooth" else None)
+    swatches = None
+    if style.palette_map is not None:  # the outlines are the art's own colours'; the fills are swapped
+        shapes.rgba = style.palette_map.apply(shapes.rgba)
+    if style.swatches:
+        swatches = Swatches(picture_colours(image.rgba, style.names, style.palette_map), style.names)
+    return _document(shapes, scale, precision, title, sigma if shading == "smooth" else None, swatches)
 
 
-def _document(shapes: OutlineShapes, scale: float, precision: int, title: str | None, sigma: float | None) -> str:
+def _document(shapes: OutlineShapes, scale: float, precision: int, title: str | None, sigma: float | None,
+              swatches: Swatches | None = None) -> str:
     """The SVG document of ``shapes``, their outlines built a batch of consecutive shapes at a time,
-    with the smooth shading of a Gaussian of ``sigma`` pixels (None: flat)."""
+    with the smooth shading of a Gaussian of ``sigma`` pixels (None: flat), filled with
+    ``swatches`` (None: plain colours)."""
     h, w = shapes.shape
     width, height = number(w * scale, 3), number(h * scale, 3)
-    labels = Labels(shapes, smooth=sigma is not None)
+    labels = Labels(shapes, smooth=sigma is not None, swatches=swatches)
     head = (
         f'{SVG_HEADER}<svg xmlns="{"http://www.w3.org/2000/svg"}" xmlns:inkscape="{INKSCAPE_NS}"'
         f'{XLINK if sigma is not None and labels.smooth.masks else ""} version="1.1" '
@@ -109,13 +118,23 @@ def _document(shapes: OutlineShapes, scale: float, precision: int, title: str | 
     )
     if title:
         head += f"<title>{_escape(title)}</title>\n"
-    parts = [head, labels.smooth.defs(sigma) if sigma is not None else ""]
+    parts = [head, _defs(swatches.defs() if swatches is not None else "",
+                         labels.smooth.defs(sigma) if sigma is not None else "")]
     first = 0
     for batch in shapes.batches():
         parts.append(elements(batch, first, labels, path_data(batch, precision)))
         first += len(batch)
     parts.append("</svg>\n")
     return "".join(parts)
+
+
+def _defs(swatches: str, smooth: str) -> str:
+    """One ``<defs>`` of the swatches' gradients and the smooth shading's ``<defs>`` (its
+    own element, or nothing)."""
+    if not swatches:
+        return smooth
+    inner = smooth.removeprefix("<defs>\n").removesuffix("</defs>\n")
+    return f"<defs>\n{swatches}{inner}</defs>\n"
 
 
 #: shapes are formatted in batches of about this many segments, to bound temporary memory

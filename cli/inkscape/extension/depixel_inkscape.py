@@ -56,6 +56,8 @@ FLAGS = (
     # (option, flag, CLI default, dialog field)
     ("stage", "--stage", "optimized", "Result"),
     ("layout", "--layout", "stacked", "Shapes"),
+    ("shading", "--shading", "smooth", "Shading"),
+    ("swatches", "--swatches", False, "Colours as swatches"),  # a switch: the flag alone
     ("simplify", "--simplify", 0.25, "Simplify"),
     ("pixel_size", "--pixel-size", "auto", "Pixel size"),
     ("transparent", "--transparent", "", "Backdrop"),
@@ -76,6 +78,8 @@ class DepixelizeEffect(inkex.EffectExtension):
         pars.add_argument("--tab", default="options", help="dialog page (ignored)")
         pars.add_argument("--stage", default="optimized", choices=("cells", "splines", "optimized"))
         pars.add_argument("--layout", default="stacked", choices=("stacked", "cutout"))
+        pars.add_argument("--shading", default="smooth", choices=("smooth", "flat"))
+        pars.add_argument("--swatches", type=inkex.Boolean, default=False, help="every colour an Inkscape swatch")
         pars.add_argument("--simplify", type=float, default=0.25, help="tolerance in pixels, 0 = the exact spline")
         pars.add_argument("--pixel_size", default="auto", help="auto, 1 (as is), N or NxM")
         pars.add_argument("--backdrop", default="keep", choices=("keep", "auto", "colour"))
@@ -213,6 +217,8 @@ def convert_flags(options) -> list[str]:
     values = {
         "stage": options.stage,
         "layout": options.layout,
+        "shading": options.shading,
+        "swatches": bool(options.swatches),
         "simplify": options.simplify,
         "pixel_size": options.pixel_size.strip().lower() or "auto",
         "transparent": {"keep": "", "auto": "auto", "colour": options.backdrop_colour.strip()}[options.backdrop],
