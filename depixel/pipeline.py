@@ -8,8 +8,10 @@ calls them in order, stops at the requested stage and times each one.
 from __future__ import annotations
 
 import time
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple, cast
 
 from .frozen import compact_repr
 from .graph.cells import CellGraph, build_cell_graph
@@ -21,6 +23,7 @@ from .vector import VectorImage, straight_image
 
 if TYPE_CHECKING:  # the spline stages are imported only when a run reaches them
     from .curves.splines import SplineSet
+    from .optimize.corners import Corners
     from .optimize.stage import OptimizedSplines
 
 #: Output stages, in pipeline order. "optimized" is the paper's final result.
@@ -50,11 +53,80 @@ def depixelize(image, params: Params = Params(), stage: str = "optimized") -> Re
     """Run the pipeline on an RGBA image (array or PIL image) up to ``stage``."""
     if stage not in STAGES:
         raise ValueError(f"unknown stage {stage!r}; choose one of {', '.join(STAGES)}")
+    rgba = as_rgba(image)
+    if _AHEAD and (done := _AHEAD.pop((rgba.shape, rgba.tobytes(), params, stage), None)) is not None:
+        return done
+    return _optimized([_to_corners(rgba, params, stage)], params)[0]
+
+
+def depixelize_many(images: Sequence, params: Params = Params(), stage: str = "optimized") -> list[Result | Exception]:
+    """:func:`depixelize` of each image, the optimization's relaxation of them all in one pass
+    (:mod:`depixel.optimize.pack`: a round's numpy calls paid once for all; the results are
+    those of one image at a time, to the last bit). An image that fails gives its exception
+    in its place (the others are converted): the stages before the relaxation run per image,
+    and if the pass fails, each image is optimized alone."""
+    if stage not in STAGES:
+        raise ValueError(f"unknown stage {stage!r}; choose one of {', '.join(STAGES)}")
+    out: list[Result | _Begun | Exception] = []
+    for image in images:
+        try:
+            out.append(_to_corners(as_rgba(image), params, stage))
+        except Exception as exc:  # this image's own failure: reported in its place
+            out.append(exc)
+    began = [i for i, item in enumerate(out) if isinstance(item, _Begun)]
+    try:
+        done: list[Result | Exception] = list(_optimized([cast(_Begun, out[i]) for i in began], params))
+    except Exception:  # one of them (or the pass itself) failed: each alone, to find which
+        done = []
+        for i in began:
+            try:
+                done.append(_optimized([cast(_Begun, out[i])], params)[0])
+            except Exception as exc:
+                done.append(exc)
+    for i, result in zip(began, done):
+        out[i] = result
+    return cast("list[Result | Exception]", out)
+
+
+@contextmanager
+def ahead(images: Sequence, params: Params = Params(), stage: str = "optimized") -> Iterator[None]:
+    """Within the block, :func:`depixelize` of one of ``images`` (the same pixels, params and
+    stage) returns its result computed ahead by :func:`depixelize_many`, once (a batch's files
+    are converted each by its own code, after their pipelines ran in one pass); an image that
+    failed is converted when asked, as without this block. The results not taken are dropped
+    at the end of the block."""
+    for image, result in zip(images, depixelize_many(images, params, stage)):
+        if isinstance(result, Result):
+            rgba = as_rgba(image)
+            _AHEAD[(rgba.shape, rgba.tobytes(), params, stage)] = result
+    try:
+        yield
+    finally:
+        _AHEAD.clear()
+
+
+#: results computed ahead (:func:`ahead`), by (shape, pixels, params, stage)
+_AHEAD: dict[tuple, Result] = {}
+
+
+class _Begun(NamedTuple):
+    """An image's run up to its relaxation: its :class:`Result` when ``stage`` stops before the
+    optimization, else the products so far."""
+
+    result: Result | None
+    products: tuple[SimilarityGraph, CrossingResolution, CellGraph, SplineSet] | None = None
+    timings: dict[str, float] | None = None
+    curves: SplineSet | None = None  # cut at the corners
+    corners: Corners | None = None
+
+
+def _to_corners(rgba, params: Params, stage: str) -> _Begun:
+    """The stages up to the corners (the curves cut there), or the whole run of an earlier stage."""
     timings: dict[str, float] = {}
     clock = time.perf_counter
 
     t = clock()
-    similarity = build_similarity_graph(as_rgba(image), params)
+    similarity = build_similarity_graph(rgba, params)
     timings["similarity"] = clock() - t
     t = clock()
     resolution = resolve_crossings(similarity, params)
@@ -63,7 +135,7 @@ def depixelize(image, params: Params = Params(), stage: str = "optimized") -> Re
     cells = build_cell_graph(resolution)
     timings["cells"] = clock() - t
     if stage == "cells":
-        return Result(similarity, resolution, cells, straight_image(cells), timings=timings)
+        return _Begun(Result(similarity, resolution, cells, straight_image(cells), timings=timings))
 
     from .curves.splines import extract_splines, split_at  # noqa: PLC0415 (keeps the cells stage light)
 
@@ -71,17 +143,37 @@ def depixelize(image, params: Params = Params(), stage: str = "optimized") -> Re
     splines = extract_splines(cells, params)  # §3.3
     timings["splines"] = clock() - t
     if stage == "splines":
-        return Result(similarity, resolution, cells, splines.vector_image(), splines=splines, timings=timings)
+        return _Begun(Result(similarity, resolution, cells, splines.vector_image(), splines=splines, timings=timings))
 
     from .optimize.corners import detect_corners  # noqa: PLC0415
-    from .optimize.stage import optimize_splines  # noqa: PLC0415
 
     t = clock()
     corners = detect_corners(splines, params)  # §3.4, Figure 7
     curves = split_at(splines, corners.nodes)  # every corner ends its curves
     timings["corners"] = clock() - t
-    t = clock()
-    optimized = optimize_splines(curves, corners, params)  # §3.4
-    timings["optimize"] = clock() - t
-    return Result(similarity, resolution, cells, optimized.vector_image(), splines=splines,
-                  optimized=optimized, timings=timings)
+    return _Begun(None, (similarity, resolution, cells, splines), timings, curves, corners)
+
+
+def _optimized(begun: Sequence[_Begun], params: Params) -> list[Result]:
+    """The results of runs begun by :func:`_to_corners`: those that reached the corners are
+    optimized (§3.4), together (the time is shared out evenly)."""
+    todo = [(item.curves, item.corners) for item in begun if item.result is None]
+    optimized: Iterator[OptimizedSplines] = iter(())
+    seconds = 0.0
+    if todo:
+        from .optimize.pack import optimize_many  # noqa: PLC0415
+
+        t = time.perf_counter()
+        optimized = iter(optimize_many(cast("list[tuple[SplineSet, Corners]]", todo), params))
+        seconds = (time.perf_counter() - t) / len(todo)
+    out = []
+    for item in begun:
+        if item.result is not None:
+            out.append(item.result)
+            continue
+        result = next(optimized)
+        similarity, resolution, cells, splines = cast("tuple[SimilarityGraph, CrossingResolution, CellGraph, "
+                                                      "SplineSet]", item.products)
+        out.append(Result(similarity, resolution, cells, result.vector_image(), splines=splines, optimized=result,
+                          timings={**(item.timings or {}), "optimize": seconds}))
+    return out

@@ -10,6 +10,8 @@ from __future__ import annotations
 import os
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import ExitStack, contextmanager
 from pathlib import Path
 
 from depixel.errors import display_name
@@ -26,6 +28,7 @@ from .batch import (
     remove_temporary_files,
     run_job,
 )
+from .packs import packed, packs
 
 #: The largest image (pixels, from its header) the main process converts itself while its
 #: workers start: ~65 MB at PEAK_BYTES_PER_PIXEL, so a batch holds little more memory than
@@ -83,13 +86,15 @@ def run(jobs: list[Job], workers: int, report, signals, progress: Progress | Non
             signals.raising = False
 
     if workers <= 1 or len(todo) <= 1:
-        for index in todo:
-            if signals.signum is not None:
-                finished(Finished(index, cancelled=True))
-                continue
-            started(index)
-            result = here(jobs[index])
-            finished(Finished(index, interrupted=True) if result is None else Finished(index, result))
+        for pack in packs(len(todo)):
+            with ahead_of([jobs[todo[i]] for i in pack], signals):
+                for index in (todo[i] for i in pack):
+                    if signals.signum is not None:
+                        finished(Finished(index, cancelled=True))
+                        continue
+                    started(index)
+                    result = here(jobs[index])
+                    finished(Finished(index, interrupted=True) if result is None else Finished(index, result))
     else:
         signals.raising = False
 
@@ -167,6 +172,24 @@ class Repeats:
         """One line for each error printed once that more files had."""
         return [f"error: {n - 1} more file{'s' if n > 2 else ''} failed the same way: {text}"
                 for text, n in self.counts.items() if n > 1]
+
+
+@contextmanager
+def ahead_of(pack: list[Job], signals) -> Iterator[None]:
+    """:func:`packed`: the pack's pipelines in one pass first (a signal abandons the pass at
+    once; then no job finds its result ahead, and they are cancelled)."""
+    from ..pool import Interrupted  # noqa: PLC0415
+
+    with ExitStack() as stack:
+        if len(pack) > 1 and signals.signum is None:
+            signals.raising = True
+            try:
+                stack.enter_context(packed(pack))
+            except Interrupted:
+                pass
+            finally:
+                signals.raising = False
+        yield
 
 
 def small(job: Job) -> bool:

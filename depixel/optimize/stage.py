@@ -25,7 +25,7 @@ from ..vector import VectorImage
 from .corners import Corners, excluded_halves
 from .fidelity import keep_centres_inside
 from .harmonic import follow, harmonic_map
-from .relax import relax
+from .relax import Relaxed, relax
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,7 +65,14 @@ def optimize_splines(splines: SplineSet, corners: Corners, params: Params = Para
     """§3.4 on curves already cut at ``corners``: relax the curve nodes, then move the
     other nodes by a harmonic map, then walk back moves that pushed a pixel centre out."""
     start = corners.place(splines)
-    relaxed = relax(splines, start, corners.nodes, excluded_halves(splines, corners.nodes), params)
+    return finish(splines, corners, start, relax(splines, start, corners.nodes,
+                                                 excluded_halves(splines, corners.nodes), params), params)
+
+
+def finish(splines: SplineSet, corners: Corners, start: np.ndarray, relaxed: Relaxed,
+           params: Params = Params()) -> OptimizedSplines:
+    """:func:`optimize_splines` after the relaxation (``relaxed``, from the node positions
+    ``start``): the harmonic map and the walk-back (apart, for :mod:`depixel.optimize.pack`)."""
     positions = start.copy()
     set_rows(positions, splines.curve_nodes.compress(relaxed.movable), relaxed.ctrl.compress(relaxed.movable, axis=0))
     energy_before, energy_after, moves = relaxed.energy_before, relaxed.energy_after, relaxed.rounds

@@ -1,0 +1,76 @@
+"""A batch's files in packs: the pipelines of a pack's files run in one pass (issue 44).
+
+Each file is then converted by its own job as before (:func:`depixel_cli.convert.batch.run_job`:
+decoding, preparation, writing, stamps, its own errors); only its ``depixelize`` call finds
+its result already computed (:func:`depixel.pipeline.ahead`), where the relaxation of the
+whole pack ran in one pass (:mod:`depixel.optimize.pack`). The pass is an optimization and
+nothing else: it reads each file and prepares it as its job will, and where it reads or
+prepares something else (a file that changed in between, an option it does not follow),
+the job finds no result ahead and runs its pipeline itself. A file that fails in the pass is
+converted (and fails) by its job alone; the results are byte-identical to one file at a time
+(``tests/test_packs.py``).
+"""
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+from contextlib import ExitStack, contextmanager
+
+import numpy as np
+
+from depixel.api import prepare_input
+from depixel.colour import as_colour
+from depixel.files.convert import InputFile
+from depixel.pipeline import ahead
+from depixel.prepare.image import load_image
+from depixel.prepare.inputs import lossy_format, parse_pixel_size, parse_transparent
+
+from .batch import Job
+
+#: the most pixels of a pack's pass: bounds its memory (it holds every product of its pipelines
+#: at once) to about what a -j auto worker plans for one image of this size (docs/limits.md:
+#: PEAK_BYTES_PER_PIXEL)
+PACK_PIXELS = 1 << 16
+#: the most files of a pack: past some 16 sprites a larger pass saves no more calls than its
+#: larger arrays cost (docs/performance.md, "Batches in one pass")
+PACK_FILES = 16
+
+
+def packs(count: int) -> list[range]:
+    """The indices of ``count`` jobs in packs of at most :data:`PACK_FILES`, in order."""
+    return [range(first, min(first + PACK_FILES, count)) for first in range(0, count, PACK_FILES)]
+
+
+@contextmanager
+def packed(jobs: Sequence[Job]) -> Iterator[None]:
+    """Within the block, the jobs' pipelines are computed already: in one pass, of those that
+    can be read and prepared here, up to :data:`PACK_PIXELS` pixels in all (the others are
+    left to their jobs)."""
+    images = []
+    pixels = 0
+    for job in jobs:
+        if (rgba := _prepared(job)) is not None and pixels + rgba.shape[0] * rgba.shape[1] <= PACK_PIXELS:
+            images.append(rgba)
+            pixels += rgba.shape[0] * rgba.shape[1]
+    with ExitStack() as stack:
+        if len(images) > 1:
+            options = jobs[0].options
+            stack.enter_context(ahead(images, options.params, options.stage))
+        yield
+
+
+def _prepared(job: Job) -> np.ndarray | None:
+    """The pixels ``job`` will give ``depixelize``, as its conversion reads and prepares its
+    input (:func:`depixel.files.convert.convert_frames`), or None when they cannot be had."""
+    opt = job.options
+    if opt.frames == "all":
+        return None
+    frame = 0 if opt.frames == "first" else int(opt.frames)
+    try:
+        source = InputFile.read(job.source)
+        rgba = load_image(source.data, opt.max_pixels, frame, max_frames=opt.max_frames, name=source.name)
+        return prepare_input(rgba, background=as_colour(opt.background), pixel_size=parse_pixel_size(opt.pixel_size),
+                             denoise=opt.denoise, transparent=parse_transparent(opt.transparent),
+                             transparent_everywhere=opt.transparent_everywhere, lossy=lossy_format(source.data),
+                             max_pixels=None).rgba
+    except Exception:  # its job reports it
+        return None

@@ -1,0 +1,115 @@
+"""Batches in one pass (issue 44): many images' pipelines run together give each image the
+bytes it gets alone, and a failing image fails alone."""
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+from conftest import CORPUS, FIXTURES, art, corpus_pngs, fixture_pngs, needs_corpus
+
+import depixel
+import depixel.pipeline as pipeline
+from depixel.files.convert import convert_file
+from depixel.optimize import pack
+from depixel_cli.main import main
+from depixel_cli.options import Exit
+
+
+def _folder_against_single(tmp_path, sources, monkeypatch) -> None:
+    """``depixel convert DIR --out-dir OUT -j 1`` writes, for every file, the bytes of that file
+    converted alone, and the batch's pipelines did run in packs."""
+    src = tmp_path / "in"
+    src.mkdir()
+    for path in sources:
+        shutil.copy(path, src / path.name)
+    packs = []
+    many = pipeline.depixelize_many
+    monkeypatch.setattr(pipeline, "depixelize_many",
+                        lambda images, *a, **k: packs.append(len(images)) or many(images, *a, **k))
+    assert main(["convert", str(src), "--out-dir", str(tmp_path / "batch"), "-j", "1", "-q"]) == Exit.OK
+    assert sum(packs) >= len(sources) - 1 and max(packs) > 1
+    (tmp_path / "alone").mkdir()
+    for path in sorted(src.iterdir()):
+        alone = convert_file(path, tmp_path / "alone" / f"{path.stem}.svg")
+        assert (tmp_path / "batch" / alone.name).read_bytes() == alone.read_bytes(), path.name
+
+
+def test_a_folder_of_fixtures_gives_the_bytes_of_each_file_alone(tmp_path, monkeypatch):
+    _folder_against_single(tmp_path, fixture_pngs(), monkeypatch)
+
+
+@needs_corpus
+def test_the_paper_corpus_as_a_folder_gives_the_bytes_of_each_sprite_alone(tmp_path, monkeypatch):
+    _folder_against_single(tmp_path, corpus_pngs(), monkeypatch)
+
+
+def _images() -> list[np.ndarray]:
+    return [depixel.load_image(path) for path in fixture_pngs()] + \
+        ([depixel.load_image(path) for path in sorted(CORPUS.glob("*.png"))[:12]] if CORPUS.is_dir() else [])
+
+
+@pytest.mark.parametrize("size", [2, 5, 64])
+def test_any_grouping_gives_the_results_of_one_image_at_a_time(size):
+    images = _images()
+    alone = [depixel.to_svg(depixel.depixelize(image).vector) for image in images]
+    for first in range(0, len(images), size):
+        results = pipeline.depixelize_many(images[first:first + size])
+        for i, result in enumerate(results, first):
+            assert isinstance(result, depixel.Result)
+            assert depixel.to_svg(result.vector) == alone[i]
+
+
+@needs_corpus
+def test_images_whose_rounds_stop_at_different_rounds_stop_where_they_would_alone():
+    """The corpus's relaxations run all ten rounds; with forty, the invaders stop after 22 to
+    39 while the others go on: each must sit the rounds after its own last one out."""
+    params = depixel.Params(iterations=40, snap_passes=1)
+    images = [depixel.load_image(path) for path in corpus_pngs()[:16]]
+    alone = [depixel.to_svg(depixel.depixelize(image, params).vector) for image in images]
+    results = pipeline.depixelize_many(images, params)
+    for i, result in enumerate(results):
+        assert isinstance(result, depixel.Result)
+        assert depixel.to_svg(result.vector) == alone[i]
+
+
+def test_an_image_that_fails_fails_alone(monkeypatch):
+    images = [art(".#.\n###\n.#."), art("##\n#."), depixel.load_image(FIXTURES / "heart.png")]
+    build = pipeline.build_similarity_graph
+
+    def failing(rgba, params):
+        if rgba.shape[:2] == (2, 2):
+            raise RuntimeError("this one")
+        return build(rgba, params)
+
+    monkeypatch.setattr(pipeline, "build_similarity_graph", failing)
+    results = pipeline.depixelize_many(images)
+    assert isinstance(results[1], RuntimeError)
+    for i in (0, 2):
+        assert depixel.to_svg(results[i].vector) == depixel.to_svg(depixel.depixelize(images[i]).vector)
+
+
+def test_when_the_pass_fails_each_image_is_optimized_alone(monkeypatch):
+    images = [depixel.load_image(FIXTURES / name) for name in ("heart.png", "ghost.png", "leaf.png")]
+    expected = [depixel.to_svg(depixel.depixelize(image).vector) for image in images]
+    joined = pack.join
+
+    def refuse_three(curves):
+        if len(curves) > 1:
+            raise MemoryError
+        return joined(curves)
+
+    monkeypatch.setattr(pack, "join", refuse_three)
+    assert [depixel.to_svg(r.vector) for r in pipeline.depixelize_many(images)] == expected
+
+
+def test_results_ahead_are_taken_once_and_only_for_the_same_pixels():
+    heart, ghost = (depixel.load_image(FIXTURES / name) for name in ("heart.png", "ghost.png"))
+    with pipeline.ahead([heart, ghost]):
+        first = depixel.depixelize(heart)
+        assert depixel.depixelize(heart) is not first  # taken once: computed again
+        other = heart.copy()
+        other[0, 0] = 255 - other[0, 0]
+        assert depixel.depixelize(other).vector is not None  # other pixels: computed, no error
+        assert depixel.depixelize(ghost, stage="cells").optimized is None  # another stage: computed
+    assert not pipeline._AHEAD  # dropped at the end of the block
