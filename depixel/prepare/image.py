@@ -53,7 +53,7 @@ def load_image(source: ImageSource, max_pixels: int | None = DEFAULT_MAX_PIXELS,
     from ..validate import number  # noqa: PLC0415
 
     number("frame", frame, low=0, integer=True)
-    for _, rgba in _frames(source, max_pixels, int(frame), max_frames, name):
+    for _, rgba, _info in _frames(source, max_pixels, int(frame), max_frames, name):
         return rgba
     raise AssertionError("unreachable: _frames yields the frame or raises")
 
@@ -65,12 +65,14 @@ def load_frames(source: ImageSource, max_pixels: int | None = DEFAULT_MAX_PIXELS
     so the cost is linear in the number of frames. Before the first is decoded, the frames
     the header declares are checked against ``max_frames`` and their pixels in all against
     ``max_pixels`` (each frame's own size is added as it comes: TIFF pages differ)."""
-    yield from _frames(source, max_pixels, None, max_frames, name)
+    for index, rgba, _info in _frames(source, max_pixels, None, max_frames, name):
+        yield index, rgba
 
 
 def _frames(source: ImageSource, max_pixels: int | None, only: int | None, max_frames: int | None,
             name: str | None):
-    """Frames ``only`` (one index) or all of them, as :func:`load_frames` describes."""
+    """Frames ``only`` (one index) or all of them, as :func:`load_frames` describes, each with
+    Pillow's ``info`` of that frame (its duration, the loop count: :mod:`.animation` reads them)."""
     from ..validate import limit  # noqa: PLC0415
 
     max_pixels = limit("max_pixels", max_pixels)
@@ -81,7 +83,9 @@ def _frames(source: ImageSource, max_pixels: int | None, only: int | None, max_f
         from .aseprite_compose import aseprite_frames  # noqa: PLC0415 (~15 ms to import: only for Aseprite files)
         from .aseprite_format import parse_aseprite  # noqa: PLC0415
 
-        yield from aseprite_frames(parse_aseprite(data, name, max_pixels), only, max_pixels, max_frames)
+        ase = parse_aseprite(data, name, max_pixels)
+        for index, rgba in aseprite_frames(ase, only, max_pixels, max_frames):
+            yield index, rgba, {"duration": ase.durations[index]}  # as Pillow's info gives it
         return
     with _quiet_pillow(), _open(data, name) as img:
         width, height = img.size
@@ -118,7 +122,7 @@ def _frames(source: ImageSource, max_pixels: int | None, only: int | None, max_f
                 if _is_bomb(exc):
                     raise _bomb_error(name) from None
                 raise InputError(f"{name}: truncated or corrupt image data") from None
-            yield index, _to_rgba(img, name)
+            yield index, _to_rgba(img, name), dict(img.info)
 
 
 def frame_count(source: ImageSource, max_frames: int | None = None, *, name: str | None = None) -> int:

@@ -1,0 +1,125 @@
+"""Input — an animated image → :class:`Animation`: its frames as a viewer shows them, how long
+each shows and how many times the whole plays.
+
+An :class:`Animation` is what every animated output is made from (:mod:`depixel.svg.animation`,
+:mod:`depixel.render.animation`); any reader can make one (GIF, APNG and animated WebP here).
+Timing follows what browsers do, so the SVG plays as the file did:
+
+* a frame of 10 ms or less plays as 100 ms (Chromium and Firefox, for every format: files
+  that ask for 0 ms mean "as fast as the viewer likes");
+* a GIF's NETSCAPE2.0 block counts *repeats*: none plays once, 0 forever, N plays N + 1 times;
+  APNG's ``num_plays`` and WebP's loop count count *plays*: 0 forever, N plays N times.
+
+GIF and APNG frames are composited by :mod:`.gif` and :mod:`.apng` (Pillow's own compositing
+departs from browsers' and from the APNG specification there), WebP frames by Pillow
+(libwebp's animation decoder). An APNG's default image that is not part of the animation is
+left out, as browsers do.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import numbers
+
+import numpy as np
+
+from ..errors import InputError
+from ..frozen import compact_repr, freeze
+from ..limits import DEFAULT_MAX_FRAMES, DEFAULT_MAX_PIXELS
+from . import apng, gif
+from .image import ImageSource, _describe, _frames, read_source
+
+#: a frame shown this long or shorter (ms) plays as SHORT_FRAME_PLAYS_AS
+SHORT_FRAME_MS = 10.0
+SHORT_FRAME_PLAYS_AS = 100.0
+
+
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
+class Animation:
+    """Frames of one size with their timing.
+
+    ``frames``: ``(H, W, 4) uint8`` RGBA each, read-only, as a viewer shows them;
+    ``durations``: milliseconds each frame shows (> 0); ``plays``: how many times the whole
+    sequence plays, 0 for ever. A still image is one frame (its duration and plays matter
+    to nobody)."""
+
+    frames: tuple[np.ndarray, ...]
+    durations: tuple[float, ...]
+    plays: int = 0
+
+    def __post_init__(self) -> None:
+        # read-only views: the caller's arrays stay writable, this product's are not
+        object.__setattr__(self, "frames", tuple(np.asarray(f).view() for f in self.frames))
+        if not all(isinstance(d, numbers.Real) and not isinstance(d, bool) for d in self.durations):
+            raise InputError(f"frame durations must be positive milliseconds, not {list(self.durations)}")
+        object.__setattr__(self, "durations", tuple(float(d) for d in self.durations))
+        if not self.frames:
+            raise InputError("an animation needs at least one frame")
+        shape = self.frames[0].shape
+        if any(f.shape != shape or f.dtype != np.uint8 for f in self.frames) or len(shape) != 3 or shape[2] != 4:
+            raise InputError("animation frames must all be (H, W, 4) uint8 RGBA of one size, "
+                             f"not {sorted({(f.shape, str(f.dtype)) for f in self.frames})}")
+        if len(self.durations) != len(self.frames):
+            raise InputError(f"{len(self.frames)} frames but {len(self.durations)} durations")
+        if not all(math.isfinite(d) and d > 0 for d in self.durations):
+            raise InputError(f"frame durations must be positive milliseconds, not {list(self.durations)}")
+        if isinstance(self.plays, bool) or not isinstance(self.plays, int) or self.plays < 0:
+            raise InputError(f"plays must be a whole number >= 0 (0: for ever), not {self.plays!r}")
+        freeze(self)
+
+    __repr__ = compact_repr
+
+    @property
+    def cycle(self) -> float:
+        """Milliseconds of one play of all frames."""
+        return float(sum(self.durations))
+
+    @classmethod
+    def still(cls, rgba: np.ndarray) -> Animation:
+        """One frame shown once (``--animate`` on a still image)."""
+        return cls((rgba,), (SHORT_FRAME_PLAYS_AS,), 1)
+
+
+def played_duration(ms: float | None) -> float:
+    """How long a browser shows a frame that asks for ``ms`` milliseconds (None: none given)."""
+    ms = float(ms or 0.0)
+    return SHORT_FRAME_PLAYS_AS if not math.isfinite(ms) or ms <= SHORT_FRAME_MS else ms
+
+
+def gif_plays(loop: int | None) -> int:
+    """Plays of a GIF whose NETSCAPE2.0 block says ``loop`` (None: no block): a GIF plays once,
+    then repeats ``loop`` times (0: for ever)."""
+    if loop is None:
+        return 1
+    return 0 if loop == 0 else loop + 1
+
+
+def read_animation(source: ImageSource, max_pixels: int | None = DEFAULT_MAX_PIXELS, *,
+                   max_frames: int | None = DEFAULT_MAX_FRAMES, name: str | None = None) -> Animation:
+    """Every frame of a GIF, APNG, animated WebP (or any image: a still is one frame) with its
+    timing (module docstring). The limits are those of
+    :func:`depixel.prepare.image.load_frames`: the frames within ``max_frames`` and their pixels
+    in all within ``max_pixels``, checked before a frame is decoded."""
+    from ..validate import limit  # noqa: PLC0415
+
+    max_pixels, max_frames = limit("max_pixels", max_pixels), limit("max_frames", max_frames)
+    name = _describe(source, name)
+    data = read_source(source)  # read once: a stream cannot be read twice
+    if data.startswith((b"GIF87a", b"GIF89a")):
+        parsed = gif.parse_gif(data, name, max_frames)
+        gif.check_gif(parsed, name, max_pixels)
+        frames = gif.composite(parsed, name)
+        return Animation(tuple(frames), tuple(played_duration(f.delay) for f in parsed.frames), gif_plays(parsed.loop))
+    if apng.is_apng(data):
+        png = apng.parse_apng(data, name, max_frames)
+        apng.check_apng(png, name, max_pixels)
+        return Animation(tuple(apng.composite(png, name)), tuple(played_duration(f.delay) for f in png.frames),
+                         png.plays)
+    frames, durations, plays = [], [], 1
+    for _, rgba, info in _frames(data, max_pixels, None, max_frames, name):
+        frames.append(rgba)
+        durations.append(played_duration(info.get("duration")))
+        plays = int(info.get("loop", 1))
+    if len({f.shape for f in frames}) > 1:
+        raise InputError(f"{name}: its frames (pages) differ in size; they cannot be one animation")
+    return Animation(tuple(frames), tuple(durations), plays)
