@@ -13,6 +13,8 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, NamedTuple, cast
 
+import numpy as np
+
 from .frozen import compact_repr
 from .graph.cells import CellGraph, build_cell_graph
 from .graph.crossings import CrossingResolution, resolve_crossings
@@ -54,7 +56,7 @@ def depixelize(image, params: Params = Params(), stage: str = "optimized") -> Re
     if stage not in STAGES:
         raise ValueError(f"unknown stage {stage!r}; choose one of {', '.join(STAGES)}")
     rgba = as_rgba(image)
-    if _AHEAD and (done := _AHEAD.pop((rgba.shape, rgba.tobytes(), params, stage), None)) is not None:
+    if _AHEAD and (done := _taken((rgba.shape, rgba.tobytes(), params, stage))) is not None:
         return done
     return _optimized([_to_corners(rgba, params, stage)], params)[0]
 
@@ -89,24 +91,62 @@ def depixelize_many(images: Sequence, params: Params = Params(), stage: str = "o
 
 
 @contextmanager
-def ahead(images: Sequence, params: Params = Params(), stage: str = "optimized") -> Iterator[None]:
+def ahead(images: Sequence, params: Params = Params(), stage: str = "optimized", size: int = 16,
+          pixels: int = 1 << 16) -> Iterator[None]:
     """Within the block, :func:`depixelize` of one of ``images`` (the same pixels, params and
-    stage) returns its result computed ahead by :func:`depixelize_many`, once (a batch's files
-    are converted each by its own code, after their pipelines ran in one pass); an image that
-    failed is converted when asked, as without this block. The results not taken are dropped
-    at the end of the block."""
-    for image, result in zip(images, depixelize_many(images, params, stage)):
-        if isinstance(result, Result):
-            rgba = as_rgba(image)
-            _AHEAD[(rgba.shape, rgba.tobytes(), params, stage)] = result
+    stage) returns its result computed by :func:`depixelize_many` with the images next to it,
+    at most ``size`` images and ``pixels`` pixels at a time (a pass holds all its products at
+    once: as much memory as one conversion of that many pixels; a larger image is left out).
+    A pass runs when the first of its images is asked for; each result is returned once. So
+    a batch's files, a sheet's sprites, an animation's frames are each converted by their own
+    code, and only their pipelines run together. An image that failed in its pass is
+    converted when asked, as without this block. What was not taken is dropped at its end."""
+    keys: list[tuple] = []
+    groups: list[list[tuple]] = []
+    total = 0
+    for image in images:
+        rgba = as_rgba(image)
+        key = (rgba.shape, rgba.tobytes(), params, stage)
+        area = rgba.shape[0] * rgba.shape[1]
+        if key in _AHEAD or key in _GROUP or area > pixels:  # (the same pixels twice: one result)
+            continue
+        if not groups or len(groups[-1]) >= size or total + area > pixels:
+            groups.append([])
+            total = 0
+        groups[-1].append(key)
+        total += area
+        keys.append(key)
+        _AHEAD[key] = rgba
+        _GROUP[key] = groups[-1]
     try:
         yield
     finally:
-        _AHEAD.clear()
+        for key in keys:
+            _AHEAD.pop(key, None)
+            _GROUP.pop(key, None)
 
 
-#: results computed ahead (:func:`ahead`), by (shape, pixels, params, stage)
-_AHEAD: dict[tuple, Result] = {}
+def _taken(key: tuple) -> Result | None:
+    """The result waiting under ``key`` (:func:`ahead`), its pass run first if need be."""
+    found = _AHEAD.pop(key, None)
+    if isinstance(found, np.ndarray):  # its pass has not run: run it
+        group = [k for k in _GROUP.get(key, [key]) if k == key or isinstance(_AHEAD.get(k), np.ndarray)]
+        images = [found if k == key else _AHEAD[k] for k in group]
+        for k, result in zip(group, depixelize_many(images, key[2], key[3])):
+            _GROUP.pop(k, None)
+            if k == key:
+                found = result if isinstance(result, Result) else None
+            elif isinstance(result, Result):
+                _AHEAD[k] = result
+            else:
+                del _AHEAD[k]  # converted (and failing) when asked
+    return found if isinstance(found, Result) else None
+
+
+#: what :func:`ahead` holds, by (shape, pixels, params, stage): an image whose pass has not run
+#: (its pixels) or its result; and each image's pass (the keys of its group)
+_AHEAD: dict[tuple, Result | np.ndarray] = {}
+_GROUP: dict[tuple, list[tuple]] = {}
 
 
 class _Begun(NamedTuple):

@@ -2,6 +2,7 @@
 bytes it gets alone, and a failing image fails alone."""
 from __future__ import annotations
 
+import contextlib
 import shutil
 
 import numpy as np
@@ -113,3 +114,52 @@ def test_results_ahead_are_taken_once_and_only_for_the_same_pixels():
         assert depixel.depixelize(other).vector is not None  # other pixels: computed, no error
         assert depixel.depixelize(ghost, stage="cells").optimized is None  # another stage: computed
     assert not pipeline._AHEAD  # dropped at the end of the block
+
+
+def _passes(monkeypatch) -> list[int]:
+    """The sizes of the passes of depixelize_many from now on."""
+    sizes: list[int] = []
+    many = pipeline.depixelize_many
+    monkeypatch.setattr(pipeline, "depixelize_many",
+                        lambda images, *a, **k: sizes.append(len(images)) or many(images, *a, **k))
+    return sizes
+
+
+def _no_passes(monkeypatch, module) -> None:
+    monkeypatch.setattr(module, "converted_ahead", lambda *a, **k: contextlib.nullcontext())
+
+
+def test_a_sheets_sprites_run_in_one_pass_with_the_same_bytes(monkeypatch):
+    from depixel.files import sheet as sheet_files
+    from depixel.prepare.sheet import find_sprites
+
+    images = [depixel.load_image(FIXTURES / name) for name in ("ghost_rgba.png", "potion_rgba.png", "orb.png")]
+    board = np.zeros((max(i.shape[0] for i in images), sum(i.shape[1] + 2 for i in images), 4), np.uint8)
+    x = 0
+    for image in images:
+        board[:image.shape[0], x:x + image.shape[1]] = image
+        x += image.shape[1] + 2
+    sprites = find_sprites(board).sprites
+    passes = _passes(monkeypatch)
+    together = sheet_files.convert_sheet(board, sprites, layout="cutout")
+    assert passes == [3]
+    _no_passes(monkeypatch, sheet_files)
+    assert sheet_files.convert_sheet(board, sprites, layout="cutout") == together and passes == [3]
+
+
+def test_an_animations_frames_run_in_passes_with_the_same_bytes(monkeypatch):
+    from depixel.files import animation as animation_files
+    from depixel.prepare.animation import Animation
+
+    base = depixel.load_image(FIXTURES / "chip.png")
+    frames = [base]
+    for k in range(19):  # 20 frames, a pixel of each changed
+        frame = base.copy()
+        frame[k % 8, (3 * k) % 8] = (40 * (k % 6), 200, 90, 255)
+        frames.append(frame)
+    animation = Animation(tuple(frames), (100.0,) * len(frames), 0)
+    passes = _passes(monkeypatch)
+    together = animation_files.animate(animation, simplify=0)
+    assert sum(passes) == len({f.tobytes() for f in frames}) and max(passes) == 16
+    _no_passes(monkeypatch, animation_files)
+    assert animation_files.animate(animation, simplify=0) == together

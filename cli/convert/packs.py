@@ -19,6 +19,7 @@ import numpy as np
 
 from depixel.api import prepare_input
 from depixel.colour import as_colour
+from depixel.files.ahead import PASS_IMAGES, PASS_PIXELS
 from depixel.files.convert import InputFile
 from depixel.pipeline import ahead
 from depixel.prepare.image import load_image
@@ -26,35 +27,23 @@ from depixel.prepare.inputs import lossy_format, parse_pixel_size, parse_transpa
 
 from .batch import Job
 
-#: the most pixels of a pack's pass: bounds its memory (it holds every product of its pipelines
-#: at once) to about what a -j auto worker plans for one image of this size (docs/limits.md:
-#: PEAK_BYTES_PER_PIXEL)
-PACK_PIXELS = 1 << 16
-#: the most files of a pack: past some 16 sprites a larger pass saves no more calls than its
-#: larger arrays cost (docs/performance.md, "Batches in one pass")
-PACK_FILES = 16
-
 
 def packs(count: int) -> list[range]:
-    """The indices of ``count`` jobs in packs of at most :data:`PACK_FILES`, in order."""
-    return [range(first, min(first + PACK_FILES, count)) for first in range(0, count, PACK_FILES)]
+    """The indices of ``count`` jobs in packs, in order: as many files as one pass takes
+    (:data:`depixel.files.ahead.PASS_IMAGES`), read and prepared a pack at a time."""
+    return [range(first, min(first + PASS_IMAGES, count)) for first in range(0, count, PASS_IMAGES)]
 
 
 @contextmanager
 def packed(jobs: Sequence[Job]) -> Iterator[None]:
-    """Within the block, the jobs' pipelines are computed already: in one pass, of those that
-    can be read and prepared here, up to :data:`PACK_PIXELS` pixels in all (the others are
-    left to their jobs)."""
-    images = []
-    pixels = 0
-    for job in jobs:
-        if (rgba := _prepared(job)) is not None and pixels + rgba.shape[0] * rgba.shape[1] <= PACK_PIXELS:
-            images.append(rgba)
-            pixels += rgba.shape[0] * rgba.shape[1]
+    """Within the block, the jobs' pipelines are computed already, those that can be read and
+    prepared here, in passes of at most :data:`~depixel.files.ahead.PASS_PIXELS` pixels (the
+    others are left to their jobs)."""
+    images = [rgba for job in jobs if (rgba := _prepared(job)) is not None]
     with ExitStack() as stack:
         if len(images) > 1:
             options = jobs[0].options
-            stack.enter_context(ahead(images, options.params, options.stage))
+            stack.enter_context(ahead(images, options.params, options.stage, PASS_IMAGES, PASS_PIXELS))
         yield
 
 

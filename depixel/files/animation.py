@@ -4,7 +4,8 @@ Every frame is converted alone, as :func:`depixel.api.convert` converts a still 
 ``--frames all`` writes one file a frame for), then :mod:`depixel.svg.animation` composes the
 frames' SVGs into one, with the shapes the frames share written once, or
 :mod:`depixel.render.animation` writes the frames' smooth renders as an APNG. Frames that are
-the same pixels are converted once. Read a file's frames and timing with
+the same pixels are converted once; the frames' pipelines run together, some at a time
+(:mod:`depixel.files.ahead`: the bytes of each frame alone). Read a file's frames and timing with
 :func:`depixel.prepare.animation.read_animation`.
 """
 from __future__ import annotations
@@ -20,6 +21,7 @@ from ..params import Params
 from ..prepare.animation import Animation
 from ..render.animation import encode_apng
 from ..svg.animation import compose
+from .ahead import converted_ahead
 
 
 def animate(animation: Animation, params: Params = Params(), **options) -> str:
@@ -29,10 +31,11 @@ def animate(animation: Animation, params: Params = Params(), **options) -> str:
     ``layout``, ``simplify``, ``precision``, ``pixel_size``, …), the same for every frame."""
     _check(animation)
     svgs: dict[bytes, str] = {}
-    for frame in animation.frames:
-        key = frame.tobytes()
-        if key not in svgs:
-            svgs[key] = convert(frame, params, **options)
+    with converted_ahead(animation.frames, params, **options):  # the frames' pipelines in passes
+        for frame in animation.frames:
+            key = frame.tobytes()
+            if key not in svgs:
+                svgs[key] = convert(frame, params, **options)
     return compose([svgs[frame.tobytes()] for frame in animation.frames], animation.durations, animation.plays)
 
 
@@ -46,17 +49,18 @@ def animate_png(animation: Animation, params: Params = Params(), *, name: str = 
 
     _check(animation)
     renders: dict[bytes, np.ndarray] = {}
-    for frame in animation.frames:
-        key = frame.tobytes()
-        if key in renders:
-            continue
-        png = convert_bytes(frame, "png", params, name=name, max_output_pixels=max_output_pixels, **options)
-        with Image.open(io.BytesIO(png)) as image:
-            renders[key] = np.asarray(image.convert("RGBA"))
-        if len(renders) == 1:
-            h, w = renders[key].shape[:2]
-            n = len(animation.frames)
-            check_rendered_frames(name, n, n * w * h, max_output_pixels)
+    with converted_ahead(animation.frames, params, **options):  # the frames' pipelines in passes
+        for frame in animation.frames:
+            key = frame.tobytes()
+            if key in renders:
+                continue
+            png = convert_bytes(frame, "png", params, name=name, max_output_pixels=max_output_pixels, **options)
+            with Image.open(io.BytesIO(png)) as image:
+                renders[key] = np.asarray(image.convert("RGBA"))
+            if len(renders) == 1:
+                h, w = renders[key].shape[:2]
+                n = len(animation.frames)
+                check_rendered_frames(name, n, n * w * h, max_output_pixels)
     return encode_apng([renders[frame.tobytes()] for frame in animation.frames], animation.durations,
                        animation.plays)
 

@@ -1,7 +1,8 @@
 """A sprite sheet converted sprite by sprite → one SVG with a layer per sprite.
 
 Each sprite is cut from the sheet and converted alone with :func:`depixel.convert` (so its
-shapes never reach into a neighbour), then put back at its place as an Inkscape layer
+shapes never reach into a neighbour; their pipelines run together, some at a time, with the
+bytes of each alone: :mod:`depixel.files.ahead`), then put back at its place as an Inkscape layer
 (:mod:`depixel.svg.layers`). The sprites come from :mod:`depixel.prepare.sheet` (found on
 the sheet, or a grid by size) or :mod:`depixel.prepare.sheet_json`.
 """
@@ -16,6 +17,7 @@ from ..params import Params
 from ..prepare.image import as_rgba
 from ..prepare.sheet import Sprite
 from ..svg.layers import Placed, compose_layers
+from .ahead import converted_ahead
 
 
 def convert_sheet(image, sprites: Sequence[Sprite], params: Params = Params(), *, scale: float = 1.0,
@@ -43,6 +45,7 @@ def convert_sheet(image, sprites: Sequence[Sprite], params: Params = Params(), *
     if max_pixels is not None and total > max_pixels:
         raise InputError(f"{len(sprites)} sprites are {total} pixels in all, over the limit of {max_pixels} "
                          "(the limit counts every sprite; raise it with max_pixels)", parameter="max_pixels")
-    placed = [Placed(sprite.name, convert(rgba[sprite.box], params, **convert_keywords), sprite.x, sprite.y,
-                     sprite.width, sprite.height) for sprite in sprites]
+    with converted_ahead([rgba[sprite.box] for sprite in sprites], params, **convert_keywords):  # one pass
+        placed = [Placed(sprite.name, convert(rgba[sprite.box], params, **convert_keywords), sprite.x, sprite.y,
+                         sprite.width, sprite.height) for sprite in sprites]
     return compose_layers(placed, width, height, scale=scale, title=title)

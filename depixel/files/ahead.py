@@ -1,0 +1,49 @@
+"""Many conversions in one pass — a sheet's sprites, an animation's frames, a folder's files.
+
+Each image is still converted by its own :func:`depixel.api.convert` (or
+:func:`~depixel.api.convert_bytes`) call; within :func:`converted_ahead` those calls find their
+pipelines run already, all of them in one pass (:func:`depixel.pipeline.ahead`: the
+relaxation's numpy calls paid once for all, :mod:`depixel.optimize.pack`), with the very
+bytes each would have alone. The pass prepares each image as the conversion will; an image
+it cannot prepare, or prepares otherwise, is simply converted when asked, as without it.
+"""
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+
+import numpy as np
+
+from ..api import prepare_input
+from ..params import Params
+from ..pipeline import ahead
+from ..prepare.inputs import AUTO, parse_pixel_size, parse_transparent
+
+#: pixels in one pass: it holds every product of its pipelines at once, about as much memory as
+#: one conversion of an image this size (~65 MB at limits.PEAK_BYTES_PER_PIXEL; the CLI's
+#: LOCAL_MAX_PIXELS); a larger image is converted alone
+PASS_PIXELS = 1 << 16
+#: images in one pass: past some 16 sprites a larger pass saves no more calls than its larger
+#: arrays cost (docs/performance.md, "Batches in one pass")
+PASS_IMAGES = 16
+
+
+@contextmanager
+def converted_ahead(images: Sequence, params: Params = Params(), *, stage: str = "optimized", background=None,
+                    pixel_size=AUTO, denoise: bool | None = None, transparent=None,
+                    transparent_everywhere: bool = False, lossy: str | None = None, **_) -> Iterator[None]:
+    """Within the block, the conversions of ``images`` with these options (those of
+    :func:`depixel.api.convert`; the SVG's do not matter here) find their pipelines run, in
+    passes of at most :data:`PASS_IMAGES` images and :data:`PASS_PIXELS` pixels, each run
+    when the first of its images is converted."""
+    prepared: list[np.ndarray] = []
+    for image in images:
+        try:
+            rgba = prepare_input(image, background=background, pixel_size=parse_pixel_size(pixel_size),
+                                 denoise=denoise, transparent=parse_transparent(transparent),
+                                 transparent_everywhere=transparent_everywhere, lossy=lossy, max_pixels=None).rgba
+        except Exception:  # its conversion reports it
+            continue
+        prepared.append(rgba)
+    with ahead(prepared, params, stage, PASS_IMAGES, PASS_PIXELS):
+        yield
