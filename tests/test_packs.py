@@ -163,3 +163,43 @@ def test_an_animations_frames_run_in_passes_with_the_same_bytes(monkeypatch):
     assert sum(passes) == len({f.tobytes() for f in frames}) and max(passes) == 16
     _no_passes(monkeypatch, animation_files)
     assert animation_files.animate(animation, simplify=0) == together
+
+
+def test_workers_take_packs_and_a_file_that_kills_its_worker_fails_alone(tmp_path, monkeypatch):
+    """-j 2: the workers convert packs of files (the bytes of each file alone); a pack whose
+    worker dies on every try is converted again file by file, so only the file that kills
+    its worker fails."""
+    import os
+
+    from depixel_cli import pool
+    from depixel_cli.convert import batch, packs
+    from depixel_cli.convert import run as batch_run
+
+    names = [p.name for p in fixture_pngs() if p.suffix == ".png"]
+    options = batch.Options(depixel.Params(), ("svg",), "optimized", 1.0, "first", None, None, force=False)
+    (tmp_path / "out").mkdir()
+    jobs = [batch.Job(FIXTURES / name, tmp_path / "out" / f"{name}.svg", options) for name in names]
+    poison = jobs[3].source
+
+    def run_pack(pack):
+        if any(job.source == poison for job in pack):
+            os._exit(9)
+        return packs.run_pack(pack)
+
+    def run_job(job):
+        if job.source == poison:
+            os._exit(9)
+        return batch.run_job(job)
+
+    monkeypatch.setattr(batch_run, "run_pack", run_pack)
+    monkeypatch.setattr(batch_run, "run_job", run_job)
+    with pool.Signals(raising=False) as signals:
+        outcomes = batch_run.run(jobs, 2, lambda outcome: None, signals)
+    assert len(packs.packs(len(jobs), 2)) < len(jobs)
+    for job, outcome in zip(jobs, outcomes):
+        if job.source == poison:
+            assert "worker process died" in outcome.error and not outcome.written
+        else:
+            assert outcome.error is None and outcome.written == [job.output]
+            alone = convert_file(job.source, tmp_path / "alone.svg")
+            assert job.output.read_bytes() == alone.read_bytes(), job.source.name

@@ -25,13 +25,23 @@ from depixel.pipeline import ahead
 from depixel.prepare.image import load_image
 from depixel.prepare.inputs import lossy_format, parse_pixel_size, parse_transparent
 
-from .batch import Job
+from .batch import Job, Outcome, run_job
 
 
-def packs(count: int) -> list[range]:
+def packs(count: int, workers: int = 1) -> list[range]:
     """The indices of ``count`` jobs in packs, in order: as many files as one pass takes
-    (:data:`depixel.files.ahead.PASS_IMAGES`), read and prepared a pack at a time."""
-    return [range(first, min(first + PASS_IMAGES, count)) for first in range(0, count, PASS_IMAGES)]
+    (:data:`depixel.files.ahead.PASS_IMAGES`), read and prepared a pack at a time; for
+    ``workers`` processes, small enough that each gets three or more (the last packs then
+    keep them all busy)."""
+    size = max(1, min(PASS_IMAGES, -(-count // (3 * workers)) if workers > 1 else PASS_IMAGES))
+    return [range(first, min(first + size, count)) for first in range(0, count, size)]
+
+
+def run_pack(pack: tuple[Job, ...]) -> list[Outcome]:
+    """:func:`~depixel_cli.convert.batch.run_job` of each job of ``pack``, their pipelines in one
+    pass (a worker's task); never raises."""
+    with packed(pack):
+        return [run_job(job) for job in pack]
 
 
 @contextmanager

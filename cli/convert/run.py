@@ -13,6 +13,7 @@ import time
 from collections.abc import Iterator
 from contextlib import ExitStack, contextmanager
 from pathlib import Path
+from typing import cast
 
 from depixel.errors import display_name
 from depixel.files.output import remove_created
@@ -28,7 +29,7 @@ from .batch import (
     remove_temporary_files,
     run_job,
 )
-from .packs import packed, packs
+from .packs import packed, packs, run_pack
 
 #: The largest image (pixels, from its header) the main process converts itself while its
 #: workers start: ~65 MB at PEAK_BYTES_PER_PIXEL, so a batch holds little more memory than
@@ -97,14 +98,40 @@ def run(jobs: list[Job], workers: int, report, signals, progress: Progress | Non
                     finished(Finished(index, interrupted=True) if result is None else Finished(index, result))
     else:
         signals.raising = False
+        # each worker takes packs of files (their pipelines in one pass, cli/convert/packs.py),
+        # small enough that the last ones keep every worker busy
+        groups = [[todo[i] for i in pack] for pack in packs(len(todo), workers)]
+        alone: list[int] = []  # files of a pack whose worker died on every try: each again alone
 
-        def renumbered(done: Finished) -> None:  # run_jobs numbers the jobs of ``todo``
-            finished(Finished(todo[done.index], done.result, done.died, done.retried, done.interrupted,
-                              done.cancelled))
+        def unpacked(done: Finished) -> None:  # run_jobs numbers the packs
+            group = groups[done.index]
+            if done.died and len(group) > 1:
+                alone.extend(group)
+                return
+            for k, index in enumerate(group):
+                finished(Finished(index, None if done.result is None else done.result[k], done.died, done.retried,
+                                  done.interrupted, done.cancelled))
+
+        def clean(pack: tuple[Job, ...]) -> None:
+            for job in pack:
+                remove_temporary_files(job)
+
+        def here_all(pack: tuple[Job, ...]) -> list[Outcome] | None:
+            with ahead_of(list(pack), signals):
+                outcomes = [here(job) for job in pack]
+            return None if None in outcomes else cast("list[Outcome]", outcomes)
 
         # while the fork server imports depixel, this process converts small files itself
-        run_jobs([jobs[i] for i in todo], workers, run_job, renumbered, signals, cleanup=remove_temporary_files,
-                 started=lambda i: started(todo[i]), here=here, local=small)
+        run_jobs([tuple(jobs[i] for i in group) for group in groups], workers, run_pack, unpacked, signals,
+                 cleanup=clean,
+                 started=lambda i: started(groups[i][0]), here=here_all, local=lambda pack: all(map(small, pack)))
+        if alone:  # a file that kills its worker fails alone
+            def renumbered(done: Finished) -> None:  # run_jobs numbers the jobs of ``alone``
+                finished(Finished(alone[done.index], done.result, done.died, done.retried, done.interrupted,
+                                  done.cancelled))
+
+            run_jobs([jobs[i] for i in alone], workers, run_job, renumbered, signals, cleanup=remove_temporary_files,
+                     started=lambda i: started(alone[i]))
     return [outcomes[i] for i in range(len(jobs))]
 
 
