@@ -5,7 +5,9 @@ resvg, and the PNG renderer (paper §3.5, ``render_smooth``) — and counts *ste
 as ``../shared/tools/shape_checks.py steps`` does: horizontally neighbouring opaque render
 pixels away from contours (7x7 luminance range <= 60) whose luminance (mean of R, G, B)
 differs by 6 levels or more. Each stepped pair is then placed by the cells under the render
-pixels around it (the pair and its 8-neighbours, ``render_smooth``'s own scanline labels):
+pixels around it (the pair and its 8-neighbours, ``render_smooth``'s own scanline labels; for the SVG renders
+the render pixels within the simplification's tolerance, 2 at 8x, since the SVG's curves lie
+that close to the exact ones, as ``tests/test_smooth_svg.py`` places Toad's steps):
 
 * ``inside`` — every cell there belongs to one region (cells joined by invisible edges,
   paper §3.3): the paper's renderer blends such colours, so a step there is one it has not;
@@ -26,6 +28,7 @@ from __future__ import annotations
 import argparse
 import io
 import json
+import math
 import sys
 from collections import Counter
 from pathlib import Path
@@ -36,13 +39,16 @@ from depixel import depixelize, load_image
 from depixel.colour import rgb_to_yuv
 from depixel.params import Params
 from depixel.render.shading import _cell_labels, _flatten, _pieces_per_curve, _Segments, render_smooth
-from depixel.svg.writer import to_svg
+from depixel.svg.writer import DEFAULT_SIMPLIFY, to_svg
 from depixel.vector import VectorImage, regions
 
 CORPUS = Path(__file__).resolve().parents[1].parent / "shared" / "corpus" / "paper"
 DEFAULT_SPRITES = ("smw_boo", "sma_toad")
 SCALE = 8
 KINDS = ("inside", "shading", "contour")
+#: the SVG's curves lie within the simplification's tolerance of the exact curves whose cells
+#: place the steps: its steps are placed by the cells within that many render pixels
+SVG_MARGIN = math.ceil(DEFAULT_SIMPLIFY * SCALE)
 
 
 def resvg(svg: str) -> np.ndarray:
@@ -76,12 +82,13 @@ def hex_colour(rgb: np.ndarray) -> str:
 
 
 def place(steps: np.ndarray, labels: np.ndarray, region: np.ndarray, yuv: np.ndarray, rgb: np.ndarray,
-          distance: float) -> tuple[Counter, Counter]:
-    """How many steps lie at each kind of place, and the colour pairs of the edges."""
+          distance: float, margin: int = 1) -> tuple[Counter, Counter]:
+    """How many steps lie at each kind of place, and the colour pairs of the edges
+    (``margin``: the render pixels around the pair whose cells place it)."""
     kinds: Counter = Counter()
     colours: Counter = Counter()
     for y, x in steps.tolist():
-        cells = np.unique(labels[max(0, y - 1):y + 2, max(0, x - 1):x + 3])
+        cells = np.unique(labels[max(0, y - margin):y + 1 + margin, max(0, x - margin):x + 2 + margin])
         apart = [(float(np.linalg.norm(yuv[p] - yuv[q])), p, q) for i, p in enumerate(cells.tolist())
                  for q in cells[i + 1:].tolist() if region[p] != region[q]]
         if not apart:
@@ -104,7 +111,8 @@ def measure(path: Path, with_pairs: bool) -> dict:
                "png": render_smooth(vector, SCALE)}
     for name, render in renders.items():
         steps, pairs = stepped(render)
-        kinds, colours = place(steps, labels, region, yuv, rgb, Params().shading_distance)
+        margin = 1 if name == "png" else SVG_MARGIN
+        kinds, colours = place(steps, labels, region, yuv, rgb, Params().shading_distance, margin)
         row[name] = {"stepped": round(len(steps) / max(pairs, 1), 5), "n": len(steps),
                      **{k: kinds[k] for k in KINDS}}
         if with_pairs:

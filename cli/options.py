@@ -6,6 +6,7 @@ import enum
 import sys
 from dataclasses import fields
 
+from depixel.options import ConvertOptions, Limits, OutputOptions, PrepareOptions
 from depixel.params import Params
 
 
@@ -128,7 +129,8 @@ def add_dask_options(group) -> None:
     """``--dask ADDRESS`` and ``--dask-timeout SECONDS`` (docs/scale.md)."""
     group.add_argument("--dask", metavar="ADDRESS",
                        help="run the conversions on a Dask cluster (scheduler address, e.g. tcp://host:8786); "
-                            "inputs and outputs must be on a filesystem the workers share; pip install 'depixel[dask]'")
+                            "inputs and outputs must be on a filesystem the workers share; needs the dask extra: "
+                            "pip install '/path/to/depixel[dask]'")
     group.add_argument("--dask-timeout", type=dask_timeout, default=DASK_TIMEOUT, metavar="SECONDS",
                        help=f"--dask: how long to wait for a worker, before the batch and while none is left "
                             f"(default {DASK_TIMEOUT:g})")
@@ -191,6 +193,20 @@ def add_tuning(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--seed", dest="removed_seed", metavar="N", help=argparse.SUPPRESS)  # SEED_NOTE
 
 
+def from_args(kind, args: argparse.Namespace, **given):
+    """An options dataclass (``kind``: :class:`depixel.options.OutputOptions`, ``PrepareOptions``,
+    ``Limits``) of the arguments of the same names, ``given`` overriding some: a field is its
+    flag's ``dest``, so a new field without its flag fails here, at once."""
+    return kind(**{item.name: given[item.name] if item.name in given else getattr(args, item.name)
+                   for item in fields(kind)})
+
+
+def convert_options(args: argparse.Namespace) -> ConvertOptions:
+    """The :class:`depixel.options.ConvertOptions` of a conversion's arguments."""
+    return ConvertOptions(params_from_args(args), from_args(PrepareOptions, args), from_args(OutputOptions, args),
+                          from_args(Limits, args))
+
+
 def params_from_args(args: argparse.Namespace) -> Params:
     """A Params with the flags the user gave; every other field keeps its default. A ``--seed``
     (gone with the random trials) is noted on stderr and ignored, so old scripts still run."""
@@ -215,6 +231,7 @@ FLAG_OF_PARAMETER = {
     "simplify": "--simplify",
     "pixel_size": "--pixel-size",
     "transparent": "--transparent",
+    "allow_size_mismatch": "--allow-size-mismatch",
     **{name: flag for flag, name, _, _ in TUNING},
 }
 

@@ -33,7 +33,7 @@ import sys
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 from .worker import serve
 
@@ -114,16 +114,23 @@ class Finished:
     cancelled: bool = False  # not started when the stop came
 
 
+class Meanwhile(NamedTuple):
+    """What this process does while workers that take time to start (not forked from it)
+    start: ``run(job)`` on jobs from the end of the queue (None: interrupted, cleaned up), as
+    long as the next is ``local(job)``."""
+
+    run: Callable[[Any], Any]
+    local: Callable[[Any], bool] = lambda job: True
+
+
 def run_jobs(jobs: Sequence[Any], workers: int, function: Callable[[Any], Any], report: Callable[[Finished], None],
              signals: Signals, cleanup: Callable[[Any], None] = lambda job: None,
-             started: Callable[[int], None] = lambda index: None, here: Callable[[Any], Any] | None = None,
-             local: Callable[[Any], bool] = lambda job: True) -> None:
+             started: Callable[[int], None] = lambda index: None, meanwhile: Meanwhile | None = None) -> None:
     """Run ``function(job)`` for every job in ``workers`` processes; ``report`` gets each
     :class:`Finished` as it happens (cancelled jobs last), ``started`` each index as it
-    begins. ``function`` must be picklable by reference and must not raise. With ``here``
-    and workers that take time to start (not forked from this process), this process
-    converts jobs itself, ``here(job)`` (None: interrupted, cleaned up), while they start, as
-    long as the next is ``local(job)``. Returns when all are reported."""
+    begins. ``function`` must be picklable by reference and must not raise. With
+    ``meanwhile``, this process converts jobs itself while the workers start. Returns when
+    all are reported."""
     pool = _Pool(function, signals, cleanup, started)
     try:
         if pool.forks:
@@ -132,8 +139,8 @@ def run_jobs(jobs: Sequence[Any], workers: int, function: Callable[[Any], Any], 
             for name in PRELOAD:  # once here, shared by every worker forked after
                 importlib.import_module(name)
             pool.run(list(enumerate(jobs)), workers, report)
-        elif here is not None and workers >= 2:
-            pool.start_meanwhile(pending := list(enumerate(jobs)), workers, here, local, report)
+        elif meanwhile is not None and workers >= 2:
+            pool.start_meanwhile(pending := list(enumerate(jobs)), workers, meanwhile.run, meanwhile.local, report)
             pool.run(pending, workers, report)
         else:
             pool.run(list(enumerate(jobs)), workers, report)

@@ -19,8 +19,8 @@ import sys
 #: Exit status after the reader of standard output went away: 128 + SIGPIPE, as a shell
 #: reports a tool that the signal ended.
 CLOSED_PIPE = 141
-#: How messages name standard input and output.
-STDIN, STDOUT = "<stdin>", "<stdout>"
+#: How messages name standard output.
+STDOUT = "<stdout>"
 
 
 def reserve_closed_descriptors() -> None:

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from depixel import api
-from depixel.errors import OutputError, display_name
+from depixel.errors import InputError, OutputError, display_name
 from depixel.files import convert as files
 from depixel.files.output import write_atomic
 from depixel.limits import DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
@@ -20,6 +20,7 @@ from .options import (
     add_tuning,
     check_input_options,
     colour,
+    from_args,
     int_range,
     params_from_args,
     positive_float,
@@ -127,10 +128,29 @@ def run_render(args: argparse.Namespace) -> int:
         svg, name, protect = read_source(sys.stdin.buffer), "<stdin>", ()
     else:
         svg, name, protect = files.read_input(args.input), display_name(args.input), (Path(args.input),)
-    data = render(svg, str(fmt), scale=args.scale, width=args.width, height=args.height, background=args.background,
+    _not_an_image(svg, name, args.input)
+    data = render(svg, str(fmt), scale=args.scale, size=(args.width, args.height), background=args.background,
                   name=name, max_output_pixels=args.max_output_pixels)
     _write(args.output, data, protect)
     return Exit.OK
+
+
+def _not_an_image(data: bytes, name: str, path: str) -> None:
+    """Refuse a raster image given to ``render`` (it draws SVG), saying what to run instead."""
+    head = data[:512].lstrip(b"\xef\xbb\xbf \t\r\n")
+    if head.startswith((b"<", b"\x1f\x8b")):  # XML, or a compressed SVG
+        return
+    from PIL import Image, UnidentifiedImageError  # noqa: PLC0415
+
+    try:
+        with Image.open(io.BytesIO(data)) as img:
+            kind = img.format or "an image"
+    except (UnidentifiedImageError, OSError, ValueError, Image.DecompressionBombError):
+        return
+    stem = Path(path).stem if path != "-" else "sprite"
+    raise InputError(f"{name}: is an image ({kind}), not an SVG: render draws SVG files; to turn pixel art "
+                     f"into smooth shapes use depixel convert (depixel convert {display_name(path)} -o {stem}.svg, "
+                     f"or -o {stem}-smooth.png)")
 
 
 def run_inspect(args: argparse.Namespace) -> int:
@@ -145,12 +165,12 @@ def run_inspect(args: argparse.Namespace) -> int:
             files.output_format(args.output, "png")
         except OutputError:
             args.parser.error(f"{display_name(args.output)}: inspect writes PNG; name it .png")
-    from depixel.prepare.inputs import lossy_format  # noqa: PLC0415
+    from depixel.prepare.inputs import PrepareOptions, lossy_format  # noqa: PLC0415
 
     rgba = api.load(args.input, frame=args.frame, background=args.background, max_pixels=args.max_pixels)
-    prepared = api.prepare_input(rgba, pixel_size=args.pixel_size, denoise=args.denoise,
-                                 transparent=args.transparent, transparent_everywhere=args.transparent_everywhere,
-                                 lossy=lossy_format(files.read_input(args.input)))
+    # flattened over the background as loaded: the original panel shows it so
+    prepared = api.prepared_input(rgba, from_args(PrepareOptions, args, background=None),
+                                  lossy=lossy_format(files.read_input(args.input)))
     check_figure_size(prepared.rgba.shape[:2], args.zoom, panel_count(args.stage) + prepared.changed,
                       args.max_output_pixels)
     result = depixelize(prepared.rgba, params_from_args(args), stage=args.stage)

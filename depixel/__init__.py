@@ -8,7 +8,6 @@ in :mod:`depixel.pipeline`; each stage is a subpackage (:mod:`depixel.prepare`,
 from __future__ import annotations
 
 import importlib
-import importlib.util
 from types import ModuleType
 
 from .api import convert, convert_bytes, flatten, prepare_input
@@ -44,15 +43,30 @@ __all__ = [
 ]
 
 
-def load_submodule(package: str, name: str) -> ModuleType:
-    """The submodule ``package.name``, imported on first use: after ``import depixel`` alone,
-    ``depixel.diff.compare`` or ``depixel.render.figure`` work as docs/api.md writes them,
-    without every start of the command paying for modules it does not use. A name that is no
-    submodule (or is private) raises ``AttributeError``, as a missing attribute does."""
-    if not name.startswith("_") and importlib.util.find_spec(f"{package}.{name}") is not None:
-        return importlib.import_module(f"{package}.{name}")
-    raise AttributeError(f"module {package!r} has no attribute {name!r}")
+#: The folders of the package (docs/design.md, Map); each lists its modules in its ``__all__``.
+FOLDERS = ("prepare", "graph", "curves", "optimize", "svg", "render", "files", "diff")
 
 
-def __getattr__(name: str) -> ModuleType:
-    return load_submodule(__name__, name)
+def _load_on_first_use(package: ModuleType) -> None:
+    """Give ``package`` (a folder) the module ``__getattr__`` and ``__dir__`` of PEP 562:
+    ``package.NAME`` imports its module NAME, one of its ``__all__``, on first use, and
+    ``dir(package)`` lists them all. So after ``import depixel`` alone every module is reachable
+    by its dotted name, as docs/api.md writes them (``depixel.render.figure.figure``), and
+    seen by ``dir()`` and IDEs (``__all__``), while the command imports only what it uses."""
+    modules = frozenset(package.__all__)
+
+    def __getattr__(name: str) -> ModuleType:
+        if name in modules:
+            return importlib.import_module(f"{package.__name__}.{name}")
+        raise AttributeError(f"module {package.__name__!r} has no attribute {name!r}")
+
+    def __dir__() -> list[str]:
+        return sorted(set(vars(package)) | modules)
+
+    setattr(package, "__getattr__", __getattr__)  # noqa: B010 (a module attribute, not a method)
+    setattr(package, "__dir__", __dir__)  # noqa: B010
+
+
+for _folder in FOLDERS:  # the folder faces hold no code: one mechanism, here, for all of them
+    _load_on_first_use(importlib.import_module(f"{__name__}.{_folder}"))
+del _folder

@@ -4,7 +4,8 @@
 :func:`convert_bytes` returns the bytes of an SVG, PNG or PDF file. PNG and PDF go through
 cairosvg, which is imported only when one of them is asked for (:mod:`depixel.render.raster`).
 File to file (:func:`~depixel.files.convert.convert_file`, :func:`~depixel.files.convert.render_file`)
-is :mod:`depixel.files.convert`.
+is :mod:`depixel.files.convert`. The keyword functions make one
+:class:`~depixel.options.ConvertOptions` of their keywords and pass it to :func:`conversions`.
 """
 from __future__ import annotations
 
@@ -17,16 +18,20 @@ from . import validate
 from .colour import Colour, as_colour
 from .errors import ParameterError, RenderError, display_name
 from .limits import DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
+from .options import ConvertOptions, OutputOptions, PrepareOptions
 from .params import Params
-from .pipeline import STAGES, depixelize
+from .pipeline import depixelize
+from .prepare.backdrop import over_colour
 from .prepare.image import ImageSource, as_rgba, check_indexable, check_pixels, image_array, load_image
 from .prepare.inputs import AUTO, PixelSize, PreparedImage, pil_lossy, prepare
 from .render.overlay import overlay_raster, overlay_svg
-from .svg.outlines import LAYOUTS
-from .svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY, MAX_SIMPLIFY, SHADINGS, SIGMA_RATIO, to_svg
+from .svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY, SHADINGS, SIGMA_RATIO, to_svg
 
 #: Output formats, chosen from the file extension or given explicitly.
 FORMATS = ("svg", "png", "pdf")
+__all__ = ["FORMATS", "SHADINGS", "conversions", "convert", "convert_bytes", "encode", "flatten", "load",
+           "prepare_input", "prepared_input"]
+
 
 def _pixels(image, name: str = "<image>", max_pixels: int | None = DEFAULT_MAX_PIXELS) -> None:
     """Refuse what is not an image in memory (a file name gets a pointer to the file
@@ -44,41 +49,18 @@ def _pixels(image, name: str = "<image>", max_pixels: int | None = DEFAULT_MAX_P
         check_indexable(name, int(size[0]), int(size[1]))
 
 
-def _scale(shape: tuple[int, ...], scale: float, width: int | None, height: int | None) -> float:
-    """The scale that gives ``width`` (or ``height``) pixels, else ``scale``."""
-    validate.positive("scale", scale)
-    if width is not None and height is not None:
-        raise ParameterError("give width or height, not both (the other follows the aspect ratio)",
-                             parameter="width")
-    for key, value, size in (("width", width, shape[1]), ("height", height, shape[0])):
-        if value is not None:
-            return validate.number(key, value, low=1, integer=True) / size
-    return float(scale)
-
-
-def check_output_options(stage: str, precision: int, layout: str = "stacked",
-                         simplify: float = DEFAULT_SIMPLIFY) -> None:
-    """Refuse an unknown stage or layout and a precision or simplify tolerance out of range."""
-    validate.choice("stage", stage, STAGES)
-    validate.number("precision", precision, low=0, high=12, integer=True)
-    validate.choice("layout", layout, LAYOUTS)
-    validate.number("simplify", simplify, low=0, high=MAX_SIMPLIFY)
-
-
 def flatten(image, colour: Colour | str) -> np.ndarray:
     """Composite an image over an opaque colour → ``(H, W, 4) uint8`` with alpha 255.
 
     Useful before converting art whose semi-transparent edges should blend into a known
     background instead of becoming separate translucent shapes.
     """
-    rgb = np.array(as_colour(colour), dtype=np.int64)
+    rgb = as_colour(colour)
+    if rgb is None:
+        raise ParameterError("background must be a colour name or an (r, g, b) triple, not None",
+                             parameter="background")
     _pixels(image, max_pixels=None)
-    rgba = as_rgba(image).astype(np.int64)
-    alpha = rgba[..., 3:4]
-    out = np.empty(rgba.shape, np.uint8)
-    out[..., :3] = (rgba[..., :3] * alpha + rgb * (255 - alpha) + 127) // 255
-    out[..., 3] = 255
-    return out
+    return over_colour(as_rgba(image), rgb)
 
 
 def load(source: ImageSource, *, frame: int = 0, background: Colour | str | None = None,
@@ -113,15 +95,11 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
     laid exactly over the input. Images over ``max_pixels`` pixels are refused (``None``:
     no limit).
     """
-    prepared, scale = _prepare(image, params, stage, precision, background, scale, width, height, max_pixels,
-                               layout=layout, simplify=simplify, pixel_size=pixel_size, denoise=denoise,
-                               transparent=transparent, transparent_everywhere=transparent_everywhere)
-    _check_page("svg", prepared, scale, width, height, "<image>")
-    validate.choice("shading", shading, SHADINGS)
-    vector = depixelize(prepared.rgba, params, stage=stage).vector  # the other stages' products are freed here
-    svg = to_svg(vector, scale=scale, precision=precision, title=title, layout=layout, simplify=simplify,
-                 shading=shading, sigma=SIGMA_RATIO * params.shading_sigma)
-    return overlay_svg(svg, prepared, scale)
+    options = ConvertOptions.build(params, stage=stage, scale=scale, background=background, precision=precision,
+                                   width=width, height=height, max_pixels=max_pixels, layout=layout,
+                                   simplify=simplify, pixel_size=pixel_size, denoise=denoise, transparent=transparent,
+                                   transparent_everywhere=transparent_everywhere, shading=shading)
+    return conversions(image, {"svg": None}, options, title=title)["svg"].decode("utf-8")
 
 
 def prepare_input(image, *, background: Colour | str | None = None, pixel_size: PixelSize = AUTO,
@@ -131,42 +109,19 @@ def prepare_input(image, *, background: Colour | str | None = None, pixel_size: 
     """:func:`depixel.prepare.inputs.prepare` after flattening over ``background`` (when given);
     a :class:`PreparedImage` is returned as it is. ``lossy`` names the lossy format the
     pixels came from ("JPEG"; a PIL image says so itself), which turns denoising on."""
+    options = PrepareOptions(background=background, pixel_size=pixel_size, denoise=denoise, transparent=transparent,
+                             transparent_everywhere=transparent_everywhere)
+    return prepared_input(image, options, lossy=lossy, max_pixels=max_pixels)
+
+
+def prepared_input(image, options: PrepareOptions, *, lossy: str | None = None,
+                   max_pixels: int | None = DEFAULT_MAX_PIXELS) -> PreparedImage:
+    """:func:`prepare_input` with its options made: the image checked against ``max_pixels``
+    (None: not checked), then prepared; a :class:`PreparedImage` is returned as it is."""
     if isinstance(image, PreparedImage):
         return image
-    colour = as_colour(background)
-    validate.flag("transparent_everywhere", transparent_everywhere)
     _pixels(image, max_pixels=max_pixels)
-    lossy = lossy or pil_lossy(image)
-    rgba = as_rgba(image) if colour is None else flatten(image, colour)
-    return prepare(rgba, pixel_size=pixel_size, denoise=denoise, transparent=transparent,
-                   transparent_everywhere=transparent_everywhere, lossy=lossy)
-
-
-def _prepare(image, params, stage, precision, background, scale, width, height, max_pixels,
-             name: str = "<image>", layout: str = "stacked", simplify: float = DEFAULT_SIMPLIFY,
-             pixel_size: PixelSize = AUTO, denoise: bool | None = None, transparent: Colour | str | None = None,
-             lossy: str | None = None, transparent_everywhere: bool = False) -> tuple[PreparedImage, float]:
-    """Check every argument of a conversion → the prepared 1× art and the scale to write at
-    (relative to the input's size)."""
-    if not isinstance(params, Params):
-        raise ParameterError(f"params must be a depixel.Params, not {type(params).__name__}", parameter="params")
-    check_output_options(stage, precision, layout, simplify)
-    if not isinstance(image, PreparedImage):
-        _pixels(image, name, max_pixels)
-    prepared = prepare_input(image, background=background, pixel_size=pixel_size, denoise=denoise,
-                             transparent=transparent, transparent_everywhere=transparent_everywhere, lossy=lossy,
-                             max_pixels=None)
-    w, h = prepared.input_size
-    return prepared, _scale((h, w), scale, width, height)
-
-
-def _check_page(fmt: str, prepared: PreparedImage, scale: float, width: int | None, height: int | None,
-                name: str) -> None:
-    """Refuse an SVG or PDF page readers cannot show (:func:`depixel.validate.page_size`),
-    naming what set its size."""
-    parameter = "width" if width is not None else "height" if height is not None else "scale"
-    w, h = prepared.input_size
-    validate.page_size(fmt, w * scale, h * scale, name, parameter)
+    return prepare(image, options, lossy=lossy or pil_lossy(image))
 
 
 def encode(svg: str, fmt: str = "svg", *, name: str = "<svg>", keywords: str | None = None) -> bytes:
@@ -194,49 +149,40 @@ def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: 
     filter; PNG that SVG rasterized). A PDF has the flat bands (cairosvg draws no filters).
     A PNG of more than ``max_output_pixels`` pixels is refused before it is rendered.
     """
-    return conversion_bytes(image, fmt, params, stage=stage, scale=scale, background=background, title=title,
-                            shading=shading, name=name, precision=precision, width=width, height=height,
-                            max_pixels=max_pixels, max_output_pixels=max_output_pixels, layout=layout,
-                            simplify=simplify, pixel_size=pixel_size, denoise=denoise, transparent=transparent,
-                            transparent_everywhere=transparent_everywhere)
+    options = ConvertOptions.build(params, stage=stage, scale=scale, background=background, shading=shading,
+                                   precision=precision, width=width, height=height, max_pixels=max_pixels,
+                                   max_output_pixels=max_output_pixels, layout=layout, simplify=simplify,
+                                   pixel_size=pixel_size, denoise=denoise, transparent=transparent,
+                                   transparent_everywhere=transparent_everywhere)
+    return conversions(image, {fmt: None}, options, name=name, title=title)[fmt]
 
 
-def conversion_bytes(image, fmt, params, *, keywords: str | None = None, **options) -> bytes:
-    """:func:`convert_bytes` with what a file conversion adds (:mod:`depixel.files.convert`): the
-    ``lossy`` format the pixels came from, the PDF ``keywords`` (its options stamp) and a
-    callback told what the preparation found (the options of :func:`conversions`)."""
-    return conversions(image, {fmt: keywords}, params, **options)[fmt]
-
-
-def conversions(image, formats: Mapping[str, str | None], params, *, stage, scale, background, title, shading, name,
-                precision, width, height, max_pixels, max_output_pixels, layout, simplify, pixel_size=AUTO,
-                denoise=None, transparent=None, transparent_everywhere=False, lossy=None,
+def conversions(image, formats: Mapping[str, str | None], options: ConvertOptions, *, name: str = "<image>",
+                title: str | None = None, lossy: str | None = None,
                 on_prepared: Callable[[PreparedImage], None] | None = None) -> dict[str, bytes]:
     """One conversion written in several formats, ``{format: its PDF keywords}`` → ``{format:
     bytes}``: the input is prepared and depixelized once, then each format is made from the
-    same vector image (``depixel convert --format svg,png``)."""
+    same vector image (``depixel convert --format svg,png``). ``name`` names the image in
+    messages, ``title`` is the SVG's title, ``lossy`` the lossy format the pixels came from
+    (:func:`prepared_input`); ``on_prepared`` is told what the preparation found."""
     for fmt in formats:
         validate.choice("format", fmt, FORMATS)
-    validate.choice("shading", shading, SHADINGS)
-    max_output_pixels = validate.limit("max_output_pixels", max_output_pixels)
-    prepared, scale = _prepare(image, params, stage, precision, background, scale, width, height, max_pixels, name,
-                               layout, simplify, pixel_size, denoise, transparent, lossy, transparent_everywhere)
+    params, output, limits = options.params, options.output, options.limits
+    if not isinstance(image, PreparedImage):
+        _pixels(image, name, limits.max_pixels)
+    prepared = prepared_input(image, options.prepare, lossy=lossy, max_pixels=None)
+    scale = output.scale_for(*prepared.input_size)
     if on_prepared is not None:
         on_prepared(prepared)
     if "png" in formats:
-        size = max(1, round(prepared.input_size[0] * scale)), max(1, round(prepared.input_size[1] * scale))
-        if max_output_pixels is not None and size[0] * size[1] > max_output_pixels:
-            shown = validate.shown
-            raise RenderError(f"{name}: a {shown(size[0])}x{shown(size[1])} PNG is {shown(size[0] * size[1])} "
-                              f"pixels, over the limit of {max_output_pixels} (raise it with max_output_pixels)",
-                              parameter="max_output_pixels")
+        _check_png_size(prepared, scale, limits.max_output_pixels, name)
     for fmt in formats:
-        _check_page(fmt, prepared, scale, width, height, name)
-    vector = depixelize(prepared.rgba, params, stage=stage).vector
+        _check_page(fmt, prepared, scale, output, name)
+    vector = depixelize(prepared.rgba, params, stage=output.stage).vector  # the other stages' products are freed
     blobs: dict[str, bytes] = {}
     svgs: dict[str, str] = {}  # by shading: an SVG is smooth unless flat; PDF and a flat PNG are drawn flat
     for fmt, keywords in formats.items():
-        if fmt == "png" and shading == "smooth":
+        if fmt == "png" and output.shading == "smooth":
             import io  # noqa: PLC0415
 
             from PIL import Image  # noqa: PLC0415
@@ -249,10 +195,27 @@ def conversions(image, formats: Mapping[str, str | None], params, *, stage, scal
             Image.fromarray(overlay_raster(pixels, prepared, scale), "RGBA").save(buffer, format="PNG")
             blobs[fmt] = buffer.getvalue()
         else:
-            drawn = shading if fmt == "svg" else "flat"
+            drawn = output.shading if fmt == "svg" else "flat"
             if drawn not in svgs:
-                svgs[drawn] = overlay_svg(to_svg(vector, scale=scale, precision=precision, title=title, layout=layout,
-                                                 simplify=simplify, shading=drawn,
-                                                 sigma=SIGMA_RATIO * params.shading_sigma), prepared, scale)
+                svg = to_svg(vector, scale=scale, precision=output.precision, title=title, layout=output.layout,
+                             simplify=output.simplify, shading=drawn, sigma=SIGMA_RATIO * params.shading_sigma)
+                svgs[drawn] = overlay_svg(svg, prepared, scale)
             blobs[fmt] = encode(svgs[drawn], fmt, name=name, keywords=keywords)
     return blobs
+
+
+def _check_png_size(prepared: PreparedImage, scale: float, max_output_pixels: int | None, name: str) -> None:
+    """Refuse a PNG of more than ``max_output_pixels`` pixels before it is rendered."""
+    width, height = (max(1, round(side * scale)) for side in prepared.input_size)
+    if max_output_pixels is not None and width * height > max_output_pixels:
+        shown = validate.shown
+        raise RenderError(f"{name}: a {shown(width)}x{shown(height)} PNG is {shown(width * height)} pixels, over "
+                          f"the limit of {max_output_pixels} (raise it with max_output_pixels)",
+                          parameter="max_output_pixels")
+
+
+def _check_page(fmt: str, prepared: PreparedImage, scale: float, output: OutputOptions, name: str) -> None:
+    """Refuse an SVG or PDF page readers cannot show (:func:`depixel.validate.page_size`),
+    naming what set its size."""
+    w, h = prepared.input_size
+    validate.page_size(fmt, w * scale, h * scale, name, output.size_parameter)

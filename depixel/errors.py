@@ -50,11 +50,23 @@ class ParameterError(DepixelError, ValueError):
     """A parameter or option has a value the library cannot use (also a ValueError)."""
 
 
-def display_name(path: str | os.PathLike) -> str:
-    """A path as shown in a one-line message: control characters and undecodable bytes
-    (surrogate escapes) are written as Python escapes, so a hostile file name cannot break
-    the line or the terminal."""
-    text = os.fspath(path)
+def report_text(text: str | os.PathLike) -> str:
+    """A file name (or a message holding one) as reports write it (JSON, JUnit, HTML): each
+    byte of the name that was not UTF-8 (held as a surrogate escape, U+DC80-U+DCFF, by
+    ``os.fsdecode``) written as ``\\xNN``, any other lone surrogate as ``\\udNNN``, so the
+    text is valid Unicode that every encoder writes and a reader sees where the bytes were."""
+    text = os.fspath(text)
     if isinstance(text, bytes):
         text = os.fsdecode(text)
+    if not any("\ud800" <= c <= "\udfff" for c in text):
+        return text
+    return "".join(f"\\x{ord(c) - 0xDC00:02x}" if "\udc80" <= c <= "\udcff" else
+                   f"\\u{ord(c):04x}" if "\ud800" <= c <= "\udfff" else c for c in text)
+
+
+def display_name(path: str | os.PathLike) -> str:
+    """A path as shown in a one-line message: undecodable bytes as :func:`report_text`
+    writes them, control characters as Python escapes, so a hostile file name cannot break
+    the line or the terminal."""
+    text = report_text(path)
     return text if text.isprintable() else ascii(text)[1:-1]

@@ -1,7 +1,9 @@
-"""Read-only arrays and a one-line repr for the frozen products the stages pass on."""
+"""Frozen dataclasses: read-only arrays and a one-line repr for the products the stages pass
+on; the fields of the options objects as a file's stamp digests them (:func:`stamp_fields`)."""
 from __future__ import annotations
 
-from dataclasses import fields
+from collections.abc import Callable
+from dataclasses import field, fields
 from typing import Any
 
 import numpy as np
@@ -43,3 +45,29 @@ def _short(value: Any) -> str:
     if isinstance(value, (list, dict)) and len(value) > 8:
         return f"{type(value).__name__} of {len(value)}"
     return repr(value)
+
+
+#: Metadata key of an options field added after the stamp's format was fixed: a rule
+#: ``(options, value) -> bool`` saying when the field is left out of the digest.
+LEFT_OUT = "left out of the stamp"
+
+
+def added(default: Any, *, left_out: Callable[[Any, Any], bool] | None = None) -> Any:
+    """The field of an option added after the stamp's format was fixed: left out of the
+    options digest while it is at ``default`` (or whenever ``left_out(options, value)``), so
+    an output stamped before the option existed is still up to date (docs/design.md, Options)."""
+    rule = left_out or (lambda options, value: value == default)
+    return field(default=default, metadata={LEFT_OUT: rule})
+
+
+def stamp_fields(options: Any) -> dict[str, Any]:
+    """Every field of the options dataclass ``options`` by name, as the stamp digests them:
+    all of them, but an :func:`added` field its rule leaves out. A new field is in the digest
+    unless it says otherwise."""
+    digested = {}
+    for item in fields(options):
+        value = getattr(options, item.name)
+        rule = item.metadata.get(LEFT_OUT)
+        if rule is None or not rule(options, value):
+            digested[item.name] = value
+    return digested

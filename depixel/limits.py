@@ -28,7 +28,7 @@ MAX_INDEXED_PIXELS = 2**31 // 16
 #: ``--max-output-pixels``. 8192 × 4096: a 128 MiB RGBA image.
 DEFAULT_MAX_OUTPUT_PIXELS = 1 << 25
 #: Pixels of each image ``diff`` compares (input rasters and renders); ``max_pixels`` of
-#: :func:`depixel.diff.files.diff_files`, ``diff --max-pixels``. 4096 × 4096 stays under 1 GB
+#: :func:`depixel.diff.pairs.diff_files`, ``diff --max-pixels``. 4096 × 4096 stays under 1 GB
 #: at DIFF_BYTES_PER_PIXEL.
 DEFAULT_MAX_DIFF_PIXELS = 1 << 24
 #: Peak memory of one ``diff`` per compared pixel, the whole process (benchmarks/diff_memory.py

@@ -88,6 +88,8 @@ class Params:
 
     # --- §3.4 corners (docs/corners.md) ---------------------------------------------------
     corner_patterns: bool = True  # paper §3.4 / Figure 7: keep detected corners out of the smoothness term
+    # not in paper (issue 46): the nodes of a constant-slope staircase start on its line (optimize/slopes.py)
+    straight_runs: bool = True
     # not in paper: a straight run's nodes stay this near (px) its chord (a 2:1 staircase stays within ¼) [0, 4]
     run_tolerance: float = 0.3
     run_long: float = 2.5  # not in paper: a long run (px); smooth curves bend away before their chords do [0, 64]

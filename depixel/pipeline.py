@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, NamedTuple, cast
 
 import numpy as np
 
+from . import validate
 from .frozen import compact_repr
 from .graph.cells import CellGraph, build_cell_graph
 from .graph.crossings import CrossingResolution, resolve_crossings
@@ -53,8 +54,7 @@ class Result:
 
 def depixelize(image, params: Params = Params(), stage: str = "optimized") -> Result:
     """Run the pipeline on an RGBA image (array or PIL image) up to ``stage``."""
-    if stage not in STAGES:
-        raise ValueError(f"unknown stage {stage!r}; choose one of {', '.join(STAGES)}")
+    validate.choice("stage", stage, STAGES)
     rgba = as_rgba(image)
     if _AHEAD and (done := _taken((rgba.shape, rgba.tobytes(), params, stage))) is not None:
         return done
@@ -67,8 +67,7 @@ def depixelize_many(images: Sequence, params: Params = Params(), stage: str = "o
     those of one image at a time, to the last bit). An image that fails gives its exception
     in its place (the others are converted): the stages before the relaxation run per image,
     and if the pass fails, each image is optimized alone."""
-    if stage not in STAGES:
-        raise ValueError(f"unknown stage {stage!r}; choose one of {', '.join(STAGES)}")
+    validate.choice("stage", stage, STAGES)
     out: list[Result | _Begun | Exception] = []
     for image in images:
         try:

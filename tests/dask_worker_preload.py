@@ -2,7 +2,7 @@
 worker faulty, the way tests/test_dask_faults.py needs, as ``DEPIXEL_TEST_WORKER`` says:
 
 * ``no-depixel``: depixel is not installed (importing it fails, as in a venv without it);
-* ``other-version``: depixel reports another version;
+* ``other-version``: depixel reports another version (and stamps its outputs with it);
 * ``liar``: each task reports its output converted without writing anything (a worker
   that writes to another filesystem than the command's);
 * ``kill``: the worker process kills itself (SIGKILL) during the atomic write of the
@@ -43,11 +43,12 @@ if MODE == "no-depixel":
         del sys.modules[module]
     sys.meta_path.insert(0, _Missing())
 
-elif MODE == "other-version":
+elif MODE == "other-version":  # reports it, and stamps its outputs with it, as another release would
     import depixel
+    import depixel.files.stamp
     import depixel.version
 
-    depixel.__version__ = depixel.version.__version__ = "0.0.0+other"
+    depixel.__version__ = depixel.version.__version__ = depixel.files.stamp.__version__ = "0.0.0+other"
 
 elif MODE == "liar":
     import depixel_cli.convert.batch as batch

@@ -23,6 +23,7 @@ STAGE = "optimized"
 #: Largest per-channel difference (RGB and alpha) accepted at a pixel centre, as the judge's.
 TOLERANCE = 16
 SVG_NS = "{http://www.w3.org/2000/svg}"
+XLINK_HREF = "{http://www.w3.org/1999/xlink}href"
 
 
 def convert(rgba: np.ndarray, stage: str = STAGE, title: str | None = None) -> str:
@@ -31,10 +32,12 @@ def convert(rgba: np.ndarray, stage: str = STAGE, title: str | None = None) -> s
 
 
 def parse(svg: str) -> ET.Element:
-    """Parse the SVG, checking it is self-contained: no href, no url() but to an element of
-    the file (the smooth shading's filter), no external entity."""
+    """Parse the SVG, checking it is self-contained: no url() nor href but to an element of
+    the file (the smooth shading's filters and masks, a mask's ``<use>`` of a shape), no
+    external entity."""
     assert "<!DOCTYPE" not in svg and "<!ENTITY" not in svg
-    namespaces = ('xmlns="http://www.w3.org/2000/svg"', 'xmlns:inkscape="http://www.inkscape.org/namespaces/inkscape"')
+    namespaces = ('xmlns="http://www.w3.org/2000/svg"', 'xmlns:inkscape="http://www.inkscape.org/namespaces/inkscape"',
+                  'xmlns:xlink="http://www.w3.org/1999/xlink"')
     bare = svg
     for declaration in namespaces:  # names of vocabularies, not references to anything
         bare = bare.replace(declaration, "")
@@ -44,10 +47,13 @@ def parse(svg: str) -> ET.Element:
     ids = {element.get("id") for element in root.iter()}
     for element in root.iter():
         for key, value in element.attrib.items():
+            if key == XLINK_HREF and element.tag == SVG_NS + "use":
+                assert value.startswith("#") and value[1:] in ids, f"{element.tag} {key}={value!r}"
+                continue
             assert "href" not in key, f"{element.tag} has {key}"
             for target in re.findall(r"url\s*\(([^)]*)\)", value):
                 assert target.startswith("#") and target[1:] in ids, f"{element.tag} {key}={value!r}"
-        assert element.tag.split("}")[-1] not in {"image", "use", "style", "script", "foreignObject"}
+        assert element.tag.split("}")[-1] not in {"image", "style", "script", "foreignObject"}
     return root
 
 

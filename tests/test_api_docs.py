@@ -59,7 +59,7 @@ def documented_calls() -> list[tuple[str, list[str]]]:
 
 def test_every_documented_name_resolves_after_import_depixel_alone():
     names = sorted({name for name, _ in documented_calls()})
-    assert "depixel.diff.files.diff_files" in names and "depixel.render.figure.figure" in names
+    assert "depixel.diff.pairs.diff_files" in names and "depixel.render.figure.figure" in names
     code = ("import functools, depixel\n"
             f"for name in {names!r}:\n"
             "    functools.reduce(getattr, name.split('.')[1:], depixel)\n")

@@ -11,7 +11,7 @@ from conftest import FIXTURES
 
 from depixel.errors import OutputError
 from depixel.files.output import STILL_WANTED, commit, remove_temporary_in, stage, temporary_path, write_atomic
-from depixel.params import Params
+from depixel.options import ConvertOptions
 from depixel_cli.convert.batch import CANCELLED, INTERRUPTED, Job, Options, Outcome, run_job, totals_line
 from depixel_cli.dask.batch import _checked
 from depixel_cli.dask.cluster import DaskError, checked_address
@@ -82,7 +82,7 @@ def test_a_stopped_task_renames_nothing_and_leaves_no_temporary_file(tmp_path):
 def job_in(tmp_path: Path, force: bool = False) -> Job:
     source = tmp_path / "heart.png"
     shutil.copy(FIXTURES / "heart.png", source)
-    options = Options(Params(), ("svg",), "optimized", 1.0, "first", None, None, force=force)
+    options = Options(ConvertOptions.build(max_pixels=None), ("svg",), "first", force=force)
     return Job(source, tmp_path / "heart.svg", options)
 
 

@@ -15,7 +15,7 @@ from depixel.diff.compare import (
     pick_background,
     yiq_distance,
 )
-from depixel.diff.files import diff_files
+from depixel.diff.pairs import diff_files
 from depixel.diff.sources import SizeMismatchError, read, too_coarse_for_antialiasing
 from depixel_cli.main import main
 from depixel_cli.options import Exit

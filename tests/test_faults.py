@@ -20,7 +20,7 @@ import pytest
 from conftest import FIXTURES
 
 from depixel_cli import pool
-from depixel_cli.pool import Finished, Signals, run_jobs
+from depixel_cli.pool import Finished, Meanwhile, Signals, run_jobs
 
 #: generous on a loaded 2-core machine; the measured time is ~0.1-1.2 s (docs/cli.md)
 STOP_SECONDS = 6.0
@@ -299,7 +299,7 @@ def test_main_process_converts_while_the_workers_start(tmp_path, monkeypatch):
     with Signals(raising=False) as signals:
         from pool_jobs import crash
 
-        run_jobs(jobs, 2, crash, done.append, signals, here=crash)
+        run_jobs(jobs, 2, crash, done.append, signals, meanwhile=Meanwhile(crash))
     assert sorted(f.index for f in done) == list(range(40))
     pids = [int(f.result.split()[-1]) for f in done]
     here = [f.index for f, pid in zip(done, pids) if pid == os.getpid()]
@@ -307,7 +307,7 @@ def test_main_process_converts_while_the_workers_start(tmp_path, monkeypatch):
     assert len(set(pids) - {os.getpid()}) == 2  # and the two workers the rest
     done.clear()
     with Signals(raising=False) as signals:  # the last job is not one it may run: it runs none
-        run_jobs(jobs, 2, crash, done.append, signals, here=crash, local=lambda job: job[0] != "j39")
+        run_jobs(jobs, 2, crash, done.append, signals, meanwhile=Meanwhile(crash, lambda job: job[0] != "j39"))
     assert sorted(f.index for f in done) == list(range(40))
     assert all(int(f.result.split()[-1]) != os.getpid() for f in done)
 
@@ -432,12 +432,12 @@ def test_an_output_the_dead_worker_completed_counts_as_converted(tmp_path, monke
     """A worker killed after renaming its output into place but before reporting: the retry
     finds the output up to date; the batch lists it as converted (written since the batch
     began), not as skipped. An output from before the batch stays up to date."""
-    import depixel
+    from depixel.options import ConvertOptions
     from depixel_cli import pool
     from depixel_cli.convert import batch
     from depixel_cli.convert import run as batch_run
 
-    options = batch.Options(depixel.Params(), ("svg",), "cells", 1.0, "first", None, None, force=False)
+    options = batch.Options(ConvertOptions.build(stage="cells", max_pixels=None), ("svg",), "first", force=False)
     (tmp_path / "out").mkdir()
     jobs = [batch.Job(FIXTURES / name, tmp_path / "out" / f"{name}.svg", options) for name in ("heart.png", "ghost.png")]
 

@@ -51,3 +51,29 @@ def test_judge_figures_on_corpus_sample(stage, tmp_path):
         assert row["fg"] >= fg, (name, row)
         assert row["seam_px"] == 0, (name, row)
         assert row.get("holes", 0) == 0, (name, row)
+
+
+#: sprites with the most threads before the stacked outlines were pulled back from the edges
+#: of the faces above them (conflation_px 1,063, 377 and 577 at 8x), vikings_olaf also with
+#: two shapes whose notch round a thin white face closed at the judge's 4x (holes)
+CROWDED = ["vikings_olaf", "sma_toad", "smw_mario"]
+
+
+@needs_corpus
+@pytest.mark.skipif(not JUDGE.is_file(), reason="../shared/tools/judge.py not present")
+def test_no_threads_and_no_holes_on_crowded_sprites(tmp_path):
+    pairs = []
+    for name in CROWDED:
+        src = CORPUS / f"{name}.png"
+        svg = tmp_path / f"{name}.svg"
+        svg.write_text(to_svg(depixelize(load_image(src)).vector))
+        pairs.append(f"{src}\t{svg}")
+    listing = tmp_path / "pairs.tsv"
+    listing.write_text("\n".join(pairs) + "\n")
+    out = subprocess.run([sys.executable, str(JUDGE), "--pairs", str(listing), "--layers"], capture_output=True,
+                         text=True, timeout=600)
+    rows = [json.loads(line) for line in out.stdout.splitlines() if line.strip()]
+    assert len(rows) == len(CROWDED), out.stderr
+    for row in rows:
+        assert row["conflation_px"] <= 2, row
+        assert row["holes"] == 0, row

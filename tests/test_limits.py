@@ -208,6 +208,7 @@ def test_over_long_names_are_one_line(tmp_path, capsys):
 
 def test_frames_all_reads_the_file_once(tmp_path, monkeypatch):
     """17.12: every frame decoded once, in order, from one read of the file."""
+    from depixel.options import ConvertOptions
     from depixel.prepare import image
     from depixel_cli.convert.batch import Job, Options, run_job
 
@@ -217,7 +218,7 @@ def test_frames_all_reads_the_file_once(tmp_path, monkeypatch):
     reads = []
     original = image.read_source
     monkeypatch.setattr(image, "read_source", lambda source: reads.append(source) or original(source))
-    options = Options(depixel.Params(), ("svg",), "cells", 1.0, "all", None, None, force=False)
+    options = Options(ConvertOptions.build(stage="cells", max_pixels=None), ("svg",), "all", force=False)
     (tmp_path / "out").mkdir()
     outcome = run_job(Job(gif, tmp_path / "out" / "many.svg", options, 30))
     assert outcome.error is None and len(outcome.written) == 30

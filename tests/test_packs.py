@@ -152,10 +152,11 @@ def test_an_animations_frames_run_in_passes_with_the_same_bytes(monkeypatch):
     from depixel.prepare.animation import Animation
 
     base = depixel.load_image(FIXTURES / "chip.png")
+    y, x = base.shape[0] // 2 - 1, base.shape[1] // 2 - 1
     frames = [base]
-    for k in range(19):  # 20 frames, a pixel of each changed
+    for k in range(19):  # 20 frames: a light in the chip's middle, blinking in 19 colours
         frame = base.copy()
-        frame[k % 8, (3 * k) % 8] = (40 * (k % 6), 200, 90, 255)
+        frame[y:y + 2, x:x + 2] = (12 * k, 240 - 12 * k, 90, 255)
         frames.append(frame)
     animation = Animation(tuple(frames), (100.0,) * len(frames), 0)
     passes = _passes(monkeypatch)
@@ -171,12 +172,13 @@ def test_workers_take_packs_and_a_file_that_kills_its_worker_fails_alone(tmp_pat
     its worker fails."""
     import os
 
+    from depixel.options import ConvertOptions
     from depixel_cli import pool
     from depixel_cli.convert import batch, packs
     from depixel_cli.convert import run as batch_run
 
     names = [p.name for p in fixture_pngs() if p.suffix == ".png"]
-    options = batch.Options(depixel.Params(), ("svg",), "optimized", 1.0, "first", None, None, force=False)
+    options = batch.Options(ConvertOptions(), ("svg",), "first", force=False)
     (tmp_path / "out").mkdir()
     jobs = [batch.Job(FIXTURES / name, tmp_path / "out" / f"{name}.svg", options) for name in names]
     poison = jobs[3].source

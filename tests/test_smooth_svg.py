@@ -51,15 +51,17 @@ def centres(svg: str, shape: tuple[int, int], scale: int = 9) -> np.ndarray:
 
 
 def flat_markup(svg: str) -> str:
-    """The smooth document less its filter and its smooth groups' markup: the filter's
-    ``<defs>``, each smooth ``<g>`` of its own with its ``</g>``, and on a region's ``<g>``
+    """The smooth document less its filter and its smooth groups' markup: the ``<defs>`` of
+    the filters and masks (and the xlink namespace of the masks' references), each smooth
+    ``<g>`` of its own and each masked ``<g>`` with their ``</g>``, and on a region's ``<g>``
     that is a smooth group the filter and the "smooth" of its label."""
-    svg = re.sub(r"<defs>\n<filter .*?</filter>\n</defs>\n", "", svg)
+    svg = re.sub(r"<defs>\n<filter .*?</defs>\n", "", svg, flags=re.DOTALL)
+    svg = svg.replace(' xmlns:xlink="http://www.w3.org/1999/xlink"', "")
     lines, depth, drop = [], 0, []
     for line in svg.splitlines(keepends=True):
         if line.startswith("<g "):
             depth += 1
-            if 'id="smooth-' in line:
+            if 'id="smooth-' in line or line.startswith("<g mask="):
                 drop.append(depth)
                 continue
             line = line.replace('inkscape:label="smooth shading #', 'inkscape:label="shading #')
@@ -82,7 +84,7 @@ def test_a_shaded_fixture_has_the_filter_and_flat_has_none(layout):
     root = parse(to_svg(vector, layout=layout))
     (blur,) = root.iter(SVG_NS + "feGaussianBlur")
     assert float(blur.get("stdDeviation")) == pytest.approx(SIGMA_RATIO * Params().shading_sigma)
-    (filt,) = root.iter(SVG_NS + "filter")
+    filt = {f.get("id"): f for f in root.iter(SVG_NS + "filter")}["smooth"]
     assert filt.get("color-interpolation-filters") == "sRGB"
     steps = [local for local in (e.tag.replace(SVG_NS, "") for e in filt)]
     assert steps == ["feGaussianBlur", "feComponentTransfer", "feComposite"]
@@ -90,8 +92,8 @@ def test_a_shaded_fixture_has_the_filter_and_flat_has_none(layout):
     assert alpha.get("type") == "table" and alpha.get("tableValues") == "1 1"
     (clip,) = filt.iter(SVG_NS + "feComposite")
     assert clip.get("in2") == "SourceAlpha" and clip.get("operator") == "in"
-    groups = [g for g in root.iter(SVG_NS + "g") if g.get("filter")]
-    assert len(groups) == 1 and groups[0].get("filter") == "url(#smooth)"
+    groups = [g for g in root.iter(SVG_NS + "g") if g.get("filter") == "url(#smooth)"]
+    assert len(groups) == 1
     assert groups[0].get(INK_LABEL).startswith("smooth shading #")
     fills = {p.get("fill") for p in groups[0].iter(SVG_NS + "path")}
     assert fills == {"#%02x%02x%02x" % (30 + 22 * k, 60 + 22 * k, 75 + 22 * k) for k in range(6)}
@@ -110,7 +112,8 @@ def test_flat_differs_from_smooth_only_by_the_filter_and_the_groups(path, layout
     smooth, flat = to_svg(vector, layout=layout), to_svg(vector, layout=layout, shading="flat")
     assert flat_markup(smooth) == flat
     assert "filter" not in flat
-    if path.name in ("orb.png", "chip.png"):  # (shaded fixtures: the test compares something)
+    if path.name == "orb.png":  # (the shaded fixture: the test compares something; the chip's
+        # dotted pins blended with its backdrop before the backdrop was kept out, issue 46)
         assert smooth != flat
 
 
@@ -210,7 +213,7 @@ def test_layers_panel_names_the_smooth_group():
     """What Inkscape's Objects panel shows: the group's label says it is a smooth-shaded
     region, its bands keep their labels and fills."""
     root = ET.fromstring(to_svg(depixelize(load_image(FIXTURES / "orb.png")).vector))
-    (group,) = [g for g in root.iter(SVG_NS + "g") if g.get("filter")]
+    (group,) = [g for g in root.iter(SVG_NS + "g") if g.get("filter") == "url(#smooth)"]
     assert re.fullmatch(r"smooth shading #[0-9a-f]{6} \(6 tones\)", group.get(INK_LABEL))
     for path in group.iter(SVG_NS + "path"):
         role, colour = path.get(INK_LABEL).split(" ")

@@ -15,6 +15,7 @@ import depixel
 from depixel import api
 from depixel.files import stamp as stamps
 from depixel.files.stamp import options_stamp
+from depixel.options import ConvertOptions
 
 
 def test_options_stamp_is_the_sha256_of_the_sorted_options():
@@ -31,10 +32,8 @@ IDENTITY = stamps.Identity(190, -5, "0123456789abcdef")
 
 def blob_of(fmt: str, keywords: str | None = None) -> bytes:
     rgba = api.load(FIXTURES / "heart.png")
-    return api.conversion_bytes(rgba, fmt, depixel.Params(), stage="cells", scale=1.0, background=None, title=None,
-                                shading="smooth", name="heart", precision=3, width=None, height=None,
-                                max_pixels=None, max_output_pixels=None, layout="stacked", simplify=0.0,
-                                keywords=keywords)
+    options = ConvertOptions.build(stage="cells", precision=3, simplify=0.0, max_pixels=None, max_output_pixels=None)
+    return api.conversions(rgba, {fmt: keywords}, options, name="heart")[fmt]
 
 
 @pytest.mark.parametrize("fmt", ["svg", "png", "pdf"])

@@ -133,10 +133,9 @@ def test_no_import_cycle_between_the_subpackages():
     packages: dict[str, set[str]] = {}
     for name, targets in import_graph().items():
         packages.setdefault(folder(name), set()).update(folder(t) for t in targets if folder(t) != folder(name))
-    packages.pop("depixel", None)  # the package root re-exports the API from everywhere
-    for targets in packages.values():
-        targets.discard("depixel")
     assert cycles(packages) == []
+    # the package root re-exports the API from everywhere, and nothing in the library imports it
+    assert not [name for name, targets in packages.items() if "depixel" in targets and name.startswith("depixel.")]
 
 
 def test_the_library_never_imports_the_command_line():
@@ -170,3 +169,40 @@ def test_pyproject_installs_every_package_folder():
     configured = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"]
     folders = {module_name(p) for p in [*LIBRARY.rglob("__init__.py"), *CLI.rglob("__init__.py")]}
     assert folders <= set(configured), sorted(folders - set(configured))
+
+
+def test_every_folder_face_lists_its_modules_and_holds_no_code():
+    """A folder's ``__init__.py`` is its docstring and ``__all__``, its modules: what ``dir()``
+    and IDEs show, and what depixel/__init__.py loads on first use (one mechanism for all)."""
+    import depixel
+
+    faces = sorted(LIBRARY.glob("*/__init__.py"))
+    assert sorted(depixel.FOLDERS) == sorted(face.parent.name for face in faces)
+    for face in faces:
+        body = ast.parse(face.read_text()).body
+        assert all(isinstance(node, (ast.Expr, ast.Assign)) for node in body), f"{face}: code in a folder face"
+        listed = [ast.literal_eval(node.value) for node in body
+                  if isinstance(node, ast.Assign) and getattr(node.targets[0], "id", "") == "__all__"]
+        modules = sorted(p.stem for p in face.parent.glob("*.py") if not p.name.startswith("_"))
+        assert listed and sorted(listed[0]) == modules, f"{face.relative_to(ROOT)}: __all__ is not its modules"
+
+
+def test_a_folders_module_loads_on_first_use_and_dir_lists_it():
+    import subprocess
+    import sys
+
+    code = ("import sys, depixel\n"
+            "assert 'depixel.diff.html' not in sys.modules and 'html' in dir(depixel.diff)\n"
+            "assert callable(depixel.diff.html.html_report) and 'depixel.diff.html' in sys.modules\n"
+            "assert all(set(getattr(depixel, f).__all__) <= set(dir(getattr(depixel, f))) for f in depixel.FOLDERS)\n"
+            "try:\n    depixel.svg.nothing\nexcept AttributeError as exc:\n    print(exc)\n")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip() == "module 'depixel.svg' has no attribute 'nothing'"
+
+
+def test_render_takes_the_products_and_imports_no_pipeline():
+    """The stages figure draws what a run made; its caller runs the pipeline (docs/design.md)."""
+    graph = import_graph()
+    assert [name for name, targets in graph.items()
+            if name.startswith("depixel.render") and "depixel.pipeline" in targets] == []

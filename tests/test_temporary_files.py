@@ -21,7 +21,7 @@ from PIL import Image
 
 from depixel.errors import ParameterError
 from depixel.files import output
-from depixel.params import Params
+from depixel.options import ConvertOptions
 from depixel_cli.convert.batch import Job, Options, remove_temporary_files
 
 #: what a user may keep beside an output: names the old ``.NAME.*.tmp`` glob matched
@@ -78,8 +78,8 @@ def test_cleanup_removes_this_runs_files_and_no_other(tmp_path):
     other_run.write_bytes(b"another run's")
     other_output = output.temporary_path(tmp_path / "big.svg.bak", token, pid=4242)
     other_output.write_bytes(b"another output's")
-    job = Job(tmp_path / "big.png", tmp_path / "big.svg", Options(Params(), "svg", "optimized", 1.0, "first",
-                                                                     None, None, False, token=token))
+    job = Job(tmp_path / "big.png", tmp_path / "big.svg", Options(ConvertOptions(), ("svg",), "first", False,
+                                                                     token=token))
     remove_temporary_files(job)  # what the command does for the job of a worker that was killed
     assert not any(p.exists() for p in ours)
     assert all(p.read_bytes() == data for p, data in mine.items())

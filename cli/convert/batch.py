@@ -21,39 +21,22 @@ from depixel.errors import DepixelError, OutputError, display_name
 from depixel.files import convert as files
 from depixel.files import output as written
 from depixel.files import stamp as stamps
-from depixel.limits import DEFAULT_MAX_FRAMES
-from depixel.params import Params
+from depixel.options import ConvertOptions
 from depixel.prepare.image import frame_count
 from depixel.prepare.inputs import PreparedImage
-from depixel.svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
 
 from ..options import error_message
 
 
 @dataclass(frozen=True, eq=False)  # never compared: eq would cost ~1 ms a start to create
 class Options:
-    """How to convert each file (the same for every job of a batch)."""
+    """How to convert each file (the same for every job of a batch): the library's options
+    and what the batch adds."""
 
-    params: Params
+    convert: ConvertOptions  # what each output is made with (the stamp digests it)
     formats: tuple[str, ...]  # svg, png or pdf: one output of each per input (and frame)
-    stage: str
-    scale: float
     frames: str | int  # "first", "all" or a frame index
-    background: tuple[int, int, int] | None
-    max_pixels: int | None
     force: bool  # reconvert outputs that are up to date, and overwrite those that are not depixel's or edited
-    shading: str = "smooth"  # the paper's smooth shading (SVG filter, PNG renderer), or "flat" bands
-    precision: int = DEFAULT_PRECISION  # decimals of SVG coordinates
-    layout: str = "stacked"  # SVG: shapes stacked (each continues under those above) or cut out
-    simplify: float = DEFAULT_SIMPLIFY  # SVG: tolerance of the curve simplification, pixels (0: exact)
-    width: int | None = None  # output width in pixels (instead of scale)
-    height: int | None = None
-    max_output_pixels: int | None = None
-    pixel_size: str | tuple[int, int] = "auto"  # input preparation (depixel/prepare/inputs.py)
-    denoise: bool | None = None
-    transparent: str | tuple[int, int, int] | None = None
-    transparent_everywhere: bool = False
-    max_frames: int | None = DEFAULT_MAX_FRAMES
     #: an output named by ``-o``: converted even when up to date; one that is not depixel's
     #: (or was edited) is an error without ``force``, not a note
     explicit: bool = False
@@ -122,14 +105,13 @@ def run_job(job: Job) -> Outcome:
     opt = job.options
     try:
         if opt.frames == "all" and job.frames == 0:  # not counted when planned (a single -o)
-            job = replace(job, frames=frame_count(job.source, opt.max_frames))
+            job = replace(job, frames=frame_count(job.source, opt.convert.limits.max_frames))
         todo = _outputs_to_make(job, out)
         if todo:
             source = files.InputFile.read(job.source)
             result = files.convert_frames(
-                source, todo, every_frame=opt.frames == "all", max_pixels=opt.max_pixels,
-                max_output_pixels=opt.max_output_pixels, max_frames=opt.max_frames, token=opt.token,
-                overwrite=opt.force, on_prepared=lambda frame, target, prepared:
+                source, todo, opt.convert, every_frame=opt.frames == "all", token=opt.token, overwrite=opt.force,
+                on_prepared=lambda frame, target, prepared:
                     record_prepared(out, prepared, source=job.source, target=target))
             out.written, out.seconds, out.sizes = result.written, result.seconds, result.sizes
             for target, now in result.kept.items():
@@ -171,30 +153,25 @@ def kept_lines(out: Outcome) -> list[tuple[str, str]]:
             for target in targets]
 
 
-def _outputs_to_make(job: Job, out: Outcome) -> dict[int, list[tuple[Path, dict]]]:
-    """{frame: [(output, file options), ...]} of the outputs to convert; the others are added to
-    ``out.up_to_date`` (made from this input with these options), ``out.kept`` (not
-    depixel's) or ``out.edited`` (changed since depixel wrote them)."""
+def _outputs_to_make(job: Job, out: Outcome) -> list[files.Target]:
+    """The outputs to convert; the others are added to ``out.up_to_date`` (made from this
+    input with these options), ``out.kept`` (not depixel's) or ``out.edited`` (changed since
+    depixel wrote them)."""
     opt = job.options
-    todo: dict[int, list[tuple[Path, dict]]] = {}
-    for frame, fmt, target in frame_targets(job):
-        options = files.file_options(target, opt.params, fmt=fmt, stage=opt.stage, scale=opt.scale,
-                                   frame=frame, background=opt.background, shading=opt.shading,
-                                   precision=opt.precision, width=opt.width, height=opt.height,
-                                   layout=opt.layout, simplify=opt.simplify, pixel_size=opt.pixel_size,
-                                   denoise=opt.denoise, transparent=opt.transparent,
-                                   transparent_everywhere=opt.transparent_everywhere)
-        if _same_file(target, job.source):  # said as the writer says it, before any work
-            raise OutputError(f"{display_name(target)}: is the input file; refusing to overwrite it")
-        now = stamps.NEW if opt.force else files.output_status(job.source, target, options)
+    todo: list[files.Target] = []
+    for frame, fmt, path in frame_targets(job):
+        target = files.file_target(path, opt.convert, fmt=fmt, frame=frame)
+        if _same_file(path, job.source):  # said as the writer says it, before any work
+            raise OutputError(f"{display_name(path)}: is the input file; refusing to overwrite it")
+        now = stamps.NEW if opt.force else files.output_status(job.source, target)
         if now == stamps.CURRENT and not opt.explicit:
-            out.up_to_date.append(target)
+            out.up_to_date.append(path)
         elif now == stamps.UNSTAMPED:
-            out.kept.append(target)
+            out.kept.append(path)
         elif now == stamps.EDITED:
-            out.edited.append(target)
+            out.edited.append(path)
         else:
-            todo.setdefault(frame, []).append((target, options))
+            todo.append(target)
     return todo
 
 
@@ -210,10 +187,10 @@ def preview(job: Job) -> Outcome:
     write are ``planned``)."""
     out = Outcome(job.source, job.output)
     try:
-        frames = frame_count(job.source, job.options.max_frames if job.options.frames == "all" else None)
+        frames = frame_count(job.source, job.options.convert.limits.max_frames if job.options.frames == "all" else None)
         if job.options.frames == "all" and job.frames == 0:  # the header is read: an unreadable input fails
             job = replace(job, frames=frames)
-        out.planned = [target for wanted in _outputs_to_make(job, out).values() for target, _ in wanted]
+        out.planned = [target.path for target in _outputs_to_make(job, out)]
         if job.options.explicit and (out.kept or out.edited):
             out.error = kept_lines(out)[0][1]
     except DepixelError as exc:

@@ -26,9 +26,9 @@ from ..options import (
     add_tuning,
     check_input_options,
     colour,
+    convert_options,
     error_message,
     int_range,
-    params_from_args,
     positive_float,
     positive_int,
     tolerance,
@@ -190,12 +190,7 @@ def add_parser(sub, name: str, help: str) -> None:
 def run_convert(args: argparse.Namespace) -> int:
     parser = args.parser
     formats = _check_destination(args)
-    options = Options(params_from_args(args), formats, args.stage, args.scale, args.frames, args.background,
-                      args.max_pixels, force=args.force, shading=args.shading, precision=args.precision,
-                      width=args.width, height=args.height, max_output_pixels=args.max_output_pixels,
-                      layout=args.layout, simplify=args.simplify, pixel_size=args.pixel_size, denoise=args.denoise,
-                      transparent=args.transparent, transparent_everywhere=args.transparent_everywhere,
-                      max_frames=args.max_frames)
+    options = Options(convert_options(args), formats, args.frames, force=args.force)
 
     start = time.perf_counter()
     signals = args.signals
@@ -315,50 +310,37 @@ def _convert_stream(source: str, output: str, options: Options) -> Outcome:
 def _to_stdout(source: files.InputFile, options: Options, out: Outcome) -> None:
     """``-o -``: one frame's SVG, PNG or PDF on stdout, unstamped."""
     frame = 0 if options.frames == "first" else int(options.frames)
-    rgba = load_image(source.data, options.max_pixels, frame, max_frames=options.max_frames, name=source.name)
-    prepared = api.prepare_input(rgba, background=options.background, pixel_size=options.pixel_size,
-                                 denoise=options.denoise, transparent=options.transparent,
-                                 transparent_everywhere=options.transparent_everywhere,
-                                 lossy=lossy_format(source.data))
-    record_prepared(out, prepared, source.name, "-")
-    blob = api.convert_bytes(prepared, options.formats[0], options.params, stage=options.stage, scale=options.scale,
-                             shading=options.shading, name=source.name,
-                             title=None if source.path is None else source.path.name,
-                             precision=options.precision, width=options.width, height=options.height,
-                             max_pixels=options.max_pixels, max_output_pixels=options.max_output_pixels,
-                             layout=options.layout, simplify=options.simplify)
-    if options.formats[0] != "svg" and sys.stdout is not None and sys.stdout.isatty():
-        raise OutputError(f"refusing to write binary {options.formats[0].upper()} to a terminal")
+    fmt, limits = options.formats[0], options.convert.limits
+    rgba = load_image(source.data, limits.max_pixels, frame, max_frames=limits.max_frames, name=source.name)
+    blob = api.conversions(rgba, {fmt: None}, options.convert, name=source.name,
+                           title=None if source.path is None else source.path.name, lossy=lossy_format(source.data),
+                           on_prepared=lambda prepared: record_prepared(out, prepared, source.name, "-"))[fmt]
+    if fmt != "svg" and sys.stdout is not None and sys.stdout.isatty():
+        raise OutputError(f"refusing to write binary {fmt.upper()} to a terminal")
     write_stdout(blob)
 
 
 def _stream_to_files(source: files.InputFile, output: Path, options: Options, out: Outcome) -> None:
     """stdin to ``-o FILE`` (every frame's file with ``--frames all``), all or none."""
     if options.frames == "all":
-        frames = list(enumerate(files.frame_outputs(output, frame_count(source.data, options.max_frames,
-                                                                          name=source.name))))
+        frames = list(enumerate(files.frame_outputs(output, frame_count(
+            source.data, options.convert.limits.max_frames, name=source.name))))
     else:
         frames = [(0 if options.frames == "first" else int(options.frames), output)]
-    targets = {frame: [(target, files.file_options(
-        target, options.params, fmt=options.formats[0], stage=options.stage, scale=options.scale, frame=frame,
-        background=options.background, shading=options.shading, precision=options.precision, width=options.width,
-        height=options.height, layout=options.layout, simplify=options.simplify, pixel_size=options.pixel_size,
-        denoise=options.denoise, transparent=options.transparent,
-        transparent_everywhere=options.transparent_everywhere))] for frame, target in frames}
-    for target, _ in (output for wanted in targets.values() for output in wanted):
-        now = stamps.NEW if options.force else stamps.replaceable(target)
-        (out.kept if now == stamps.UNSTAMPED else out.edited if now == stamps.EDITED else []).append(target)
+    targets = [files.file_target(path, options.convert, fmt=options.formats[0], frame=frame) for frame, path in frames]
+    for target in targets:
+        now = stamps.NEW if options.force else stamps.replaceable(target.path)
+        (out.kept if now == stamps.UNSTAMPED else out.edited if now == stamps.EDITED else []).append(target.path)
     if out.kept or out.edited:
         out.error = kept_lines(out)[0][1]
         return
-    result = files.convert_frames(source, targets, every_frame=options.frames == "all", max_pixels=options.max_pixels,
-                                  max_output_pixels=options.max_output_pixels, max_frames=options.max_frames,
+    result = files.convert_frames(source, targets, options.convert, every_frame=options.frames == "all",
                                   token=options.token, overwrite=options.force,
                                   on_prepared=lambda frame, target, prepared:
                                       record_prepared(out, prepared, source.name, target))
     out.written, out.seconds, out.sizes = result.written, result.seconds, result.sizes
-    for target, now in result.kept.items():
-        (out.edited if now == stamps.EDITED else out.kept).append(target)
+    for path, now in result.kept.items():
+        (out.edited if now == stamps.EDITED else out.kept).append(path)
     if out.kept or out.edited:
         out.error = kept_lines(out)[0][1]
 

@@ -7,12 +7,14 @@ outputs go (``--out-dir``, ``-r``, existing outputs) read apart from running the
 from __future__ import annotations
 
 import glob
+import os
 import string
 from pathlib import Path
 
 from depixel.errors import DepixelError, display_name
 from depixel.files import convert as files
 from depixel.files import stamp as stamps
+from depixel.files.output import make_folders as make_folder_and_parents
 from depixel.prepare.image import frame_count
 
 from ..options import error_message
@@ -59,7 +61,7 @@ def expand_inputs(args: list[str], recursive: bool, exclude: Path | None = None,
         path = Path(arg)
         if path.is_dir():
             key = path.resolve()
-            files = sorted(f for f in path.glob("**/*" if recursive else "*") if wanted(f, path, key))
+            files = sorted(f for f in _entries(path, recursive) if wanted(f, path, key))
             if not files:
                 hint = "" if recursive else " (-r looks in subfolders)"
                 problems.append((arg, f"{display_name(arg)}: no images in this folder{hint}"))
@@ -68,7 +70,12 @@ def expand_inputs(args: list[str], recursive: bool, exclude: Path | None = None,
         elif glob.has_magic(arg) and not path.exists():
             base = _glob_base(arg)
             key = base.resolve()
-            matches = sorted(Path(m) for m in glob.glob(arg, recursive=True))
+            try:
+                matches = sorted(Path(m) for m in glob.glob(arg, recursive=True))
+            except RecursionError:  # glob's ** recurses once a level
+                problems.append((arg, f"{display_name(arg)}: its folders are nested too deeply for a ** pattern; "
+                                      "give the folder with -r instead"))
+                continue
             files = [m for m in matches if wanted(m, base, key)]
             if not files:
                 problems.append((arg, f"{display_name(arg)}: no image matches"))
@@ -77,6 +84,30 @@ def expand_inputs(args: list[str], recursive: bool, exclude: Path | None = None,
         else:
             add(path, Path(path.name))
     return found, problems
+
+
+def _entries(folder: Path, recursive: bool) -> list[Path]:
+    """What ``folder.glob("**/*" if recursive else "*")`` gives (subfolders reached through
+    a symbolic link are not entered), walked with a list of folders to visit rather than by
+    recursion, so that a tree thousands of levels deep is no error."""
+    found: list[Path] = []
+    todo = [folder]
+    while todo:
+        here = todo.pop()
+        try:
+            with os.scandir(here) as listing:
+                entries = list(listing)
+        except OSError:  # as glob: a folder that cannot be listed gives nothing
+            continue
+        for entry in entries:
+            path = here / entry.name
+            found.append(path)
+            try:
+                if recursive and entry.is_dir(follow_symlinks=False):
+                    todo.append(path)
+            except OSError:
+                pass
+    return found
 
 
 def _glob_base(pattern: str) -> Path:
@@ -158,7 +189,7 @@ def plan(found: list[tuple[Path, Path]], out_dir: Path | None, options: Options,
         n_frames = 1
         if options.frames == "all":
             try:
-                n_frames = frame_count(path, options.max_frames)
+                n_frames = frame_count(path, options.convert.limits.max_frames)
             except DepixelError as exc:
                 failed.append(Outcome(path, folder / f"{path.stem}.{options.formats[0]}", error=error_message(exc)))
                 continue
@@ -189,11 +220,9 @@ def make_folders(jobs: list[Job]) -> tuple[list[Job], list[Outcome]]:
     ready, failed = [], []
     for job in jobs:
         try:
-            job.output.parent.mkdir(parents=True, exist_ok=True)
+            make_folder_and_parents(job.output.parent)
             ready.append(job)
-        except OSError as exc:
-            failed.append(Outcome(job.source, job.output,
-                                  error=f"{display_name(job.output.parent)}: cannot create folder "
-                                        f"({exc.strerror or exc})"))
+        except DepixelError as exc:
+            failed.append(Outcome(job.source, job.output, error=error_message(exc)))
     return ready, failed
 

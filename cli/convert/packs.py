@@ -17,13 +17,12 @@ from contextlib import ExitStack, contextmanager
 
 import numpy as np
 
-from depixel.api import prepare_input
-from depixel.colour import as_colour
+from depixel.api import prepared_input
 from depixel.files.ahead import PASS_IMAGES, PASS_PIXELS
 from depixel.files.convert import InputFile
 from depixel.pipeline import ahead
 from depixel.prepare.image import load_image
-from depixel.prepare.inputs import lossy_format, parse_pixel_size, parse_transparent
+from depixel.prepare.inputs import lossy_format
 
 from .batch import Job, Outcome, run_job
 
@@ -52,8 +51,8 @@ def packed(jobs: Sequence[Job]) -> Iterator[None]:
     images = [rgba for job in jobs if (rgba := _prepared(job)) is not None]
     with ExitStack() as stack:
         if len(images) > 1:
-            options = jobs[0].options
-            stack.enter_context(ahead(images, options.params, options.stage, PASS_IMAGES, PASS_PIXELS))
+            options = jobs[0].options.convert
+            stack.enter_context(ahead(images, options.params, options.output.stage, PASS_IMAGES, PASS_PIXELS))
         yield
 
 
@@ -64,12 +63,10 @@ def _prepared(job: Job) -> np.ndarray | None:
     if opt.frames == "all":
         return None
     frame = 0 if opt.frames == "first" else int(opt.frames)
+    limits = opt.convert.limits
     try:
         source = InputFile.read(job.source)
-        rgba = load_image(source.data, opt.max_pixels, frame, max_frames=opt.max_frames, name=source.name)
-        return prepare_input(rgba, background=as_colour(opt.background), pixel_size=parse_pixel_size(opt.pixel_size),
-                             denoise=opt.denoise, transparent=parse_transparent(opt.transparent),
-                             transparent_everywhere=opt.transparent_everywhere, lossy=lossy_format(source.data),
-                             max_pixels=None).rgba
+        rgba = load_image(source.data, limits.max_pixels, frame, max_frames=limits.max_frames, name=source.name)
+        return prepared_input(rgba, opt.convert.prepare, lossy=lossy_format(source.data), max_pixels=None).rgba
     except Exception:  # its job reports it
         return None

@@ -42,7 +42,7 @@ def run(jobs: list[Job], workers: int, report, signals, progress: Progress | Non
     process converts files too while the workers start), until done or stopped by
     ``signals``; ``report(outcome)`` is called as each one ends. Returns the outcomes in the
     order of ``jobs``; after a stop, the unfinished ones are INTERRUPTED or CANCELLED."""
-    from ..pool import Finished, Interrupted, run_jobs  # noqa: PLC0415
+    from ..pool import Finished, Interrupted, Meanwhile, run_jobs  # noqa: PLC0415
 
     outcomes: dict[int, Outcome] = {}
     begun = time.time_ns()
@@ -123,8 +123,8 @@ def run(jobs: list[Job], workers: int, report, signals, progress: Progress | Non
 
         # while the fork server imports depixel, this process converts small files itself
         run_jobs([tuple(jobs[i] for i in group) for group in groups], workers, run_pack, unpacked, signals,
-                 cleanup=clean,
-                 started=lambda i: started(groups[i][0]), here=here_all, local=lambda pack: all(map(small, pack)))
+                 cleanup=clean, started=lambda i: started(groups[i][0]),
+                 meanwhile=Meanwhile(here_all, lambda pack: all(map(small, pack))))
         if alone:  # a file that kills its worker fails alone
             def renumbered(done: Finished) -> None:  # run_jobs numbers the jobs of ``alone``
                 finished(Finished(alone[done.index], done.result, done.died, done.retried, done.interrupted,

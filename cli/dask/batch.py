@@ -53,6 +53,7 @@ from ..convert.batch import (
 from ..convert.run import Progress
 from ..options import say
 from .cluster import (
+    check_joined,
     check_workers,
     checked_address,
     close,
@@ -70,6 +71,9 @@ POLL_SECONDS = 0.2
 LOOK_SECONDS = 1.0
 #: Seconds given, after the run marker is removed, to a task that saw it just before.
 SETTLE_SECONDS = 0.1
+#: Times a task that ran on a worker failing the probe is sent again, bound to the workers that
+#: passed it (sent again, at the next look, when those all left).
+MAX_TRIES = 3
 
 
 def run_dask(jobs: list[Job], address: str, folder: Path | None, report, signals, progress: Progress | None,
@@ -108,6 +112,11 @@ class _Run:
         self.client = None
         self.marker: Path | None = None
         self.begun = 0  # the marker's modification time: the shared filesystem's clock, not this machine's
+        self.good: set[str] = set()  # workers that passed the probe
+        self.bad: dict[str, str] = {}  # workers that failed it (joined during the batch): why
+        self.tries: dict[int, int] = {}  # job index → times its task was sent again from a failing worker
+        self.bound: dict[str, set[str]] = {}  # the key of a task sent again → the workers it is bound to
+        self.sent_again = 0  # tasks sent again, for their keys
 
     def run(self, todo: list[int], host: str, port: int, outcomes: dict[int, Outcome]) -> None:
         stopped = lambda: self.signals.signum is not None  # noqa: E731
@@ -118,7 +127,7 @@ class _Run:
                 self.marker = make_marker(self.folder, self.token)
                 self.signals.on_second = self._close_marker  # a second Ctrl-C exits at once: no task writes after
                 self.begun = self.marker.stat().st_mtime_ns
-                check_workers(self.client, self.folder, self.token, self.marker)
+                self.good = check_workers(self.client, self.folder, self.token, self.marker)
             if stopped():
                 for i in todo:
                     outcomes[i] = Outcome(self.jobs[i].source, self.jobs[i].output, state=CANCELLED)
@@ -157,11 +166,17 @@ class _Run:
             now = time.monotonic()
             for future, result in done:
                 i = index[future.key]
+                pending.discard(future)
+                if (again := self._again(result, i, sent[i])) is not None:  # its worker failed the probe
+                    index[again.key] = i
+                    pending.add(again)
+                    finished.add(again)
+                    continue
                 outcome = self._outcome(result, self.jobs[i], sent[i])
                 if outcome is None:
+                    pending.add(future)
                     stop = f"lost the Dask scheduler at {self.address}"
                     break
-                pending.discard(future)
                 outcomes[i] = outcome
                 if self.progress is not None:
                     self.progress.current(self.jobs[i].source)
@@ -174,9 +189,22 @@ class _Run:
                     stop = f"lost the Dask scheduler at {self.address}"
                     break
                 assigned, alive = looked
-                alone_since = None if alive else alone_since or now
+                self._check_joined(alive)
+                self.good &= alive
+                for future in [f for f in pending if f.key in self.bound and not self.bound[f.key] & alive]:
+                    if self.good:  # sent again to workers that all left: to those that passed now
+                        self.bound.pop(future.key)
+                        again = self._send(index[future.key], sent[index[future.key]])
+                        future.cancel()
+                        pending.discard(future)
+                        index[again.key] = index[future.key]
+                        pending.add(again)
+                        finished.add(again)
+                usable = alive & self.good  # the workers that may convert this batch
+                alone_since = None if usable else alone_since or now
                 if alone_since is not None and now - max(alone_since, last_event) >= self.timeout:
-                    stop = (f"the Dask scheduler at {self.address} has had no worker for {self.timeout:g} s "
+                    which = "worker" if not alive else "worker that can convert this batch"
+                    stop = (f"the Dask scheduler at {self.address} has had no {which} for {self.timeout:g} s "
                             "(--dask-timeout)")
             if not done:
                 time.sleep(POLL_SECONDS)
@@ -185,9 +213,9 @@ class _Run:
         if pending:
             self._stop(pending, index, assigned, outcomes)
 
-    def _look(self) -> tuple[set[str], bool] | None:
-        """(keys of the tasks assigned to a worker, whether any worker is alive), or None
-        when the scheduler is lost."""
+    def _look(self) -> tuple[set[str], set[str]] | None:
+        """(keys of the tasks assigned to a worker, the workers alive), or None when the
+        scheduler is lost."""
         assert self.client is not None
         if self.client.status != "running":
             return None
@@ -195,7 +223,47 @@ class _Run:
             processing = self.client.processing()  # {worker: [key, ...]} for every worker
         except Exception:  # the connection closed while asking
             return None
-        return {key for keys in processing.values() for key in keys}, bool(processing)
+        return {key for keys in processing.values() for key in keys}, set(processing)
+
+    def _check_joined(self, workers: set[str]) -> None:
+        """Probe the workers not seen before (they joined during the batch), as every
+        worker was before the first task; say once which cannot convert this batch."""
+        new = sorted(workers - self.good - set(self.bad))
+        if not new or self.marker is None:
+            return
+        assert self.client is not None
+        for worker, problem in check_joined(self.client, new, self.folder, self.token, self.marker).items():
+            if problem is None:
+                self.good.add(worker)
+            else:
+                self.bad[worker] = problem
+                self._tell(f"warning: {problem}; it joined during the batch: its tasks are sent to the other "
+                           "workers")
+
+    def _again(self, result, i: int, job: Job):
+        """When the task of job ``i`` ran on a worker that fails the probe (one that joined
+        during the batch, of another depixel version, say), the task sent again, to the
+        workers that passed it; None when its result stands."""
+        if not (isinstance(result, tuple) and len(result) == 2 and isinstance(result[0], Outcome)):
+            return None
+        worker = result[1]
+        if worker not in self.good and worker not in self.bad:
+            self._check_joined({worker})
+        if worker not in self.bad or not self.good or self.tries.get(i, 0) >= MAX_TRIES:
+            return None
+        self.tries[i] = self.tries.get(i, 0) + 1
+        return self._send(i, job)
+
+    def _send(self, i: int, job: Job):
+        """Send the task of job ``i`` again, bound to the workers that passed the probe (only
+        them: the scheduler would otherwise give it to whichever is idle, the others too)."""
+        assert self.client is not None and self.marker is not None
+        self.sent_again += 1
+        future = self.client.submit(partial(run_task, marker=str(self.marker)), job, pure=False,
+                                    key=f"depixel-{self.token}-{i}-again{self.sent_again}-{self.jobs[i].source.name}",
+                                    workers=sorted(self.good), allow_other_workers=False)
+        self.bound[future.key] = set(self.good)
+        return future
 
     def _stop(self, pending: set, index: dict, assigned: set[str], outcomes: dict[int, Outcome]) -> None:
         """Cancel the queued tasks, close the run marker to the running ones, and report each
@@ -252,6 +320,9 @@ class _Run:
         assert self.client is not None
         if isinstance(result, tuple) and len(result) == 2 and isinstance(result[0], Outcome):
             outcome, worker = result
+            if worker in self.bad:  # sent again as often as it could be: the true reason
+                return Outcome(job.source, job.output, error=f"{display_name(job.source)}: converted by a worker "
+                               f"that cannot convert this batch: {self.bad[worker]}")
             return _checked(_local(outcome, job, sent), job, worker, self.begun)
         if isinstance(result, BaseException):  # cancelled
             if self.client.status != "running":

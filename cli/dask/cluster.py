@@ -6,6 +6,8 @@ host and the port), a worker to run on (waited for at most ``--dask-timeout`` se
 on every worker, a probe (:func:`depixel_cli.dask.task.probe`) that imports depixel, compares
 its version with this machine's, and exchanges files with this machine in the output folder:
 the worker reads the batch's *run marker* written here, and writes a file read back here.
+A worker that joins during the batch gets the same probe when it is first seen
+(:func:`check_joined`): one that fails it is left out, not the batch.
 """
 from __future__ import annotations
 
@@ -57,7 +59,8 @@ def checked_address(address: str) -> tuple[str, str, int]:
     try:
         from distributed.security import Security  # noqa: PLC0415
     except ImportError:
-        raise DaskError("--dask needs the Dask extra: pip install 'depixel[dask]'") from None
+        raise DaskError("--dask needs the Dask extra, not installed here: pip install '/path/to/depixel[dask]' "
+                        "(depixel's source folder, or its wheel, with [dask])") from None
     if scheme == "tls" and Security().get_connection_args("client")["ssl_context"] is None:
         raise DaskError(f"--dask {address}: no TLS certificate is configured for this client: set "
                         "distributed.comm.tls.ca-file, .client.cert and .client.key in the Dask configuration")
@@ -147,39 +150,55 @@ def wait_for_a_worker(client, address: str, timeout: float, stopped) -> bool:
     return True
 
 
-def check_workers(client, folder: Path, token: str, marker: Path) -> None:
+def check_workers(client, folder: Path, token: str, marker: Path) -> set[str]:
     """Run the probe on every worker; the first worker that cannot convert this batch, or
-    whose files this machine would not see, is a :class:`DaskError` naming it."""
+    whose files this machine would not see, is a :class:`DaskError` naming it. Returns the
+    addresses of the workers checked."""
+    found = client.run(probe, str(folder.absolute()), token, str(marker), on_error="return")
+    for worker, result in sorted(found.items()):
+        problem = worker_problem(worker, result, folder)
+        if problem is not None:
+            raise DaskError(problem)
+    return set(found)
+
+
+def check_joined(client, addresses: list[str], folder: Path, token: str, marker: Path) -> dict[str, str | None]:
+    """Run the probe on workers that joined during the batch: {address: why it cannot
+    convert this batch, or None}. A worker gone meanwhile is left out."""
+    try:
+        found = client.run(probe, str(folder.absolute()), token, str(marker), workers=addresses, on_error="return")
+    except Exception:  # the scheduler went, or the workers did
+        return {}
+    return {worker: worker_problem(worker, result, folder) for worker, result in found.items()}
+
+
+def worker_problem(worker: str, result, folder: Path) -> str | None:
+    """Why the worker whose probe gave ``result`` cannot convert this batch (one line), or None."""
     folder = folder.absolute()
-    found = client.run(probe, str(folder), token, str(marker), on_error="return")
     shown, here = display_name(folder), depixel.__version__
     shared = ("the outputs must be on a filesystem that this machine and every worker share, at the same "
               "path (docs/scale.md)")
-    for worker, result in sorted(found.items()):
-        if isinstance(result, BaseException):
-            text = str(result)
-            if "No module named" in text:
-                module = re.search(r"No module named '?([\w.]+)", text)
-                raise DaskError(f"Dask worker {worker}: depixel is not installed there (no module "
-                                f"{module[1] if module else 'depixel'}); install depixel {here} on every worker")
-            raise DaskError(f"Dask worker {worker}: the probe failed there ({text.splitlines()[0] if text else ''})")
-        where = f"Dask worker {worker} (host {result['host']})"
-        if result["version"] != here:
-            raise DaskError(f"{where} has depixel {result['version']}, this machine {here}: "
-                            "install the same version on every worker")
-        if not result["sees_marker"]:
-            raise DaskError(f"{where} does not see the output folder {shown} as this machine does: {shared}")
-        if result["error"] is not None or result["probe"] is None:
-            raise DaskError(f"{where} cannot write in the output folder {shown} "
-                            f"({result['error'] or 'read back differently'})")
-        name = str(result["probe"])
-        try:
-            seen = (folder / name).read_text(encoding="ascii") == name
-            (folder / name).unlink()
-        except OSError:
-            seen = False
-        if not seen:
-            raise DaskError(f"{where} writes files in {shown} that this machine does not see: {shared}")
+    if isinstance(result, BaseException):
+        text = str(result)
+        if "No module named" in text:
+            module = re.search(r"No module named '?([\w.]+)", text)
+            return (f"Dask worker {worker}: depixel is not installed there (no module "
+                    f"{module[1] if module else 'depixel'}); install depixel {here} on every worker")
+        return f"Dask worker {worker}: the probe failed there ({text.splitlines()[0] if text else ''})"
+    where = f"Dask worker {worker} (host {result['host']})"
+    if result["version"] != here:
+        return f"{where} has depixel {result['version']}, this machine {here}: install the same version on every worker"
+    if not result["sees_marker"]:
+        return f"{where} does not see the output folder {shown} as this machine does: {shared}"
+    if result["error"] is not None or result["probe"] is None:
+        return f"{where} cannot write in the output folder {shown} ({result['error'] or 'read back differently'})"
+    name = str(result["probe"])
+    try:
+        seen = (folder / name).read_text(encoding="ascii") == name
+        (folder / name).unlink()
+    except OSError:
+        seen = False
+    return None if seen else f"{where} writes files in {shown} that this machine does not see: {shared}"
 
 
 def make_marker(folder: Path, token: str) -> Path:

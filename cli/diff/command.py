@@ -12,7 +12,7 @@ import json
 import os
 from pathlib import Path
 
-from depixel.errors import display_name
+from depixel.errors import display_name, report_text
 from depixel.limits import DEFAULT_MAX_DIFF_PIXELS
 
 from ..options import (
@@ -121,7 +121,7 @@ def run_diff(args: argparse.Namespace) -> int:
 
 def settings(args: argparse.Namespace):
     """The library's comparison settings from the options."""
-    from depixel.diff.files import Settings  # noqa: PLC0415
+    from depixel.diff.pairs import Settings  # noqa: PLC0415
 
     return Settings(scale=args.scale, threshold=args.threshold, background=args.background,
                     allow_size_mismatch=args.allow_size_mismatch, include_antialiasing=args.include_aa,
@@ -152,18 +152,18 @@ def _mask(args: argparse.Namespace):
 def _files(args: argparse.Namespace) -> int:
     """Two files: one verdict, as a line or JSON."""
     from depixel.diff.compare import within  # noqa: PLC0415
-    from depixel.diff.files import diff_files  # noqa: PLC0415
+    from depixel.diff.pairs import diff_files  # noqa: PLC0415
 
     from ..tools import _png, _write  # noqa: PLC0415
 
+    if args.diff_out == "-" and args.json:
+        args.parser.error("--diff-out - and --json both write to stdout: write the picture to a file "
+                          "(--diff-out d.png)")
     if args.diff_out is not None and args.diff_out != "-" and Path(args.diff_out).suffix.lower() != ".png":
         args.parser.error(f"--diff-out {display_name(args.diff_out)}: the picture of the differences is a PNG; "
                           "name it .png")
     chosen = settings(args)
-    comparison, background = diff_files(args.a, args.b, scale=chosen.scale, threshold=chosen.threshold,
-                                        background=chosen.background, allow_size_mismatch=chosen.allow_size_mismatch,
-                                        include_antialiasing=chosen.include_antialiasing,
-                                        max_pixels=chosen.max_pixels, mask=chosen.mask)
+    comparison, background = diff_files(args.a, args.b, chosen)
     count, ratio = comparison.different_pixels, comparison.ratio
     same = within(comparison, args.max_pixels_diff, args.max_ratio)
     if args.diff_out:
@@ -172,11 +172,12 @@ def _files(args: argparse.Namespace) -> int:
     total = comparison.compared_pixels
     if args.json:
         report = {
-            "a": args.a, "b": args.b, "same": same, "width": w, "height": h,
+            "a": report_text(args.a), "b": report_text(args.b), "same": same, "width": w, "height": h,
             "different_pixels": count, "antialiased_pixels": int(comparison.antialiased.sum()),
             "total_pixels": total, "ratio": ratio, "threshold": args.threshold,
             "max_pixels_diff": args.max_pixels_diff, "max_ratio": args.max_ratio,
-            "background": "#{:02x}{:02x}{:02x}".format(*background), "diff_out": args.diff_out,
+            "background": "#{:02x}{:02x}{:02x}".format(*background),
+            "diff_out": args.diff_out and report_text(args.diff_out),
         }
         if w * h != total:
             report["ignored_pixels"] = w * h - total

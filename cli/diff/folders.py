@@ -1,6 +1,6 @@
 """``depixel diff BASELINE CURRENT`` on two folders: run the pairs, print, report, update.
 
-Every pair is a job of :func:`depixel.diff.files.run_job`, run ``-j`` processes at a time
+Every pair is a job of :func:`depixel.diff.pairs.run_job`, run ``-j`` processes at a time
 by :mod:`depixel_cli.pool` (this process for one) with ``convert``'s progress bar. The
 report folders are written under a temporary name and moved into place at the end
 (:mod:`depixel.diff.staging`): an error or an interrupt leaves no half-written report.
@@ -9,11 +9,13 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 from pathlib import Path
 
-from depixel.diff.files import ERROR, SAME, Job, Pictures, Result, Settings, run_job
 from depixel.diff.folders import pair_folders, status, totals
-from depixel.errors import display_name
+from depixel.diff.pairs import ERROR, SAME, Job, PairResult, Pictures, Settings, run_job
+from depixel.diff.update import RECORD
+from depixel.errors import DepixelError, OutputError, display_name, report_text
 from depixel.files.output import write_atomic
 from depixel.limits import DIFF_BYTES_PER_PIXEL, WORKER_BASELINE_BYTES
 
@@ -30,9 +32,16 @@ def run_folders(args: argparse.Namespace, settings: Settings) -> int:
 
     if args.prune and not args.update:
         args.parser.error("--prune removes missing files from the baseline: use it with --update")
+    if (clash := output_clash(args)) is not None:
+        args.parser.error(clash)
     pairs = pair_folders(args.a, args.b)
     html = Staged(args.html) if args.html else None
-    diffs = Staged(args.diff_out) if args.diff_out else None
+    try:
+        diffs = Staged(args.diff_out) if args.diff_out else None
+    except BaseException:
+        if html is not None:
+            html.discard()
+        raise
     staged = [s for s in (html, diffs) if s is not None]
     try:
         from depixel.diff.html import IMAGES  # noqa: PLC0415
@@ -53,9 +62,36 @@ def run_folders(args: argparse.Namespace, settings: Settings) -> int:
         raise
 
 
-def _run(jobs: list[Job], count: int, args: argparse.Namespace) -> list[Result] | None:
+def output_clash(args: argparse.Namespace) -> str | None:
+    """Why the outputs asked for would overwrite one another or the compared folders, or
+    None. A report folder (``--html``, ``--diff-out``) is replaced whole when it is done, so
+    nothing else may be inside it, and it may not be or hold either folder compared."""
+    def real(path: str) -> str:
+        return os.path.realpath(path)
+
+    def within(inner: str, outer: str) -> bool:
+        return inner == outer or inner.startswith(outer.rstrip(os.sep) + os.sep)
+
+    folders = [(flag, value) for flag, value in (("--html", args.html), ("--diff-out", args.diff_out)) if value]
+    for flag, value in folders:
+        for what, compared in (("the baseline", args.a), ("the current folder", args.b)):
+            if within(real(compared), real(value)):
+                held = "is" if real(compared) == real(value) else "holds"
+                return (f"{flag} {display_name(value)} {held} {what} {display_name(compared)}: a report folder is "
+                        "replaced whole; give it a folder of its own")
+    for flag, value in folders:
+        others = [(f, v) for f, v in folders if f != flag] + ([("--junit", args.junit)] if args.junit else [])
+        for other, inner in others:
+            if within(real(inner), real(value)):
+                where = "is" if real(inner) == real(value) else "is inside"
+                return (f"{other} {display_name(inner)} {where} {flag} {display_name(value)}, a folder replaced "
+                        f"whole when the report is done: write them apart")
+    return None
+
+
+def _run(jobs: list[Job], count: int, args: argparse.Namespace) -> list[PairResult] | None:
     """Every job's result in order; None when a signal stopped the run."""
-    results: list[Result | None] = [None] * len(jobs)
+    results: list[PairResult | None] = [None] * len(jobs)
     progress = Progress(len(jobs))
     signals = args.signals
 
@@ -64,7 +100,7 @@ def _run(jobs: list[Job], count: int, args: argparse.Namespace) -> list[Result] 
         if done.result is not None:
             results[done.index] = done.result
         elif done.died:
-            results[done.index] = Result(job.pair.name, ERROR, job.pair.baseline, job.pair.current,
+            results[done.index] = PairResult(job.pair.name, ERROR, job.pair.baseline, job.pair.current,
                                          error=f"worker process died ({done.died}), also when retried")
         progress.step()
 
@@ -87,44 +123,76 @@ def _run(jobs: list[Job], count: int, args: argparse.Namespace) -> list[Result] 
     return [r for r in results if r is not None]
 
 
-def _finish(args: argparse.Namespace, settings: Settings, results: list[Result], html, diffs) -> int:
-    """Update the baseline if asked, write the reports, print the verdicts; the exit code."""
+def _finish(args: argparse.Namespace, settings: Settings, results: list[PairResult], html, diffs) -> int:
+    """Update the baseline if asked, write the reports, print the verdicts; the exit code.
+    An update refused or stopped half-way still prints every verdict and what it changed,
+    then the reason (exit 2); one stopped by Ctrl-C prints what it changed, then stops."""
     from depixel.diff.html import html_report  # noqa: PLC0415
     from depixel.diff.reports import json_report, junit_report  # noqa: PLC0415
-    from depixel.diff.update import update_baseline  # noqa: PLC0415
+    from depixel.diff.update import UpdateStopped, update_baseline  # noqa: PLC0415
 
     found = status(results, args.allow_new, args.allow_missing)
-    updated, after = None, results
+    updated: list[tuple[str, str]] | None = None
+    after, problem = results, None
     if args.update:
-        updated, after = update_baseline(results, args.a, args.b, prune=args.prune)
-    final = status(after, args.allow_new, args.allow_missing) if after else ("same" if updated else found)
+        updated = []
+        try:
+            _, after = update_baseline(results, args.a, args.b, prune=args.prune, changed=updated)
+        except DepixelError as exc:
+            problem = exc.message_for({})
+            if not isinstance(exc, UpdateStopped):  # refused: nothing changed, the verdicts stand
+                updated = None
+        except BaseException:  # Ctrl-C: what was done is said before "interrupted"
+            if updated:
+                print_lines([f"{action}: {display_name(name)}" for action, name in updated])
+                say(f"--update stopped after {len(updated)} changes (also listed in "
+                    f"{display_name(Path(args.a, RECORD))})")
+            raise
+    final = status(after, args.allow_new, args.allow_missing) if after and problem is None else \
+        ("same" if updated and problem is None else found)
     if args.junit:
         write_atomic(args.junit, junit_report(results, args.allow_new, args.allow_missing))
     if html is not None:
-        write_atomic(html.path / "index.html", html_report(results, args.a, args.b, found, describe(args)))
+        _named(html, lambda: write_atomic(html.path / "index.html",
+                                          html_report(results, args.a, args.b, found, describe(args))))
         html.publish()
     if diffs is not None:
         diffs.publish()
     if args.json:
-        folders = {"diff_out": display_name(args.diff_out)} if args.diff_out else {}
+        folders = {"diff_out": report_text(args.diff_out)} if args.diff_out else {}
         report = json_report(results, final, _settings_entry(args), folders, updated)
+        if problem is not None:
+            report["error"] = report_text(problem)
         print_stdout(json.dumps(report, indent=2))
     else:
         lines = [r.summary() for r in results if r.verdict != SAME]
         lines += [f"{action}: {display_name(name)}" for action, name in updated or []]
-        lines.append(_totals_line(results, final, args))
+        lines.append(_totals_line(results, final, args, updated is not None))
         print_lines(lines)
+    if problem is not None:
+        say(f"error: {problem}")
+        return Exit.USAGE
     return EXIT_OF_STATUS[final]
 
 
-def _totals_line(results: list[Result], final: str, args: argparse.Namespace) -> str:
+def _named(staged, write) -> None:
+    """Run ``write`` (a file into a staged folder); an error names the folder asked for,
+    not the temporary one."""
+    try:
+        write()
+    except OutputError as exc:
+        text = str(exc).replace(display_name(staged.path), display_name(staged.shown))
+        raise OutputError(text) from None
+
+
+def _totals_line(results: list[PairResult], final: str, args: argparse.Namespace, updated: bool) -> str:
     counts = totals(results)
     parts = [f"{n} {verdict}" for verdict, n in counts.items() if n]
     allowed = [what for what, on in (("new", args.allow_new), ("missing", args.allow_missing)) if on]
     note = f" ({' and '.join(allowed)} allowed)" if allowed else ""
-    updated = " after --update" if args.update else ""
+    after = " after --update" if updated else ""  # (not when the update was refused)
     files = f"{len(results)} file{'' if len(results) == 1 else 's'}"
-    return f"{final}{updated}: {files}: {', '.join(parts) or 'none found'}{note}"
+    return f"{final}{after}: {files}: {', '.join(parts) or 'none found'}{note}"
 
 
 def describe(args: argparse.Namespace) -> str:

@@ -122,4 +122,17 @@ def describe(finding: Finding) -> list[str]:
         lines.append(f"  {module:<10} {'missing' if module in report['missing'] else 'ok'}")
     if report["inkex_found"]:
         lines.append(f"  {'inkex':<10} {report['inkex'] or 'not importable without the modules above'}")
+    if interpreter.how.startswith("the first"):
+        lines += DESKTOP_NOTE
     return lines
+
+
+#: Said when the interpreter was found on this shell's PATH: Inkscape started from the
+#: desktop gets the session's PATH, not the shell's (a pyenv or conda python3 first on the
+#: shell's PATH is usually not on the desktop's), and a Flatpak or Snap Inkscape its own.
+DESKTOP_NOTE = [
+    "note: this is the python3 on this shell's PATH; Inkscape started from the desktop menu may find "
+    "another one (the desktop session's PATH), and a Flatpak, Snap or AppImage Inkscape uses its own.",
+    "  to be sure, name it in Inkscape's preferences.xml (python-interpreter in the group extensions), or run "
+    "Extensions > Raster > Depixelize once: a missing module is reported there in one line",
+]

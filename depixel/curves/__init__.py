@@ -5,9 +5,5 @@ the :class:`~depixel.curves.splines.SplineSet` (curves, control points, their dr
 :mod:`.bspline` the curve maths every later stage shares.
 """
 
-
-def __getattr__(name: str):
-    """Submodules load on first use (:func:`depixel.load_submodule`)."""
-    import depixel  # noqa: PLC0415 (an attribute read while depixel itself imports is a plain miss)
-
-    return depixel.load_submodule(__name__, name)
+#: its modules, each imported on first use (``depixel/__init__.py``)
+__all__ = ["bspline", "drawing", "pairing", "splines"]

@@ -86,7 +86,7 @@ def evaluate(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, t: np.ndarray) -> n
     return (1 - t) ** 2 * p0 + 2 * t * (1 - t) * p1 + t**2 * p2
 
 
-def flatten(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, pieces: int) -> np.ndarray:
+def bezier_polylines(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, pieces: int) -> np.ndarray:
     """``(..., pieces + 1, 2)`` polylines of quadratic Béziers ``(..., 2)``, at equal steps
     of t (both end points included)."""
     t = (np.arange(pieces + 1) / pieces)[:, None]
@@ -156,7 +156,7 @@ def edge_halves(start: np.ndarray, controls: np.ndarray, stop: np.ndarray) -> tu
 def flatten_edges(start: np.ndarray, controls: np.ndarray, stop: np.ndarray, pieces: int) -> np.ndarray:
     """``(E, 2 * pieces + 1, 2)`` polylines of curved cell edges, ``pieces`` per Bézier."""
     first, second = edge_halves(start, controls, stop)
-    return np.concatenate([flatten(*first, pieces), flatten(*second, pieces)[:, 1:]], axis=1)
+    return np.concatenate([bezier_polylines(*first, pieces), bezier_polylines(*second, pieces)[:, 1:]], axis=1)
 
 
 

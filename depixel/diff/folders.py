@@ -15,24 +15,52 @@ import os
 from pathlib import Path
 
 from ..errors import InputError, display_name
-from .files import DIFFERENT, ERROR, MISSING, NEW, SAME, VERDICTS, Pair, Result
+from .pairs import DIFFERENT, ERROR, MISSING, NEW, SAME, VERDICTS, Pair, PairResult
 from .sources import EXTENSIONS
 
 
 def renders(folder: str | os.PathLike) -> list[str]:
-    """The relative paths (``/``-separated, sorted) of the renders under ``folder``."""
+    """The relative paths (``/``-separated, sorted) of the renders under ``folder``.
+
+    Hidden files and folders are left out, and so are the report folders of ``depixel
+    diff`` (``--html``, ``--diff-out``: they hold :data:`~depixel.diff.staging.MARKER`), so a
+    report written inside a compared folder is not compared on the next run. A symbolic
+    link to a folder is followed (its files count as the link's, as a person browsing the
+    folder sees them), except one back to a folder it lies in (a loop). The walk keeps its
+    own list of folders to visit: a tree thousands of levels deep is no error."""
+    from .staging import MARKER  # noqa: PLC0415
+
     root = Path(folder)
-    found = []
-    for here, dirs, names in os.walk(root, onerror=_raise):
-        dirs[:] = sorted(d for d in dirs if not d.startswith("."))
-        for name in names:
-            if not name.startswith(".") and os.path.splitext(name)[1].lower() in EXTENSIONS:
-                found.append(Path(here, name).relative_to(root).as_posix())
+    found: list[str] = []
+    # (folder, its parts below root, its real path, the real paths of the folders it lies in)
+    todo: list[tuple[Path, tuple[str, ...], str, frozenset[str]]] = [(root, (), os.path.realpath(root), frozenset())]
+    while todo:
+        here, parts, real, above = todo.pop()
+        try:
+            with os.scandir(here) as listing:
+                entries = sorted(listing, key=lambda e: e.name)
+        except OSError as exc:
+            raise InputError(f"{display_name(here)}: cannot list the folder ({exc.strerror or exc})") from None
+        if parts and any(e.name == MARKER for e in entries):
+            continue  # a report of depixel diff
+        for entry in entries:
+            if entry.name.startswith("."):
+                continue
+            if _is_dir(entry):
+                # a real path costs a look at every level: only a link's is asked for
+                inner = os.path.realpath(entry.path) if entry.is_symlink() else os.path.join(real, entry.name)
+                if inner not in above and inner != real:  # else a link back to a folder it lies in
+                    todo.append((Path(entry.path), (*parts, entry.name), inner, above | {real}))
+            elif os.path.splitext(entry.name)[1].lower() in EXTENSIONS:
+                found.append("/".join((*parts, entry.name)))
     return sorted(found)
 
 
-def _raise(exc: OSError) -> None:
-    raise InputError(f"{display_name(exc.filename)}: cannot list the folder ({exc.strerror or exc})")
+def _is_dir(entry: os.DirEntry) -> bool:
+    try:
+        return entry.is_dir()  # through a link
+    except OSError:
+        return False
 
 
 def pair_folders(baseline: str | os.PathLike, current: str | os.PathLike) -> list[Pair]:
@@ -60,12 +88,12 @@ def _by_stem(names) -> dict[str, list[str]]:
 
 
 
-def totals(results: list[Result]) -> dict[str, int]:
+def totals(results: list[PairResult]) -> dict[str, int]:
     """How many results have each verdict."""
     return {verdict: sum(1 for r in results if r.verdict == verdict) for verdict in VERDICTS}
 
 
-def status(results: list[Result], allow_new: bool = False, allow_missing: bool = False) -> str:
+def status(results: list[PairResult], allow_new: bool = False, allow_missing: bool = False) -> str:
     """The verdict on the whole comparison: ``"same"`` when every pair is the same (new and
     missing files accepted when allowed), ``"error"`` when nothing could be compared (no
     file at all, or every pair an error), else ``"different"``."""

@@ -4,7 +4,7 @@
 for each changed file, the baseline, the current and the diff picture side by side, and a
 flip view: one frame that shows the baseline or the current at the click of a checkbox (or
 the key F), where a moved edge jumps. The pictures are PNG files in ``images/`` beside
-it (written by :func:`depixel.diff.files.compare_pair`), small ones magnified without
+it (written by :func:`depixel.diff.pairs.compare_pair`), small ones magnified without
 smoothing over a checkerboard that shows transparency. Nothing is loaded from the
 network; the page's few lines of script only count the pictures that failed to load
 (shown at the top, so a report copied without its ``images/`` says so) and bind the key.
@@ -14,8 +14,9 @@ from __future__ import annotations
 import html
 from urllib.parse import quote
 
-from .files import DIFFERENT, ERROR, MISSING, NEW, SAME, Result
+from ..errors import report_text
 from .folders import totals
+from .pairs import DIFFERENT, ERROR, MISSING, NEW, SAME, PairResult
 
 #: Folder of the pictures, beside index.html.
 IMAGES = "images"
@@ -70,7 +71,7 @@ _SCRIPT = """
 """
 
 
-def html_report(results: list[Result], baseline: str, current: str, status: str, settings: str) -> str:
+def html_report(results: list[PairResult], baseline: str, current: str, status: str, settings: str) -> str:
     """The page (module docstring); ``settings`` is one line describing the comparison."""
     counts = totals(results)
     shown = [r for r in results if r.verdict != SAME]
@@ -94,7 +95,7 @@ def html_report(results: list[Result], baseline: str, current: str, status: str,
     return "\n".join(parts)
 
 
-def _table(results: list[Result]) -> str:
+def _table(results: list[PairResult]) -> str:
     rows = ["<table>", "<thead><tr><th>file</th><th>verdict</th><th>pixels that differ</th><th>ratio</th>"
             "<th>size</th><th>note</th></tr></thead>", "<tbody>"]
     for i, r in enumerate(results):
@@ -113,7 +114,7 @@ def _table(results: list[Result]) -> str:
     return "\n".join(rows)
 
 
-def _section(index: int, result: Result) -> str:
+def _section(index: int, result: PairResult) -> str:
     pictures = dict(result.pictures)
     head = f'<section id="f{index}"><h2>{_text(result.name)} <span class="verdict {result.verdict}">' \
            f"{result.verdict}</span></h2><p>{_text(result.summary())}</p>"
@@ -135,22 +136,23 @@ def _section(index: int, result: Result) -> str:
     return head + '<div class="row">' + "".join(figures) + "</div></section>"
 
 
-def _figure(path: str, caption: str, zoom: int, result: Result) -> str:
+def _figure(path: str, caption: str, zoom: int, result: PairResult) -> str:
     return f"<figure>{_img(path, zoom, result, caption)}<figcaption>{caption}</figcaption></figure>"
 
 
-def _img(path: str, zoom: int, result: Result, alt: str) -> str:
+def _img(path: str, zoom: int, result: PairResult, alt: str) -> str:
     size = ""
     if result.width and result.height:
         size = f' width="{result.width * zoom}" height="{result.height * zoom}"'
-    return f'<img class="{alt}" src="{IMAGES}/{quote(path)}" alt="{alt}"{size}>'
+    # the file's own bytes, a name's bytes that were not UTF-8 included, percent-encoded
+    return f'<img class="{alt}" src="{IMAGES}/{quote(path.encode("utf-8", "surrogateescape"))}" alt="{alt}"{size}>'
 
 
-def _zoom(result: Result) -> int:
+def _zoom(result: PairResult) -> int:
     """Whole-number magnification that brings the picture near VIEW pixels (1 when larger)."""
     side = max(result.width or 0, result.height or 0)
     return max(1, VIEW // side) if side else 1
 
 
 def _text(text: str) -> str:
-    return html.escape(text.encode("utf-8", "backslashreplace").decode("utf-8"))
+    return html.escape(report_text(text))

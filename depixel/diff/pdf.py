@@ -1,6 +1,6 @@
 """PDF renders for ``diff``: a one-page PDF drawn at a size in pixels through PDFium.
 
-pypdfium2 (``pip install "depixel[pdf]"``) is imported only when a PDF is compared;
+pypdfium2 (the ``pdf`` extra: ``pip install "/path/to/depixel[pdf]"``) is imported only when a PDF is compared;
 without it a PDF is refused with a one-line hint. A PDF of more than one page is refused:
 depixel writes one page a file, and a page-by-page comparison would need a verdict of its own.
 """
@@ -15,7 +15,8 @@ def _pdfium():
     try:
         import pypdfium2  # noqa: PLC0415 (lazy on purpose: only PDF comparisons need it)
     except ImportError:
-        raise InputError('comparing PDF files needs pypdfium2: pip install "depixel[pdf]"') from None
+        raise InputError('comparing PDF files needs pypdfium2: pip install pypdfium2 (or depixel with its pdf '
+                         'extra: pip install "/path/to/depixel[pdf]")') from None
     return pypdfium2
 
 

@@ -9,43 +9,46 @@ from __future__ import annotations
 import re
 import xml.etree.ElementTree as ET
 
-from .files import DIFFERENT, ERROR, MISSING, NEW, Result
+from ..errors import report_text
 from .folders import totals
+from .pairs import DIFFERENT, ERROR, MISSING, NEW, PairResult
 
 #: Characters XML 1.0 cannot hold (a file name may have them): written as \\xNN.
 _NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
 
 
-def result_entry(result: Result, pictures_in: dict[str, str] | None = None) -> dict:
+def result_entry(result: PairResult, pictures_in: dict[str, str] | None = None) -> dict:
     """One pair as a JSON object; ``pictures_in`` maps a picture kind to the folder it was
     written in (the paths listed are joined to it)."""
     total = None if result.width is None or result.height is None else \
         result.width * result.height - result.ignored_pixels
     entry = {
-        "name": result.name, "verdict": result.verdict, "baseline": result.baseline, "current": result.current,
+        "name": report_text(result.name), "verdict": result.verdict, "baseline": _text(result.baseline),
+        "current": _text(result.current),
         "width": result.width, "height": result.height, "different_pixels": result.different_pixels,
         "antialiased_pixels": result.antialiased_pixels, "ignored_pixels": result.ignored_pixels,
-        "total_pixels": total, "ratio": result.ratio, "identical": result.identical, "error": result.error,
+        "total_pixels": total, "ratio": result.ratio, "identical": result.identical, "error": _text(result.error),
     }
     folders = pictures_in or {}
     for kind, path in result.pictures:
         if kind in folders:
-            entry[kind] = f"{folders[kind]}/{path}"
+            entry[kind] = report_text(f"{folders[kind]}/{path}")
     return entry
 
 
-def json_report(results: list[Result], status: str, settings: dict, pictures_in: dict[str, str] | None = None,
+def json_report(results: list[PairResult], status: str, settings: dict, pictures_in: dict[str, str] | None = None,
                 updated: list[tuple[str, str]] | None = None) -> dict:
     """The ``--json`` report of a folder comparison: the overall status, the totals, the
     settings, every pair, and what ``--update`` changed."""
+    settings = {key: report_text(value) if isinstance(value, str) else value for key, value in settings.items()}
     report = {"status": status, "same": status == "same", "totals": totals(results), **settings,
               "files": [result_entry(r, pictures_in) for r in results]}
     if updated is not None:
-        report["updated"] = [{"action": action, "name": name} for action, name in updated]
+        report["updated"] = [{"action": action, "name": report_text(name)} for action, name in updated]
     return report
 
 
-def junit_report(results: list[Result], allow_new: bool = False, allow_missing: bool = False,
+def junit_report(results: list[PairResult], allow_new: bool = False, allow_missing: bool = False,
                  suite: str = "depixel diff") -> bytes:
     """JUnit XML: one testcase per pair; a difference, or a missing or new file not allowed,
     is a failure with its figures; a file that could not be compared is an error; an
@@ -72,7 +75,7 @@ def junit_report(results: list[Result], allow_new: bool = False, allow_missing: 
     return ET.tostring(root, encoding="utf-8", xml_declaration=True) + b"\n"
 
 
-def _details(result: Result) -> str:
+def _details(result: PairResult) -> str:
     lines = [_xml(result.summary()), f"baseline: {_xml(result.baseline or '(none)')}",
              f"current: {_xml(result.current or '(none)')}"]
     if result.verdict == DIFFERENT:
@@ -83,5 +86,10 @@ def _details(result: Result) -> str:
 
 
 def _xml(text: str) -> str:
-    """``text`` with the characters XML cannot hold written as escapes."""
-    return _NOT_XML.sub(lambda m: f"\\x{ord(m.group()):02x}", text)
+    """``text`` with the characters XML cannot hold written as escapes (the bytes of a name
+    that were not UTF-8 as :func:`~depixel.errors.report_text` writes them)."""
+    return _NOT_XML.sub(lambda m: f"\\x{ord(m.group()):02x}", report_text(text))
+
+
+def _text(text: str | None) -> str | None:
+    return None if text is None else report_text(text)

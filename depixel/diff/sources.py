@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import validate
-from ..errors import InputError, ParameterError, display_name
+from ..errors import InputError, ParameterError, RenderError, display_name
 from ..limits import DEFAULT_MAX_DIFF_PIXELS
 from ..prepare.image import check_pixels, load_image, read_source
 
@@ -72,11 +72,6 @@ def kind_of(data: bytes, path: str | os.PathLike = "") -> str:
     return "svg" if head.startswith(b"<?xml") or head.startswith(b"<svg") else "raster"
 
 
-def is_svg(data: bytes, path: str | os.PathLike = "") -> bool:
-    """SVG by extension, or by content starting with an XML declaration or ``<svg``."""
-    return kind_of(data, path) == "svg"
-
-
 def read(path: str | os.PathLike, max_pixels: int | None = DEFAULT_MAX_DIFF_PIXELS) -> Source:
     """Read a file and find its size; a raster is decoded (refused over ``max_pixels``)."""
     from ..render.raster import svg_size  # noqa: PLC0415
@@ -93,7 +88,7 @@ def read(path: str | os.PathLike, max_pixels: int | None = DEFAULT_MAX_DIFF_PIXE
 
         width, height = page_size(data, name)
         return Source(name, kind, data, (width * _PT, height * _PT), (width * _PT, height * _PT))
-    rgba = load_image(data, max_pixels=max_pixels)
+    rgba = load_image(data, max_pixels=max_pixels, name=name)
     height, width = rgba.shape[:2]
     return Source(name, kind, data, (width, height), (width, height), rgba)
 
@@ -113,7 +108,8 @@ def sizes(a: Source, b: Source, scale: float, allow_size_mismatch: bool = False)
         elif not allow_size_mismatch:
             raise SizeMismatchError(f"{a.name} and {b.name} differ in aspect ratio: {_shape(a)} against "
                                     f"{_shape(b)} (a vector file is drawn at the raster's size only when "
-                                    "the shapes agree)")
+                                    "the shapes agree; allow_size_mismatch compares them anyway)",
+                                    parameter="allow_size_mismatch")
         else:  # drawn to fit inside the raster, keeping its shape
             fit = min(width / out[v][0], height / out[v][1])
             out[v] = (max(1, round(out[v][0] * fit)), max(1, round(out[v][1] * fit)))
@@ -127,7 +123,9 @@ def sizes(a: Source, b: Source, scale: float, allow_size_mismatch: bool = False)
                                  f"{need[0]}x{need[1]} of art, so a change could pass unseen "
                                  f"(use scale {_number(least)} or more)", parameter="scale")
     if out[0] != out[1] and not allow_size_mismatch:
-        raise SizeMismatchError(f"{a.name} is {out[0][0]}x{out[0][1]} but {b.name} is {out[1][0]}x{out[1][1]}")
+        raise SizeMismatchError(f"{a.name} is {out[0][0]}x{out[0][1]} but {b.name} is {out[1][0]}x{out[1][1]} "
+                                "(allow_size_mismatch compares them, the area only one covers counted as "
+                                "changed)", parameter="allow_size_mismatch")
     return out
 
 
@@ -167,26 +165,22 @@ def _render_svg(source: Source, width: int, height: int, max_pixels: int | None)
 
     from ..render.raster import render  # noqa: PLC0415
 
-    png = render(source.data, "png", width=width, height=height, name=source.name, max_output_pixels=max_pixels)
+    try:
+        png = render(source.data, "png", size=(width, height), name=source.name, max_output_pixels=max_pixels)
+    except RenderError as exc:  # the limit of the render is this comparison's max_pixels
+        if exc.parameter != "max_output_pixels":
+            raise
+        raise RenderError(str(exc).replace("max_output_pixels", "max_pixels"), parameter="max_pixels") from None
     with Image.open(io.BytesIO(png)) as img:
         del png
         img.load()
         return np.array(img if img.mode == "RGBA" else img.convert("RGBA"))
 
 
-def load_pair(path_a: str | os.PathLike, path_b: str | os.PathLike, *, scale: float = 1.0,
-              allow_size_mismatch: bool = False,
-              max_pixels: int | None = DEFAULT_MAX_DIFF_PIXELS) -> tuple[np.ndarray, np.ndarray]:
-    """Both files as ``(H, W, 4) uint8`` RGBA of the same size, not yet flattened (module
-    docstring). So ``scale=8`` compares a sprite's SVG with its 1x PNG at 8x."""
-    max_pixels = validate.limit("max_pixels", max_pixels)
-    a, b = read(path_a, max_pixels), read(path_b, max_pixels)
-    return draw_pair(a, b, scale=scale, allow_size_mismatch=allow_size_mismatch, max_pixels=max_pixels)
-
-
 def draw_pair(a: Source, b: Source, *, scale: float = 1.0, allow_size_mismatch: bool = False,
               max_pixels: int | None = DEFAULT_MAX_DIFF_PIXELS) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`load_pair` on two files already read."""
+    """Both files (:func:`read`) as ``(H, W, 4) uint8`` RGBA of the same size, not yet flattened
+    (module docstring). So ``scale=8`` compares a sprite's SVG with its 1x PNG at 8x."""
     (wa, ha), (wb, hb) = sizes(a, b, scale, allow_size_mismatch)
     first = pixels(a, wa, ha, max_pixels)
     second = pixels(b, wb, hb, max_pixels)

@@ -14,10 +14,10 @@ from contextlib import contextmanager
 
 import numpy as np
 
-from ..api import prepare_input
+from ..api import prepared_input
 from ..params import Params
 from ..pipeline import ahead
-from ..prepare.inputs import AUTO, parse_pixel_size, parse_transparent
+from ..prepare.inputs import AUTO, PrepareOptions
 
 #: pixels in one pass: it holds every product of its pipelines at once, about as much memory as
 #: one conversion of an image this size (~65 MB at limits.PEAK_BYTES_PER_PIXEL; the CLI's
@@ -37,13 +37,15 @@ def converted_ahead(images: Sequence, params: Params = Params(), *, stage: str =
     passes of at most :data:`PASS_IMAGES` images and :data:`PASS_PIXELS` pixels, each run
     when the first of its images is converted."""
     prepared: list[np.ndarray] = []
+    try:
+        options = PrepareOptions(background=background, pixel_size=pixel_size, denoise=denoise,
+                                 transparent=transparent, transparent_everywhere=transparent_everywhere)
+    except Exception:  # the conversions report it
+        images = ()
     for image in images:
         try:
-            rgba = prepare_input(image, background=background, pixel_size=parse_pixel_size(pixel_size),
-                                 denoise=denoise, transparent=parse_transparent(transparent),
-                                 transparent_everywhere=transparent_everywhere, lossy=lossy, max_pixels=None).rgba
+            prepared.append(prepared_input(image, options, lossy=lossy, max_pixels=None).rgba)
         except Exception:  # its conversion reports it
             continue
-        prepared.append(rgba)
     with ahead(prepared, params, stage, PASS_IMAGES, PASS_PIXELS):
         yield

@@ -26,6 +26,7 @@ import errno
 import os
 import re
 import stat
+import sys
 import threading
 from collections.abc import Callable, Sequence
 from contextvars import ContextVar
@@ -92,6 +93,36 @@ def remove_temporary_in(folder: str | os.PathLike, token: str) -> list[Path]:
     return [real / name for name in names if _remove(real / name)]
 
 
+def remove_stale_in(folder: str | os.PathLike) -> list[Path]:
+    """Remove the temporary files in ``folder`` (of any output, any run) whose process is
+    no longer running on this machine: what a run killed with SIGKILL left behind. A
+    process that is alive, or may be (another user's), keeps its files. (On a folder that
+    several machines write at once, the process of another machine looks gone here: call
+    this only where one machine writes, as ``depixel diff --update`` in its baseline.)
+    Returns what was removed; never raises."""
+    try:
+        real = Path(os.path.realpath(folder))
+        pattern = re.compile(r"\..+\.depixel-([0-9]+)-[0-9a-f]{8,32}(?:-[0-9]+)?\.tmp", re.DOTALL)
+        with os.scandir(real) as entries:
+            found = [(entry.name, int(m[1])) for entry in entries if (m := pattern.fullmatch(entry.name))]
+    except OSError:
+        return []
+    return [real / name for name, pid in found if not process_alive(pid) and _remove(real / name)]
+
+
+def process_alive(pid: int) -> bool:
+    """Whether process ``pid`` runs on this machine (this process: True)."""
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (OSError, OverflowError):  # another user's (PermissionError): alive; a pid out of range: not
+        return isinstance(sys.exc_info()[1], PermissionError)
+    return True
+
+
 def remove_created() -> list[Path]:
     """Remove every temporary file this process created and has not renamed into place yet
     (its registry: e.g. after an interrupt that came between creating one and the ``try``
@@ -126,15 +157,17 @@ def _token(token: str | None) -> str:
 
 
 def write_atomic(path: str | os.PathLike, data: bytes | str, protect: tuple[Path, ...] = (),
-                 token: str | None = None) -> None:
+                 token: str | None = None, replace_link: bool = False) -> None:
     """Write ``data`` (str is UTF-8 encoded) to ``path`` atomically, through the temporary
     file :func:`temporary_path` names (run ``token``, this run's by default).
 
     Refuses, with a one-line :class:`OutputError`, to overwrite any file in ``protect``
     (the inputs; symbolic and hard links to them included), a folder, or a read-only file,
-    and reports a missing or unwritable output folder.
+    and reports a missing or unwritable output folder. With ``replace_link``, a symbolic
+    link at ``path`` is itself replaced by the file (what it points to is left alone).
     """
-    commit([staged] if (staged := stage(path, data, protect, token)) is not None else [])
+    staged = stage(path, data, protect, token, replace_link)
+    commit([staged] if staged is not None else [])
 
 
 @dataclass(eq=False)
@@ -147,7 +180,7 @@ class Staged:
 
 
 def stage(path: str | os.PathLike, data: bytes | str, protect: tuple[Path, ...] = (),
-          token: str | None = None) -> Staged | None:
+          token: str | None = None, replace_link: bool = False) -> Staged | None:
     """The first half of :func:`write_atomic`: ``data`` written and flushed to the temporary
     file, with the mode the output will have; :func:`commit` renames it into place,
     :func:`discard` removes it. Several outputs staged and then committed together are
@@ -157,12 +190,15 @@ def stage(path: str | os.PathLike, data: bytes | str, protect: tuple[Path, ...] 
     if isinstance(data, str):
         data = data.encode("utf-8")
     try:
-        kind = _stat(Path(path), name)  # through every link, /proc/self/fd/1's included
+        link = replace_link and os.path.islink(path)
+        kind = None if link else _stat(Path(path), name)  # through every link, /proc/self/fd/1's included
         if kind is not None and not stat.S_ISREG(kind.st_mode) and not stat.S_ISDIR(kind.st_mode):
             _write_stream(path, kind.st_mode, data, name)
             return None
         target = Path(os.path.realpath(path))
-        current = _stat(target, name)
+        if link:  # the link itself is replaced: its folder's real path, its own name
+            target = Path(os.path.realpath(Path(path).parent), Path(path).name)
+        current = None if link else _stat(target, name)
         if current is not None:
             for p in protect:
                 if _same_file(target, p):
@@ -205,7 +241,7 @@ def commit(staged: Sequence[Staged]) -> None:
     if staged and (wanted := STILL_WANTED.get()) is not None and not wanted():
         discard(staged)
         raise OutputError(f"{staged[0].name}: not written: its batch was stopped")
-    with _signals_deferred(bool(staged)):
+    with signals_deferred(bool(staged)):
         for i, item in enumerate(staged):
             try:
                 os.replace(item.tmp, item.target)
@@ -218,7 +254,7 @@ def commit(staged: Sequence[Staged]) -> None:
 
 
 @contextlib.contextmanager
-def _signals_deferred(active: bool):
+def signals_deferred(active: bool = True):
     """SIGINT and SIGTERM noted and handed to their handlers once the block is done. A
     Python handler, replaced for the duration (a signal mask would not do: the kernel gives a
     process's signal to any thread that does not block it, OpenBLAS's included, and Python
@@ -243,6 +279,35 @@ def _signals_deferred(active: bool):
             signal.raise_signal(signum)
 
 
+def make_folders(folder: str | os.PathLike) -> None:
+    """``folder`` and its missing parents, made one by one from the top (``Path.mkdir``
+    with ``parents`` recurses, and a tree thousands of levels deep would exhaust the stack);
+    one-line :class:`OutputError` when one cannot be made."""
+    path = Path(folder)
+    missing = []
+    while not path.is_dir():
+        missing.append(path)
+        if path.parent == path:
+            break
+        path = path.parent
+    for path in reversed(missing):
+        try:
+            path.mkdir(exist_ok=True)
+        except OSError as exc:
+            raise OutputError(f"{display_name(path)}: cannot create folder ({exc.strerror or exc})") from None
+
+
+def remove_file(path: str | os.PathLike) -> None:
+    """Remove a file (a symbolic link: the link itself, never what it points to); one that
+    is already gone is no error; any other failure is a one-line :class:`OutputError`."""
+    try:
+        os.unlink(path)
+    except FileNotFoundError:
+        pass
+    except OSError as exc:
+        raise OutputError(f"{display_name(path)}: cannot remove ({exc.strerror or exc})") from None
+
+
 def discard(staged: Sequence[Staged]) -> None:
     """Remove staged outputs' temporary files (those not committed)."""
     for item in staged:
@@ -255,7 +320,7 @@ def _temporary_file(target: Path, token: str) -> tuple[int, Path]:
     writes ``target`` (threads): then ``-1``, ``-2``, … is added to it. (``tempfile.mkstemp``
     is not used: importing it costs a few ms of every conversion process.)"""
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
-    first = temporary_path(target, token)
+    first = target.parent / f"{_prefix(target.name)}{os.getpid()}-{_token(token)}.tmp"  # (target: resolved)
     for attempt in range(100):
         tmp = first if not attempt else first.with_name(f"{first.name[:-4]}-{attempt}.tmp")
         try:

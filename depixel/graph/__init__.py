@@ -5,9 +5,5 @@ diagonal of each crossing (curves, sparse pixels, islands), :mod:`.cells` reshap
 cells into the cell graph (quarter-pixel nodes); :mod:`.components` holds the graph kernels.
 """
 
-
-def __getattr__(name: str):
-    """Submodules load on first use (:func:`depixel.load_submodule`)."""
-    import depixel  # noqa: PLC0415 (an attribute read while depixel itself imports is a plain miss)
-
-    return depixel.load_submodule(__name__, name)
+#: its modules, each imported on first use (``depixel/__init__.py``)
+__all__ = ["cells", "components", "crossings", "similarity"]

@@ -1,13 +1,11 @@
 """Paper §3.4 — splines → optimized splines: corners kept, staircasing relaxed away.
 
-:mod:`.corners` finds the corners of Figure 7, :mod:`.relax` moves the control points to lower
+:mod:`.corners` finds the corners of Figure 7, :mod:`.straight` puts constant-slope staircases on
+their line, :mod:`.relax` moves the control points to lower
 |curvature| + ‖p − p̂‖⁴, :mod:`.harmonic` lets the other nodes follow, :mod:`.fidelity` keeps
-pixel centres inside their cells; :mod:`.stage` runs them (:class:`~depixel.optimize.stage.OptimizedSplines`).
+pixel centres inside their cells; :mod:`.stage` runs them (:class:`~depixel.optimize.stage.OptimizedSplines`),
+:mod:`.pack` for many images' curves at once (their relaxation in one pass).
 """
 
-
-def __getattr__(name: str):
-    """Submodules load on first use (:func:`depixel.load_submodule`)."""
-    import depixel  # noqa: PLC0415 (an attribute read while depixel itself imports is a plain miss)
-
-    return depixel.load_submodule(__name__, name)
+#: its modules, each imported on first use (``depixel/__init__.py``)
+__all__ = ["corners", "energy", "fidelity", "harmonic", "junctions", "pack", "relax", "stage", "straight", "trials"]

@@ -91,8 +91,8 @@ class Group:
                      self.ends_on.take(members, axis=1))
 
 
-#: :attr:`Group.around`'s rows
-A2_ROW, A_ROW, MEMBER_ROW, B_ROW, B2_ROW, A2_PARTNER_ROW, B2_PARTNER_ROW = range(7)
+#: :attr:`Group.around`'s rows (the last, 6, is b2's partner: read with a2's, ``around[A2_PARTNER_ROW:]``)
+A2_ROW, A_ROW, MEMBER_ROW, B_ROW, B2_ROW, A2_PARTNER_ROW = range(6)
 #: t of the points each span is checked at
 _T = np.arange(CLEARANCE_PIECES + 1) / CLEARANCE_PIECES
 #: (3, 3n+1) the row of :meth:`Energy.points` holding Bézier point P0-P2 of the span of each of a
@@ -110,7 +110,7 @@ class Energy:
     The hot path keeps x and y on a leading axis (arrays ``(2, M, K)``) and the three spans
     a member shapes stacked on another, so one step is a few dozen whole-array operations.
     The spans' points and their clearance are computed by the same floating-point operations,
-    in the same order, as :func:`depixel.curves.bspline.span` and :func:`depixel.curves.bspline.flatten`;
+    in the same order, as :func:`depixel.curves.bspline.span` and :func:`depixel.curves.bspline.bezier_polylines`;
     E_s agrees with :func:`depixel.curves.bspline.half_turns` up to rounding: a turn is the
     difference of two leg directions wrapped into [0, π], and a span whose two halves count
     turns from d0 to d1 in one (its halves turn the same way, through dm = d0 + d1; except a
@@ -253,7 +253,7 @@ class Energy:
         (pixel centres beside them, diagonal-link corners)."""
         # the points at t = 0, ¼, ½, ¾, 1 of the spans in curve order (the before span without
         # its last point, the after span without its first: the own span's ends), W0·P0 + W1·P1
-        # + W2·P2 as bspline.flatten; their distances to each protected point (2, Q, 3n+1, N, J)
+        # + W2·P2 as bspline.bezier_polylines; their distances to each protected point (2, Q, 3n+1, N, J)
         # with the trials innermost (an inner loop of N·J, not of 3n+1 with a protected point
         # broadcast over it: ~2.5x faster on a sprite's step), and the minimum over the two
         # leading axes (an elementwise minimum of rows; a minimum is exact in any order)

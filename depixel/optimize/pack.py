@@ -26,10 +26,10 @@ from ..curves.pairing import HalfEnds
 from ..curves.splines import SplineSet
 from ..graph.cells import INDEX, CellGraph
 from ..params import Params
-from .corners import Corners, excluded_halves
+from .corners import Corners
 from .fidelity import Moves, protected_points
 from .relax import Relaxed, relax_rounds
-from .stage import OptimizedSplines, finish
+from .stage import OptimizedSplines, finish, relaxation_inputs
 
 
 def optimize_many(items: Sequence[tuple[SplineSet, Corners]], params: Params = Params()) -> list[OptimizedSplines]:
@@ -40,12 +40,10 @@ def optimize_many(items: Sequence[tuple[SplineSet, Corners]], params: Params = P
 
         return [optimize_splines(*items[0], params)]
     curves = [splines for splines, _ in items]
-    starts = [corners.place(splines) for splines, corners in items]
+    starts, fixed, excluded = zip(*(relaxation_inputs(splines, corners, params) for splines, corners in items))
     joined, slots, nodes = join(curves)
-    model, anchor, done = relax_rounds(
-        joined, np.concatenate(starts), np.concatenate([corners.nodes for _, corners in items]),
-        np.concatenate([excluded_halves(splines, corners.nodes) for splines, corners in items]), params, slots,
-        np.concatenate([protected_points(splines) for splines in curves]))
+    model, anchor, done = relax_rounds(joined, np.concatenate(starts), np.concatenate(fixed), np.concatenate(excluded),
+                                       params, slots, np.concatenate([protected_points(splines) for splines in curves]))
     before, after = model.totals(anchor, anchor, slots), model.totals(done.ctrl, anchor, slots)
     del model, anchor
     out = []

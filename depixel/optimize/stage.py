@@ -3,7 +3,9 @@
 :func:`optimize_splines` is the driver; each step is its own module:
 
 1. corners (:mod:`depixel.optimize.corners`, found before the curves are cut at them in
-   :func:`depixel.depixelize`): right-angle corners go back onto their lattice points;
+   :func:`depixel.depixelize`): right-angle corners go back onto their lattice points; the
+   nodes of constant-slope staircases start on their line and those of long straight runs
+   stay where they are (:mod:`depixel.optimize.straight`);
 2. relaxation (:mod:`depixel.optimize.relax`): the curve control points move to lower E_s + E_p,
    each move guarded so that curves keep clear of pixel centres (:mod:`depixel.optimize.fidelity`);
 3. harmonic map (:mod:`depixel.optimize.harmonic`): the nodes off the curves follow them;
@@ -26,6 +28,7 @@ from .corners import Corners, excluded_halves
 from .fidelity import keep_centres_inside
 from .harmonic import follow, harmonic_map
 from .relax import Relaxed, relax
+from .straight import place_staircases, straight_runs
 
 
 @dataclass(frozen=True, eq=False)
@@ -62,11 +65,21 @@ class OptimizedSplines:
 
 
 def optimize_splines(splines: SplineSet, corners: Corners, params: Params = Params()) -> OptimizedSplines:
-    """§3.4 on curves already cut at ``corners``: relax the curve nodes, then move the
-    other nodes by a harmonic map, then walk back moves that pushed a pixel centre out."""
-    start = corners.place(splines)
-    return finish(splines, corners, start, relax(splines, start, corners.nodes,
-                                                 excluded_halves(splines, corners.nodes), params), params)
+    """§3.4 on curves already cut at ``corners``: place the corners and the staircases of
+    constant slope, relax the curve nodes (all but the corners and the straight runs),
+    then move the other nodes by a harmonic map, then walk back moves that pushed a pixel
+    centre out."""
+    start, fixed, excluded = relaxation_inputs(splines, corners, params)
+    return finish(splines, corners, start, relax(splines, start, fixed, excluded, params), params)
+
+
+def relaxation_inputs(splines: SplineSet, corners: Corners, params: Params = Params()
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What the relaxation starts from: the node positions with the corners and the
+    staircases placed (N, 2), the nodes it keeps fixed (N,) (the corners and the straight
+    runs) and the span halves left out of E_s (P, 2)."""
+    start = place_staircases(splines, corners.place(splines), params)
+    return start, corners.nodes | straight_runs(splines, params), excluded_halves(splines, corners.nodes)
 
 
 def finish(splines: SplineSet, corners: Corners, start: np.ndarray, relaxed: Relaxed,

@@ -3,12 +3,11 @@
 Loads and checks images (:mod:`.image`), finds the grid of art saved upscaled
 (:mod:`.pixelgrid`), snaps lossy colours to a palette (:mod:`.palette`, :mod:`.chroma`,
 :mod:`.chroma_unmix`) and makes a backdrop transparent (:mod:`.backdrop`); :mod:`.inputs`
-runs them and gives a :class:`~depixel.prepare.inputs.PreparedImage`.
+runs them and gives a :class:`~depixel.prepare.inputs.PreparedImage`. :mod:`.aseprite` reads
+Aseprite files, :mod:`.animation` an animation's frames with their timing (:mod:`.gif`,
+:mod:`.apng`), :mod:`.sheet` and :mod:`.sheet_json` find a sprite sheet's sprites.
 """
 
-
-def __getattr__(name: str):
-    """Submodules load on first use (:func:`depixel.load_submodule`)."""
-    import depixel  # noqa: PLC0415 (an attribute read while depixel itself imports is a plain miss)
-
-    return depixel.load_submodule(__name__, name)
+#: its modules, each imported on first use (``depixel/__init__.py``)
+__all__ = ["animation", "apng", "aseprite", "aseprite_compose", "aseprite_format", "backdrop", "chroma",
+           "chroma_unmix", "gif", "image", "inputs", "noisy", "palette", "pixelgrid", "sheet", "sheet_json"]

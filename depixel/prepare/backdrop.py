@@ -20,6 +20,18 @@ from .palette import SNAP_RADIUS
 from .pixelgrid import AUTO, colour_keys
 
 
+def over_colour(rgba: np.ndarray, colour: Colour) -> np.ndarray:
+    """``(H, W, 4)`` RGBA composited over an opaque ``(r, g, b)`` → ``(H, W, 4) uint8``, alpha 255
+    (:func:`depixel.flatten`; the input option ``background``)."""
+    rgb = np.array(colour, dtype=np.int64)
+    pixels = rgba.astype(np.int64)
+    alpha = pixels[..., 3:4]
+    out = np.empty(pixels.shape, np.uint8)
+    out[..., :3] = (pixels[..., :3] * alpha + rgb * (255 - alpha) + 127) // 255
+    out[..., 3] = 255
+    return out
+
+
 class Backdrop(NamedTuple):
     """What :func:`make_transparent` did."""
 
@@ -62,6 +74,18 @@ def make_transparent(rgba: np.ndarray, colour: str | Colour, snapped: bool = Fal
     out = rgba.copy()
     out[hit, 3] = 0
     return Backdrop(out, target, n, kept, None)
+
+
+def backdrop_mask(rgba: np.ndarray) -> np.ndarray:
+    """``(H, W) bool``: the backdrop ``--transparent auto`` would remove (the pixels of the
+    four corners' colour, when all four are that one opaque colour, joined to the border
+    through it), whether or not it was removed; nothing when the corners differ. The smooth
+    shading keeps it out of the art's blend (docs/rendering.md, "The backdrop")."""
+    keys = colour_keys(rgba)
+    corners = keys[[0, 0, -1, -1], [0, -1, 0, -1]]
+    if not (corners == corners[0]).all() or rgba[0, 0, 3] != 255:
+        return np.zeros(rgba.shape[:2], bool)
+    return border_connected(keys == corners[0])
 
 
 def border_connected(mask: np.ndarray) -> np.ndarray:

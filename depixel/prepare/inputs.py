@@ -16,10 +16,11 @@ that before the similarity graph (docs/inputs.md has the how and the limits, wit
 A lossless input that looks anti-aliased or noisy gets a hint in ``notes`` instead
 (:mod:`.noisy`): denoising is on by default only for files that say they are lossy.
 
-Each step is its own module (:mod:`.pixelgrid`, :mod:`.palette` with :mod:`.chroma` and
-:mod:`.chroma_unmix`, :mod:`.backdrop`); this one holds the driver :func:`prepare`, its
-product :class:`PreparedImage` and the options (the overlay of the result on the input is
-:mod:`depixel.render.overlay`).
+Before them, an image with a ``background`` colour is composited over it. Each step is its
+own module (:mod:`.pixelgrid`, :mod:`.palette` with :mod:`.chroma` and :mod:`.chroma_unmix`,
+:mod:`.backdrop`); this one holds the driver :func:`prepare`, its options
+(:class:`PrepareOptions`) and its product :class:`PreparedImage` (the overlay of the result on
+the input is :mod:`depixel.render.overlay`).
 
 On real 1× art the grid is never found and nothing else is on by default for a lossless
 file, so the prepared image *is* the input and the output is byte-identical to
@@ -31,20 +32,49 @@ arrays are ``(row, column)``.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import cast
 
 import numpy as np
 
-from ..colour import Colour, parse_colour
+from .. import validate
+from ..colour import Colour, as_colour, parse_colour
 from ..errors import ParameterError
-from ..frozen import compact_repr
-from .backdrop import Backdrop, hex_code, make_transparent
+from ..frozen import added, compact_repr
+from .backdrop import Backdrop, hex_code, make_transparent, over_colour
 from .image import as_rgba
 from .noisy import noise_hint
 from .palette import LEFTOVER_BLOCK, distinct_colours, snap_colours
 from .pixelgrid import AUTO, MAX_FACTOR, block_medians, find_grid, reduce_blocks
 
 PixelSize = str | int | tuple[int, int]
+
+
+@dataclass(frozen=True)
+class PrepareOptions:
+    """How :func:`prepare` turns an image as given into the 1× art (docs/inputs.md), checked
+    and normalized when made: a colour name becomes its ``(r, g, b)``, ``"4x3"`` becomes
+    ``(4, 3)``. A bad value raises :class:`~depixel.errors.ParameterError` naming the field.
+    Part of :class:`depixel.options.ConvertOptions`; every field is in a file's stamp
+    (docs/design.md, Options, says how to add one)."""
+
+    background: Colour | str | None = None  # composite over this opaque colour first (None: keep the alpha)
+    pixel_size: PixelSize = AUTO  # "auto" (detect), or (x, y) input pixels per art pixel
+    denoise: bool | None = None  # snap near-identical colours to a palette (None: when the input is lossy)
+    transparent: str | Colour | None = None  # the backdrop colour made transparent, or "auto" (the corners')
+    #: every pixel of the ``transparent`` colour, not only those joined to the border (added
+    #: after the stamp's format: left out of it without a ``transparent`` colour)
+    transparent_everywhere: bool = added(False, left_out=lambda options, value: options.transparent is None)
+
+    def __post_init__(self) -> None:
+        if self.denoise is not None and not isinstance(self.denoise, (bool, np.bool_)):
+            raise ParameterError(f"denoise must be True, False or None, not {self.denoise!r}", parameter="denoise")
+        normal = {"background": as_colour(self.background), "pixel_size": parse_pixel_size(self.pixel_size),
+                  "denoise": None if self.denoise is None else bool(self.denoise),
+                  "transparent": parse_transparent(self.transparent),
+                  "transparent_everywhere": validate.flag("transparent_everywhere", self.transparent_everywhere)}
+        for name, value in normal.items():
+            object.__setattr__(self, name, value)
 
 
 @dataclass(frozen=True, eq=False)
@@ -138,33 +168,39 @@ class PreparedImage:
         }
 
 
-def prepare(image, *, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
-            transparent: str | Colour | None = None, transparent_everywhere: bool = False,
-            lossy: str | None = None) -> PreparedImage:
+def prepare(image, options: PrepareOptions | None = None, *, lossy: str | None = None,
+            **changes) -> PreparedImage:
     """Turn an image as given into the 1× pixel art to convert.
 
     Parameters
     ----------
     image : array or PIL image (anything :func:`depixel.prepare.image.as_rgba` takes), or a
         :class:`PreparedImage` (returned as it is).
-    pixel_size : ``"auto"`` (default) detects nearest-neighbour upscaling, ``1`` takes the
-        pixels as they are, ``N`` or ``(x, y)`` or ``"NxM"`` forces that many input pixels
-        per art pixel (the grid offset is still fitted).
-    denoise : snap near-identical colours to a small palette; ``None`` (default) does it
-        when ``lossy`` names the format the pixels came from (JPEG, lossy WebP).
-    transparent : the backdrop colour (``(r, g, b)``, ``"#rrggbb"``, a CSS name), or
-        ``"auto"``: the colour of the four corners when they agree. Its pixels joined to the
-        border (4-connected) become fully transparent; the same colour inside the art stays.
-    transparent_everywhere : make every pixel of that colour transparent (a colour key).
+    options : the :class:`PrepareOptions` (None: the defaults); ``changes`` (their field names
+        as keywords, as ``prepare(image, denoise=True)``) replace some of them:
+
+        * ``background``: composite over this opaque colour first;
+        * ``pixel_size``: ``"auto"`` (default) detects nearest-neighbour upscaling, ``1`` takes
+          the pixels as they are, ``N`` or ``(x, y)`` or ``"NxM"`` forces that many input
+          pixels per art pixel (the grid offset is still fitted);
+        * ``denoise``: snap near-identical colours to a small palette; ``None`` (default) does
+          it when ``lossy`` names the format the pixels came from (JPEG, lossy WebP);
+        * ``transparent``: the backdrop colour (``(r, g, b)``, ``"#rrggbb"``, a CSS name), or
+          ``"auto"``: the colour of the four corners when they agree. Its pixels joined to the
+          border (4-connected) become fully transparent; the same colour inside the art stays;
+        * ``transparent_everywhere``: make every pixel of that colour transparent (a colour key).
     lossy : the lossy format the pixels were decoded from, if any (see :func:`lossy_format`);
         a PIL image opened from a JPEG file says so itself.
     """
+    options = replace(options or PrepareOptions(), **changes)  # (checked again: a change is checked too)
     if isinstance(image, PreparedImage):
         return image
-    size = parse_pixel_size(pixel_size)
-    key_colour = parse_transparent(transparent)
+    size = cast("str | tuple[int, int]", options.pixel_size)  # normalized: "auto" or (x, y)
+    key_colour, denoise = options.transparent, options.denoise
     lossy = lossy or pil_lossy(image)
     rgba = as_rgba(image)
+    if options.background is not None:
+        rgba = over_colour(rgba, cast(Colour, options.background))  # (normalized: an (r, g, b))
     height, width = rgba.shape[:2]
     notes: list[str] = []
 
@@ -186,7 +222,7 @@ def prepare(image, *, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
         notes.append(hint)  # a lossless file that looks like a lossy one: say what denoise would do
 
     keyed = Backdrop(rgba, None, 0, 0, None) if key_colour is None else \
-        make_transparent(rgba, key_colour, snapped=palette > 0, everywhere=transparent_everywhere)
+        make_transparent(rgba, key_colour, snapped=palette > 0, everywhere=options.transparent_everywhere)
     rgba = keyed.rgba
     if keyed.note:
         notes.append(keyed.note)

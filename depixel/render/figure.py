@@ -15,24 +15,49 @@ Panels, each the image magnified ``zoom`` times:
    control polygon and control points in orange (only when the run reached these stages);
 7. final render — the SVG as cairosvg draws it.
 
-Everything is drawn with Pillow's ImageDraw, except the final render.
+Everything is drawn with Pillow's ImageDraw, except the final render. The figure takes the
+products a run made (:class:`Stages`: a :class:`depixel.pipeline.Result` is one); its caller
+(``depixel inspect``, or a user of the API) runs the pipeline, which this module, below it,
+does not import.
 """
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
 from ..curves.bspline import flatten_edges
 from ..errors import RenderError
 from ..limits import DEFAULT_MAX_OUTPUT_PIXELS
-from ..pipeline import Result
 from ..svg.writer import to_svg
 from ..vector import VectorImage, linked_edges
 
-if TYPE_CHECKING:  # Pillow is imported where it draws
+if TYPE_CHECKING:  # Pillow is imported where it draws; the products only name types
     from PIL.Image import Image
+
+    from ..curves.splines import SplineSet
+    from ..graph.cells import CellGraph
+    from ..graph.crossings import CrossingResolution
+    from ..graph.similarity import SimilarityGraph
+    from ..optimize.stage import OptimizedSplines
+
+
+class Stages(Protocol):
+    """The products of one run that the figure draws (a :class:`depixel.pipeline.Result`)."""
+
+    @property
+    def similarity(self) -> SimilarityGraph: ...
+    @property
+    def resolution(self) -> CrossingResolution: ...
+    @property
+    def cells(self) -> CellGraph: ...
+    @property
+    def vector(self) -> VectorImage: ...
+    @property
+    def splines(self) -> SplineSet | None: ...  # when the run reached the "splines" stage
+    @property
+    def optimized(self) -> OptimizedSplines | None: ...  # when it reached "optimized"
 
 GAP = 8  # pixels around and between panels
 TITLE_HEIGHT = 18  # strip above each panel for its name
@@ -55,7 +80,7 @@ def grid_shape(n_panels: int) -> tuple[int, int]:
     return math.ceil(n_panels / cols), cols
 
 
-def figure(result: Result, zoom: int | None = None, prepared=None, original: np.ndarray | None = None):
+def figure(result: Stages, zoom: int | None = None, prepared=None, original: np.ndarray | None = None):
     """All stage panels of one run, composed into one PIL image."""
     return compose(stage_panels(result, zoom, prepared, original))
 
@@ -94,7 +119,7 @@ def check_figure_size(shape: tuple[int, int], zoom: int | None, n_panels: int,
                           parameter="max_output_pixels")
 
 
-def stage_panels(result: Result, zoom: int | None = None, prepared=None, original: np.ndarray | None = None,
+def stage_panels(result: Stages, zoom: int | None = None, prepared=None, original: np.ndarray | None = None,
                  max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS) -> list[tuple[str, Image]]:
     """(title, PIL image) for every stage the run reached, in pipeline order. Panels that
     would hold more than ``max_output_pixels`` pixels together are refused before drawing.
@@ -138,7 +163,7 @@ def _over(rgba: np.ndarray, base: np.ndarray) -> np.ndarray:
     return np.round(rgba[..., :3] * alpha + base * (1.0 - alpha)).astype(np.uint8)
 
 
-def _pixels(result: Result, z: int, fade: float = 0.0):
+def _pixels(result: Stages, z: int, fade: float = 0.0):
     """The input magnified (nearest neighbour) over a checkerboard, faded towards white."""
     from PIL import Image  # noqa: PLC0415
 
@@ -150,7 +175,7 @@ def _pixels(result: Result, z: int, fade: float = 0.0):
     return Image.fromarray(np.round(rgb).astype(np.uint8), "RGB")
 
 
-def _input_panel(result: Result, z: int):
+def _input_panel(result: Stages, z: int):
     return _pixels(result, z)
 
 
@@ -209,7 +234,7 @@ def _draw_segments(draw, segments: np.ndarray, colour, width: int, dashed: bool 
                       fill=colour, width=width)
 
 
-def _draw_nodes(draw, result: Result, z: int) -> None:
+def _draw_nodes(draw, result: Stages, z: int) -> None:
     rgba = result.similarity.rgba
     h, w = rgba.shape[:2]
     radius = max(1.5, z * 0.14)
@@ -221,7 +246,7 @@ def _line_width(z: int) -> int:
     return max(1, z // 10)
 
 
-def _similarity_panel(result: Result, z: int):
+def _similarity_panel(result: Stages, z: int):
     from PIL import ImageDraw  # noqa: PLC0415
 
     img = _pixels(result, z, fade=0.7)
@@ -238,7 +263,7 @@ def _similarity_panel(result: Result, z: int):
     return img
 
 
-def _resolved_panel(result: Result, z: int):
+def _resolved_panel(result: Stages, z: int):
     from PIL import ImageDraw  # noqa: PLC0415
 
     img = _pixels(result, z, fade=0.7)
@@ -259,7 +284,7 @@ def _resolved_panel(result: Result, z: int):
     return img
 
 
-def _cells_panel(result: Result, z: int):
+def _cells_panel(result: Stages, z: int):
     from PIL import Image, ImageDraw  # noqa: PLC0415
 
     cells = result.cells
@@ -314,7 +339,7 @@ def _curves_panel(splines, positions: np.ndarray, z: int):
     return img
 
 
-def _render_panel(result: Result, z: int):
+def _render_panel(result: Stages, z: int):
     from PIL import Image  # noqa: PLC0415
 
     from .raster import render_rgba  # noqa: PLC0415

@@ -19,6 +19,7 @@ import numpy as np
 from .. import validate
 from ..errors import RenderError
 from ..limits import DEFAULT_MAX_OUTPUT_PIXELS, MAX_FILE_BYTES, PDF_PAGE_POINTS
+from .images import decoding
 from .references import check_references
 
 #: Formats :func:`render` writes.
@@ -82,14 +83,14 @@ def reproducible_date() -> str:
     return moment.strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
-def render(svg: str | bytes, fmt: str = "png", *, scale: float | None = None, width: int | None = None,
-           height: int | None = None, background: tuple[int, int, int] | None = None,
+def render(svg: str | bytes, fmt: str = "png", *, scale: float | None = None,
+           size: tuple[int | None, int | None] = (None, None), background: tuple[int, int, int] | None = None,
            name: str = "<svg>", max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS,
            keywords: str | None = None) -> bytes:
     """Render SVG (or gzip-compressed SVG) text to PNG or PDF bytes.
 
-    The size is the SVG's own width/height times ``scale`` (default 1); ``width`` and/or
-    ``height`` in pixels override it (one of them alone keeps the aspect ratio). A PNG is
+    The size is the SVG's own width/height times ``scale`` (default 1); ``size``, a width
+    and/or height in pixels, overrides it (one of them alone keeps the aspect ratio). A PNG is
     that size rounded to whole pixels, with the drawing stretched by the rounding (under a
     pixel) so that it covers the last row and column. A PNG of more than
     ``max_output_pixels`` is refused before it is allocated. ``background`` is an opaque RGB
@@ -97,6 +98,7 @@ def render(svg: str | bytes, fmt: str = "png", *, scale: float | None = None, wi
     of :func:`reproducible_date` and ``keywords`` in its metadata, so it is byte-stable.
     """
     validate.choice("format", fmt, RASTER_FORMATS)
+    width, height = size
     if scale is not None:
         validate.positive("scale", scale)
     for key, value in (("width", width), ("height", height)):
@@ -109,11 +111,11 @@ def render(svg: str | bytes, fmt: str = "png", *, scale: float | None = None, wi
     surface_class = _png_surface(cairosvg) if fmt == "png" else _pdf_surface(cairosvg)
     try:
         tree = cairosvg.parser.Tree(bytestring=data)
+        check_finite(tree.xml_tree, name)
         check_references(tree.xml_tree, name)
         with _output_file() as (path, fd):
-            limit = {"max_pixels": max_output_pixels} if fmt == "png" else {}
             surface = surface_class(tree, path, 96, None, None, None, 1.0 if scale is None else scale,
-                                    width, height, colour, **limit)
+                                    width, height, colour, max_pixels=max_output_pixels, name=name)
             if fmt == "pdf":
                 import cairocffi  # noqa: PLC0415
 
@@ -188,10 +190,15 @@ def _pdf_surface(cairosvg):
     global _PDF_SURFACE
     if _PDF_SURFACE is None:
         class CheckedPDFSurface(cairosvg.surface.PDFSurface):
+            def __init__(self, *args, max_pixels: int | None = None, name: str = "<svg>", **kwargs) -> None:
+                self._max_pixels, self._name = max_pixels, name  # the embedded pictures' budget
+                super().__init__(*args, **kwargs)
+
             def _create_surface(self, width, height):
                 low, high = PDF_PAGE_POINTS
                 if not (low <= width <= high and low <= height <= high):
                     raise _PageSize(width, height)
+                decoding(self, self._name, self._max_pixels)
                 return super()._create_surface(width, height)
 
         _PDF_SURFACE = CheckedPDFSurface
@@ -215,8 +222,8 @@ def _png_surface(cairosvg):
         return _PNG_SURFACE
 
     class LimitedPNGSurface(cairosvg.surface.PNGSurface):
-        def __init__(self, *args, max_pixels: int | None = None, **kwargs) -> None:
-            self._max_pixels = max_pixels
+        def __init__(self, *args, max_pixels: int | None = None, name: str = "<svg>", **kwargs) -> None:
+            self._max_pixels, self._name = max_pixels, name
             self._stretch: tuple[float, float] | None = None
             super().__init__(*args, **kwargs)
 
@@ -224,6 +231,7 @@ def _png_surface(cairosvg):
             w, h = int(round(width)), int(round(height))
             if self._max_pixels is not None and w * h > self._max_pixels:
                 raise _TooLarge(w, h)
+            decoding(self, self._name, self._max_pixels)  # the embedded pictures: within the same budget
             if w > 0 and h > 0 and self._stretch is None:
                 self._stretch = (w / width, h / height)
             return super()._create_surface(width, height)
@@ -244,7 +252,7 @@ def render_rgba(svg: str | bytes, *, width: int | None = None, height: int | Non
     """Render SVG text to an ``(H, W, 4) uint8`` RGBA array on a transparent background."""
     from PIL import Image  # noqa: PLC0415
 
-    png = render(svg, "png", scale=scale, width=width, height=height, name=name,
+    png = render(svg, "png", scale=scale, size=(width, height), name=name,
                  max_output_pixels=max_output_pixels)
     with Image.open(io.BytesIO(png)) as img:
         return np.ascontiguousarray(np.asarray(img.convert("RGBA"), dtype=np.uint8))
@@ -275,6 +283,24 @@ def svg_size(svg: str | bytes, name: str = "<svg>") -> tuple[float, float]:
             size.append(float(box[2 + i]))
         else:
             raise RenderError(f"{name}: SVG has no usable {attr} or viewBox")
+    check_finite(root, name)
     if not (size[0] > 0 and size[1] > 0):
         raise RenderError(f"{name}: SVG has zero size")
     return size[0], size[1]
+
+
+#: The largest width, height or viewBox number accepted (CSS pixels): far beyond any drawing
+#: (a 1e9-pixel side at 1x is refused by every pixel limit anyway), yet far from the
+#: overflow of a float64 or of cairo's fixed-point coordinates being multiplied.
+MAX_SVG_NUMBER = 1e15
+
+
+def check_finite(root, name: str) -> None:
+    """Refuse (:class:`RenderError`) an SVG root (an ElementTree element) whose width,
+    height or viewBox holds a number over :data:`MAX_SVG_NUMBER` in size (``1e400`` is
+    infinite once read: sizes computed from it overflow or divide by zero)."""
+    for attr in ("width", "height", "viewBox"):
+        for text in re.findall(_NUMBER, root.get(attr, "")):
+            if not abs(float(text)) <= MAX_SVG_NUMBER:
+                raise RenderError(f"{name}: SVG {attr} {text[:24]} is too large a number (at most "
+                                  f"{MAX_SVG_NUMBER:g})")

@@ -8,6 +8,7 @@ formulation implemented here:
 
 * a cell influences a point only when both lie in the same region (cells joined by
   invisible edges, :func:`depixel.vector.regions`), so no colour leaks across a contour;
+  not in the paper, the backdrop is a region of its own (:func:`shading_regions`);
 * the region under a point comes from a scanline rasterization of the cell polygons, with
   every curved edge flattened to a polyline, at ``supersample × supersample`` samples per
   output pixel; contours are anti-aliased by averaging those samples;
@@ -31,6 +32,7 @@ from ..colour import rgb_to_yuv
 from ..curves.bspline import bend, edge_halves, flatten_edges, pieces_for
 from ..errors import RenderError
 from ..params import Params
+from ..prepare.backdrop import backdrop_mask
 from ..vector import VectorImage, regions
 from .visibility import Occluders
 
@@ -203,7 +205,7 @@ class _ShadingField:
         h, w = image.shape
         self.shape = (h, w)
         self.centroid = cell_centroids(image, pieces)
-        self.region = regions(image.cells)
+        self.region = shading_regions(image)
         rgba = image.rgba.reshape(-1, 4).astype(np.float64)
         alpha = rgba[:, 3:] / 255.0
         self.premultiplied = np.concatenate([rgba[:, :3] * alpha, alpha], axis=1)
@@ -234,7 +236,7 @@ class _ShadingField:
         self.pad_region = np.pad(self.region.reshape(h, w), pad, constant_values=-1).ravel()
         self.pad_colour = np.pad(self.premultiplied.reshape(h, w, 4), pad + ((0, 0),)).reshape(-1, 4).astype(np.float32)
         coarse = _flatten(image, _pieces_per_curve(image, VISIBILITY_TOLERANCE))
-        self.occluders = Occluders(image, *coarse, self.centroid, self.region, self.premultiplied, self.radius,
+        self.occluders = Occluders(image, coarse, self.centroid, self.region, self.premultiplied, self.radius,
                                    self.offsets)
 
     def _flat_cells(self, radius: int) -> np.ndarray:
@@ -320,6 +322,18 @@ class _ShadingField:
         a = blend[:, 3] / 255.0
         result[pulled] = np.concatenate([blend[:, :3] * a[:, None], a[:, None]], axis=1)
         return result
+
+
+def shading_regions(image: VectorImage) -> np.ndarray:
+    """(H*W,) the regions a cell's influence stays in: the paper's (cells joined by invisible
+    edges), with the backdrop (:func:`depixel.prepare.backdrop.backdrop_mask`) a region of
+    its own. Not in the paper: a backdrop similar to the art's darkest tone would otherwise
+    blend into it and the outline would dissolve into a glow (docs/rendering.md, "The backdrop")."""
+    region = regions(image.cells)
+    backdrop = backdrop_mask(image.rgba).ravel()
+    if backdrop.any():
+        region = np.where(backdrop, int(region.max()) + 1, region)
+    return region
 
 
 def _render_tile(field: _ShadingField, seg: _Segments, r0: int, r1: int, out_shape: tuple[int, int],

@@ -26,11 +26,12 @@ class Occluders:
     influence radius of the cell's centroid whose bounding box meets the box around P's
     square and the centroid (in sorted ``keys`` P * len(offsets) + o, CSR ``ptr``)."""
 
-    def __init__(self, image: VectorImage, a: np.ndarray, b: np.ndarray, edge: np.ndarray, centroid: np.ndarray,
+    def __init__(self, image: VectorImage, lines: tuple[np.ndarray, np.ndarray, np.ndarray], centroid: np.ndarray,
                  region: np.ndarray, colour: np.ndarray, radius: float, offsets: np.ndarray) -> None:
-        """``a``, ``b``, ``edge``: the flattened line pieces of every cell edge and their
+        """``lines``: ``(a, b, edge)``, the flattened line pieces of every cell edge and their
         edge; ``centroid`` (H*W, 2), ``region`` (H*W,) and ``colour`` (H*W, 4) of every cell;
         ``radius`` of the influence; ``offsets`` (K, 2) the (dy, dx) of the cells looked up."""
+        a, b, edge = lines
         cells = image.cells
         h, w = cells.shape
         self.width, self.n_offsets, self.centroid = w, len(offsets), centroid

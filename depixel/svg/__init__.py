@@ -1,13 +1,12 @@
 """Output — a :class:`~depixel.vector.VectorImage` → SVG text of stacked or cut-out shapes.
 
-:mod:`.outlines` builds the shapes (:mod:`.boundaries`, :mod:`.loops`, :mod:`.holes`,
+:mod:`.outlines` builds the shapes (:mod:`.boundaries`, :mod:`.loops`, :mod:`.holes`, :mod:`.insets`,
 :mod:`.stacking`), :mod:`.simplify` and :mod:`.curvefit` replace the exact spline by fewer
-cubics within a tolerance, :mod:`.writer` and :mod:`.svgtext` write the text.
+cubics within a tolerance, :mod:`.writer` and :mod:`.svgtext` write the text (the smooth shading's
+groups: :mod:`.smoothgroups`, :mod:`.markup`, :mod:`.hiding`). :mod:`.layers`
+puts several documents into one as layers (a sheet), :mod:`.animation` frames into one animated SVG.
 """
 
-
-def __getattr__(name: str):
-    """Submodules load on first use (:func:`depixel.load_submodule`)."""
-    import depixel  # noqa: PLC0415 (an attribute read while depixel itself imports is a plain miss)
-
-    return depixel.load_submodule(__name__, name)
+#: its modules, each imported on first use (``depixel/__init__.py``)
+__all__ = ["animation", "boundaries", "breaks", "curvefit", "hiding", "holes", "insets", "layers", "loops", "markup",
+           "outlines", "reference", "simplify", "smoothgroups", "stacking", "svgtext", "writer"]

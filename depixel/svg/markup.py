@@ -16,7 +16,9 @@ whole run of its region) filtered by one shared filter:
   clip to the bands' outline would do, without new path data. Against a shape drawn
   before (beneath) the group that is the contour itself, so nothing of the blur leaves the
   group and the contour stays crisp. In the stacked layout the bands continue under the
-  shapes drawn above them, which cover that part as they cover the flat bands.
+  shapes drawn above them, which cover that part as they cover the flat bands; a
+  ``<g mask>`` inside the group keeps that hidden part out of the blur
+  (:mod:`depixel.svg.hiding`).
 
 A renderer without filters draws the flat bands; the document paints the same areas as the
 flat one, in the same order, so it never opens a seam.
@@ -26,6 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..arrays import unique
+from .hiding import cover_filter, covering_shapes, mask
 from .outlines import Outlines, OutlineShapes
 from .stacking import ROLES
 from .svgtext import number
@@ -68,35 +71,47 @@ class Labels:
 
 class Smooth:
     """The smooth groups of a document: the markup that opens each group before its first
-    band and closes it after its last."""
+    band and closes it after its last, and the masks that keep from each group's blur what
+    the shapes drawn after it hide (:mod:`depixel.svg.hiding`)."""
 
     def __init__(self, shapes: Outlines | OutlineShapes, labels: Labels, group: np.ndarray) -> None:
         self.opens: dict[int, str] = {}  # shape → markup written before it
         self.closes: dict[int, str] = {}  # shape → markup written after it
         self.merged = np.zeros(len(shapes), bool)  # the <g> of the shape's region run is its group's
+        self.shape = shapes.shape
         shaded = group >= 0
         starts = (shaded & np.concatenate(([True], group[1:] != group[:-1]))).nonzero()[0]
         ends = (shaded & np.concatenate((group[1:] != group[:-1], [True]))).nonzero()[0]
         assert unique(group.take(starts)).size == starts.size, "a smooth group is drawn in one run"
         self.n_groups = int(starts.size)
+        self.masks: list[tuple[str, list[str]]] = []  # (id, the ids of the covering shapes)
         colours = shapes.rgba[:, :3].take(starts, axis=0).tobytes().hex(" ", 3).split()
-        for a, b, colour in zip(starts.tolist(), ends.tolist(), colours):
+        covering = covering_shapes(shapes, starts, ends)
+        for a, b, colour, cover in zip(starts.tolist(), ends.tolist(), colours, covering):
             merged = bool(labels.grouped[a] and labels.run_start[a] and labels.run_end[b])
             ident = f"region-{int(shapes.region[a])}-{int(labels.run_id[a])}" if merged else f"smooth-{a}"
             self.opens[a] = (f'<g id="{ident}" inkscape:label="smooth shading #{colour} ({b + 1 - a} tones)" '
                              f'filter="url(#{FILTER_ID})">\n')
-            if not merged:
-                self.closes[b] = "</g>\n"
+            closes = "" if merged else "</g>\n"
+            if cover.size:
+                self.masks.append((f"hide-{a}", [i for c in cover.tolist() for i in labels.idents(c, c + 1)]))
+                self.opens[a] += f'<g mask="url(#hide-{a})">\n'
+                closes = "</g>\n" + closes
+            if closes:
+                self.closes[b] = closes
             self.merged[a] = merged
 
     def defs(self, sigma: float) -> str:
-        """The ``<defs>`` of the filter, or nothing when there is no group."""
+        """The ``<defs>`` of the filter and the masks, or nothing when there is no group."""
         if not self.n_groups:
             return ""
         return (f'<defs>\n<filter id="{FILTER_ID}" color-interpolation-filters="sRGB">'
                 f'<feGaussianBlur stdDeviation="{number(sigma, 6)}"/>'
                 '<feComponentTransfer><feFuncA type="table" tableValues="1 1"/></feComponentTransfer>'
-                '<feComposite in2="SourceAlpha" operator="in"/></filter>\n</defs>\n')
+                '<feComposite in2="SourceAlpha" operator="in"/></filter>\n'
+                + (cover_filter() if self.masks else "")
+                + "".join(mask(ident, self.shape, cover) for ident, cover in self.masks)
+                + '</defs>\n')
 
 
 def elements(outlines: Outlines, first: int, labels: Labels, data: list[str]) -> str:

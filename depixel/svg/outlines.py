@@ -13,7 +13,10 @@ Layouts:
   encloses unless the hole holds transparent or translucent pixels. So no shape cuts a hole
   for a shape on top of it, the lower of two touching shapes lies beneath their common
   boundary (no renderer can leave a seam there), and each shape's outline is made of its
-  own boundary and of boundaries of the shapes above it, never of hidden fragments.
+  own boundary and of boundaries of the shapes above it, never of hidden fragments; where
+  such a boundary is one that a shape above draws against a face below, the outline is
+  pulled back under that shape (:mod:`depixel.svg.insets`: no thread of the lower colour
+  through the upper shape's edge).
 * ``"cutout"``: every shape is exactly its face, with holes; the shapes tile the image
   without overlap. Renderers that anti-alias each shape on its own leave a faint seam where
   two shapes meet (docs/svg.md).
@@ -44,6 +47,7 @@ from ..frozen import compact_repr
 from ..vector import VectorImage
 from .boundaries import CUBIC, LINE, QUAD, BoundaryPieces, build_pieces
 from .holes import loops_to_keep, probe_keys
+from .insets import InsetGuide, inset_runs, merge_lines, segment_insets
 from .loops import Loops, trace_loops
 from .simplify import simplify_pieces
 from .stacking import FaceBoundaries, FaceTopology
@@ -149,6 +153,7 @@ class OutlineShapes:
         clear = (~topo.opaque).nonzero()[0]  # a pixel of each transparent or translucent face
         self.probe_key = probe_keys(topo.first_pixel[clear], self.shape[1]) if clear.size else None
         self.faces = topo.boundaries()  # the rest of the topology is dropped here
+        self.guide = InsetGuide(image, self.faces) if stacked else None
 
     def __len__(self) -> int:
         return int(self.face.size)
@@ -171,13 +176,15 @@ class OutlineShapes:
         lo = self.member_ptr.take(face)
         count = self.member_ptr.take(face + 1) - lo
         member = self.member_key.take(ranges(lo, count)) % (faces.n_faces + 1)
-        owner_face, entry = _batch_entries(faces, face, np.arange(face.size).repeat(count), member, self.member_key)
+        owner_face, entry, inset = _batch_entries(faces, face, np.arange(face.size).repeat(count), member,
+                                                  self.member_key)
         u = faces.entry_from.take(entry)
         loops = trace_loops(faces.rank.take(owner_face), u, faces.entry_to.take(entry), points=faces.nodes)
         del owner_face
         keep = loops_to_keep(loops, u, faces.nodes, self.probe_key, self.shape[1], self.layout == "stacked")
         kind, ctrl, ctrl2, end, loop_ptr = _segments_in_batches(self.image, self.pieces, loops, keep,
-                                                                faces.entry_edge.take(entry), u, self.grid)
+                                                                faces.entry_edge.take(entry), u, inset, self.guide,
+                                                                self.grid)
         shape_rank = loops.owner.take(keep)
         bounds = np.concatenate((faces.rank.take(face), [np.iinfo(np.int64).max]))
         shape_ptr = np.asarray(shape_rank.searchsorted(bounds), np.int64)
@@ -227,10 +234,14 @@ def _edge_costs(image: VectorImage, pieces: BoundaryPieces) -> np.ndarray:
 
 
 def _batch_entries(faces: FaceBoundaries, face: np.ndarray, shape: np.ndarray, member: np.ndarray,
-                   member_key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(owner face, boundary entry) of the union of member faces of each shape of a batch:
-    ``face`` the shapes' faces, ``(shape, member)`` the pairs (shape: a place in ``face``),
-    ``member_key`` of all pairs of the image (sorted)."""
+                   member_key: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(owner face, boundary entry, inset) of the union of member faces of each shape of a
+    batch: ``face`` the shapes' faces, ``(shape, member)`` the pairs (shape: a place in
+    ``face``), ``member_key`` of all pairs of the image (sorted). ``inset``: where the entry
+    bounds a face drawn above the owner against a face that no shape above the owner covers
+    (drawn below it, transparent or translucent), that face (:mod:`depixel.svg.insets`
+    pulls the outline back into it), else -2 where the entry bounds another face than the
+    owner's (hidden under the shapes above), -1 where it bounds the owner's own."""
     lo = faces.entry_ptr.take(member)
     count = faces.entry_ptr.take(member + 1) - lo
     entry = ranges(lo, count)
@@ -251,7 +262,11 @@ def _batch_entries(faces: FaceBoundaries, face: np.ndarray, shape: np.ndarray, m
     else:
         key = face.take(place) * n + other
         outside = ~((other >= 0) & in_sorted(member_key, key))
-    return face.take(place.compress(outside)), entry.compress(outside)
+    owner, entry, other = face.take(place.compress(outside)), entry.compress(outside), other.compress(outside)
+    covered = (other >= 0) & faces.opaque.take(other) & (faces.rank.take(other) > faces.rank.take(owner))
+    inside = member.repeat(count).compress(outside)
+    pulled = (inside != owner) & (other >= 0) & ~covered
+    return owner, entry, np.where(pulled, inside, np.where(inside != owner, -2, -1))
 
 
 #: a batch's members are looked up in a dense (shape, face) table of booleans while it has at
@@ -267,11 +282,12 @@ LOOP_BATCH = 1 << 13
 
 
 def _segments_in_batches(image: VectorImage, pieces: BoundaryPieces, loops: Loops, keep: np.ndarray,
-                         halfedge_edge: np.ndarray, halfedge_from: np.ndarray, grid: float | None):
+                         halfedge_edge: np.ndarray, halfedge_from: np.ndarray, inset: np.ndarray,
+                         guide: InsetGuide | None, grid: float | None):
     """:func:`_loop_segments` of the kept loops, a batch of loops at a time."""
     sizes = loops.ptr[1:].take(keep) - loops.ptr[:-1].take(keep)
     bounds = batch_bounds(sizes, LOOP_BATCH) or [(0, 0)]  # no loop: one empty batch
-    parts = [_loop_segments(image, pieces, loops, keep[a:b], halfedge_edge, halfedge_from, grid)
+    parts = [_loop_segments(image, pieces, loops, keep[a:b], halfedge_edge, halfedge_from, inset, guide, grid)
              for a, b in bounds]
     if len(parts) == 1:
         return parts[0]
@@ -282,10 +298,11 @@ def _segments_in_batches(image: VectorImage, pieces: BoundaryPieces, loops: Loop
 
 
 def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, keep: np.ndarray,
-                   halfedge_edge: np.ndarray, halfedge_from: np.ndarray, grid: float | None):
+                   halfedge_edge: np.ndarray, halfedge_from: np.ndarray, inset: np.ndarray, guide: InsetGuide | None,
+                   grid: float | None):
     """Segments of the kept loops, ``(kind, ctrl, end, loop_ptr)``: a straight cell edge is a
     line, a run along a curve is its pieces, each written where the loop enters it, in the
-    loop's direction."""
+    loop's direction; the runs along a face that ``inset`` names pulled back into it."""
     cells = image.cells
     first = loops.ptr[:-1].take(keep)
     counts = loops.ptr[1:].take(keep) - first
@@ -342,48 +359,24 @@ def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, kee
         ctrl2 = np.full((total, 2), np.nan)
         span = np.full(total, -1, np.int64)
     seg_loop = loop_of.take(step)
+    margin, f_in, f_out = segment_insets(guide, inset, he, x, y, loop_of, n_seg)
     # where a loop goes on along its curve through a junction, the two halves of the span
     # there (the end of one piece, the start of the next) are that one span
     whole = ((span[:-1] >= 0) & (span[:-1] == span[1:]) & (seg_loop[:-1] == seg_loop[1:])
-                           & (kind[:-1] == QUAD) & (kind[1:] == QUAD)).nonzero()[0]  # (straight halves merge as lines)
+                           & (kind[:-1] == QUAD) & (kind[1:] == QUAD)
+                           & (margin[:-1] == margin[1:])).nonzero()[0]  # (straight halves merge as lines)
     if whole.size:
         ctrl[whole + 1] = pieces.span_ctrl(span[whole])
         keep_seg = np.ones(total, bool)
         keep_seg[whole] = False
-        kind, seg_loop = kind.compress(keep_seg), seg_loop.compress(keep_seg)
-        ctrl, ctrl2, end = (a.compress(keep_seg, axis=0) for a in (ctrl, ctrl2, end))
+        f_in[whole + 1] = np.where(np.isnan(f_in[whole]), f_in[whole + 1], f_in[whole])  # (a run's first half)
+        kind, seg_loop, margin = kind.compress(keep_seg), seg_loop.compress(keep_seg), margin.compress(keep_seg)
+        ctrl, ctrl2, end, f_in, f_out = (a.compress(keep_seg, axis=0) for a in (ctrl, ctrl2, end, f_in, f_out))
     loop_ptr = seg_loop.searchsorted(np.arange(keep.size + 1)).astype(np.int64)
-    return _merge_lines(kind, ctrl, ctrl2, end, loop_ptr, grid)
+    kind, ctrl, ctrl2, end, loop_ptr, margin, f_in, f_out = merge_lines(kind, ctrl, ctrl2, end, loop_ptr, margin,
+                                                                        f_in, f_out, grid)
+    return inset_runs(kind, ctrl, ctrl2, end, loop_ptr, margin, f_in, f_out, grid)
 
 
 def _on_grid(xy: np.ndarray, grid: float | None) -> np.ndarray:
     return xy.copy() if grid is None else (xy / grid).round() * grid
-
-
-def _merge_lines(kind, ctrl, ctrl2, end, loop_ptr, grid):
-    """Merge consecutive lines that continue each other (cyclically in each loop)."""
-    n = kind.size
-    if n == 0:
-        return kind, ctrl, ctrl2, end, loop_ptr
-    n_loops = loop_ptr.size - 1
-    loop_of = np.arange(n_loops).repeat(loop_ptr[1:] - loop_ptr[:-1])
-    first, last = loop_ptr.take(loop_of), loop_ptr.take(loop_of + 1)
-    last -= 1
-    k = np.arange(n)
-    at_last = k == last
-    before = np.where(k == first, last, k - 1)
-    after = np.where(at_last, first, k + 1)
-    start, following = end.take(before, axis=0), end.take(after, axis=0)
-    tol = 1e-12 if grid is None else 0.25 * grid * grid
-    line = kind == LINE
-    ax, ay = end[:, 0] - start[:, 0], end[:, 1] - start[:, 1]
-    bx, by = following[:, 0] - end[:, 0], following[:, 1] - end[:, 1]
-    merge = line & line.take(after) & (np.abs(ax * by - ay * bx) <= tol) & (ax * bx + ay * by > 0) & (after != k)
-    if not np.logical_or.reduce(merge):
-        return kind, ctrl, ctrl2, end, loop_ptr
-    keep = ~merge
-    kept_per_loop = np.bincount(loop_of.compress(keep), minlength=n_loops)
-    keep |= (kept_per_loop.take(loop_of) == 0) & at_last  # never drop every segment of a loop
-    loop_ptr = loop_of.compress(keep).searchsorted(np.arange(loop_ptr.size)).astype(np.int64)
-    return (kind.compress(keep), ctrl.compress(keep, axis=0), ctrl2.compress(keep, axis=0), end.compress(keep, axis=0),
-            loop_ptr)

@@ -6,8 +6,10 @@ every visible edge, the contour curves. An SVG blur cannot follow lines of sight
 SVG applies the rule to whole faces: a *smooth group* is a set of faces of one region
 joined through invisible edges (similar colours) with no visible edge between two of its
 faces. A region whose chain of similar tones links two dissimilar faces that touch (a
-bone, a middle grey, the backdrop) is split there, so no blur crosses that contour. The
-drawing order keeps the faces of a group together (:class:`depixel.svg.stacking.FaceTopology`),
+bone, a middle grey, the backdrop) is split there, so no blur crosses that contour. Not in
+the paper: the backdrop (:func:`depixel.prepare.backdrop.backdrop_mask`) joins no group, so
+the art never blends with it, however similar their colours (docs/rendering.md, "The
+backdrop"). The drawing order keeps the faces of a group together (:class:`depixel.svg.stacking.FaceTopology`),
 so a group is one ``<g>``.
 
 Groups are grown like Kruskal's spanning tree: the face pairs that share invisible edges,
@@ -20,6 +22,7 @@ import numpy as np
 
 from ..arrays import sums_by_key, unique
 from ..graph.cells import CellGraph
+from ..prepare.backdrop import backdrop_mask
 from ..vector import linked_edges
 
 
@@ -30,6 +33,8 @@ def smooth_groups(cells: CellGraph, labels: np.ndarray, face_region: np.ndarray,
     ``labels`` (H*W,) face of every pixel; ``face_region`` (F,) and ``drawn`` (F,) bool
     (alpha above 0) of every face."""
     n = face_region.size
+    drawn = drawn.copy()
+    drawn[labels.compress(backdrop_mask(cells.graph.rgba).ravel())] = False  # the backdrop shades alone
     left, right = cells.edge_pixels[:, 0], cells.edge_pixels[:, 1]
     inner = (left >= 0) & (right >= 0)
     a, b = labels.take(left.compress(inner)), labels.take(right.compress(inner))

@@ -41,6 +41,7 @@ class FaceBoundaries:
     entry_to: np.ndarray  # (M,) int32 node it enters
     entry_edge: np.ndarray  # (M,) int32 its cell edge
     nodes: np.ndarray  # (N, 2) quarter-pixel node positions
+    opaque: np.ndarray  # (F,) bool: the face is fully opaque
 
 
 class FaceTopology:
@@ -140,7 +141,7 @@ class FaceTopology:
     def boundaries(self) -> FaceBoundaries:
         """The rank and boundary half-edges alone, to keep when the rest is no longer needed."""
         return FaceBoundaries(self.n_faces, self.rank, self.entry_ptr, self.entry_other, self.entry_from,
-                              self.entry_to, self.entry_edge, self.cells.nodes)
+                              self.entry_to, self.entry_edge, self.cells.nodes, self.opaque)
 
     def _corner_pairs(self, labels: np.ndarray, meeting: np.ndarray) -> np.ndarray:
         """(K, 2) (lowest face at a node, another face at that node) for every node where

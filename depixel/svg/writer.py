@@ -19,7 +19,6 @@ The text is assembled with whole-array operations (:mod:`depixel.svg.svgtext`).
 """
 from __future__ import annotations
 
-from collections.abc import Iterable
 from functools import cache
 
 import numpy as np
@@ -44,16 +43,18 @@ DEFAULT_PRECISION = 2
 #: the largest tolerance accepted: beyond about a pixel a curve could stray over a feature
 MAX_SIMPLIFY = 2.0
 INKSCAPE_NS = "http://www.inkscape.org/namespaces/inkscape"
+#: the xlink namespace, declared when the masks of the smooth shading refer to shapes
+XLINK = ' xmlns:xlink="http://www.w3.org/1999/xlink"'
 #: how the SVG shades a region of several tones: "smooth" blends them (paper §3.5, a filter
 #: inside the region's outline), "flat" draws each tone as a flat band
 SHADINGS = ("smooth", "flat")
 #: not in paper: the SVG blur's standard deviation as a fraction of the paper's σ
-#: (``Params.shading_sigma``). A blur averages the cells' whole areas, where the paper weighs
-#: Gaussians sampled at the cell centroids and cut at 2σ, so the paper's σ would pull the
-#: centre of a one-pixel line of a tone at the similarity limit (|ΔY| = 48) by ~24 levels;
-#: at 0.4σ every pixel centre of the paper corpus but a few stays within 16 levels, and a
-#: 48-level band edge still spreads over ±3 output pixels at 8× (docs/svg.md, "Smooth shading")
-SIGMA_RATIO = 0.4
+#: (``Params.shading_sigma``). The paper weighs each cell by a Gaussian (σ = 1) at its
+#: centroid, lowered by its value at the radius 2 and cut there: a cell's influence spreads
+#: with a variance of 0.544 px² per axis. A blur weighs the cell's whole area, a Gaussian
+#: convolved with the pixel's box (variance σ² + 1/12), so the blur of the same spread has
+#: σ = √(0.544 − 1/12) = 0.68 (docs/svg.md, "σ")
+SIGMA_RATIO = 0.68
 #: the blur's standard deviation (pixels) unless told
 DEFAULT_SIGMA = SIGMA_RATIO * Params().shading_sigma
 
@@ -92,32 +93,25 @@ def to_svg(image: VectorImage, scale: float = 1.0, precision: int = DEFAULT_PREC
     validate.choice("shading", shading, SHADINGS)
     validate.positive("sigma", sigma)
     shapes = outline_shapes(image, layout, grid=10.0**-precision, simplify=simplify)
-    return _document(shapes, shapes.batches(), scale, precision, title, sigma if shading == "smooth" else None)
+    return _document(shapes, scale, precision, title, sigma if shading == "smooth" else None)
 
 
-def write_svg(outlines: Outlines, scale: float = 1.0, precision: int = DEFAULT_PRECISION,
-              title: str | None = None) -> str:
-    """Format outlines (built with ``grid=10**-precision``) as an SVG document (flat shading:
-    the smooth groups need the faces, which outlines do not keep)."""
-    return _document(outlines, [outlines], scale, precision, title, None)
-
-
-def _document(shapes: Outlines | OutlineShapes, batches: Iterable[Outlines], scale: float, precision: int,
-              title: str | None, sigma: float | None) -> str:
-    """The SVG document of ``shapes``, whose outlines are ``batches`` of consecutive shapes,
+def _document(shapes: OutlineShapes, scale: float, precision: int, title: str | None, sigma: float | None) -> str:
+    """The SVG document of ``shapes``, their outlines built a batch of consecutive shapes at a time,
     with the smooth shading of a Gaussian of ``sigma`` pixels (None: flat)."""
     h, w = shapes.shape
     width, height = number(w * scale, 3), number(h * scale, 3)
     labels = Labels(shapes, smooth=sigma is not None)
     head = (
-        f'{SVG_HEADER}<svg xmlns="{"http://www.w3.org/2000/svg"}" xmlns:inkscape="{INKSCAPE_NS}" version="1.1" '
+        f'{SVG_HEADER}<svg xmlns="{"http://www.w3.org/2000/svg"}" xmlns:inkscape="{INKSCAPE_NS}"'
+        f'{XLINK if sigma is not None and labels.smooth.masks else ""} version="1.1" '
         f'width="{width}" height="{height}" viewBox="0 0 {w} {h}">\n'
     )
     if title:
         head += f"<title>{_escape(title)}</title>\n"
     parts = [head, labels.smooth.defs(sigma) if sigma is not None else ""]
     first = 0
-    for batch in batches:
+    for batch in shapes.batches():
         parts.append(elements(batch, first, labels, path_data(batch, precision)))
         first += len(batch)
     parts.append("</svg>\n")

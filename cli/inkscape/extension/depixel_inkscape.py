@@ -241,8 +241,9 @@ def find_depixel(setting: str) -> list[str]:
     if program:
         return [program]
     raise inkex.AbortExtension(
-        "Depixelize: the depixel program was not found. Install it (pip install depixel) and run "
-        "'depixel inkscape install' from that environment, or give the path of the depixel program "
+        "Depixelize: the depixel program was not found. Install it from its source folder "
+        "(pip install /path/to/depixel, or a wheel built there) and run 'depixel inkscape install' from "
+        "that environment, or give the path of the depixel program "
         f"in the dialog's 'depixel program' tab (or in the {ENVIRONMENT_VARIABLE} environment variable), "
         "then try again.")
 

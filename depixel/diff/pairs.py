@@ -55,6 +55,10 @@ class Settings:
     mask: Mask = Mask()
     names: Mapping[str, str] = field(default_factory=dict)  # parameter → CLI flag, for messages
 
+    def __post_init__(self) -> None:
+        validate.number("threshold", self.threshold, low=0, high=1)
+        object.__setattr__(self, "max_pixels", validate.limit("max_pixels", self.max_pixels))
+
 
 @dataclass(frozen=True)
 class Pictures:
@@ -67,7 +71,7 @@ class Pictures:
 
 
 @dataclass(frozen=True)
-class Result:
+class PairResult:
     """The verdict on one pair, with its figures (pixel counts at the comparison size)."""
 
     name: str
@@ -99,10 +103,10 @@ class Result:
 
 
 def compare_pair(pair: Pair, baseline: str | os.PathLike, current: str | os.PathLike, settings: Settings,
-                 pictures: Pictures = Pictures()) -> Result:
+                 pictures: Pictures = Pictures()) -> PairResult:
     """The verdict on one pair of ``baseline``/``current`` files; never raises (a problem is
     an ``error`` verdict). Identical files are ``same`` without being rendered."""
-    base = Result(pair.name, ERROR, pair.baseline, pair.current)
+    base = PairResult(pair.name, ERROR, pair.baseline, pair.current)
     try:
         if pair.baseline is None or pair.current is None:
             lone = pair.current if pair.baseline is None else pair.baseline
@@ -152,18 +156,15 @@ def compare_sources(a: Source, b: Source, settings: Settings,
     return result, background, originals
 
 
-def diff_files(path_a: str | os.PathLike, path_b: str | os.PathLike, *, scale: float = 1.0,
-               threshold: float = DEFAULT_THRESHOLD, background: Colour | None = None,
-               allow_size_mismatch: bool = False, include_antialiasing: bool = False,
-               max_pixels: int | None = DEFAULT_MAX_DIFF_PIXELS, mask: Mask = Mask()) -> tuple[Comparison, Colour]:
-    """Load, flatten and compare two SVG/PDF/raster files; returns the comparison and the
-    background used."""
-    validate.number("threshold", threshold, low=0, high=1)
-    max_pixels = validate.limit("max_pixels", max_pixels)
-    settings = Settings(scale=scale, threshold=threshold, background=background,
-                        allow_size_mismatch=allow_size_mismatch, include_antialiasing=include_antialiasing,
-                        max_pixels=max_pixels, mask=mask)
-    comparison, colour, _ = compare_sources(read(path_a, max_pixels), read(path_b, max_pixels), settings)
+def diff_files(path_a: str | os.PathLike, path_b: str | os.PathLike, settings: Settings = Settings(),
+               **changes) -> tuple[Comparison, Colour]:
+    """Load, flatten and compare two SVG/PDF/raster files with ``settings`` (``changes``, its
+    field names as keywords, as ``scale=8``, replace some of them); returns the comparison and
+    the background used."""
+    if changes:
+        settings = replace(settings, **changes)
+    comparison, colour, _ = compare_sources(read(path_a, settings.max_pixels), read(path_b, settings.max_pixels),
+                                            settings)
     return comparison, colour
 
 
@@ -171,13 +172,34 @@ def _pictures(comparison: Comparison, originals: tuple[np.ndarray, np.ndarray] |
               pictures: Pictures) -> tuple[tuple[str, str], ...]:
     written = []
     if pictures.diffs is not None:
-        _save(comparison.diff_image(), Path(pictures.diffs, f"{name}.diff.png"))
-        written.append(("diff_out", f"{name}.diff.png"))
+        _save(comparison.diff_image(), Path(pictures.diffs, picture_name(name, "diff")))
+        written.append(("diff_out", picture_name(name, "diff")))
     if pictures.report is not None and originals is not None:
         for kind, image in (("baseline", originals[0]), ("current", originals[1]), ("diff", comparison.diff_image())):
-            _save(image, Path(pictures.report, f"{name}.{kind}.png"))
-            written.append((kind, f"{name}.{kind}.png"))
+            _save(image, Path(pictures.report, picture_name(name, kind)))
+            written.append((kind, picture_name(name, kind)))
     return tuple(written)
+
+
+#: The longest file name most filesystems take (NAME_MAX), in bytes.
+NAME_BYTES = 255
+
+
+def picture_name(name: str, kind: str) -> str:
+    """``NAME.KIND.png``, the picture of kind ``kind`` of the file ``name`` (a relative path):
+    when its last part would be longer than a file name may be, that part is cut and a
+    digest of the whole name added (``NAME-CUT~1a2b3c4d.KIND.png``), so a long name still
+    gets its picture and two long names never share one."""
+    folder, _, last = name.rpartition("/")
+    tail = f".{kind}.png"
+    raw = os.fsencode(last)
+    if len(raw) + len(tail.encode()) <= NAME_BYTES:
+        return f"{name}{tail}"
+    import hashlib  # noqa: PLC0415
+
+    digest = hashlib.sha1(os.fsencode(name)).hexdigest()[:8]
+    cut = os.fsdecode(raw[:NAME_BYTES - len(tail) - len(digest) - 1])
+    return f"{folder}/{cut}~{digest}{tail}" if folder else f"{cut}~{digest}{tail}"
 
 
 def _lone_picture(path: Path, side: str, name: str, settings: Settings,
@@ -192,15 +214,17 @@ def _lone_picture(path: Path, side: str, name: str, settings: Settings,
         image = pixels(source, width, height, settings.max_pixels)
     except DepixelError:
         return (), (None, None)
-    _save(image, Path(pictures.report, f"{name}.{side}.png"))
-    return ((side, f"{name}.{side}.png"),), (width, height)
+    _save(image, Path(pictures.report, picture_name(name, side)))
+    return ((side, picture_name(name, side)),), (width, height)
 
 
 def _save(image, path: Path) -> None:
     """An ``(H, W, 4) uint8`` array as PNG (its folders made as needed)."""
     from PIL import Image  # noqa: PLC0415
 
-    path.parent.mkdir(parents=True, exist_ok=True)
+    from ..files.output import make_folders  # noqa: PLC0415
+
+    make_folders(path.parent)
     Image.fromarray(image, "RGBA").save(path, "PNG")
 
 
@@ -215,6 +239,6 @@ class Job:
     pictures: Pictures = Pictures()
 
 
-def run_job(job: Job) -> Result:
+def run_job(job: Job) -> PairResult:
     """:func:`compare_pair` on a job (never raises)."""
     return compare_pair(job.pair, job.baseline, job.current, job.settings, job.pictures)

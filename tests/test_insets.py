@@ -1,0 +1,127 @@
+"""No threads where stacked shapes meet (depixel/svg/insets.py).
+
+A shape that lies under a face drawn above it must not draw that face's edge against a face
+drawn below it: renderers anti-alias every shape on its own, so the lower shape's colour
+would show through the upper face's anti-aliased edge as a thin thread. Measured here as the
+shared judge measures ``conflation_px``: the anti-aliased render against the exact coverage
+(the same SVG drawn crisp, 8 times finer, averaged), inside the opaque art.
+"""
+from __future__ import annotations
+
+import io
+import re
+
+import cairosvg
+import numpy as np
+import pytest
+from conftest import art
+from PIL import Image
+
+from depixel import depixelize, to_svg
+from depixel.svg import insets
+from depixel.svg.outlines import build_outlines
+
+#: a red block and a white one rounded on its right side by a staircase, side by side on
+#: black: the red block, drawn first (same depth, larger), lies under the white one, whose
+#: top, right and bottom edges border the black drawn below both (its right side a curve,
+#: whose anti-aliased pixels show a thread where the red shape runs along it)
+ABUTTING = """
+###########
+#rrrrr..###
+#rrrrr...##
+#rrrrr....#
+#rrrrr....#
+#rrrrr...##
+#rrrrr..###
+###########
+"""
+S = 8  # render pixels per art pixel, as the judge
+
+
+def _render(svg: str, width: int, height: int, crisp: bool = False) -> np.ndarray:
+    if crisp:
+        svg = re.sub(r"<svg\b", '<svg shape-rendering="crispEdges"', svg, count=1)
+    png = cairosvg.svg2png(bytestring=svg.encode(), output_width=width, output_height=height)
+    rgba = np.asarray(Image.open(io.BytesIO(png)).convert("RGBA"), dtype=np.float64)
+    rgba[..., :3] *= rgba[..., 3:] / 255  # premultiplied, as coverage adds up
+    return rgba
+
+
+def threads(image: np.ndarray, svg: str, k: int = 8, threshold: float = 32) -> int:
+    """Render pixels (S per art pixel) inside the art, away from its border, whose
+    anti-aliased colour departs by more than ``threshold`` levels from the exact coverage."""
+    h, w = image.shape[:2]
+    aa = _render(svg, w * S, h * S)
+    exact = _render(svg, w * S * k, h * S * k, crisp=True).reshape(h * S, k, w * S, k, 4).mean(axis=(1, 3))
+    inner = np.zeros((h, w), bool)
+    inner[1:-1, 1:-1] = True
+    mask = np.kron(inner, np.ones((S, S), bool))
+    return int(((np.abs(aa[..., :3] - exact[..., :3]).max(axis=-1) > threshold) & mask).sum())
+
+
+def _no_insets(monkeypatch) -> None:
+    """The behaviour broken on purpose: every run left where it is."""
+    monkeypatch.setattr(insets.InsetGuide, "__init__", _zero_margins(insets.InsetGuide.__init__))
+
+
+def _zero_margins(init):
+    def wrapped(self, *args, **kwargs):
+        init(self, *args, **kwargs)
+        self.margin = np.zeros_like(self.margin)
+    return wrapped
+
+
+def test_two_abutting_shapes_over_a_third_colour_leave_no_thread():
+    image = art(ABUTTING)
+    svg = to_svg(depixelize(image).vector)
+    assert threads(image, svg) == 0
+
+
+def test_without_insets_the_lower_shape_shows_as_a_thread(monkeypatch):
+    """The measure sees the thread that the insets remove (the test above, red)."""
+    _no_insets(monkeypatch)
+    image = art(ABUTTING)
+    assert threads(image, to_svg(depixelize(image).vector)) > 20
+
+
+def _alone(outlines, s: int, h: int, w: int) -> np.ndarray:
+    """Coverage (0..1) of shape ``s`` drawn alone at S per art pixel."""
+    from depixel.svg.writer import path_data
+
+    d = path_data(outlines.shapes(s, s + 1), 2)[0]
+    svg = (f'<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 {w} {h}" width="{w}" height="{h}">'
+           f'<path d="{d}"/></svg>')
+    return _render(svg, w * S, h * S)[..., 3] / 255
+
+
+def test_the_lower_shape_continues_under_the_upper_one_and_stops_short_of_its_other_edges():
+    image = art(ABUTTING)
+    h, w = image.shape[:2]
+    outlines = build_outlines(depixelize(image).vector, grid=0.01)
+    red = [s for s in range(len(outlines)) if tuple(outlines.rgba[s][:3]) == (220, 30, 30)]
+    white = [s for s in range(len(outlines)) if tuple(outlines.rgba[s][:3]) == (255, 255, 255)]
+    assert len(white) == 1 and len(red) == 1 and red[0] < white[0]
+    cover = _alone(outlines, red[0], h, w)
+    inside = max(int(insets.MARGIN * S) - 1, 1)  # render pixels within the margin (the fringe and more)
+    # under the shared edge (x = 6) and past it, well beyond the fringe: fully covered
+    assert cover[2 * S:6 * S, 5 * S:int(6.5 * S)].min() == 1.0
+    # along the white block's top and bottom edges against the black, away from the corner
+    # where the three colours meet: nothing within the margin
+    assert cover[1 * S:1 * S + inside, 6 * S + S // 2:7 * S].max() == 0.0
+    assert cover[7 * S - inside:7 * S, 6 * S + S // 2:7 * S].max() == 0.0
+    # and the white block's interior is still covered (hiding the white shape shows the
+    # red one there, not a hole)
+    assert cover[2 * S:6 * S, 6 * S:8 * S].min() == 1.0
+
+
+@pytest.mark.parametrize("mirror", [False, True])
+def test_insets_turn_with_the_image(mirror):
+    """The same geometry mirrored: the pulled-back outline is computed from the geometry
+    alone, so a mirrored sprite gives the mirrored render (up to anti-aliasing: no render
+    pixel more than 64 levels off, as shape_checks.py equivariance counts)."""
+    image = art(ABUTTING)
+    flipped = image[:, ::-1] if mirror else image[::-1]
+    a = _render(to_svg(depixelize(image).vector), image.shape[1] * S, image.shape[0] * S)
+    b = _render(to_svg(depixelize(flipped).vector), image.shape[1] * S, image.shape[0] * S)
+    b = b[:, ::-1] if mirror else b[::-1]
+    assert (np.abs(a - b).max(axis=-1) > 64).sum() == 0
