@@ -15,9 +15,9 @@ from contextlib import contextmanager
 import numpy as np
 
 from ..api import prepared_input
+from ..options import ConvertOptions
 from ..params import Params
 from ..pipeline import ahead
-from ..prepare.inputs import AUTO, PrepareOptions
 
 #: pixels in one pass: it holds every product of its pipelines at once, about as much memory as
 #: one conversion of an image this size (~65 MB at limits.PEAK_BYTES_PER_PIXEL; the CLI's
@@ -29,23 +29,21 @@ PASS_IMAGES = 16
 
 
 @contextmanager
-def converted_ahead(images: Sequence, params: Params = Params(), *, stage: str = "optimized", background=None,
-                    pixel_size=AUTO, denoise: bool | None = None, transparent=None,
-                    transparent_everywhere: bool = False, lossy: str | None = None, **_) -> Iterator[None]:
-    """Within the block, the conversions of ``images`` with these options (those of
-    :func:`depixel.api.convert`; the SVG's do not matter here) find their pipelines run, in
-    passes of at most :data:`PASS_IMAGES` images and :data:`PASS_PIXELS` pixels, each run
-    when the first of its images is converted."""
+def converted_ahead(images: Sequence, params: Params = Params(), **keywords) -> Iterator[None]:
+    """Within the block, the conversions of ``images`` with these options (the keywords of
+    :func:`depixel.api.convert`; ``title`` and ``name`` do not matter here, nor do the SVG's)
+    find their pipelines run, in passes of at most :data:`PASS_IMAGES` images and
+    :data:`PASS_PIXELS` pixels, each run when the first of its images is converted. Options
+    that are refused leave every image to its conversion (which reports them)."""
     prepared: list[np.ndarray] = []
     try:
-        options = PrepareOptions(background=background, pixel_size=pixel_size, denoise=denoise,
-                                 transparent=transparent, transparent_everywhere=transparent_everywhere)
+        options = ConvertOptions.build(params, **{k: v for k, v in keywords.items() if k not in ("title", "name")})
     except Exception:  # the conversions report it
-        images = ()
+        options, images = ConvertOptions(), ()
     for image in images:
         try:
-            prepared.append(prepared_input(image, options, lossy=lossy, max_pixels=None).rgba)
+            prepared.append(prepared_input(image, options.prepare, max_pixels=None).rgba)
         except Exception:  # its conversion reports it
             continue
-    with ahead(prepared, params, stage, PASS_IMAGES, PASS_PIXELS):
+    with ahead(prepared, options.params, options.output.stage, PASS_IMAGES, PASS_PIXELS):
         yield
