@@ -89,9 +89,18 @@ def depixelize_many(images: Sequence, params: Params = Params(), stage: str = "o
     return cast("list[Result | Exception]", out)
 
 
+#: images in one pass (:func:`ahead`): past some 16 sprites a larger pass saves no more calls
+#: than its larger arrays cost (docs/performance.md, "Batches in one pass")
+PASS_IMAGES = 16
+#: pixels in one pass: it holds every product of its pipelines at once, about as much memory as
+#: one conversion of an image this size (~65 MB at limits.PEAK_BYTES_PER_PIXEL; the CLI's
+#: LOCAL_MAX_PIXELS); a larger image is converted alone
+PASS_PIXELS = 1 << 16
+
+
 @contextmanager
-def ahead(images: Sequence, params: Params = Params(), stage: str = "optimized", size: int = 16,
-          pixels: int = 1 << 16) -> Iterator[None]:
+def ahead(images: Sequence, params: Params = Params(), stage: str = "optimized", size: int = PASS_IMAGES,
+          pixels: int = PASS_PIXELS) -> Iterator[None]:
     """Within the block, :func:`depixelize` of one of ``images`` (the same pixels, params and
     stage) returns its result computed by :func:`depixelize_many` with the images next to it,
     at most ``size`` images and ``pixels`` pixels at a time (a pass holds all its products at
@@ -196,15 +205,20 @@ def _to_corners(rgba, params: Params, stage: str) -> _Begun:
 def _optimized(begun: Sequence[_Begun], params: Params) -> list[Result]:
     """The results of runs begun by :func:`_to_corners`: those that reached the corners are
     optimized (§3.4), together (the time is shared out evenly)."""
-    todo = [(item.curves, item.corners) for item in begun if item.result is None]
+    todo = cast("list[tuple[SplineSet, Corners]]", [(item.curves, item.corners) for item in begun
+                                                      if item.result is None])
     optimized: Iterator[OptimizedSplines] = iter(())
     seconds = 0.0
-    if todo:
+    t = time.perf_counter()
+    if len(todo) == 1:  # alone: nothing to join
+        from .optimize.stage import optimize_splines  # noqa: PLC0415
+
+        optimized = iter([optimize_splines(*todo[0], params)])
+    elif todo:
         from .optimize.pack import optimize_many  # noqa: PLC0415
 
-        t = time.perf_counter()
-        optimized = iter(optimize_many(cast("list[tuple[SplineSet, Corners]]", todo), params))
-        seconds = (time.perf_counter() - t) / len(todo)
+        optimized = iter(optimize_many(todo, params))
+    seconds = (time.perf_counter() - t) / max(len(todo), 1)
     out = []
     for item in begun:
         if item.result is not None:

@@ -183,17 +183,19 @@ def test_workers_take_packs_and_a_file_that_kills_its_worker_fails_alone(tmp_pat
     jobs = [batch.Job(FIXTURES / name, tmp_path / "out" / f"{name}.svg", options) for name in names]
     poison = jobs[3].source
 
+    alive = packs.run_pack
+
     def run_pack(pack):
         if any(job.source == poison for job in pack):
             os._exit(9)
-        return packs.run_pack(pack)
+        return alive(pack)
 
     def run_job(job):
         if job.source == poison:
             os._exit(9)
         return batch.run_job(job)
 
-    monkeypatch.setattr(batch_run, "run_pack", run_pack)
+    monkeypatch.setattr(packs, "run_pack", run_pack)
     monkeypatch.setattr(batch_run, "run_job", run_job)
     with pool.Signals(raising=False) as signals:
         outcomes = batch_run.run(jobs, 2, lambda outcome: None, signals)

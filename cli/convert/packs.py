@@ -18,9 +18,8 @@ from contextlib import ExitStack, contextmanager
 import numpy as np
 
 from depixel.api import prepared_input
-from depixel.files.ahead import PASS_IMAGES, PASS_PIXELS
 from depixel.files.convert import InputFile
-from depixel.pipeline import ahead
+from depixel.pipeline import PASS_IMAGES, PASS_PIXELS, ahead
 from depixel.prepare.image import load_image
 from depixel.prepare.inputs import lossy_format
 
@@ -29,7 +28,7 @@ from .batch import Job, Outcome, run_job
 
 def packs(count: int, workers: int = 1) -> list[range]:
     """The indices of ``count`` jobs in packs, in order: as many files as one pass takes
-    (:data:`depixel.files.ahead.PASS_IMAGES`), read and prepared a pack at a time; for
+    (:data:`depixel.pipeline.PASS_IMAGES`), read and prepared a pack at a time; for
     ``workers`` processes, small enough that each gets three or more (the last packs then
     keep them all busy)."""
     size = max(1, min(PASS_IMAGES, -(-count // (3 * workers)) if workers > 1 else PASS_IMAGES))
@@ -46,7 +45,7 @@ def run_pack(pack: tuple[Job, ...]) -> list[Outcome]:
 @contextmanager
 def packed(jobs: Sequence[Job]) -> Iterator[None]:
     """Within the block, the jobs' pipelines are computed already, those that can be read and
-    prepared here, in passes of at most :data:`~depixel.files.ahead.PASS_PIXELS` pixels (the
+    prepared here, in passes of at most :data:`~depixel.pipeline.PASS_PIXELS` pixels (the
     others are left to their jobs)."""
     images = [rgba for job in jobs if (rgba := _prepared(job)) is not None]
     with ExitStack() as stack:

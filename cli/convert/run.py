@@ -29,7 +29,6 @@ from .batch import (
     remove_temporary_files,
     run_job,
 )
-from .packs import packed, packs, run_pack
 
 #: The largest image (pixels, from its header) the main process converts itself while its
 #: workers start: ~65 MB at PEAK_BYTES_PER_PIXEL, so a batch holds little more memory than
@@ -86,7 +85,18 @@ def run(jobs: list[Job], workers: int, report, signals, progress: Progress | Non
         finally:
             signals.raising = False
 
-    if workers <= 1 or len(todo) <= 1:
+    if len(todo) <= 1:  # (one file: no pack, and none of their modules)
+        for index in todo:
+            if signals.signum is not None:
+                finished(Finished(index, cancelled=True))
+                continue
+            started(index)
+            result = here(jobs[index])
+            finished(Finished(index, interrupted=True) if result is None else Finished(index, result))
+        return [outcomes[i] for i in range(len(jobs))]
+    from .packs import packs, run_pack  # noqa: PLC0415
+
+    if workers <= 1:
         for pack in packs(len(todo)):
             with ahead_of([jobs[todo[i]] for i in pack], signals):
                 for index in (todo[i] for i in pack):
@@ -206,6 +216,7 @@ def ahead_of(pack: list[Job], signals) -> Iterator[None]:
     """:func:`packed`: the pack's pipelines in one pass first (a signal abandons the pass at
     once; then no job finds its result ahead, and they are cancelled)."""
     from ..pool import Interrupted  # noqa: PLC0415
+    from .packs import packed  # noqa: PLC0415
 
     with ExitStack() as stack:
         if len(pack) > 1 and signals.signum is None:

@@ -17,15 +17,7 @@ import numpy as np
 from ..api import prepared_input
 from ..options import ConvertOptions
 from ..params import Params
-from ..pipeline import ahead
-
-#: pixels in one pass: it holds every product of its pipelines at once, about as much memory as
-#: one conversion of an image this size (~65 MB at limits.PEAK_BYTES_PER_PIXEL; the CLI's
-#: LOCAL_MAX_PIXELS); a larger image is converted alone
-PASS_PIXELS = 1 << 16
-#: images in one pass: past some 16 sprites a larger pass saves no more calls than its larger
-#: arrays cost (docs/performance.md, "Batches in one pass")
-PASS_IMAGES = 16
+from ..pipeline import PASS_IMAGES, PASS_PIXELS, ahead
 
 
 @contextmanager
