@@ -2,10 +2,9 @@
 
 1. The three Super Nintendo frames of the corpus (``../shared/corpus/frames``, smw0000,
    smw0040, smw0080) as a 3-frame APNG of 100 ms frames: the seconds per frame of
-   ``--frames all`` (:func:`depixel.files.convert.convert_frames` writing one SVG a frame,
-   stamped) beside those of the animation (:func:`~depixel.prepare.animation.read_animation`,
-   :func:`~depixel.files.animation.animate`, the SVG written), best of ``--repeats``; then the
-   bytes of each frame's SVG, their sum and the animated SVG's.
+   ``--frames all`` beside those of ``--animate``, each as the command converts a file
+   (:func:`depixel.files.convert.convert_frames`: read, converted, written and stamped), best
+   of ``--repeats``; then the bytes of each frame's SVG, their sum and the animated SVG's.
 2. With ``--patches``, every paper sprite as a 3-frame animation whose frames differ in one
    2×2 patch (the middle pixels set to the sprite's second, then third most common colour):
    the animated SVG's bytes over the first frame's alone, per sprite and their median.
@@ -24,10 +23,9 @@ from pathlib import Path
 import numpy as np
 
 import depixel
-from depixel.files.animation import animate
-from depixel.files.convert import InputFile, convert_frames, file_options
-from depixel.files.output import write_atomic
-from depixel.prepare.animation import Animation, read_animation
+from depixel.files.convert import InputFile, convert_frames, file_target
+from depixel.options import ConvertOptions
+from depixel.prepare.animation import Animation
 from depixel.render.animation import encode_apng
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "corpus"
@@ -39,14 +37,15 @@ def sequence(folder: Path, repeats: int) -> None:
     source = folder / "smw.png"
     source.write_bytes(encode_apng(frames, [100.0] * len(frames), 0))
     outputs = [folder / f"smw-{n:03d}.svg" for n in range(len(frames))]
-    targets = {n: [(out, file_options(out))] for n, out in enumerate(outputs)}
+    still, animated = ConvertOptions(), ConvertOptions.build(animate=True)
+    targets = [file_target(out, still, frame=n) for n, out in enumerate(outputs)]
     every, together = [], []
     for _ in range(repeats):
         began = time.perf_counter()
-        convert_frames(InputFile.read(source), targets, every_frame=True)
+        convert_frames(InputFile.read(source), targets, still, every_frame=True)
         every.append((time.perf_counter() - began) / len(frames))
         began = time.perf_counter()
-        write_atomic(folder / "smw.svg", animate(read_animation(source)))
+        convert_frames(InputFile.read(source), [file_target(folder / "smw.svg", animated)], animated)
         together.append((time.perf_counter() - began) / len(frames))
     print(f"{len(frames)} frames of {frames[0].shape[1]}x{frames[0].shape[0]}, best of {repeats}:")
     print(f"  --frames all   {min(every):.3f} s a frame")
@@ -71,7 +70,7 @@ def patches() -> None:
             frame[y : y + 2, x : x + 2] = colours[order[rank % len(colours)]]
             frames.append(frame)
         one = len(depixel.convert(base))
-        ratios.append(len(animate(Animation(tuple(frames), (100.0,) * 3, 0))) / one)
+        ratios.append(len(depixel.convert(Animation(tuple(frames), (100.0,) * 3, 0), animate=True)) / one)
         print(f"  {path.stem:28s} {one:7,} bytes  {ratios[-1]:.2f}x")
     print(f"  median {statistics.median(ratios):.2f}x, {min(ratios):.2f}-{max(ratios):.2f}x, "
           f"{sum(r <= 1.6 for r in ratios)} of {len(ratios)} within 1.6x")

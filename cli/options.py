@@ -232,6 +232,8 @@ FLAG_OF_PARAMETER = {
     "pixel_size": "--pixel-size",
     "transparent": "--transparent",
     "allow_size_mismatch": "--allow-size-mismatch",
+    "animate": "--animate",
+    "frame": "--frames",
     **{name: flag for flag, name, _, _ in TUNING},
 }
 

@@ -10,11 +10,12 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 
-from .api import convert, convert_bytes, flatten, prepare_input
+from .api import convert, convert_bytes, cut_sheet, flatten, prepare_input
 from .errors import DepixelError, InputError, OutputError, ParameterError, RenderError
 from .files.convert import convert_file, render_file
 from .params import Params
 from .pipeline import STAGES, Result, depixelize
+from .prepare.animation import Animation, read_animation
 from .prepare.image import load_image
 from .prepare.inputs import PreparedImage
 from .svg.writer import to_svg
@@ -34,13 +35,27 @@ __all__ = [
     "PreparedImage",
     "prepare_input",
     "load_image",
+    "Animation",
+    "read_animation",
     "to_svg",
     "convert",
     "convert_bytes",
     "convert_file",
+    "cut_sheet",
     "flatten",
     "render_file",
+    "read_aseprite",
+    "tag_frames",
 ]
+#: names of ``__all__`` imported on their first use: the Aseprite reader is ~15 ms of imports
+#: that a conversion of any other file does not need
+_ON_FIRST_USE = {"read_aseprite": "prepare.aseprite", "tag_frames": "prepare.aseprite"}
+
+
+def __getattr__(name: str):
+    if name in _ON_FIRST_USE:
+        return getattr(importlib.import_module(f"{__name__}.{_ON_FIRST_USE[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 #: The folders of the package (docs/design.md, Map); each lists its modules in its ``__all__``.

@@ -1,36 +1,54 @@
 """Python API in memory: convert pixel art without the command line.
 
 :func:`convert` takes an image (numpy array or PIL image) and returns SVG text;
-:func:`convert_bytes` returns the bytes of an SVG, PNG or PDF file. PNG and PDF go through
+:func:`convert_bytes` returns the bytes of an SVG, PNG or PDF file; with ``animate=True`` both
+take an :class:`~depixel.prepare.animation.Animation` too (:func:`animated`). PNG and PDF go through
 cairosvg, which is imported only when one of them is asked for (:mod:`depixel.render.raster`).
 File to file (:func:`~depixel.files.convert.convert_file`, :func:`~depixel.files.convert.render_file`)
 is :mod:`depixel.files.convert`. The keyword functions make one
 :class:`~depixel.options.ConvertOptions` of their keywords and pass it to :func:`conversions`.
+A sprite sheet (``sheet=`` or ``sheet_json=``) is cut into its sprites (:func:`cut_sheet`), each
+converted alone and put back at its place (:func:`sheet_conversions`).
 """
 from __future__ import annotations
 
+import io
 import os
 from collections.abc import Callable, Mapping
+from contextlib import AbstractContextManager
+from dataclasses import replace
+from functools import partial
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from . import validate
 from .colour import Colour, as_colour
 from .errors import ParameterError, RenderError, display_name
-from .limits import DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
+from .limits import (
+    DEFAULT_MAX_FRAMES,
+    DEFAULT_MAX_OUTPUT_PIXELS,
+    DEFAULT_MAX_PIXELS,
+    check_sprites,
+)
 from .options import ConvertOptions, OutputOptions, PrepareOptions
 from .params import Params
-from .pipeline import depixelize
+from .pipeline import ahead, depixelize
+from .prepare.animation import Animation
 from .prepare.backdrop import over_colour
 from .prepare.image import ImageSource, as_rgba, check_indexable, check_pixels, image_array, load_image
 from .prepare.inputs import AUTO, PixelSize, PreparedImage, pil_lossy, prepare
 from .render.overlay import overlay_raster, overlay_svg
 from .svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY, SHADINGS, SIGMA_RATIO, to_svg
 
+if TYPE_CHECKING:  # a sheet's modules are imported when a sheet is converted (~10 ms of every start)
+    from .prepare.sheet import Sheet
+    from .prepare.sheet_json import SheetJson
+
 #: Output formats, chosen from the file extension or given explicitly.
 FORMATS = ("svg", "png", "pdf")
-__all__ = ["FORMATS", "SHADINGS", "conversions", "convert", "convert_bytes", "encode", "flatten", "load",
-           "prepare_input", "prepared_input"]
+__all__ = ["FORMATS", "SHADINGS", "conversions", "convert", "convert_bytes", "cut_sheet", "encode",
+           "flatten", "load", "prepare_input", "prepared_input", "sheet_conversions"]
 
 
 def _pixels(image, name: str = "<image>", max_pixels: int | None = DEFAULT_MAX_PIXELS) -> None:
@@ -78,7 +96,8 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
             max_pixels: int | None = DEFAULT_MAX_PIXELS, layout: str = "stacked",
             simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
             transparent: Colour | str | None = None, transparent_everywhere: bool = False,
-            shading: str = "smooth") -> str:
+            shading: str = "smooth", animate: bool = False, sheet: str | None = None,
+            sheet_json: SheetJson | str | None = None, max_frames: int | None = DEFAULT_MAX_FRAMES) -> str:
     """Depixelize an image (``(H, W[, C])`` array, PIL image or :class:`PreparedImage`) → SVG text.
 
     ``scale`` sets the SVG's width/height as a multiple of the input's size (or ``width`` or
@@ -93,12 +112,19 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
     ``pixel_size``, ``denoise``, ``transparent`` and ``transparent_everywhere`` prepare the input first
     (:func:`depixel.prepare.inputs.prepare`, docs/inputs.md): upscaled art is converted at 1× and
     laid exactly over the input. Images over ``max_pixels`` pixels are refused (``None``:
-    no limit).
+    no limit; an animation's frames count in all). ``animate=True`` converts an
+    :class:`~depixel.prepare.animation.Animation` (:func:`depixel.read_animation`) into one
+    animated SVG, a layer a frame (docs/animation.md); a still image is its one frame.
+    ``sheet`` ("auto", or a grid "32x32+2@1,1") or ``sheet_json`` (the path,
+    bytes or decoded object of an Aseprite or TexturePacker JSON) take the image as a sprite
+    sheet: each sprite is converted alone and is one layer of the SVG, at its place
+    (:func:`cut_sheet`; its sprites count against ``max_frames`` and, in all, ``max_pixels``).
     """
     options = ConvertOptions.build(params, stage=stage, scale=scale, background=background, precision=precision,
                                    width=width, height=height, max_pixels=max_pixels, layout=layout,
                                    simplify=simplify, pixel_size=pixel_size, denoise=denoise, transparent=transparent,
-                                   transparent_everywhere=transparent_everywhere, shading=shading)
+                                   transparent_everywhere=transparent_everywhere, shading=shading, animate=animate,
+                                   sheet=sheet, sheet_json=sheet_json, max_frames=max_frames)
     return conversions(image, {"svg": None}, options, title=title)["svg"].decode("utf-8")
 
 
@@ -141,19 +167,25 @@ def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: 
                   max_pixels: int | None = DEFAULT_MAX_PIXELS,
                   max_output_pixels: int | None = DEFAULT_MAX_OUTPUT_PIXELS, layout: str = "stacked",
                   simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
-                  transparent: Colour | str | None = None, transparent_everywhere: bool = False) -> bytes:
+                  transparent: Colour | str | None = None, transparent_everywhere: bool = False,
+                  animate: bool = False, sheet: str | None = None, sheet_json: SheetJson | str | None = None,
+                  max_frames: int | None = DEFAULT_MAX_FRAMES) -> bytes:
     """Like :func:`convert`, returning the bytes of an SVG, PNG or PDF file.
 
     ``shading="smooth"`` renders PNG output with the paper's smooth renderer and gives the
     SVG its smooth-shading filter; ``"flat"`` draws flat colour bands (the SVG without the
     filter; PNG that SVG rasterized). A PDF has the flat bands (cairosvg draws no filters).
     A PNG of more than ``max_output_pixels`` pixels is refused before it is rendered.
+    ``animate=True``: an animation's SVG, or its PNG as an animated PNG (APNG) of the frames'
+    renders (their pixels in all within ``max_output_pixels``); no PDF. A sheet's PNG is each
+    sprite's PNG at its place.
     """
     options = ConvertOptions.build(params, stage=stage, scale=scale, background=background, shading=shading,
                                    precision=precision, width=width, height=height, max_pixels=max_pixels,
                                    max_output_pixels=max_output_pixels, layout=layout, simplify=simplify,
                                    pixel_size=pixel_size, denoise=denoise, transparent=transparent,
-                                   transparent_everywhere=transparent_everywhere)
+                                   transparent_everywhere=transparent_everywhere, animate=animate, sheet=sheet,
+                                   sheet_json=sheet_json, max_frames=max_frames)
     return conversions(image, {fmt: None}, options, name=name, title=title)[fmt]
 
 
@@ -164,27 +196,55 @@ def conversions(image, formats: Mapping[str, str | None], options: ConvertOption
     bytes}``: the input is prepared and depixelized once, then each format is made from the
     same vector image (``depixel convert --format svg,png``). ``name`` names the image in
     messages, ``title`` is the SVG's title, ``lossy`` the lossy format the pixels came from
-    (:func:`prepared_input`); ``on_prepared`` is told what the preparation found."""
+    (:func:`prepared_input`); ``on_prepared`` is told what the preparation found. With
+    ``options.output.animate``, ``image`` may be an :class:`Animation`: each format holds
+    every frame (:func:`animated`); an animation of one frame, or a still, is that frame."""
     for fmt in formats:
         validate.choice("format", fmt, FORMATS)
+        check_animated_format(fmt, options)
+    if isinstance(image, Animation):
+        if not options.output.animate:
+            raise ParameterError("an Animation is converted whole with animate=True (or convert one of its "
+                                 "frames, animation.frames[0])", parameter="animate")
+        if len(image.frames) > 1:
+            from .render.animation import animated  # noqa: PLC0415
+
+            still = replace(options, output=replace(options.output, animate=False))
+            convert_frame = partial(conversions, options=still, name=name, title=title, lossy=lossy,
+                                    on_prepared=on_prepared)
+            with _in_passes(image.frames, still, lossy):  # the frames' pipelines together
+                return animated(image, formats, options, convert_frame, name=name)
+        image = image.frames[0]
+    elif options.output.animate and int(getattr(image, "n_frames", 1)) > 1:
+        raise ParameterError("a PIL image is one frame: read an animated file with depixel.read_animation(path) "
+                             "(Pillow composites some GIF and APNG frames otherwise than browsers)",
+                             parameter="image")
     params, output, limits = options.params, options.output, options.limits
     if not isinstance(image, PreparedImage):
         _pixels(image, name, limits.max_pixels)
+    if output.is_sheet:
+        if isinstance(image, PreparedImage):
+            raise ParameterError("a sheet is cut from its pixels: give the image, not a PreparedImage",
+                                 parameter="sheet")
+        from .prepare.sheet import sheet_of  # noqa: PLC0415 (~10 ms of imports: only for a sheet)
+
+        rgba = as_rgba(image)
+        sheet = sheet_of(rgba, output.sheet, output.sheet_json, name)
+        return sheet_conversions(rgba, sheet, formats, options, name=name, title=title,
+                                 lossy=lossy or pil_lossy(image), on_prepared=on_prepared)
     prepared = prepared_input(image, options.prepare, lossy=lossy, max_pixels=None)
     scale = output.scale_for(*prepared.input_size)
     if on_prepared is not None:
         on_prepared(prepared)
     if "png" in formats:
-        _check_png_size(prepared, scale, limits.max_output_pixels, name)
+        _check_png_size(prepared.input_size, scale, limits.max_output_pixels, name)
     for fmt in formats:
-        _check_page(fmt, prepared, scale, output, name)
+        _check_page(fmt, prepared.input_size, scale, output, name)
     vector = depixelize(prepared.rgba, params, stage=output.stage).vector  # the other stages' products are freed
     blobs: dict[str, bytes] = {}
     svgs: dict[str, str] = {}  # by shading: an SVG is smooth unless flat; PDF and a flat PNG are drawn flat
     for fmt, keywords in formats.items():
         if fmt == "png" and output.shading == "smooth":
-            import io  # noqa: PLC0415
-
             from PIL import Image  # noqa: PLC0415
 
             from .render.shading import render_smooth  # noqa: PLC0415
@@ -204,9 +264,91 @@ def conversions(image, formats: Mapping[str, str | None], options: ConvertOption
     return blobs
 
 
-def _check_png_size(prepared: PreparedImage, scale: float, max_output_pixels: int | None, name: str) -> None:
-    """Refuse a PNG of more than ``max_output_pixels`` pixels before it is rendered."""
-    width, height = (max(1, round(side * scale)) for side in prepared.input_size)
+def cut_sheet(image, sheet: str | None = None, *, sheet_json: SheetJson | str | None = None,
+              max_pixels: int | None = DEFAULT_MAX_PIXELS, name: str = "<image>") -> Sheet:
+    """The sprites of a sprite sheet (an array or PIL image, checked against ``max_pixels``):
+    found on it (``sheet="auto"``, the default without ``sheet_json``: cells between gutters of
+    transparency or of one background colour, else the boxes of connected sprites), a grid
+    by cell size (``"32x32"``, ``"32x32+2"``, ``"32x32+2,4@1,1"``: gutters, first corner),
+    or those an Aseprite or TexturePacker JSON file places (``sheet_json``: its path, bytes
+    or decoded object). A :class:`~depixel.prepare.sheet.Sheet`: ``sprites`` (each ``name``,
+    ``x``, ``y``, ``width``, ``height``, ``box``: ``rgba[sprite.box]`` is its crop), and one
+    line that says what was found, ``description``."""
+    _pixels(image, name, validate.limit("max_pixels", max_pixels))
+    output = OutputOptions(sheet=sheet if sheet is not None or sheet_json is not None else "auto",
+                           sheet_json=sheet_json)
+    from .prepare.sheet import sheet_of  # noqa: PLC0415
+
+    return sheet_of(as_rgba(image), output.sheet, output.sheet_json, name)
+
+
+def sheet_conversions(rgba: np.ndarray, sheet: Sheet, formats: Mapping[str, str | None], options: ConvertOptions,
+                      *, name: str = "<image>", title: str | None = None, lossy: str | None = None,
+                      on_prepared: Callable[[PreparedImage], None] | None = None) -> dict[str, bytes]:
+    """:func:`conversions` of a sprite sheet: each of ``sheet``'s sprites converted alone, its
+    crop prepared and depixelized on its own (its shapes never reach into a neighbour), and
+    put back at its place. The SVG holds one Inkscape layer per sprite
+    (:func:`depixel.svg.layers.compose_layers`), the PDF the same drawn flat, the PNG each
+    sprite's PNG at its place. The sheet's size sets the scale (``options.output``); its
+    sprites count against ``max_frames`` and, in all, ``max_pixels``."""
+    from .render.raster import paste_pngs  # noqa: PLC0415
+    from .svg.layers import Placed, compose_layers  # noqa: PLC0415
+
+    output, limits = options.output, options.limits
+    height, width = rgba.shape[:2]
+    check_sprites(name, len(sheet.sprites), sum(s.width * s.height for s in sheet.sprites), limits.max_pixels,
+                  limits.max_frames)
+    scale = output.scale_for(width, height)
+    if "png" in formats:
+        _check_png_size((width, height), scale, limits.max_output_pixels, name)
+    for fmt in formats:
+        _check_page(fmt, (width, height), scale, output, name)
+    alone = replace(output, scale=scale, width=None, height=None, sheet=None, sheet_json=None)
+    runs: dict[str, dict[str, None]] = {}  # by shading: the sprites' formats made from one run each
+    for fmt in formats:
+        runs.setdefault("flat" if fmt == "pdf" else output.shading, {})["png" if fmt == "png" else "svg"] = None
+    layers: dict[str, list[Placed]] = {shading: [] for shading in runs}
+    pngs: list[tuple[int, int, bytes]] = []
+    with _in_passes([rgba[sprite.box] for sprite in sheet.sprites], options, lossy):  # their pipelines together
+        for sprite in sheet.sprites:
+            for n, (shading, made) in enumerate(runs.items()):
+                blobs = conversions(rgba[sprite.box], made, replace(options, output=replace(alone, shading=shading)),
+                                    name=f"{name} sprite {sprite.name}", lossy=lossy,
+                                    on_prepared=None if n else on_prepared)
+                if "svg" in blobs:
+                    svg = blobs["svg"].decode("utf-8")
+                    layers[shading].append(Placed(sprite.name, svg, sprite.x, sprite.y, sprite.width, sprite.height))
+                if "png" in blobs:
+                    pngs.append((round(sprite.x * scale), round(sprite.y * scale), blobs["png"]))
+    done: dict[str, bytes] = {}
+    for fmt, keywords in formats.items():
+        if fmt == "png":
+            done[fmt] = paste_pngs(pngs, (max(1, round(width * scale)), max(1, round(height * scale))))
+        else:
+            svg = compose_layers(layers["flat" if fmt == "pdf" else output.shading], width, height, scale=scale,
+                                 title=title, precision=output.precision)
+            done[fmt] = encode(svg, fmt, name=name, keywords=keywords)
+    return done
+
+
+def _in_passes(images, options: ConvertOptions, lossy: str | None) -> AbstractContextManager:
+    """:func:`depixel.pipeline.ahead` of ``images`` prepared as :func:`conversions` will
+    prepare each: within it their pipelines run together, some at a time, each image's
+    output the bytes it has alone (a sheet's sprites, an animation's frames). An image that
+    cannot be prepared is left to its conversion, which reports it."""
+    prepared = []
+    for image in images:
+        try:
+            prepared.append(prepared_input(image, options.prepare, lossy=lossy, max_pixels=None).rgba)
+        except Exception:  # its conversion reports it
+            continue
+    return ahead(prepared, options.params, options.output.stage)
+
+
+def _check_png_size(size: tuple[int, int], scale: float, max_output_pixels: int | None, name: str) -> None:
+    """Refuse a PNG of more than ``max_output_pixels`` pixels (an input of ``size``, ``scale``
+    times) before it is rendered."""
+    width, height = (max(1, round(side * scale)) for side in size)
     if max_output_pixels is not None and width * height > max_output_pixels:
         shown = validate.shown
         raise RenderError(f"{name}: a {shown(width)}x{shown(height)} PNG is {shown(width * height)} pixels, over "
@@ -214,8 +356,15 @@ def _check_png_size(prepared: PreparedImage, scale: float, max_output_pixels: in
                           parameter="max_output_pixels")
 
 
-def _check_page(fmt: str, prepared: PreparedImage, scale: float, output: OutputOptions, name: str) -> None:
+def _check_page(fmt: str, size: tuple[int, int], scale: float, output: OutputOptions, name: str) -> None:
     """Refuse an SVG or PDF page readers cannot show (:func:`depixel.validate.page_size`),
     naming what set its size."""
-    w, h = prepared.input_size
+    w, h = size
     validate.page_size(fmt, w * scale, h * scale, name, output.size_parameter)
+
+
+def check_animated_format(fmt: str, options: ConvertOptions) -> None:
+    """Refuse a PDF of an animation (``animate``): a page cannot play frames."""
+    if fmt == "pdf" and options.output.animate:
+        raise ParameterError("animate writes an SVG or a PNG (an animated PNG); a PDF cannot play frames: "
+                             "convert one frame to PDF", parameter="animate")

@@ -94,3 +94,15 @@ def check_rendered_frames(name: str, frames: int, pixels: int, max_output_pixels
         raise InputError(f"{name}: {frames} PNG frames are {pixels} pixels in all, over the limit of "
                          f"{max_output_pixels} (the limit counts every frame; raise it with max_output_pixels)",
                          parameter="max_output_pixels")
+
+
+def check_sprites(name: str, sprites: int, pixels: int, max_pixels: int | None, max_frames: int | None) -> None:
+    """Refuse a sprite sheet of more than ``max_frames`` sprites, or whose ``sprites``
+    rectangles are more than ``max_pixels`` pixels in all: each sprite is converted alone,
+    as each frame of an animation is."""
+    if max_frames is not None and sprites > max_frames:
+        raise InputError(f"{name}: {sprites} sprites, over the limit of {max_frames} (a sprite counts as a "
+                         "frame; raise it with max_frames)", parameter="max_frames")
+    if max_pixels is not None and pixels > max_pixels:
+        raise InputError(f"{name}: {sprites} sprites are {pixels} pixels in all, over the limit of {max_pixels} "
+                         "(the limit counts every sprite; raise it with max_pixels)", parameter="max_pixels")

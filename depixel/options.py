@@ -15,15 +15,20 @@ A file's stamp digests every field of the prepare and output options
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
+from typing import TYPE_CHECKING
 
 from . import validate
 from .errors import ParameterError
+from .frozen import added
 from .limits import DEFAULT_MAX_FRAMES, DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
 from .params import Params
 from .pipeline import STAGES
 from .prepare.inputs import PrepareOptions
 from .svg.outlines import LAYOUTS
 from .svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY, MAX_SIMPLIFY, SHADINGS
+
+if TYPE_CHECKING:
+    from .prepare.sheet_json import SheetJson
 
 __all__ = ["ConvertOptions", "Limits", "OutputOptions", "PrepareOptions"]
 
@@ -40,6 +45,12 @@ class OutputOptions:
     layout: str = "stacked"  # SVG shapes stacked (each continues under those above) or "cutout"
     simplify: float = DEFAULT_SIMPLIFY  # tolerance in pixels of the curves that replace the spline (0: exact)
     shading: str = "smooth"  # the paper's smooth shading (SVG filter, PNG renderer), or "flat" bands
+    animate: bool = added(False)  # every frame of an animation in one file: an animated SVG or PNG (APNG)
+    #: a sprite sheet, each sprite converted alone: "auto" (found), or a grid "WxH[+GAP[,GAPY]][@X,Y]"
+    sheet: str | None = added(None)
+    #: or the sprites an Aseprite/TexturePacker JSON file places (a path, its bytes or decoded
+    #: object: a SheetJson once made)
+    sheet_json: SheetJson | str | None = added(None)
 
     def __post_init__(self) -> None:
         normal: dict[str, object] = {"stage": validate.choice("stage", self.stage, STAGES),
@@ -53,7 +64,20 @@ class OutputOptions:
         normal |= {"precision": int(validate.number("precision", self.precision, low=0, high=12, integer=True)),
                    "layout": validate.choice("layout", self.layout, LAYOUTS),
                    "simplify": float(validate.number("simplify", self.simplify, low=0, high=MAX_SIMPLIFY)),
-                   "shading": validate.choice("shading", self.shading, SHADINGS)}
+                   "shading": validate.choice("shading", self.shading, SHADINGS),
+                   "animate": validate.flag("animate", self.animate)}
+        if self.is_sheet:  # (the sheet's modules are imported only then: ~10 ms of every start otherwise)
+            from .prepare.sheet import sheet_spec  # noqa: PLC0415
+            from .prepare.sheet_json import sheet_json_of  # noqa: PLC0415
+
+            normal |= {"sheet": None if self.sheet is None else sheet_spec(self.sheet),
+                       "sheet_json": sheet_json_of(self.sheet_json)}
+            if normal["sheet"] is not None and normal["sheet_json"] is not None:
+                raise ParameterError("give sheet or sheet_json, not both (the JSON places the sprites itself)",
+                                     parameter="sheet")
+            if normal["animate"]:
+                raise ParameterError("animate plays the frames of an animated file; a sheet's sprites are written "
+                                     "as layers or files (give animate or a sheet, not both)", parameter="animate")
         for name, value in normal.items():
             object.__setattr__(self, name, value)
 
@@ -65,6 +89,11 @@ class OutputOptions:
         if self.height is not None:
             return self.height / height
         return self.scale
+
+    @property
+    def is_sheet(self) -> bool:
+        """Whether the input is a sprite sheet, converted sprite by sprite."""
+        return self.sheet is not None or self.sheet_json is not None
 
     @property
     def size_parameter(self) -> str:

@@ -2,10 +2,23 @@
 from __future__ import annotations
 
 import re
+import signal
 from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import settings
+
+# Every property test runs the same examples on every run and machine (CI never flakes, a
+# failure reproduces) and leaves no example database behind: the profile is the default of
+# each ``@settings``, which names only what it changes.
+settings.register_profile("depixel", derandomize=True, database=None)
+settings.load_profile("depixel")
+
+# A suite started in the background of a script (``nohup pytest &``) inherits SIGINT ignored,
+# and so would every command it runs: the tests of Ctrl-C need the terminal's default.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 ROOT = Path(__file__).resolve().parent.parent
 FIXTURES = ROOT / "fixtures"

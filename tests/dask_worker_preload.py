@@ -8,7 +8,10 @@ worker faulty, the way tests/test_dask_faults.py needs, as ``DEPIXEL_TEST_WORKER
 * ``kill``: the worker process kills itself (SIGKILL) during the atomic write of the
   output named by ``DEPIXEL_TEST_KILL_BEFORE`` (its temporary file written, not renamed)
   and just after the rename of ``DEPIXEL_TEST_KILL_AFTER``, once each (flag files in
-  ``DEPIXEL_TEST_FLAGS``; the nanny restarts the worker, which imports this again).
+  ``DEPIXEL_TEST_FLAGS``; the nanny restarts the worker, which imports this again);
+* ``track``: each task leaves ``NAME.started`` and ``NAME.ended`` in ``DEPIXEL_TEST_FLAGS``
+  (``NAME``: its output's), so that a test can wait for the tasks still running after the
+  command stopped instead of sleeping for a time that a busy machine outlasts.
 """
 from __future__ import annotations
 
@@ -75,3 +78,18 @@ elif MODE == "kill" and not hasattr(os.replace, "original"):  # Dask imports a p
 
     _replace_or_die.original = os.replace  # type: ignore[attr-defined]
     os.replace = _replace_or_die
+
+elif MODE == "track":
+    import depixel_cli.dask.task as dask_task
+
+    if not hasattr(dask_task.run_job, "tracked"):  # Dask imports a preload twice
+        def _tracked(job, _run=dask_task.run_job):
+            flags = Path(os.environ["DEPIXEL_TEST_FLAGS"])
+            (flags / f"{job.output.name}.started").touch()
+            try:
+                return _run(job)
+            finally:
+                (flags / f"{job.output.name}.ended").touch()
+
+        _tracked.tracked = True  # type: ignore[attr-defined]
+        dask_task.run_job = _tracked

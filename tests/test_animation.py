@@ -15,7 +15,6 @@ from conftest import FIXTURES
 import depixel
 from depixel.api import convert_bytes, load
 from depixel.errors import ParameterError
-from depixel.files.animation import animate, animate_png
 from depixel.prepare.animation import Animation, read_animation
 from depixel.render.raster import render_rgba
 from depixel.svg.animation import compose, key_times
@@ -24,6 +23,16 @@ SVG = "{http://www.w3.org/2000/svg}"
 XLINK = "{http://www.w3.org/1999/xlink}href"
 INKSCAPE = "{http://www.inkscape.org/namespaces/inkscape}"
 DURATIONS = (120.0, 40.0, 250.0)
+
+
+def animate(animation, **options) -> str:
+    """The animated SVG, as the API makes it."""
+    return depixel.convert(animation, animate=True, **options)
+
+
+def animate_png(animation, **options) -> bytes:
+    """The animated PNG, as the API makes it."""
+    return depixel.convert_bytes(animation, "png", animate=True, **options)
 
 
 def blinking(name: str = "chip") -> tuple[np.ndarray, ...]:
@@ -52,7 +61,9 @@ def layers(svg: str) -> list[ET.Element]:
 
 
 def strip_ids(text: str) -> str:
-    return re.sub(r' id="[^"]*"', "", text)
+    """``text`` without ids, and without the names of the masks its groups use (named by what
+    they hide, per animation: a frame's renders check them)."""
+    return re.sub(r'mask="url\(#[^)]*\)"', 'mask="url(#)"', re.sub(r' id="[^"]*"', "", text))
 
 
 def frame_elements(svg: str, number: int) -> list[str]:
@@ -130,9 +141,15 @@ def test_smil_switches_each_frame_over_the_cycle():
 
 
 def test_a_still_is_one_layer_without_animation():
-    svg = animate(Animation.still(blinking()[0]))
+    svg = compose([depixel.convert(blinking()[0])], [100.0])
     assert "<animate" not in svg and 'display="none"' not in svg
     assert [g.get(f"{INKSCAPE}label") for g in layers(svg)] == ["frame 1 (100 ms)"]
+
+
+def test_animating_a_still_writes_its_one_frame():
+    frame = blinking()[0]
+    assert animate(Animation.still(frame)) == animate(frame) == depixel.convert(frame)
+    assert animate_png(Animation.still(frame), scale=2) == convert_bytes(frame, "png", scale=2)
 
 
 def test_key_times_keep_the_frames_apart():
@@ -180,7 +197,8 @@ def test_smooth_groups_keep_their_filter_in_every_frame():
     # the orb is one smooth region of six tones: the patch changes its group, not all its bands
     animation = Animation(blinking("orb"), DURATIONS, 0)
     svg = animate(animation)
-    assert svg.count("<filter ") == 1
+    filters = depixel.convert(animation.frames[0]).count("<filter ")  # the blur, and the masks' cover
+    assert svg.count('<filter id="smooth"') == 1 and svg.count("<filter ") == filters
     singles = [depixel.convert(frame) for frame in animation.frames]
     for number, own in enumerate(singles, 1):
         assert own.count('filter="url(#smooth)"') > 0
@@ -202,8 +220,8 @@ def test_compose_refuses_frames_of_other_sizes():
     large = depixel.convert(blinking()[0], scale=2)
     with pytest.raises(ValueError, match="differ in size"):
         compose([small, large], [100.0, 100.0])
-    with pytest.raises(ParameterError, match="Animation"):
-        animate(blinking()[0])
+    with pytest.raises(ParameterError, match="animate=True"):
+        depixel.convert(Animation(blinking(), DURATIONS, 0))
 
 
 def test_apng_has_the_frames_renders_and_timing():
@@ -227,3 +245,27 @@ def test_apng_counts_the_pixels_of_every_frame():
     with pytest.raises(InputError, match="3 PNG frames are 3060 pixels") as refused:
         animate_png(animation, scale=2, max_output_pixels=3000)
     assert refused.value.parameter == "max_output_pixels"
+
+
+@pytest.mark.parametrize("name", ["orb", "leaf_la"])
+def test_every_frame_draws_as_its_own_conversion_masks_and_all(name):
+    """A smooth group under shapes is masked by them (svg/hiding.py); in an animation each
+    frame's masks must hide what that frame's shapes hide, wherever the shapes are written."""
+    resvg_py = pytest.importorskip("resvg_py")
+    from PIL import Image
+
+    def draw(text: str) -> np.ndarray:
+        png = bytes(resvg_py.svg_to_bytes(svg_string=text, width=160))
+        return np.asarray(Image.open(io.BytesIO(png)).convert("RGBA")).astype(int)
+
+    animation = Animation(blinking(name), DURATIONS, 0)
+    svg = animate(animation)
+    assert "<mask " in svg
+    for number, frame in enumerate(animation.frames, 1):
+        alone = re.sub(r"<animate [^>]*/>\n", "", svg)
+        alone = alone.replace(' display="none"', "")
+        for other in range(1, len(animation.frames) + 1):
+            if other != number:
+                alone = alone.replace(f'<g id="frame-{other}"', f'<g id="frame-{other}" display="none"')
+        np.testing.assert_array_equal(draw(alone), draw(depixel.convert(frame)), err_msg=f"frame {number}")
+

@@ -12,10 +12,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_animation import DURATIONS, blinking
+from test_animation import DURATIONS, animate, blinking
 
 import depixel
-from depixel.files.animation import animate
 from depixel.prepare.animation import Animation
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
@@ -51,10 +50,24 @@ def screenshots(shots: list[tuple[str, float]], height: int) -> list[np.ndarray]
     return [shot[:, k * WIDTH : (k + 1) * WIDTH] for k in range(len(shots))]
 
 
+def written_by_the_command(folder: Path, frames: tuple[np.ndarray, ...]) -> str:
+    """The animated SVG ``depixel convert walk.png -o walk.svg --animate`` writes of an APNG of
+    ``frames`` in DURATIONS, looping."""
+    from depixel.render.animation import encode_apng
+    from depixel_cli.main import main
+
+    (folder / "walk.png").write_bytes(encode_apng(frames, DURATIONS, 0))
+    assert main(["convert", str(folder / "walk.png"), "-o", str(folder / "walk.svg"), "--animate", "-q"]) == 0
+    svg = (folder / "walk.svg").read_text()
+    assert svg == animate(Animation(frames, DURATIONS, 0), title="walk.png").replace(
+        "<svg", svg[svg.index("<!--") : svg.index("-->") + 4] + "<svg", 1)  # the API's, with the stamp
+    return svg
+
+
 @pytest.mark.skipif(CHROMIUM is None, reason="chromium not installed")
-def test_chromium_plays_the_frames_in_their_timing():
+def test_chromium_plays_the_frames_in_their_timing(tmp_path):
     frames = blinking()
-    svg = animate(Animation(frames, DURATIONS, 0))
+    svg = written_by_the_command(tmp_path, frames)
     singles = [depixel.convert(f) for f in frames]
     # inside frames 1, 2, 3 (0-120, 120-160, 160-410 ms), then frame 1 again in the second cycle
     # (0.13 s would be in frame 1 of three equal frames)
@@ -73,7 +86,7 @@ def test_inkscape_exports_the_first_frame(tmp_path):
     from PIL import Image
 
     frames = blinking()
-    (tmp_path / "walk.svg").write_text(animate(Animation(frames, DURATIONS, 0)))
+    written_by_the_command(tmp_path, frames)
     (tmp_path / "first.svg").write_text(depixel.convert(frames[0]))
     for name in ("walk", "first"):
         subprocess.run([INKSCAPE, str(tmp_path / f"{name}.svg"), f"--export-filename={tmp_path / name}.png",

@@ -1,6 +1,7 @@
-"""Reading an animation with its timing (depixel/prepare/animation.py, gif.py): each frame as a
-browser shows it, the durations browsers play and the number of plays, on GIF, APNG and WebP
-files written by the tests (tests/animfiles.py)."""
+"""Reading an animation with its timing (depixel/prepare/animation.py, gif.py, apng.py): each
+frame as a browser shows it, the durations browsers play and the number of plays, on GIF, APNG,
+WebP and Aseprite files written by the tests (tests/animfiles.py, tests/aseprite_writer.py);
+the one-frame readers (load_image, load_frames) give the same frames."""
 from __future__ import annotations
 
 import io
@@ -8,11 +9,12 @@ import io
 import numpy as np
 import pytest
 from animfiles import GifImage, PngFrame, apng, gif
+from aseprite_writer import FrameSpec, LayerSpec, aseprite_bytes, rgba_cel
 from conftest import FIXTURES, art
 
 from depixel.errors import InputError
 from depixel.prepare.animation import Animation, gif_plays, played_duration, read_animation
-from depixel.prepare.image import load_frames
+from depixel.prepare.image import frame_count, load_frames, load_image
 
 PALETTE = [(0, 0, 0), (255, 0, 0), (0, 255, 0), (0, 0, 255), (255, 255, 255)]
 SHOWN = {"R": (255, 0, 0, 255), "G": (0, 255, 0, 255), "B": (0, 0, 255, 255), "W": (255, 255, 255, 255),
@@ -181,3 +183,50 @@ def test_animation_checks_what_it_holds():
     assert type(animation.durations[0]) is float
     assert not animation.frames[0].flags.writeable
     assert "uint8[2, 3, 4]" in repr(animation)
+
+
+@pytest.mark.parametrize("data", [disposal_gif(), disposal_apng(default=np.full((4, 4, 4), 128, np.uint8))],
+                         ids=["gif", "apng"])
+def test_every_frame_reader_gives_the_frames_a_browser_shows(data):
+    # --frames N and --frames all read what --animate reads, even where Pillow composites otherwise
+    # (the GIF's disposal, the APNG's blending and its default image outside the animation)
+    frames = read_animation(data).frames
+    assert frame_count(data) == len(frames)
+    assert [i for i, _ in load_frames(data)] == list(range(len(frames)))
+    for (_, got), want in zip(load_frames(data), frames):
+        np.testing.assert_array_equal(got, want)
+    for n, want in enumerate(frames):
+        np.testing.assert_array_equal(load_image(data, frame=n), want, err_msg=f"frame {n}")
+    with pytest.raises(InputError, match=f"has {len(frames)} frame"):
+        load_image(data, frame=len(frames))
+
+
+def test_one_frame_is_read_whatever_the_frames_in_all():
+    # frame 0 of 6 frames whose pixels in all are over the limit: one frame is decoded, allowed
+    data = gif((4, 4), PALETTE, [GifImage(FULL)] * 6)
+    with pytest.raises(InputError, match="6 frames are 96 pixels in all"):
+        read_animation(data, max_pixels=90)
+    assert load_image(data, max_pixels=90).shape == (4, 4, 4)
+    with pytest.raises(InputError, match="frame 5 is past the limit of 5 frames"):
+        load_image(data, frame=5, max_frames=5)
+
+
+def test_select_plays_the_frames_given_in_their_order():
+    animation = read_animation(disposal_gif(loop=0))
+    pingpong = animation.select([1, 2, 3, 2])
+    assert pingpong.durations == (100.0, 50.0, 300.0, 50.0) and pingpong.plays == 0
+    for got, want in zip(pingpong.frames, [animation.frames[i] for i in (1, 2, 3, 2)]):
+        np.testing.assert_array_equal(got, want)
+    assert read_animation(disposal_gif(), frames=[4, 0]).durations == (100.0, 200.0)
+    for bad in ([], [5], [-1], [1.0]):
+        with pytest.raises(InputError, match="indices 0 to 4"):
+            animation.select(bad)
+
+
+def test_an_aseprite_file_plays_for_ever_in_its_own_durations():
+    red, blue = (np.full((2, 2, 4), c, np.uint8) for c in ((255, 0, 0, 255), (0, 0, 255, 255)))
+    data = aseprite_bytes(2, 2, [LayerSpec("Layer 1")], [FrameSpec([rgba_cel(0, red)], duration=5),
+                                                         FrameSpec([rgba_cel(0, blue)], duration=250)])
+    animation = read_animation(data)
+    assert animation.durations == (5.0, 250.0) and animation.plays == 0
+    np.testing.assert_array_equal(animation.frames[1], blue)

@@ -19,15 +19,26 @@ def cells_of(rgba):
     return build_cell_graph(resolve_crossings(build_similarity_graph(rgba)))
 
 
-def point_in_polygon(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Even-odd test of (P, 2) points against one polygon (k, 2)."""
-    x, y = points[:, 0:1], points[:, 1:2]
-    x0, y0 = poly[:, 0][None], poly[:, 1][None]
-    x1, y1 = np.roll(poly[:, 0], -1)[None], np.roll(poly[:, 1], -1)[None]
-    crosses = (y0 > y) != (y1 > y)
+#: the offsets (rows, columns) of a pixel's 3 × 3 neighbourhood, which holds its cell
+BLOCK = [(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1)]
+#: random sample points per pixel square
+SAMPLES = 6
+
+
+def inside_own_cells(cg, points: np.ndarray) -> np.ndarray:
+    """Even-odd test of each cell's polygon against its own points: ``points`` (C, M, 2)
+    (quarter pixels; NaN: no point) → (C, M) bool, point m inside the polygon of cell c."""
+    nodes = cg.nodes[cg.cell_nodes].astype(float)
+    owner = np.repeat(np.arange(cg.cell_ptr.size - 1), np.diff(cg.cell_ptr))
+    nxt = np.arange(nodes.shape[0]) + 1
+    nxt[cg.cell_ptr[1:] - 1] = cg.cell_ptr[:-1]
+    (x0, y0), (x1, y1) = nodes.T[:, :, None], nodes[nxt].T[:, :, None]  # each edge (E, 1)
+    x, y = points[owner, :, 0], points[owner, :, 1]  # the points of each edge's cell (E, M)
     with np.errstate(divide="ignore", invalid="ignore"):
-        xi = x0 + (y - y0) * (x1 - x0) / (y1 - y0)
-    return (crosses & (x < xi)).sum(axis=1) % 2 == 1
+        crosses = ((y0 > y) != (y1 > y)) & (x < x0 + (y - y0) * (x1 - x0) / (y1 - y0))
+    counts = np.zeros(points.shape[:2], int)
+    np.add.at(counts, owner, crosses)
+    return counts % 2 == 1
 
 
 def check_invariants(rgba: np.ndarray) -> None:
@@ -38,17 +49,33 @@ def check_invariants(rgba: np.ndarray) -> None:
     assert areas.min() > 0
     assert abs(areas.sum() - w * h) < 1e-9
 
-    # every cell contains its own pixel centre and no other cell does; sample points off
-    # the lattice lines are covered exactly once (no overlap, no gap)
+    # every cell lies in its pixel's 3 × 3 neighbourhood, so only the points there can be in
+    # it: each cell contains its own pixel centre and no other, and random points off the
+    # lattice lines are covered exactly once (no overlap, no gap)
+    row, col = np.divmod(np.arange(h * w), w)
+    owner = np.repeat(np.arange(h * w), np.diff(cg.cell_ptr))
+    corner = np.stack([col, row], axis=1)[owner] * 4
+    assert ((cg.nodes[cg.cell_nodes] >= corner - 4) & (cg.nodes[cg.cell_nodes] <= corner + 8)).all(), \
+        "a cell reaches out of its pixel's neighbourhood"
     rng = np.random.default_rng(0)
-    samples = rng.uniform(0, 1, size=(h * w * 6, 2)) * [w * 4, h * 4]
-    centres = np.stack(np.meshgrid(np.arange(w) * 4 + 2, np.arange(h) * 4 + 2), -1).reshape(-1, 2)
-    cover = np.zeros(len(samples), int)
-    for p in range(h * w):
-        poly = cg.cell_polygon(p).astype(float)
-        cover += point_in_polygon(samples, poly)
-        inside = point_in_polygon(centres.astype(float), poly)
-        assert inside[p] and inside.sum() == 1, f"cell {p} and pixel centres"
+    pixel_xy = np.stack(np.meshgrid(np.arange(w), np.arange(h)), -1)[:, :, None]  # (h, w, 1, 2)
+    samples = (pixel_xy + rng.uniform(0, 1, size=(h, w, SAMPLES, 2))) * 4  # in each pixel's square
+    points = np.full((h * w, len(BLOCK), SAMPLES + 1, 2), np.nan)  # each neighbour's samples, then its centre
+    sample_id = np.full((h * w, len(BLOCK), SAMPLES), -1)
+    for j, (dy, dx) in enumerate(BLOCK):
+        r, c = row + dy, col + dx
+        there = (r >= 0) & (r < h) & (c >= 0) & (c < w)
+        q = r[there] * w + c[there]
+        points[there, j, :SAMPLES] = samples.reshape(h * w, SAMPLES, 2)[q]
+        points[there, j, SAMPLES] = np.stack([c[there], r[there]], axis=1) * 4 + 2
+        sample_id[there, j] = q[:, None] * SAMPLES + np.arange(SAMPLES)
+    inside = inside_own_cells(cg, points.reshape(h * w, -1, 2)).reshape(h * w, len(BLOCK), SAMPLES + 1)
+    centre = inside[:, :, SAMPLES]
+    own = BLOCK.index((0, 0))
+    assert centre[:, own].all(), "a cell misses its own pixel centre"
+    assert centre.sum(axis=1).max() == 1, "a cell holds another pixel's centre"
+    listed = sample_id >= 0
+    cover = np.bincount(sample_id[listed], weights=inside[:, :, :SAMPLES][listed], minlength=h * w * SAMPLES)
     assert (cover == 1).all()
 
     # edges: positive length; shared by a pair of pixels exactly when 4-neighbours or linked

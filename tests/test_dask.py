@@ -24,7 +24,7 @@ distributed = pytest.importorskip("distributed", reason="the dask extra is not i
 @pytest.fixture(scope="module")
 def scheduler():
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster:
+                                  dashboard_address=":0") as cluster:
         yield cluster.scheduler_address
 
 
@@ -125,3 +125,18 @@ def test_outputs_beside_their_inputs(tmp_path, capsys, scheduler):
     assert code == 0 and report["ok"] == 3
     assert sorted(p.name for p in src.iterdir()) == ["s000.png", "s000.svg", "s001.png", "s001.svg", "s002.png",
                                                     "s002.svg"]
+
+
+def test_dask_animates_one_file_per_input_as_one_process_does(tmp_path, capsys, scheduler):
+    src = folder_with_a_bad_file(tmp_path)
+    common = ["convert", str(src), "-r", "--animate", "--json", "--stage", "splines"]
+    code_j1, _ = run_json(capsys, common + ["--out-dir", str(tmp_path / "j1"), "-j", "1"])
+    code_dask, remote = run_json(capsys, common + ["--out-dir", str(tmp_path / "dask"), "--dask", scheduler])
+    assert code_j1 == code_dask == Exit.FAILED  # broken.png
+
+    def files(root: Path) -> dict[str, bytes]:
+        return {p.relative_to(root).as_posix(): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
+
+    assert files(tmp_path / "j1") == files(tmp_path / "dask")
+    assert set(files(tmp_path / "dask")) == {"heart.svg", "leaf.svg", "heart_beat.svg", "sub/potion.svg"}
+    assert files(tmp_path / "dask")["heart_beat.svg"].count(b'inkscape:groupmode="layer"') == 2

@@ -294,6 +294,35 @@ def test_two_selected_images_get_unique_ids(runtime, tmp_path, depixel_program):
     assert len(ids_a) == len(ids_b) > 2 and not set(ids_a) & set(ids_b)
 
 
+def test_an_animated_bitmap_comes_as_layers_showing_its_first_frame(runtime, tmp_path, depixel_program):
+    from test_animate_cli import rgba, walk_gif
+
+    href = "data:image/gif;base64," + base64.b64encode(walk_gif()).decode()
+    # twice, so the second's ids (its frames' shared shapes and their uses) are renamed
+    body = ('<g id="layer1" inkscape:label="Sprites" inkscape:groupmode="layer">'
+            + image("walk", href, 10, 10, 60, 60) + "</g>"
+            + '<g id="plain">' + image("again", href, 100, 10, 30, 30) + "</g>")
+    doc = write_document(tmp_path, body)
+    out = converted(runtime, doc, ["walk", "again"], "--animate=true", depixel=depixel_program)
+    assert_replaced(doc.read_bytes(), out, ["walk", "again"])  # no duplicate id, no dangling xlink:href
+    root = tree(out)
+    mode, label = "{http://www.inkscape.org/namespaces/inkscape}groupmode", \
+        "{http://www.inkscape.org/namespaces/inkscape}label"
+    for id_, outer in (("walk", "layer"), ("again", None)):  # a layer where the bitmap was in one
+        group = by_id(root, id_)
+        assert group.get(mode) == outer
+        frames = [g for g in group if g.get(mode) == "layer"]
+        assert [g.get(label) for g in frames] == ["frame 1 (120 ms)", "frame 2 (40 ms)", "frame 3 (250 ms)"]
+        assert [g.get("display") for g in frames] == [None, "none", "none"]
+        # each drawing's uses point into its own shared shapes, not the other's
+        own = {e.get("id") for e in group.iter() if e.get("id")}
+        uses = [e.get(f"{{{XLINK}}}href")[1:] for e in group.iter(f"{{{SVG}}}use")]
+        assert uses and set(uses) <= own, id_
+    first = rgba(1).astype(np.int64)
+    assert centre_match(out, first, affine((10, 0, 0, 10, 10, 10))) == 1.0  # frame 1 drawn
+    assert centre_match(out, first, affine((5, 0, 0, 5, 100, 10))) == 1.0
+
+
 def test_transparent_sprite_stays_transparent(runtime, tmp_path, depixel_program):
     doc = write_document(tmp_path, image("potion", data_uri("potion_rgba.png"), 40, 20, 144, 144))
     pixels = sprite("potion_rgba.png")
@@ -410,6 +439,8 @@ def fake_depixel(folder: Path, fail: str = "") -> tuple[Path, Path]:
     (["--backdrop=colour", "--backdrop_colour=#5c94fc", "--pixel_size=1"],
      ["--pixel-size", "1", "--transparent", "#5c94fc"]),
     (["--backdrop_colour=#5c94fc", "--tab=program"], []),  # a colour alone removes nothing
+    (["--animate=true", "--simplify=0"], ["--simplify", "0", "--animate"]),
+    (["--animate=false"], []),
 ])
 def test_dialog_options_become_flags(tmp_path, options, flags):
     program, log = fake_depixel(tmp_path)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from collections.abc import Iterator
 
 import pytest
 from conftest import CORPUS, JUDGE, needs_corpus
@@ -25,23 +26,38 @@ SAMPLE = ["gaxe2_axbattler_01", "mana_salamando", "sbm4_02", "win31_386", "smw_b
 FLOORS = {"cells": (1.0, 1.0, 1.0), "splines": (1.0, 1.0, 0.9), "optimized": (1.0, 1.0, 0.9)}
 
 
+@pytest.fixture(scope="module")
+def judged(tmp_path_factory) -> Iterator[dict[str, subprocess.Popen]]:
+    """For each stage, the judge run on the sample's SVGs: the three judges run at once, one
+    process each (a judge is seconds of CPU; the suite's own process leaves a core idle)."""
+    judges = {}
+    for stage in FLOORS:
+        folder = tmp_path_factory.mktemp(stage)
+        pairs = []
+        for name in SAMPLE:
+            src = CORPUS / f"{name}.png"
+            svg = folder / f"{name}.svg"
+            svg.write_text(to_svg(depixelize(load_image(src), Params(), stage=stage).vector, scale=2.5))
+            pairs.append(f"{src}\t{svg}")
+        listing = folder / "pairs.tsv"
+        listing.write_text("\n".join(pairs) + "\n")
+        layers = ["--layers"] if stage == "optimized" else []
+        judges[stage] = subprocess.Popen([sys.executable, str(JUDGE), "--pairs", str(listing), *layers],
+                                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    yield judges
+    for judge in judges.values():
+        if judge.poll() is None:
+            judge.kill()
+            judge.communicate()
+
+
 @needs_corpus
 @pytest.mark.skipif(not JUDGE.is_file(), reason="../shared/tools/judge.py not present")
 @pytest.mark.parametrize("stage", list(FLOORS))
-def test_judge_figures_on_corpus_sample(stage, tmp_path):
-    pairs = []
-    for name in SAMPLE:
-        src = CORPUS / f"{name}.png"
-        svg = tmp_path / f"{name}.svg"
-        svg.write_text(to_svg(depixelize(load_image(src), Params(), stage=stage).vector, scale=2.5))
-        pairs.append(f"{src}\t{svg}")
-    listing = tmp_path / "pairs.tsv"
-    listing.write_text("\n".join(pairs) + "\n")
-    layers = ["--layers"] if stage == "optimized" else []
-    out = subprocess.run([sys.executable, str(JUDGE), "--pairs", str(listing), *layers], capture_output=True,
-                         text=True, timeout=600)
-    rows = [json.loads(line) for line in out.stdout.splitlines() if line.strip()]
-    assert len(rows) == len(SAMPLE), out.stderr
+def test_judge_figures_on_corpus_sample(stage, judged):
+    stdout, stderr = judged[stage].communicate(timeout=600)
+    rows = [json.loads(line) for line in stdout.splitlines() if line.strip()]
+    assert len(rows) == len(SAMPLE), stderr
     centre, diag, fg = FLOORS[stage]
     for row in rows:
         assert "error" not in row, row

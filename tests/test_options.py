@@ -18,6 +18,7 @@ from depixel.files import convert as files
 from depixel.files import stamp as stamps
 from depixel.frozen import added
 from depixel.options import ConvertOptions, Limits, OutputOptions, PrepareOptions
+from depixel.prepare.sheet_json import SheetJson
 
 MAX_PARAMETERS = 8
 SPRITE = art("""
@@ -83,6 +84,7 @@ def test_the_parameter_count_sees_every_kind_of_parameter(tmp_path):
     (lambda: OutputOptions(layout="tiled"), "unknown layout 'tiled'"),
     (lambda: OutputOptions(simplify=3), "simplify must be between 0 and 2, not 3"),
     (lambda: OutputOptions(shading="soft"), "unknown shading 'soft'"),
+    (lambda: OutputOptions(animate="yes"), "animate must be True or False, not 'yes'"),
     (lambda: PrepareOptions(background="nocolour"), "unknown colour 'nocolour'"),
     (lambda: PrepareOptions(pixel_size="big"), "pixel_size must be auto, N or NxM"),
     (lambda: PrepareOptions(denoise="yes"), "denoise must be True, False or None, not 'yes'"),
@@ -128,9 +130,10 @@ def test_depixelize_refuses_an_unknown_stage_as_every_entry_does():
 EXAMPLES = {"stage": "cells", "scale": 2.0, "width": 8, "height": 8, "precision": 3, "layout": "cutout",
             "simplify": 0.0, "shading": "flat", "background": (255, 0, 0), "pixel_size": (1, 1), "denoise": True,
             "transparent": (255, 255, 255), "transparent_everywhere": True, "max_pixels": 4096,
-            "max_output_pixels": 65536, "max_frames": 3}
-#: options a keyword function has no use for: an SVG renders no PNG and takes no frames
-NOT_TAKEN = {"convert": {"max_output_pixels", "max_frames"}, "convert_bytes": {"max_frames"}, "convert_file": set()}
+            "max_output_pixels": 65536, "max_frames": 3, "animate": True, "sheet": "16x16+1",
+            "sheet_json": SheetJson("a.json", b'{"frames": {"a.png": {"frame": {"x": 0, "y": 0, "w": 2, "h": 2}}}}')}
+#: options a keyword function has no use for: an SVG renders no PNG (a sheet's sprites count as frames)
+NOT_TAKEN = {"convert": {"max_output_pixels"}, "convert_bytes": set(), "convert_file": set()}
 OPTION_FIELDS = [item for part in (OutputOptions, PrepareOptions, Limits) for item in dataclasses.fields(part)]
 
 
@@ -222,14 +225,14 @@ def test_a_new_option_field_is_in_the_digest_without_being_named_there(fixed_ver
         tag: str | None = None  # an option as the next issue adds it
 
     @dataclasses.dataclass(frozen=True)
-    class WithSheet(OutputOptions):
-        sheet: int = added(0)  # one added after the stamp's format: left out while at its default
+    class WithGrain(OutputOptions):
+        grain: int = added(0)  # one added after the stamp's format: left out while at its default
 
     default = digest_of(OutputOptions())
     assert digest_of(WithTag(tag="a")) != digest_of(WithTag(tag="b"))  # digested, never named
     assert digest_of(WithTag()) != default  # a plain field is digested at its default too
-    assert digest_of(WithSheet()) == default  # stamps written before it stay up to date
-    assert digest_of(WithSheet(sheet=2)) not in (default, digest_of(WithSheet(sheet=3)))
+    assert digest_of(WithGrain()) == default  # stamps written before it stay up to date
+    assert digest_of(WithGrain(grain=2)) not in (default, digest_of(WithGrain(grain=3)))
 
 
 def test_two_options_of_one_name_cannot_share_the_digest():
@@ -245,8 +248,8 @@ def test_the_command_line_builds_the_same_options_as_the_keywords():
         "convert", "a.png", "--stage", "splines", "--width", "64", "--precision", "3", "--layout", "cutout",
         "--simplify", "0", "--shading", "flat", "--background", "white", "--pixel-size", "4", "--no-denoise",
         "--transparent", "auto", "--transparent-everywhere", "--max-pixels", "99", "--max-output-pixels", "98",
-        "--max-frames", "7", "--iterations", "2"])
+        "--max-frames", "7", "--iterations", "2", "--animate"])
     assert convert_options(args) == ConvertOptions.build(
         depixel.Params().replace(iterations=2), stage="splines", width=64, precision=3, layout="cutout", simplify=0,
         shading="flat", background="white", pixel_size=4, denoise=False, transparent="auto",
-        transparent_everywhere=True, max_pixels=99, max_output_pixels=98, max_frames=7)
+        transparent_everywhere=True, max_pixels=99, max_output_pixels=98, max_frames=7, animate=True)

@@ -125,12 +125,14 @@ def _passes(monkeypatch) -> list[int]:
     return sizes
 
 
-def _no_passes(monkeypatch, module) -> None:
-    monkeypatch.setattr(module, "converted_ahead", lambda *a, **k: contextlib.nullcontext())
+def _no_passes(monkeypatch) -> None:
+    import depixel.api
+
+    monkeypatch.setattr(depixel.api, "_in_passes", lambda *a, **k: contextlib.nullcontext())
 
 
 def test_a_sheets_sprites_run_in_one_pass_with_the_same_bytes(monkeypatch):
-    from depixel.files import sheet as sheet_files
+    from depixel.files.sheet import convert_sheet
     from depixel.prepare.sheet import find_sprites
 
     images = [depixel.load_image(FIXTURES / name) for name in ("ghost_rgba.png", "potion_rgba.png", "orb.png")]
@@ -141,14 +143,13 @@ def test_a_sheets_sprites_run_in_one_pass_with_the_same_bytes(monkeypatch):
         x += image.shape[1] + 2
     sprites = find_sprites(board).sprites
     passes = _passes(monkeypatch)
-    together = sheet_files.convert_sheet(board, sprites, layout="cutout")
+    together = convert_sheet(board, sprites, layout="cutout")
     assert passes == [3]
-    _no_passes(monkeypatch, sheet_files)
-    assert sheet_files.convert_sheet(board, sprites, layout="cutout") == together and passes == [3]
+    _no_passes(monkeypatch)
+    assert convert_sheet(board, sprites, layout="cutout") == together and passes == [3]
 
 
 def test_an_animations_frames_run_in_passes_with_the_same_bytes(monkeypatch):
-    from depixel.files import animation as animation_files
     from depixel.prepare.animation import Animation
 
     base = depixel.load_image(FIXTURES / "chip.png")
@@ -160,10 +161,10 @@ def test_an_animations_frames_run_in_passes_with_the_same_bytes(monkeypatch):
         frames.append(frame)
     animation = Animation(tuple(frames), (100.0,) * len(frames), 0)
     passes = _passes(monkeypatch)
-    together = animation_files.animate(animation, simplify=0)
+    together = depixel.convert(animation, animate=True, simplify=0)
     assert sum(passes) == len({f.tobytes() for f in frames}) and max(passes) == 16
-    _no_passes(monkeypatch, animation_files)
-    assert animation_files.animate(animation, simplify=0) == together
+    _no_passes(monkeypatch)
+    assert depixel.convert(animation, animate=True, simplify=0) == together
 
 
 def test_workers_take_packs_and_a_file_that_kills_its_worker_fails_alone(tmp_path, monkeypatch):

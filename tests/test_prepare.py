@@ -49,20 +49,20 @@ def jpeg(rgba: np.ndarray, quality: int) -> tuple[np.ndarray, bytes]:
 
 def reference_grids(rgba: np.ndarray) -> set:
     """Slow, obviously correct: every ((kx, ky), (ox, oy)) whose blocks are all uniform
-    (transparent pixels equal whatever RGB they hide)."""
+    (transparent pixels equal whatever RGB they hide): every pixel equals the first pixel
+    of its block."""
     keys = np.where(rgba[..., 3:4] == 0, 0, rgba.astype(np.int64))
     h, w = keys.shape[:2]
     found = set()
     for kx in range(1, min(w, 32) + 1):
-        for ky in range(1, min(h, 32) + 1):
-            for ox in range(kx):
+        for ox in range(kx):
+            bx = (np.arange(w) + (kx - ox) % kx) // kx  # the block of each column
+            first_x = np.searchsorted(bx, bx)  # the first column of that block
+            for ky in range(1, min(h, 32) + 1):
                 for oy in range(ky):
-                    bx = (np.arange(w) + (kx - ox) % kx) // kx
                     by = (np.arange(h) + (ky - oy) % ky) // ky
-                    uniform = all(len({tuple(keys[y, x]) for y in range(h) for x in range(w)
-                                       if by[y] == j and bx[x] == i}) == 1
-                                  for j in range(by[-1] + 1) for i in range(bx[-1] + 1))
-                    if uniform:
+                    first_y = np.searchsorted(by, by)
+                    if (keys == keys[first_y][:, first_x]).all():
                         found.add(((kx, ky), (ox, oy)))
     return found
 

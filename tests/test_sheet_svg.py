@@ -115,8 +115,12 @@ def test_sprites_off_the_sheet_and_limits_are_refused():
     with pytest.raises(InputError, match="2 sprites are 128 pixels in all, over the limit of 100") as info:
         convert_sheet(sheet, [Sprite("a", 0, 0, 8, 8), Sprite("b", 0, 0, 8, 8)], max_pixels=100)
     assert info.value.parameter == "max_pixels"
-    with pytest.raises(ParameterError, match="give scale, not width"):
-        convert_sheet(sheet, [Sprite("a", 0, 0, 8, 8)], width=100)
+    with pytest.raises(ParameterError, match="sizes the whole sheet: no sheet_json"):
+        convert_sheet(sheet, [Sprite("a", 0, 0, 8, 8)], sheet_json={"frames": {}})
+    with pytest.raises(InputError, match="2 sprites, over the limit of 1 .a sprite counts as a frame") as info:
+        convert_sheet(sheet, [Sprite("a", 0, 0, 4, 4), Sprite("b", 4, 4, 4, 4)], max_frames=1)
+    assert info.value.parameter == "max_frames"
+    assert 'width="100"' in convert_sheet(sheet, [Sprite("a", 0, 0, 8, 8)], width=100)  # the sheet's width
 
 
 def test_with_resvg_the_smooth_shading_filter_too_renders_the_same(converted):

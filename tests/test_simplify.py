@@ -50,10 +50,19 @@ def _same_curves(a: np.ndarray, b: np.ndarray, tol: float) -> bool:
     each segment of one within ``tol`` of one of the other, in either direction."""
     if a.shape != b.shape:
         return False
-    forward = np.abs(a[:, None] - b[None]).max(axis=(2, 3))
-    backward = np.abs(a[:, None] - b[None, :, ::-1]).max(axis=(2, 3))
-    d = np.minimum(forward, backward)
-    return bool((d.min(axis=1) <= tol).all() and (d.min(axis=0) <= tol).all())
+    if not a.size:
+        return True
+    from scipy.spatial import cKDTree
+
+    def nearest(these: np.ndarray, those: np.ndarray) -> np.ndarray:
+        """Each segment of ``these``: the largest coordinate difference to the nearest
+        segment of ``those``, either way along it (a k-d tree under the maximum norm)."""
+        flat = these.reshape(len(these), -1)
+        forward = cKDTree(those.reshape(len(those), -1)).query(flat, p=np.inf)[0]
+        backward = cKDTree(those[:, ::-1].reshape(len(those), -1)).query(flat, p=np.inf)[0]
+        return np.minimum(forward, backward)
+
+    return bool((nearest(a, b) <= tol).all() and (nearest(b, a) <= tol).all())
 
 
 # the square's symmetries: the image's, and the map of a point of the result back
@@ -68,15 +77,19 @@ def _equivariant(rgba: np.ndarray, tolerance: float, grid: float | None = None, 
     """For each symmetry, whether the pieces of the transformed image, mapped back, are the
     image's own (``None`` where the exact spline already differs: nothing to ask then)."""
     h, w = rgba.shape[:2]
+
+    def curves(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The points along the exact and the simplified pieces of one conversion."""
+        vector = depixelize(image, stage="splines").vector
+        return tuple(_curve_points(OutlineShapes(vector, "stacked", grid, t).pieces)  # type: ignore[return-value]
+                     for t in (0.0, tolerance))
+
+    own = curves(rgba)
     out = {}
     for name, (transform, back) in SYMMETRIES.items():
-        moved = np.ascontiguousarray(transform(rgba))
-        exact = [_curve_points(_pieces(x, 0.0, grid)) for x in (rgba, moved)]
-        if not _same_curves(exact[0], back(exact[1], h, w), tol):
-            out[name] = None
-            continue
-        simple = [_curve_points(_pieces(x, tolerance, grid)) for x in (rgba, moved)]
-        out[name] = _same_curves(simple[0], back(simple[1], h, w), tol)
+        exact, simple = curves(np.ascontiguousarray(transform(rgba)))
+        out[name] = _same_curves(own[1], back(simple, h, w), tol) if _same_curves(own[0], back(exact, h, w), tol) \
+            else None
     return out
 
 
@@ -117,7 +130,7 @@ def test_simplification_commutes_with_mirrors_and_quarter_turns(image, tolerance
     assert all(result.values()), result
 
 
-@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=25, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
 @given(st.integers(0, 2**32 - 1))
 def test_random_patterns_simplify_equivariantly(seed):
     """Random three-colour patterns: wherever the exact spline is equivariant, so is the
@@ -201,7 +214,7 @@ def test_straight_runs_stay_lines(image, tolerance):
 
 
 #: a diamond: its four sides 45-degree staircases, which the optimizer draws as straight
-#: runs of spans (their controls rounded to the grid a hundredth off the line)
+#: runs of spans (their controls rounded to the grid a hundredth off the line), 4.2 px long
 DIAMOND = art("""
 ..........
 ....##....
@@ -214,20 +227,33 @@ DIAMOND = art("""
 ....##....
 ..........
 """)
+#: a smaller one: its sides' straight runs are 2.8 px long
+SMALL_DIAMOND = art("""
+........
+...##...
+..####..
+.######.
+.######.
+..####..
+...##...
+........
+""")
 
 
 @pytest.mark.parametrize("tolerance", [0.25, 1.0])
-def test_a_straight_run_of_the_spline_is_one_line(tolerance):
+@pytest.mark.parametrize("image", [DIAMOND, SMALL_DIAMOND], ids=["diamond", "small"])
+def test_a_straight_run_of_the_spline_is_one_line(image, tolerance):
     """A 45-degree staircase drawn as a straight run of the spline's spans (each within the
     grid of its chord) two pixels long or more is written as one line, and so cuts the piece:
     a curve fitted over it and the bend beyond would redraw the whole side when an edit
-    moves the bend (docs/design.md, Locality of the default --simplify)."""
-    exact = _pieces(DIAMOND, 0.0, grid=0.01, stage="optimized")
+    moves the bend (docs/design.md, Locality of the default --simplify). The small diamond's
+    runs, under 3 px, pin the 2 px."""
+    exact = _pieces(image, 0.0, grid=0.01, stage="optimized")
     start = _starts(exact)
     chord = exact.end - start
     flat = (exact.kind == QUAD) & (np.abs(np.abs(chord[:, 0]) - np.abs(chord[:, 1])) < 1e-9)
     assert flat.sum() >= 8  # the sides' spans, 45 degrees each
-    simple = _pieces(DIAMOND, tolerance, grid=0.01, stage="optimized")
+    simple = _pieces(image, tolerance, grid=0.01, stage="optimized")
     start = _starts(simple)
     chord = simple.end - start
     lines = (simple.kind == LINE) & (np.abs(np.abs(chord[:, 0]) - np.abs(chord[:, 1])) < 1e-9)

@@ -7,6 +7,7 @@ function-level import is found as well.
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import pytest
@@ -58,6 +59,7 @@ def imports_of(name: str, path: Path, known: set[str]) -> set[str]:
     return found
 
 
+@functools.cache  # (three tests read it: the sources are parsed once)
 def import_graph() -> dict[str, set[str]]:
     files = sources()
     known = set(files)

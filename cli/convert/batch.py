@@ -17,12 +17,12 @@ import os
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from depixel.errors import DepixelError, OutputError, display_name
+from depixel.errors import DepixelError, InputError, OutputError, display_name
 from depixel.files import convert as files
 from depixel.files import output as written
 from depixel.files import stamp as stamps
 from depixel.options import ConvertOptions
-from depixel.prepare.image import frame_count
+from depixel.prepare.image import ImageSource, frame_count
 from depixel.prepare.inputs import PreparedImage
 
 from ..options import error_message
@@ -37,6 +37,7 @@ class Options:
     formats: tuple[str, ...]  # svg, png or pdf: one output of each per input (and frame)
     frames: str | int  # "first", "all" or a frame index
     force: bool  # reconvert outputs that are up to date, and overwrite those that are not depixel's or edited
+    tag: str | None = None  # an Aseprite tag: its frames ("all"), or the first it plays
     #: an output named by ``-o``: converted even when up to date; one that is not depixel's
     #: (or was edited) is an error without ``force``, not a note
     explicit: bool = False
@@ -51,9 +52,10 @@ class Job:
     output: Path  # its first output; for -o FILE with frames="all", the name the frame names derive from
     options: Options
     frames: int = 1  # frames of the input, known when frames="all"
-    #: (frame, format, path) of every output, as named when planned (--out-dir, beside the
-    #: input, --name); empty for -o FILE, whose outputs derive from ``output``
-    targets: tuple[tuple[int, str, Path], ...] = ()
+    #: (frame, format, path, sprite) of every output, as named when planned (--out-dir, beside
+    #: the input, --name; sprite: a sheet's sprite, or None); empty for -o FILE, whose outputs
+    #: derive from ``output``
+    targets: tuple[tuple[int, str, Path, str | None], ...] = ()
 
 
 #: Outcome states: converted/up to date/failed are in ``written``/``up_to_date``/``error``.
@@ -86,14 +88,60 @@ def current_traceback() -> str:
     return traceback.format_exc()
 
 
-def frame_targets(job: Job) -> list[tuple[int, str, Path]]:
-    """(frame index, format, output path) of every output of a job."""
+def frame_targets(job: Job) -> list[tuple[int, str, Path, str | None]]:
+    """(frame index, format, output path, sprite) of every output of a job."""
     if job.targets:
         return list(job.targets)
     opt, fmt = job.options, job.options.formats[0]
     if opt.frames == "all":
-        return [(frame, fmt, path) for frame, path in enumerate(files.frame_outputs(job.output, job.frames))]
-    return [(0 if opt.frames == "first" else int(opt.frames), fmt, job.output)]
+        return [(frame, fmt, path, None) for frame, path in enumerate(files.frame_outputs(job.output, job.frames))]
+    return [(0 if opt.frames == "first" else int(opt.frames), fmt, job.output, None)]
+
+
+def chosen_frames(source: ImageSource, options: Options, name: str) -> list[int]:
+    """The frames of ``source`` to convert: ``--frames first`` the first, ``N`` frame N,
+    ``all`` every one (counted from the header, at most ``max_frames``); with ``--tag``, the
+    frames of that Aseprite tag (``all``: each once, in the file's order; ``first``: the
+    first it plays)."""
+    if options.tag is not None:
+        from depixel.prepare.aseprite import is_aseprite, parse_aseprite, tag_frames  # noqa: PLC0415 (~15 ms)
+        from depixel.prepare.image import read_source  # noqa: PLC0415
+
+        data = read_source(source)
+        if not is_aseprite(data):
+            raise InputError(f"{name}: not an Aseprite file, so it has no tags for --tag")
+        ase = parse_aseprite(data, name, None)
+        played = tag_frames(ase, options.tag, name=name)  # (--frames all then checks every frame's limits)
+        return sorted(set(played)) if options.frames == "all" else played[:1]
+    if options.frames == "all":
+        return list(range(frame_count(source, options.convert.limits.max_frames, name=name)))
+    return [0 if options.frames == "first" else int(options.frames)]
+
+
+def numbered(output: Path, frames: list[int]) -> list[Path]:
+    """The outputs of ``frames`` named after ``output``: ``name-004.svg``, … (the frame
+    numbers, at least 3 digits: :func:`depixel.files.convert.frame_outputs` for every frame);
+    one frame keeps the plain name."""
+    if len(frames) == 1:
+        return [output]
+    digits = max(3, len(str(max(frames))))
+    return [output.with_name(f"{output.stem}-{frame:0{digits}d}{output.suffix}") for frame in frames]
+
+
+def listed(job: Job) -> Job:
+    """A ``-o FILE`` job with its frames known: counted (``--frames all``) or the tag's, which
+    are named by :func:`numbered` (its outputs then planned like a batch's)."""
+    opt = job.options
+    if job.targets:
+        return job
+    if opt.tag is not None:
+        frames = chosen_frames(job.source, opt, display_name(job.source))
+        fmt = opt.formats[0]
+        return replace(job, frames=len(frames), targets=tuple((frame, fmt, path, None) for frame, path in
+                                                              zip(frames, numbered(job.output, frames))))
+    if opt.frames == "all" and job.frames == 0:  # not counted when planned (a single -o)
+        return replace(job, frames=frame_count(job.source, opt.convert.limits.max_frames))
+    return job
 
 
 def run_job(job: Job) -> Outcome:
@@ -104,8 +152,7 @@ def run_job(job: Job) -> Outcome:
     out = Outcome(job.source, job.output)
     opt = job.options
     try:
-        if opt.frames == "all" and job.frames == 0:  # not counted when planned (a single -o)
-            job = replace(job, frames=frame_count(job.source, opt.convert.limits.max_frames))
+        job = listed(job)
         todo = _outputs_to_make(job, out)
         if todo:
             source = files.InputFile.read(job.source)
@@ -114,14 +161,13 @@ def run_job(job: Job) -> Outcome:
                 on_prepared=lambda frame, target, prepared:
                     record_prepared(out, prepared, source=job.source, target=target))
             out.written, out.seconds, out.sizes = result.written, result.seconds, result.sizes
+            out.notes.extend(note for note in result.notes if note not in out.notes)
             for target, now in result.kept.items():
                 (out.edited if now == stamps.EDITED else out.kept).append(target)
             if result.changed:
                 out.changed = f"{display_name(job.source)}: {files.CHANGED}"
-            if opt.frames == "first" and out.written and \
-                    (n := frame_count(source.data, name=display_name(job.source))) > 1:
-                out.notes.append(f"{display_name(job.source)}: has {n} frames, converted the first "
-                                 "(--frames all converts each)")
+            if out.written:
+                out.notes += frames_note(source.data, display_name(job.source), opt)
         if opt.explicit and (out.kept or out.edited):
             out.error = kept_lines(out)[0][1]
     except DepixelError as exc:
@@ -153,14 +199,26 @@ def kept_lines(out: Outcome) -> list[tuple[str, str]]:
             for target in targets]
 
 
+def frames_note(data: bytes, name: str, options: Options) -> list[str]:
+    """The note on the frames an output holds, when it is not what the input suggests: the
+    first of an animation (without ``--frames``), the one frame of a still (``--animate``)."""
+    if options.frames != "first" or options.tag is not None:  # (a tag's frames are chosen)
+        return []
+    n = frame_count(data, name=name)
+    if options.convert.output.animate:
+        return [f"{name}: a still image, written as its one frame (--animate)"] if n == 1 else []
+    return [f"{name}: has {n} frames, converted the first (--frames all converts each, --animate plays them "
+            "in one file)"] if n > 1 else []
+
+
 def _outputs_to_make(job: Job, out: Outcome) -> list[files.Target]:
     """The outputs to convert; the others are added to ``out.up_to_date`` (made from this
     input with these options), ``out.kept`` (not depixel's) or ``out.edited`` (changed since
     depixel wrote them)."""
     opt = job.options
     todo: list[files.Target] = []
-    for frame, fmt, path in frame_targets(job):
-        target = files.file_target(path, opt.convert, fmt=fmt, frame=frame)
+    for frame, fmt, path, sprite in frame_targets(job):
+        target = files.file_target(path, opt.convert, fmt=fmt, frame=frame, sprite=sprite)
         if _same_file(path, job.source):  # said as the writer says it, before any work
             raise OutputError(f"{display_name(path)}: is the input file; refusing to overwrite it")
         now = stamps.NEW if opt.force else files.output_status(job.source, target)
@@ -187,9 +245,9 @@ def preview(job: Job) -> Outcome:
     write are ``planned``)."""
     out = Outcome(job.source, job.output)
     try:
-        frames = frame_count(job.source, job.options.convert.limits.max_frames if job.options.frames == "all" else None)
-        if job.options.frames == "all" and job.frames == 0:  # the header is read: an unreadable input fails
-            job = replace(job, frames=frames)
+        whole = job.options.frames == "all" or job.options.convert.output.animate
+        frame_count(job.source, job.options.convert.limits.max_frames if whole else None)
+        job = listed(job)  # the header is read: an unreadable input fails
         out.planned = [target.path for target in _outputs_to_make(job, out)]
         if job.options.explicit and (out.kept or out.edited):
             out.error = kept_lines(out)[0][1]
@@ -203,7 +261,7 @@ def already_done(job: Job) -> Outcome | None:
     worker: a rerun of an unchanged batch starts no process), else None."""
     if job.options.force or job.options.explicit or (job.options.frames == "all" and job.frames == 0):
         return None
-    if not all(os.path.exists(target) for *_, target in frame_targets(job)):
+    if not all(os.path.exists(target) for _, _, target, _ in frame_targets(job)):
         return None  # not made yet (a first run): no options stamp to compute (~0.5 ms a file)
     out = Outcome(job.source, job.output)
     try:
@@ -228,7 +286,7 @@ def abandoned(job: Job, begun: int) -> Outcome:
     out = Outcome(job.source, job.output, state=INTERRUPTED)
     if job.options.frames == "all" and job.frames == 0:
         return out
-    out.written = [target for *_, target in frame_targets(job) if written_since(target, begun)]
+    out.written = [target for _, _, target, _ in frame_targets(job) if written_since(target, begun)]
     if len(out.written) == len(frame_targets(job)):
         out.state = DONE
     return out
@@ -247,7 +305,8 @@ def remove_temporary_files(job: Job) -> None:
     """Remove what an abandoned job may have left: the temporary files this run's processes
     made for each of its outputs (``.NAME.depixel-PID-TOKEN.tmp`` with this run's token,
     :mod:`depixel.files.output`), and no other file."""
-    for *_, target in frame_targets(job) if job.options.frames != "all" or job.frames else [(0, "", job.output)]:
+    targets = frame_targets(job) if job.options.frames != "all" or job.frames else [(0, "", job.output, None)]
+    for _, _, target, _ in targets:
         written.remove_temporary(target, job.options.token)
 
 

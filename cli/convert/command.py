@@ -9,13 +9,10 @@ from dataclasses import replace
 from pathlib import Path
 
 from depixel import api
-from depixel.errors import DepixelError, OutputError, display_name
+from depixel.errors import OutputError, display_name
 from depixel.files import convert as files
-from depixel.files import stamp as stamps
 from depixel.limits import DEFAULT_MAX_FRAMES, DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS
 from depixel.pipeline import STAGES
-from depixel.prepare.image import frame_count, load_image, read_source
-from depixel.prepare.inputs import lossy_format
 from depixel.svg.outlines import LAYOUTS
 from depixel.svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
 
@@ -27,27 +24,26 @@ from ..options import (
     check_input_options,
     colour,
     convert_options,
-    error_message,
     int_range,
     positive_float,
     positive_int,
     tolerance,
 )
-from ..streams import print_stdout, stdin_closed, write_stdout
+from ..streams import print_stdout, stdin_closed
 from .batch import (
     DONE,
     Job,
     Options,
     Outcome,
-    current_traceback,
     kept_lines,
     preview,
-    record_prepared,
     summary,
     totals_line,
 )
-from .inputs import DEFAULT_NAME, expand_inputs, make_folders, name_template, plan
+from .inputs import DEFAULT_NAME, SHEET_NAME, expand_inputs, make_folders, name_template, plan
 from .run import Progress, Repeats, auto_jobs, cores, run
+from .sheets import add_sheet_options, check_sheet_options
+from .stream import convert_stream
 
 DESCRIPTION = """\
 examples:
@@ -55,10 +51,14 @@ examples:
   depixel convert sprite.png -o sprite.png --scale 8    rendered 8x as PNG (or .pdf)
   depixel convert icons/ -r --out-dir svg/ -j 4         a whole folder tree, 4 files at a time
   depixel convert 'art/*.gif' --out-dir out --frames all    every frame: name-000.svg, ...
+  depixel convert walk.gif -o walk.svg --animate        one SVG that plays every frame (or .png: an APNG)
   depixel convert art/ --out-dir out --format svg,png --name '{stem}-{suffix}'   two formats
   cat sprite.png | depixel convert - -o - > sprite.svg  stdin to stdout
   depixel convert sprite.png -o cells.svg --stage cells     only the reshaped pixel cells
   depixel convert ghost_x4.jpg -o ghost.svg --transparent auto   upscaled JPEG on a backdrop
+  depixel convert sheet.png --sheet auto -o sheet.svg   a sprite sheet: a layer per sprite
+  depixel convert sheet.png --sheet 32x32+2 --out-dir out   a file per sprite: sheet-r0c0.svg, ...
+  depixel convert hero.aseprite --tag walk --frames all --out-dir out   an Aseprite tag's frames
 
 Convert pixel art to SVG, PNG or PDF (Kopf & Lischinski, Depixelizing Pixel Art, 2011).
 Upscaled pixel art is detected and converted at 1x, the SVG laid over the input (same
@@ -130,7 +130,8 @@ def add_parser(sub, name: str, help: str) -> None:
     out.add_argument("--name", type=template_option, metavar="TEMPLATE",
                      help="name of each output without -o, the format's extension added: {stem} (the "
                           "input's name without extension, the default), {suffix} (its extension without the "
-                          "dot), {frame} (the frame number, 000, 001, ...); e.g. --name '{stem}-{suffix}'")
+                          "dot), {frame} (the frame number, 000, 001, ...), {sprite} (with --sheet: a file per "
+                          "sprite, its name; the default there is {stem}-{sprite}); e.g. --name '{stem}-{suffix}'")
     size = out.add_mutually_exclusive_group()
     size.add_argument("--scale", type=positive_float, default=1.0,
                       help="size as a multiple of the input's size: SVG width/height, PNG pixels, PDF size "
@@ -145,6 +146,10 @@ def add_parser(sub, name: str, help: str) -> None:
                           "each shaded region; PNG: the paper's renderer); flat: flat colour bands")
     out.add_argument("--frames", type=frames_option, default="first", metavar="first|all|N",
                      help="frames of an animated image: the first (default), all (name-000.svg, ...) or frame N")
+    out.add_argument("--animate", action="store_true",
+                     help="every frame of an animated GIF, APNG, WebP or Aseprite file in one output, in the file's "
+                          "timing: an SVG with a layer a frame that plays in browsers (other renderers show the "
+                          "first), or an animated PNG; a still image is its one frame (no PDF)")
     out.add_argument("--stage", choices=STAGES, default="optimized",
                      help="stop at this pipeline stage (default: optimized, the final result)")
     out.add_argument("--precision", type=int_range(0, 12), default=DEFAULT_PRECISION, metavar="N",
@@ -164,6 +169,7 @@ def add_parser(sub, name: str, help: str) -> None:
     out.add_argument("--max-frames", type=positive_int, default=DEFAULT_MAX_FRAMES, metavar="N",
                      help=f"refuse animations of more frames with --frames all, and frame numbers from N on "
                           f"(default {DEFAULT_MAX_FRAMES}); --max-pixels counts the frames' pixels in all")
+    add_sheet_options(p)
     batch = p.add_argument_group("many files")
     batch.add_argument("-r", "--recursive", action="store_true", help="also convert the images in subfolders")
     batch.add_argument("--force", action="store_true",
@@ -190,13 +196,13 @@ def add_parser(sub, name: str, help: str) -> None:
 def run_convert(args: argparse.Namespace) -> int:
     parser = args.parser
     formats = _check_destination(args)
-    options = Options(convert_options(args), formats, args.frames, force=args.force)
+    options = Options(convert_options(args), formats, args.frames, force=args.force, tag=args.tag)
 
     start = time.perf_counter()
     signals = args.signals
     args.repeats = Repeats()
     if args.inputs == ["-"] or args.output == "-":
-        outcome = _convert_stream(args.inputs[0], args.output, options)
+        outcome = convert_stream(args.inputs[0], args.output, options)
         _report(outcome, Progress(0), args)
         outcomes = [outcome]
     elif args.output is not None:
@@ -236,6 +242,9 @@ def _check_destination(args: argparse.Namespace) -> tuple[str, ...]:
         parser.error("- reads the image from standard input, which is closed")
     if args.output == "-" and (args.frames == "all" or args.json):
         parser.error("-o - writes one image to stdout: no --frames all or --json with it")
+    if args.animate and args.frames != "first":
+        parser.error(f"--animate writes every frame into one file; --frames {args.frames} picks frames for a file "
+                     "each: give one of them")
     if args.dry_run and (args.output == "-" or "-" in args.inputs):
         parser.error("--dry-run looks at output files: not with - (stdin or stdout)")
     if args.out_dir is not None and args.out_dir.exists() and not args.out_dir.is_dir():
@@ -244,17 +253,22 @@ def _check_destination(args: argparse.Namespace) -> tuple[str, ...]:
         parser.error("--dask converts batches: use it with --out-dir DIR (or without -o)")
     if args.output is not None and args.name is not None:
         parser.error("-o FILE names the output itself; --name names those of --out-dir DIR or beside the input")
+    check_sheet_options(args)
     check_input_options(args)
     if args.output is not None and args.format is not None and len(args.format) > 1:
         parser.error("-o writes one file in one format; for several formats use --out-dir DIR or no -o "
                      "(each output is then written beside its input)")
     if args.output in (None, "-"):
-        return args.format or ("svg",)
-    try:
-        fmt = files.output_format(args.output, args.format and args.format[0])
-    except OutputError as exc:
-        parser.error(str(exc).replace("the format", "--format").replace("give --format", "use --format"))
-    return (fmt,)
+        formats = args.format or ("svg",)
+    else:
+        try:
+            formats = (files.output_format(args.output, args.format and args.format[0]),)
+        except OutputError as exc:
+            parser.error(str(exc).replace("the format", "--format").replace("give --format", "use --format"))
+    if args.animate and "pdf" in formats:
+        parser.error("--animate writes an SVG or a PNG (an animated PNG); a PDF cannot play frames: convert one "
+                     "with --frames N")
+    return formats
 
 
 def _convert_batch(args: argparse.Namespace, options: Options) -> list[Outcome]:
@@ -262,7 +276,8 @@ def _convert_batch(args: argparse.Namespace, options: Options) -> list[Outcome]:
     progress bar."""
     beside = args.out_dir is None
     found, problems = expand_inputs(args.inputs, args.recursive, exclude=args.out_dir, skip_outputs=beside)
-    jobs, failed = plan(found, args.out_dir, options, args.name or DEFAULT_NAME)
+    sheet = options.convert.output.is_sheet
+    jobs, failed = plan(found, args.out_dir, options, args.name or (SHEET_NAME if sheet else DEFAULT_NAME))
     if args.dry_run:  # no folder made, nothing written
         outcomes = failed + [Outcome(Path(arg), error=text) for arg, text in problems] + [preview(j) for j in jobs]
         _list_planned(outcomes, args)
@@ -286,63 +301,6 @@ def _convert_batch(args: argparse.Namespace, options: Options) -> list[Outcome]:
         for line in args.repeats.lines():
             progress.message(line)
         progress.close()
-
-
-def _convert_stream(source: str, output: str, options: Options) -> Outcome:
-    """Convert stdin and/or to stdout (all in this process); never raises. Files written
-    from stdin are stamped (without an input identity: never up to date) and, like any
-    ``-o FILE``, overwrite only what depixel wrote unless ``--force``."""
-    out = Outcome(Path(source))
-    try:
-        data = files.InputFile(None, read_source(sys.stdin.buffer)) if source == "-" else \
-            files.InputFile.read(source)
-        if output == "-":
-            _to_stdout(data, options, out)
-        else:
-            _stream_to_files(data, Path(output), options, out)
-        if options.frames == "first" and (n := frame_count(data.data, name=data.name)) > 1:
-            out.notes.append(f"{data.name}: has {n} frames, converted the first (--frames all converts each)")
-    except DepixelError as exc:
-        out.error, out.traceback = error_message(exc), current_traceback()
-    return out
-
-
-def _to_stdout(source: files.InputFile, options: Options, out: Outcome) -> None:
-    """``-o -``: one frame's SVG, PNG or PDF on stdout, unstamped."""
-    frame = 0 if options.frames == "first" else int(options.frames)
-    fmt, limits = options.formats[0], options.convert.limits
-    rgba = load_image(source.data, limits.max_pixels, frame, max_frames=limits.max_frames, name=source.name)
-    blob = api.conversions(rgba, {fmt: None}, options.convert, name=source.name,
-                           title=None if source.path is None else source.path.name, lossy=lossy_format(source.data),
-                           on_prepared=lambda prepared: record_prepared(out, prepared, source.name, "-"))[fmt]
-    if fmt != "svg" and sys.stdout is not None and sys.stdout.isatty():
-        raise OutputError(f"refusing to write binary {fmt.upper()} to a terminal")
-    write_stdout(blob)
-
-
-def _stream_to_files(source: files.InputFile, output: Path, options: Options, out: Outcome) -> None:
-    """stdin to ``-o FILE`` (every frame's file with ``--frames all``), all or none."""
-    if options.frames == "all":
-        frames = list(enumerate(files.frame_outputs(output, frame_count(
-            source.data, options.convert.limits.max_frames, name=source.name))))
-    else:
-        frames = [(0 if options.frames == "first" else int(options.frames), output)]
-    targets = [files.file_target(path, options.convert, fmt=options.formats[0], frame=frame) for frame, path in frames]
-    for target in targets:
-        now = stamps.NEW if options.force else stamps.replaceable(target.path)
-        (out.kept if now == stamps.UNSTAMPED else out.edited if now == stamps.EDITED else []).append(target.path)
-    if out.kept or out.edited:
-        out.error = kept_lines(out)[0][1]
-        return
-    result = files.convert_frames(source, targets, options.convert, every_frame=options.frames == "all",
-                                  token=options.token, overwrite=options.force,
-                                  on_prepared=lambda frame, target, prepared:
-                                      record_prepared(out, prepared, source.name, target))
-    out.written, out.seconds, out.sizes = result.written, result.seconds, result.sizes
-    for path, now in result.kept.items():
-        (out.edited if now == stamps.EDITED else out.kept).append(path)
-    if out.kept or out.edited:
-        out.error = kept_lines(out)[0][1]
 
 
 def _report(outcome: Outcome, progress: Progress, args: argparse.Namespace, step: bool = True) -> None:

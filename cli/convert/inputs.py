@@ -12,17 +12,16 @@ import string
 from pathlib import Path
 
 from depixel.errors import DepixelError, display_name
-from depixel.files import convert as files
 from depixel.files import stamp as stamps
 from depixel.files.output import make_folders as make_folder_and_parents
-from depixel.prepare.image import frame_count
+from depixel.prepare.image import load_image
 
 from ..options import error_message
-from .batch import Job, Options, Outcome
+from .batch import Job, Options, Outcome, chosen_frames, numbered
 
 #: File extensions taken from folders and globs (explicitly named files are always tried).
 IMAGE_SUFFIXES = frozenset({".png", ".gif", ".bmp", ".webp", ".tga", ".tif", ".tiff", ".ppm", ".pgm",
-                            ".pbm", ".pcx", ".ico", ".jpg", ".jpeg", ".qoi"})
+                            ".pbm", ".pcx", ".ico", ".jpg", ".jpeg", ".qoi", ".aseprite", ".ase"})
 
 
 def expand_inputs(args: list[str], recursive: bool, exclude: Path | None = None,
@@ -122,8 +121,22 @@ def _glob_base(pattern: str) -> Path:
 
 
 #: the fields of ``--name TEMPLATE`` (docs/cli.md)
-NAME_FIELDS = ("stem", "suffix", "frame")
+NAME_FIELDS = ("stem", "suffix", "frame", "sprite")
 DEFAULT_NAME = "{stem}"
+#: the default name with ``--sheet`` or ``--sheet-json``: a file per sprite
+SHEET_NAME = "{stem}-{sprite}"
+
+
+def uses(name: str, field: str) -> bool:
+    """Whether the template ``name`` places ``{field}``."""
+    return any(found == field for _, found, _, _ in string.Formatter().parse(name))
+
+
+def file_part(sprite: str) -> str:
+    """A sprite's name as part of a file name: a folder separator (TexturePacker's
+    ``hero/walk_01``) becomes ``_``, as does a leading dot."""
+    text = sprite.replace("/", "_").replace("\\", "_")
+    return "_" + text[1:] if text.startswith(".") else text
 
 
 def name_template(text: str) -> str:
@@ -139,7 +152,7 @@ def name_template(text: str) -> str:
             raise ValueError(f"{text!r}: unknown field {{{field}}}; use {fields}")
         if field is not None and (spec or conversion):
             raise ValueError(f"{text!r}: the fields take no format ({{{field}}} as it is); use {fields}")
-    sample = text.format(stem="a", suffix="png", frame="000")
+    sample = text.format(stem="a", suffix="png", frame="000", sprite="r0c0")
     if "/" in sample or "\\" in sample:
         raise ValueError(f"{text!r}: a name, not a folder (outputs go to --out-dir DIR or beside their input)")
     if not sample.strip(". "):
@@ -147,27 +160,24 @@ def name_template(text: str) -> str:
     return text
 
 
-def output_targets(source: Path, folder: Path, options: Options, n_frames: int,
-                   name: str = DEFAULT_NAME) -> tuple[tuple[int, str, Path], ...]:
-    """(frame, format, path) of every output of ``source`` in ``folder``: ``name`` filled in
-    (``{stem}``, ``{suffix}`` the input's extension without the dot, ``{frame}`` the frame
-    number, 000, 001, …) plus each format's extension. Several frames and no ``{frame}``
-    in the name: ``name-000.svg``, ``name-001.svg``, …"""
-    if options.frames == "all":
-        frames = list(range(n_frames))
-    else:
-        frames = [0 if options.frames == "first" else int(options.frames)]
+def output_targets(source: Path, folder: Path, options: Options, frames: list[int], name: str = DEFAULT_NAME,
+                   sprites: tuple[str, ...] = ()) -> tuple[tuple[int, str, Path, str | None], ...]:
+    """(frame, format, path, sprite) of every output of ``source`` in ``folder``: ``name``
+    filled in (``{stem}``, ``{suffix}`` the input's extension without the dot, ``{frame}``
+    the frame number, 000, 001, …, ``{sprite}`` each of a sheet's ``sprites``) plus each
+    format's extension. Several frames and no ``{frame}`` in the name: ``name-000.svg``,
+    ``name-001.svg``, … (:func:`~depixel_cli.convert.batch.numbered`)."""
     digits = max(3, len(str(max(frames))))
-    uses_frame = any(field == "frame" for _, field, _, _ in string.Formatter().parse(name))
     targets = []
     for fmt in options.formats:
-        named = [(frame, name.format(stem=source.stem, suffix=source.suffix[1:], frame=f"{frame:0{digits}d}"))
-                 for frame in frames]
-        if len(frames) > 1 and not uses_frame:
-            paths = files.frame_outputs(folder / f"{named[0][1]}.{fmt}", len(frames))
-        else:
-            paths = [folder / f"{stem}.{fmt}" for _, stem in named]
-        targets += [(frame, fmt, path) for frame, path in zip(frames, paths)]
+        for sprite in sprites or (None,):
+            named = [(frame, name.format(stem=source.stem, suffix=source.suffix[1:], frame=f"{frame:0{digits}d}",
+                                         sprite="" if sprite is None else file_part(sprite))) for frame in frames]
+            if len(frames) > 1 and not uses(name, "frame"):
+                paths = numbered(folder / f"{named[0][1]}.{fmt}", frames)
+            else:
+                paths = [folder / f"{stem}.{fmt}" for _, stem in named]
+            targets += [(frame, fmt, path, sprite) for frame, path in zip(frames, paths)]
     return tuple(sorted(targets, key=lambda target: target[0]))  # frame by frame, formats as given
 
 
@@ -176,27 +186,31 @@ def plan(found: list[tuple[Path, Path]], out_dir: Path | None, options: Options,
     """One job per input, its outputs under ``out_dir`` at the same relative place, or
     beside the input when ``out_dir`` is None, named by ``name`` (:func:`output_targets`).
 
-    With ``frames="all"`` the frames of each input are counted here, so the names compared
-    are the real ones (an animation gives ``name-000.svg``, … and a still image
-    ``name.svg``). Inputs whose outputs would be another input or another input's output
-    fail here; the first input (in the order given) keeps the name.
+    With ``frames="all"`` (or a tag) the frames of each input are counted here, so the names
+    compared are the real ones (an animation gives ``name-000.svg``, … and a still image
+    ``name.svg``); a sheet whose name places ``{sprite}`` is cut here, one output a sprite.
+    Inputs whose outputs would be another input or another input's output fail here; the
+    first input (in the order given) keeps the name.
     """
     inputs = {p.resolve() for p, _ in found}
     owner: dict[Path, Path] = {}
     jobs, failed = [], []
     for path, rel in found:
         folder = path.parent if out_dir is None else out_dir / rel.parent
-        n_frames = 1
-        if options.frames == "all":
-            try:
-                n_frames = frame_count(path, options.convert.limits.max_frames)
-            except DepixelError as exc:
-                failed.append(Outcome(path, folder / f"{path.stem}.{options.formats[0]}", error=error_message(exc)))
-                continue
-        targets = output_targets(path, folder, options, n_frames, name)
-        job = Job(path, targets[0][2], options, n_frames, targets)
-        clash = next((target for *_, target in targets if target.resolve() in inputs or target.resolve() in owner),
-                     None)
+        try:
+            frames = chosen_frames(path, options, display_name(path))
+            sprites = sprite_names(path, options, frames[0]) if uses(name, "sprite") else ()
+        except DepixelError as exc:
+            failed.append(Outcome(path, folder / f"{path.stem}.{options.formats[0]}", error=error_message(exc)))
+            continue
+        targets = output_targets(path, folder, options, frames, name, sprites)
+        job = Job(path, targets[0][2], options, len(frames), targets)
+        twice = _written_twice(targets)
+        if twice is not None:
+            failed.append(Outcome(path, job.output, error=f"{display_name(path)}: {twice}"))
+            continue
+        clash = next((target for _, _, target, _ in targets
+                      if target.resolve() in inputs or target.resolve() in owner), None)
         if clash is not None:
             key = clash.resolve()
             reason = "would overwrite an input" if key in inputs else \
@@ -210,9 +224,31 @@ def plan(found: list[tuple[Path, Path]], out_dir: Path | None, options: Options,
             failed.append(Outcome(path, job.output, error=f"{display_name(path)}: output {display_name(clash)} "
                                                          f"{reason}{hint}"))
             continue
-        owner.update((target.resolve(), path) for *_, target in targets)
+        owner.update((target.resolve(), path) for _, _, target, _ in targets)
         jobs.append(job)
     return jobs, failed
+
+
+def sprite_names(path: Path, options: Options, frame: int) -> tuple[str, ...]:
+    """The names of the sprites of the sheet ``path`` (its frame ``frame``), as the options cut it."""
+    limits, name = options.convert.limits, display_name(path)
+    rgba = load_image(path, limits.max_pixels, frame, max_frames=limits.max_frames, name=name)
+    from depixel.prepare.sheet import sheet_of  # noqa: PLC0415 (only for a sheet)
+
+    output = options.convert.output
+    return tuple(sprite.name for sprite in sheet_of(rgba, output.sheet, output.sheet_json, name).sprites)
+
+
+def _written_twice(targets: tuple[tuple[int, str, Path, str | None], ...]) -> str | None:
+    """Why two outputs of one input would be one file (two sprites whose names differ only
+    in a folder separator), or None."""
+    seen: dict[Path, str | None] = {}
+    for _, _, path, sprite in targets:
+        if path in seen:
+            return (f"sprites {seen[path]!r} and {sprite!r} would both be written to {display_name(path)}; "
+                    "name them apart with --name")
+        seen[path] = sprite
+    return None
 
 
 def make_folders(jobs: list[Job]) -> tuple[list[Job], list[Outcome]]:

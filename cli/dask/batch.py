@@ -308,7 +308,8 @@ class _Run:
             close(self.client)
         folders: set[tuple[str, str]] = set()
         for job in self.jobs:
-            folders.update((os.path.realpath(target.parent), job.options.token) for *_, target in frame_targets(job))
+            folders.update((os.path.realpath(target.parent), job.options.token)
+                           for _, _, target, _ in frame_targets(job))
         for folder, token in folders:
             remove_temporary_in(folder, token)
 
@@ -337,13 +338,13 @@ class _Run:
 
 def _absolute(job: Job) -> Job:
     return replace(job, source=job.source.absolute(), output=job.output.absolute(),
-                   targets=tuple((frame, fmt, path.absolute()) for frame, fmt, path in job.targets))
+                   targets=tuple((frame, fmt, path.absolute(), sprite) for frame, fmt, path, sprite in job.targets))
 
 
 def _local(outcome: Outcome, job: Job, sent: Job) -> Outcome:
     """The outcome with the command's own (relative) paths."""
     names = {str(sent.source): str(job.source)}
-    names.update((str(a), str(b)) for (*_, a), (*_, b) in zip(frame_targets(sent), frame_targets(job)))
+    names.update((str(a[2]), str(b[2])) for a, b in zip(frame_targets(sent), frame_targets(job)))
     local = {Path(a): Path(b) for a, b in names.items()}
     outcome.source, outcome.output = job.source, job.output
     outcome.written = [local.get(p, p) for p in outcome.written]

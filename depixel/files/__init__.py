@@ -2,9 +2,8 @@
 
 :mod:`.convert` converts and renders file to file, :mod:`.output` writes atomically (never a
 partial file, never over an input), :mod:`.stamp` records the options that made an output;
-:mod:`.sheet` converts a sprite sheet a sprite at a time, :mod:`.animation` an animation a frame at a time,
-their pipelines run together in passes by :mod:`.ahead`.
+:mod:`.sheet` converts a sprite sheet a sprite at a time.
 """
 
 #: its modules, each imported on first use (``depixel/__init__.py``)
-__all__ = ["ahead", "animation", "convert", "output", "sheet", "stamp"]
+__all__ = ["convert", "output", "sheet", "stamp"]

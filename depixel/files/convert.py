@@ -6,34 +6,45 @@ once (:class:`InputFile`), with its identity at that moment; every output made f
 the stamp of the options and of that identity (:mod:`depixel.files.stamp`), which
 :func:`output_status` compares; a :class:`Target` is one output to make, with the digest of its
 options (:func:`options_digest`). :func:`convert_frames` writes the outputs of several frames of
-one input, all or none.
+one input, all or none; a sprite sheet's targets are its layered file or one sprite each
+(``Target.sprite``).
 """
 from __future__ import annotations
 
 import dataclasses
 import os
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from functools import partial
 from pathlib import Path
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
 from .. import validate
-from ..api import FORMATS, conversions
+from ..api import FORMATS, check_animated_format, conversions, sheet_conversions
 from ..colour import Colour, as_colour
-from ..errors import InputError, OutputError, display_name
+from ..errors import InputError, OutputError, ParameterError, display_name
 from ..frozen import stamp_fields
-from ..limits import DEFAULT_MAX_FRAMES, DEFAULT_MAX_OUTPUT_PIXELS, DEFAULT_MAX_PIXELS, check_rendered_frames
+from ..limits import (
+    DEFAULT_MAX_FRAMES,
+    DEFAULT_MAX_OUTPUT_PIXELS,
+    DEFAULT_MAX_PIXELS,
+    check_rendered_frames,
+    check_sprites,
+)
 from ..options import ConvertOptions
 from ..params import Params
+from ..prepare.animation import Animation, read_animation
 from ..prepare.image import load_frames, load_image, read_source
 from ..prepare.inputs import AUTO, PixelSize, PreparedImage, lossy_format
 from ..svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY
 from . import output as outputs
 from . import stamp as stamps
 from .output import write_atomic
+
+if TYPE_CHECKING:
+    from ..prepare.sheet_json import SheetJson
 
 
 def output_format(path: str | os.PathLike, fmt: str | None = None) -> str:
@@ -72,7 +83,8 @@ def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: P
                  simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
                  transparent: Colour | str | None = None, transparent_everywhere: bool = False,
                  on_prepared: Callable[[PreparedImage], None] | None = None,
-                 max_frames: int | None = DEFAULT_MAX_FRAMES) -> Path:
+                 max_frames: int | None = DEFAULT_MAX_FRAMES, animate: bool = False, sheet: str | None = None,
+                 sheet_json: SheetJson | str | None = None) -> Path:
     """Convert one image file (one frame of it) to an SVG, PNG or PDF file; returns the output path.
 
     The output is written atomically and never replaces ``source``. SVG and PNG output have
@@ -82,13 +94,18 @@ def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: P
     compares. ``denoise=None`` denoises JPEG and lossy WebP files; ``on_prepared`` is called
     with what the preparation found (to report it). An input that changes while it is
     converted raises :class:`InputError` once the output is written (of the version read,
-    stamped as such: never up to date).
+    stamped as such: never up to date). ``animate=True`` writes every frame of an animated
+    GIF, APNG, WebP or Aseprite file into one animated SVG or PNG (docs/animation.md); a
+    still image is its one frame; ``frame`` must then stay 0. ``sheet``/``sheet_json`` write
+    a sprite sheet with a layer per sprite (:func:`depixel.convert`); the stamp digests the
+    JSON's content.
     """
     options = ConvertOptions.build(params, stage=stage, scale=scale, background=background, shading=shading,
                                    precision=precision, width=width, height=height, layout=layout, simplify=simplify,
                                    pixel_size=pixel_size, denoise=denoise, transparent=transparent,
                                    transparent_everywhere=transparent_everywhere, max_pixels=max_pixels,
-                                   max_output_pixels=max_output_pixels, max_frames=max_frames)
+                                   max_output_pixels=max_output_pixels, max_frames=max_frames, animate=animate,
+                                   sheet=sheet, sheet_json=sheet_json)
     target = file_target(output, options, fmt=fmt, frame=frame)
     result = convert_frames(InputFile.read(source), [target], options,
                             on_prepared=None if on_prepared is None else lambda frame, target, p: on_prepared(p))
@@ -151,39 +168,50 @@ class Written:
     seconds: dict[Path, float] = dataclasses.field(default_factory=dict)  # each output's share of the work
     sizes: dict[Path, int] = dataclasses.field(default_factory=dict)  # bytes of each output
     changed: bool = False  # the input changed during the conversion
+    notes: list[str] = dataclasses.field(default_factory=list)  # what was found (a sheet's sprites), each once
 
 
 class Target(NamedTuple):  # (a NamedTuple: ~0.05 ms to define at each start, a dataclass ~0.5 ms)
-    """One output file to make: where, in which format, of which frame, and the digest of the
-    options that make it (:func:`options_digest`: its stamp's OPTIONS)."""
+    """One output file to make: where, in which format, of which frame (and which sprite of
+    a sheet), and the digest of the options that make it (:func:`options_digest`: its
+    stamp's OPTIONS)."""
 
     path: Path
     fmt: str  # svg, png or pdf
     frame: int
     digest: str
+    sprite: str | None = None  # one sprite of a sheet (its name); None: the whole image (a sheet: a layer each)
 
 
 def file_target(output: str | os.PathLike, options: ConvertOptions, *, fmt: str | None = None,
-                frame: int = 0) -> Target:
+                frame: int = 0, sprite: str | None = None) -> Target:
     """The :class:`Target` ``output`` (its format from its extension, or ``fmt``) of frame
-    ``frame`` converted with ``options``."""
+    ``frame`` (of its sprite ``sprite``, with a sheet's options) converted with ``options``."""
     fmt = output_format(output, fmt)
     frame = int(validate.number("frame", frame, low=0, integer=True))
-    return Target(Path(output), fmt, frame, options_digest(options, fmt, frame))
+    check_animated_format(fmt, options)
+    if frame and options.output.animate:
+        raise ParameterError(f"animate writes every frame into one file; frame={frame} picks one: give one of them",
+                             parameter="frame")
+    if sprite is not None and not options.output.is_sheet:
+        raise ParameterError("a sprite's output needs the sheet's options (sheet or sheet_json)", parameter="sprite")
+    return Target(Path(output), fmt, frame, options_digest(options, fmt, frame, sprite), sprite)
 
 
-def options_digest(options: ConvertOptions, fmt: str, frame: int) -> str:
+def options_digest(options: ConvertOptions, fmt: str, frame: int, sprite: str | None = None) -> str:
     """The stamp's OPTIONS of an output (:func:`depixel.files.stamp.options_stamp`): depixel's
-    version, the output's format and frame, the paper's parameters and every field of the
-    prepare and output options (:func:`depixel.frozen.stamp_fields`: a new field is digested
-    unless its metadata says when to leave it out), less what this format does not use."""
+    version, the output's format, frame and sprite (when one), the paper's parameters and every
+    field of the prepare and output options (:func:`depixel.frozen.stamp_fields`: a new field
+    is digested unless its metadata says when to leave it out), less what this format does
+    not use."""
     output = stamp_fields(options.output)
     if fmt == "pdf":
         output["shading"] = None  # a PDF has the flat bands
     elif fmt == "png" and options.output.shading == "smooth":  # the smooth renderer ignores the SVG's settings
         output.update(precision=None, layout=None, simplify=None)
+    mine = {} if sprite is None else {"sprite": sprite}
     return stamps.options_stamp(fmt=fmt, frame=frame, params=dataclasses.asdict(options.params),
-                                **output, **stamp_fields(options.prepare))
+                                **output, **stamp_fields(options.prepare), **mine)
 
 
 def convert_frames(source: InputFile, targets: Sequence[Target], options: ConvertOptions, *,
@@ -195,7 +223,9 @@ def convert_frames(source: InputFile, targets: Sequence[Target], options: Conver
     place together once every one is made (a failure in frame k leaves no partial set).
     ``every_frame``: the input is an animation converted whole (its frames decoded in order,
     checked against ``max_frames`` and, in all, ``max_pixels``; PNG frames' pixels in all
-    against ``max_output_pixels``, before each is converted). Without ``overwrite``, an
+    against ``max_output_pixels``, before each is converted). With ``options.output.animate``
+    the targets (of frame 0) each hold every frame (:func:`depixel.api.animated`), within
+    the same limits. Without ``overwrite``, an
     output that became unstamped or edited while converting is kept. ``token``: the run's
     (:mod:`depixel.files.output`). The outputs are stamped with the input's identity as read;
     whether it changed meanwhile is in the result."""
@@ -203,12 +233,17 @@ def convert_frames(source: InputFile, targets: Sequence[Target], options: Conver
     by_frame: dict[int, list[Target]] = {}
     for target in targets:
         by_frame.setdefault(target.frame, []).append(target)
-    frames = load_frames(source.data, limits.max_pixels, max_frames=limits.max_frames, name=name) if every_frame \
-        else ((frame, load_image(source.data, limits.max_pixels, frame, max_frames=limits.max_frames, name=name))
-              for frame in by_frame)
+    frames: Iterable[tuple[int, np.ndarray | Animation]]
+    if options.output.animate:
+        frames = [(0, read_animation(source.data, limits.max_pixels, max_frames=limits.max_frames, name=name))]
+    elif every_frame:
+        frames = load_frames(source.data, limits.max_pixels, max_frames=limits.max_frames, name=name)
+    else:
+        frames = ((frame, load_image(source.data, limits.max_pixels, frame, max_frames=limits.max_frames, name=name))
+                  for frame in by_frame)
     done = Written()
     staged: dict[Path, outputs.Staged | None] = {}  # None: a device, written in place
-    pngs = sum(target.fmt == "png" for target in targets)
+    pngs = sum(target.fmt == "png" and target.sprite is None for target in targets)  # (a sheet's sprites': _converted)
     try:
         began, rendered, pngs_done = time.perf_counter(), 0, 0
         for frame, rgba in frames:
@@ -216,14 +251,15 @@ def convert_frames(source: InputFile, targets: Sequence[Target], options: Conver
                 continue
             wanted = by_frame[frame]
             for target in wanted:
-                if target.fmt == "png" and pngs > 1:  # the PNGs' pixels in all, this one's size
-                    height, width = rgba.shape[:2]  # for each of those still to come
+                if target.fmt == "png" and target.sprite is None and pngs > 1 and isinstance(rgba, np.ndarray):
+                    height, width = rgba.shape[:2]  # the PNGs' pixels in all, this one's for each still to come
                     scale = options.output.scale_for(width, height)
                     each = max(1, round(width * scale)) * max(1, round(height * scale))
                     check_rendered_frames(name, pngs, rendered + each * (pngs - pngs_done), limits.max_output_pixels)
                     rendered, pngs_done = rendered + each, pngs_done + 1
             blobs = _converted(rgba, source, wanted, options,
-                               None if on_prepared is None else partial(on_prepared, frame, wanted[0].path))
+                               None if on_prepared is None else partial(on_prepared, frame, wanted[0].path),
+                               done.notes)
             protect = () if source.path is None else (source.path,)
             seconds = (time.perf_counter() - began) / len(wanted)
             for target, blob in zip(wanted, blobs):
@@ -241,16 +277,57 @@ def convert_frames(source: InputFile, targets: Sequence[Target], options: Conver
     return done
 
 
-def _converted(rgba: np.ndarray, source: InputFile, wanted: Sequence[Target], options: ConvertOptions,
-               on_prepared: Callable[[PreparedImage], None] | None) -> list[bytes]:
-    """The stamped bytes of each output of a frame: decoded pixels of ``source`` converted
-    once (the file's own format says whether it is lossy: JPEG and lossy WebP are denoised
-    unless ``denoise`` says otherwise)."""
-    drafts = {target.fmt: stamps.text(target.digest, source.identity) for target in wanted}
-    blobs = conversions(rgba, drafts, options, name=source.name,
-                        title=None if source.path is None else source.path.name,
-                        lossy=lossy_format(source.data), on_prepared=on_prepared)
-    return [stamps.embed(blobs[target.fmt], target.fmt, target.digest, source.identity) for target in wanted]
+def _converted(rgba: np.ndarray | Animation, source: InputFile, wanted: Sequence[Target], options: ConvertOptions,
+               on_prepared: Callable[[PreparedImage], None] | None, notes: list[str]) -> list[bytes]:
+    """The stamped bytes of each output of a frame (or of an animation): decoded pixels of
+    ``source`` converted once (the file's own format says whether it is lossy: JPEG and lossy
+    WebP are denoised unless ``denoise`` says otherwise). A sheet is cut once: its layered
+    outputs and each sprite's (its crop converted with the sheet's options left out) are made
+    from it, and what was found is added to ``notes``."""
+    title = None if source.path is None else source.path.name
+    lossy = lossy_format(source.data)
+    if not options.output.is_sheet or isinstance(rgba, Animation):  # (the options refuse animate with a sheet)
+        drafts = {target.fmt: stamps.text(target.digest, source.identity) for target in wanted}
+        blobs = conversions(rgba, drafts, options, name=source.name, title=title, lossy=lossy,
+                            on_prepared=on_prepared)
+        return [stamps.embed(blobs[target.fmt], target.fmt, target.digest, source.identity) for target in wanted]
+    from ..prepare.sheet import sheet_of  # noqa: PLC0415 (~10 ms of imports: only for a sheet)
+
+    sheet = sheet_of(rgba, options.output.sheet, options.output.sheet_json, source.name)
+    if (line := f"{source.name}: {sheet.description}") not in notes:
+        notes.append(line)
+    by_name = {sprite.name: sprite for sprite in sheet.sprites}
+    groups: dict[str | None, dict[str, Target]] = {}
+    for target in wanted:
+        groups.setdefault(target.sprite, {})[target.fmt] = target
+    chosen = [by_name[name] for name in groups if name in by_name]
+    if len(chosen) < len(groups) - (None in groups):
+        missing = next(name for name in groups if name is not None and name not in by_name)
+        raise InputError(f"{source.name}: has no sprite {missing!r} (any more); its sprites: "
+                         f"{', '.join(by_name)}")
+    limits = options.limits
+    check_sprites(source.name, len(chosen), sum(s.width * s.height for s in chosen), limits.max_pixels,
+                  limits.max_frames)
+    pngs = [by_name[target.sprite] for target in wanted if target.fmt == "png" and target.sprite is not None]
+    if len(pngs) > 1:  # the sprites' PNGs in all, as an animation's frames' are
+        rendered = 0
+        for sprite in pngs:
+            scale = options.output.scale_for(sprite.width, sprite.height)
+            rendered += max(1, round(sprite.width * scale)) * max(1, round(sprite.height * scale))
+        check_rendered_frames(source.name, len(pngs), rendered, limits.max_output_pixels)
+    alone = dataclasses.replace(options, output=dataclasses.replace(options.output, sheet=None, sheet_json=None))
+    made: dict[tuple[str | None, str], bytes] = {}
+    for name, targets in groups.items():
+        drafts = {fmt: stamps.text(target.digest, source.identity) for fmt, target in targets.items()}
+        if name is None:
+            blobs = sheet_conversions(rgba, sheet, drafts, options, name=source.name, title=title, lossy=lossy,
+                                      on_prepared=on_prepared)
+        else:
+            blobs = conversions(rgba[by_name[name].box], drafts, alone, name=f"{source.name} sprite {name}",
+                                title=name, lossy=lossy, on_prepared=on_prepared)
+        made.update(((name, fmt), blob) for fmt, blob in blobs.items())
+    return [stamps.embed(made[target.sprite, target.fmt], target.fmt, target.digest, source.identity)
+            for target in wanted]
 
 
 def output_status(source: str | os.PathLike, target: Target) -> str:

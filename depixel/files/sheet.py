@@ -1,36 +1,38 @@
-"""A sprite sheet converted sprite by sprite → one SVG with a layer per sprite.
+"""A sprite sheet converted sprite by sprite → one SVG with a layer per sprite, of sprites
+given by the caller.
 
-Each sprite is cut from the sheet and converted alone with :func:`depixel.convert` (so its
-shapes never reach into a neighbour; their pipelines run together, some at a time, with the
-bytes of each alone: :mod:`depixel.files.ahead`), then put back at its place as an Inkscape layer
-(:mod:`depixel.svg.layers`). The sprites come from :mod:`depixel.prepare.sheet` (found on
-the sheet, or a grid by size) or :mod:`depixel.prepare.sheet_json`.
+:func:`depixel.convert` with ``sheet=`` or ``sheet_json=`` finds the sprites itself
+(:func:`depixel.api.cut_sheet`); :func:`convert_sheet` takes them as made by hand or by
+:mod:`depixel.prepare.sheet` and :mod:`depixel.prepare.sheet_json`. Each sprite is cut from
+the sheet and converted alone (so its shapes never reach into a neighbour), then put back at
+its place as an Inkscape layer (:func:`depixel.api.sheet_conversions`,
+:mod:`depixel.svg.layers`).
 """
 from __future__ import annotations
 
 from collections.abc import Sequence
 
-from ..api import convert
-from ..errors import InputError, ParameterError
-from ..limits import DEFAULT_MAX_PIXELS
+from ..api import sheet_conversions
+from ..errors import ParameterError
+from ..options import ConvertOptions
 from ..params import Params
 from ..prepare.image import as_rgba
-from ..prepare.sheet import Sprite
-from ..svg.layers import Placed, compose_layers
-from .ahead import converted_ahead
+from ..prepare.sheet import Sheet, Sprite
 
 
 def convert_sheet(image, sprites: Sequence[Sprite], params: Params = Params(), *, scale: float = 1.0,
                   title: str | None = None, **convert_keywords) -> str:
     """Convert each of ``sprites`` (rectangles of ``image``, an array or PIL image of the
     sheet) alone → one SVG of the sheet's size, ``scale`` times, with one layer per sprite
-    named after it. ``convert_keywords`` go to :func:`depixel.convert` for every sprite
-    (``stage``, ``layout``, ``simplify``, ``shading``, ``max_pixels``…; not its size, which
-    is the sheet's). The sprites' pixels in all count against ``max_pixels``."""
-    for key in ("width", "height", "scale"):
+    named after it. ``convert_keywords`` are :func:`depixel.convert`'s for every sprite
+    (``stage``, ``layout``, ``simplify``, ``shading``, ``max_pixels``…; ``width`` and
+    ``height`` size the whole sheet). The sprites count against ``max_frames`` and, in all,
+    ``max_pixels``."""
+    for key in ("sheet", "sheet_json"):
         if key in convert_keywords:
-            raise ParameterError(f"convert_sheet sizes the whole sheet: give scale, not {key} per sprite",
+            raise ParameterError(f"convert_sheet takes the sprites and sizes the whole sheet: no {key}",
                                  parameter=key)
+    options = ConvertOptions.build(params, scale=scale, **convert_keywords)
     rgba = as_rgba(image)
     height, width = rgba.shape[:2]
     if not sprites:
@@ -40,12 +42,5 @@ def convert_sheet(image, sprites: Sequence[Sprite], params: Params = Params(), *
                 sprite.x + sprite.width > width or sprite.y + sprite.height > height:
             raise ParameterError(f"sprite {sprite.name!r} at {sprite.x},{sprite.y} {sprite.width}x{sprite.height} "
                                  f"is not within the {width}x{height} sheet", parameter="sprites")
-    max_pixels = convert_keywords.get("max_pixels", DEFAULT_MAX_PIXELS)
-    total = sum(sprite.width * sprite.height for sprite in sprites)
-    if max_pixels is not None and total > max_pixels:
-        raise InputError(f"{len(sprites)} sprites are {total} pixels in all, over the limit of {max_pixels} "
-                         "(the limit counts every sprite; raise it with max_pixels)", parameter="max_pixels")
-    with converted_ahead([rgba[sprite.box] for sprite in sprites], params, **convert_keywords):  # one pass
-        placed = [Placed(sprite.name, convert(rgba[sprite.box], params, **convert_keywords), sprite.x, sprite.y,
-                         sprite.width, sprite.height) for sprite in sprites]
-    return compose_layers(placed, width, height, scale=scale, title=title)
+    sheet = Sheet(tuple(sprites), None, None, f"{len(sprites)} sprites given")
+    return sheet_conversions(rgba, sheet, {"svg": None}, options, title=title)["svg"].decode("utf-8")

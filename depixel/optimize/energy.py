@@ -34,7 +34,7 @@ SPANS_OF_FEW = 1 << 10
 #: class is a slice of it (a sprite's 3-4 preparations were ~15 % of its relaxation, mostly
 #: their numpy calls); more are prepared class by class, which bounds the preparation's
 #: temporaries on a large image (all at once raised the 512² stripes' peak to ~1245 bytes a
-#: pixel: docs/performance.md)
+#: pixel, benchmarks/memory_per_pixel.py)
 PREPARE_ONCE = 1 << 12
 
 
@@ -125,7 +125,7 @@ class Energy:
         self.halves = ~excluded.T  # (2, P) halves (first, second) of each slot's span counted in E_s
         # the clearance's distances, the largest array of a step, in one buffer kept (and grown)
         # across the steps: a new one each call came from freshly grown heap on a frame (the 3
-        # frames' relaxation: 25,000-30,000 page faults, ~8,600 with the buffer; docs/performance.md)
+        # frames' relaxation: 25,000-30,000 page faults, ~8,600 with the buffer)
         self._distances = np.empty(0)
         self.splines = splines  # protected points are found per class, not held for every slot
         self.protected = protected  # unless given for every slot (P, 3, 2): curves without a cell graph

@@ -221,5 +221,5 @@ def conjugate_gradients(apply: Callable[[np.ndarray, np.ndarray], None], rhs: np
 def row_dots(a: np.ndarray, b: np.ndarray, product: np.ndarray | None = None) -> list[float]:
     """The dot products of the rows of ``a`` and ``b`` (K, M), by numpy's pairwise sum
     (``product`` (K, M): a buffer to work in). An in-order sum (``cumsum``) was 3–6× slower
-    per call, and its last bits did not show in any output (docs/performance.md)."""
+    per call, and its last bits did not show in any output (benchmarks/check_output_stable.py)."""
     return np.add.reduce(np.multiply(a, b, out=product), axis=1).tolist()

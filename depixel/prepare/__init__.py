@@ -1,6 +1,6 @@
 """Input — before the paper: an image file or array → the 1× RGBA pixel art the pipeline takes.
 
-Loads and checks images (:mod:`.image`), finds the grid of art saved upscaled
+Loads and checks images (:mod:`.image`, decoding with :mod:`.pillow`), finds the grid of art saved upscaled
 (:mod:`.pixelgrid`), snaps lossy colours to a palette (:mod:`.palette`, :mod:`.chroma`,
 :mod:`.chroma_unmix`) and makes a backdrop transparent (:mod:`.backdrop`); :mod:`.inputs`
 runs them and gives a :class:`~depixel.prepare.inputs.PreparedImage`. :mod:`.aseprite` reads
@@ -10,4 +10,4 @@ Aseprite files, :mod:`.animation` an animation's frames with their timing (:mod:
 
 #: its modules, each imported on first use (``depixel/__init__.py``)
 __all__ = ["animation", "apng", "aseprite", "aseprite_compose", "aseprite_format", "backdrop", "chroma",
-           "chroma_unmix", "gif", "image", "inputs", "noisy", "palette", "pixelgrid", "sheet", "sheet_json"]
+           "chroma_unmix", "gif", "image", "inputs", "noisy", "palette", "pillow", "pixelgrid", "sheet", "sheet_json"]

@@ -2,17 +2,19 @@
 each shows and how many times the whole plays.
 
 An :class:`Animation` is what every animated output is made from (:mod:`depixel.svg.animation`,
-:mod:`depixel.render.animation`); any reader can make one (GIF, APNG and animated WebP here).
-Timing follows what browsers do, so the SVG plays as the file did:
+:mod:`depixel.render.animation`); any reader can make one (GIF, APNG, animated WebP and
+Aseprite files here). Timing follows what browsers do, so the SVG plays as the file did:
 
 * a frame of 10 ms or less plays as 100 ms (Chromium and Firefox, for every format: files
   that ask for 0 ms mean "as fast as the viewer likes");
 * a GIF's NETSCAPE2.0 block counts *repeats*: none plays once, 0 forever, N plays N + 1 times;
-  APNG's ``num_plays`` and WebP's loop count count *plays*: 0 forever, N plays N times.
+  APNG's ``num_plays`` and WebP's loop count count *plays*: 0 forever, N plays N times;
+* an Aseprite file plays for ever, each frame for its own duration (Aseprite plays 1 ms as 1 ms).
 
 GIF and APNG frames are composited by :mod:`.gif` and :mod:`.apng` (Pillow's own compositing
-departs from browsers' and from the APNG specification there), WebP frames by Pillow
-(libwebp's animation decoder). An APNG's default image that is not part of the animation is
+departs from browsers' and from the APNG specification there; :func:`~.image.load_frames` reads
+the same frames), WebP frames by Pillow (libwebp's animation decoder), Aseprite frames by
+:mod:`.aseprite_compose`. An APNG's default image that is not part of the animation is
 left out, as browsers do.
 """
 from __future__ import annotations
@@ -20,14 +22,15 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
+from collections.abc import Sequence
 
 import numpy as np
 
 from ..errors import InputError
 from ..frozen import compact_repr, freeze
 from ..limits import DEFAULT_MAX_FRAMES, DEFAULT_MAX_PIXELS
-from . import apng, gif
-from .image import ImageSource, _describe, _frames, read_source
+from . import gif
+from .image import ImageSource, _describe, _frames, _is_aseprite, composite, parse_animated, read_source
 
 #: a frame shown this long or shorter (ms) plays as SHORT_FRAME_PLAYS_AS
 SHORT_FRAME_MS = 10.0
@@ -74,6 +77,14 @@ class Animation:
         """Milliseconds of one play of all frames."""
         return float(sum(self.durations))
 
+    def select(self, frames: Sequence[int]) -> Animation:
+        """The animation of the frames at the indices ``frames``, played in that order (a frame
+        may come more than once: a ping-pong), each with its own duration; plays as this one."""
+        indices = list(frames)
+        if not indices or not all(isinstance(i, numbers.Integral) and 0 <= i < len(self.frames) for i in indices):
+            raise InputError(f"frames to play must be indices 0 to {len(self.frames) - 1}, not {indices}")
+        return Animation(tuple(self.frames[i] for i in indices), tuple(self.durations[i] for i in indices), self.plays)
+
     @classmethod
     def still(cls, rgba: np.ndarray) -> Animation:
         """One frame shown once (``--animate`` on a still image)."""
@@ -95,31 +106,33 @@ def gif_plays(loop: int | None) -> int:
 
 
 def read_animation(source: ImageSource, max_pixels: int | None = DEFAULT_MAX_PIXELS, *,
-                   max_frames: int | None = DEFAULT_MAX_FRAMES, name: str | None = None) -> Animation:
-    """Every frame of a GIF, APNG, animated WebP (or any image: a still is one frame) with its
-    timing (module docstring). The limits are those of
-    :func:`depixel.prepare.image.load_frames`: the frames within ``max_frames`` and their pixels
-    in all within ``max_pixels``, checked before a frame is decoded."""
+                   max_frames: int | None = DEFAULT_MAX_FRAMES, name: str | None = None,
+                   frames: Sequence[int] | None = None) -> Animation:
+    """Every frame of a GIF, APNG, animated WebP or Aseprite file (or any image: a still is one
+    frame) with its timing (module docstring). The limits are those of
+    :func:`depixel.prepare.image.load_frames`: the frames within ``max_frames`` and their
+    pixels in all within ``max_pixels``, checked before a frame is decoded. ``frames``: the
+    indices of the frames to play, in their order (an Aseprite tag's range, reversed or
+    ping-pong), :meth:`Animation.select`; None: all."""
     from ..validate import limit  # noqa: PLC0415
 
     max_pixels, max_frames = limit("max_pixels", max_pixels), limit("max_frames", max_frames)
     name = _describe(source, name)
     data = read_source(source)  # read once: a stream cannot be read twice
-    if data.startswith((b"GIF87a", b"GIF89a")):
-        parsed = gif.parse_gif(data, name, max_frames)
-        gif.check_gif(parsed, name, max_pixels)
-        frames = gif.composite(parsed, name)
-        return Animation(tuple(frames), tuple(played_duration(f.delay) for f in parsed.frames), gif_plays(parsed.loop))
-    if apng.is_apng(data):
-        png = apng.parse_apng(data, name, max_frames)
-        apng.check_apng(png, name, max_pixels)
-        return Animation(tuple(apng.composite(png, name)), tuple(played_duration(f.delay) for f in png.frames),
-                         png.plays)
-    frames, durations, plays = [], [], 1
+    parsed = parse_animated(data, name, max_pixels, max_frames)
+    if parsed is not None:
+        plays = gif_plays(parsed.loop) if isinstance(parsed, gif.GifFile) else parsed.plays
+        whole = Animation(tuple(composite(parsed, name)), tuple(played_duration(f.delay) for f in parsed.frames),
+                          plays)
+        return whole if frames is None else whole.select(frames)
+    pictures, durations, plays = [], [], 1
+    aseprite = _is_aseprite(data)
     for _, rgba, info in _frames(data, max_pixels, None, max_frames, name):
-        frames.append(rgba)
-        durations.append(played_duration(info.get("duration")))
-        plays = int(info.get("loop", 1))
-    if len({f.shape for f in frames}) > 1:
+        pictures.append(rgba)
+        # Aseprite's own durations are played as they are, and its animations loop
+        durations.append(float(info["duration"]) if aseprite else played_duration(info.get("duration")))
+        plays = 0 if aseprite else int(info.get("loop", 1))
+    if len({f.shape for f in pictures}) > 1:
         raise InputError(f"{name}: its frames (pages) differ in size; they cannot be one animation")
-    return Animation(tuple(frames), tuple(durations), plays)
+    whole = Animation(tuple(pictures), tuple(durations), plays)
+    return whole if frames is None else whole.select(frames)

@@ -16,12 +16,13 @@ from __future__ import annotations
 import dataclasses
 import struct
 import zlib
+from collections.abc import Iterator
 
 import numpy as np
 
 from ..errors import InputError
 from ..limits import check_frames, check_frames_pixels, check_pixels
-from .image import _open, _quiet_pillow, _to_rgba
+from .pillow import open_image, quiet_pillow, to_rgba
 
 SIGNATURE = b"\x89PNG\r\n\x1a\n"
 #: dispose_op and blend_op values (APNG specification, fcTL)
@@ -120,35 +121,35 @@ def parse_apng(data: bytes, name: str, max_frames: int | None = None) -> ApngFil
     return ApngFile(header, extra, plays, tuple(frames))
 
 
-def check_apng(apng: ApngFile, name: str, max_pixels: int | None) -> None:
+def check_apng(apng: ApngFile, name: str, max_pixels: int | None, whole: bool = True) -> None:
     """The pixel limits, before anything is decoded: the canvas and every frame within
-    ``max_pixels``, the canvas × frames too; a frame must lie inside the canvas (the
-    specification's rule)."""
+    ``max_pixels``, for the ``whole`` animation the canvas × frames too; a frame must lie
+    inside the canvas (the specification's rule)."""
     width, height = apng.size
     check_pixels(name, width, height, max_pixels)
-    check_frames_pixels(name, len(apng.frames), len(apng.frames) * width * height, max_pixels)
+    if whole:
+        check_frames_pixels(name, len(apng.frames), len(apng.frames) * width * height, max_pixels)
     for frame in apng.frames:
         if frame.width == 0 or frame.height == 0 or frame.x + frame.width > width or frame.y + frame.height > height:
             raise InputError(f"{name}: an APNG frame lies outside the image")
 
 
-def composite(apng: ApngFile, name: str) -> list[np.ndarray]:
-    """Every frame as a browser shows it: ``(H, W, 4) uint8`` RGBA each (module docstring)."""
+def composite(apng: ApngFile, name: str) -> Iterator[np.ndarray]:
+    """Every frame as a browser shows it, in order, each decoded when asked for: ``(H, W, 4)
+    uint8`` RGBA each (module docstring)."""
     width, height = apng.size
     canvas = np.zeros((height, width, 4), np.uint8)
-    shown = []
     for index, frame in enumerate(apng.frames):
         rows, cols = slice(frame.y, frame.y + frame.height), slice(frame.x, frame.x + frame.width)
         area = canvas[rows, cols]
         before = area.copy() if frame.dispose == DISPOSE_PREVIOUS and index else None
         pixels = decode_frame(apng, frame, name)
         area[...] = over(pixels, area) if frame.blend == BLEND_OVER else pixels
-        shown.append(canvas.copy())
+        yield canvas.copy()
         if before is not None:
             area[...] = before
         elif frame.dispose in (DISPOSE_BACKGROUND, DISPOSE_PREVIOUS):
             area[...] = 0
-    return shown
 
 
 def over(top: np.ndarray, below: np.ndarray) -> np.ndarray:
@@ -169,9 +170,9 @@ def decode_frame(apng: ApngFile, frame: ApngFrame, name: str) -> np.ndarray:
     one = (SIGNATURE + chunk(b"IHDR", struct.pack(">II", frame.width, frame.height) + apng.header[8:])
            + apng.extra + chunk(b"IDAT", frame.data) + chunk(b"IEND", b""))
     try:
-        with _quiet_pillow(), _open(one, name) as img:
+        with quiet_pillow(), open_image(one, name) as img:
             img.load()
-            return _to_rgba(img, name)
+            return to_rgba(img, name)
     except InputError:
         raise
     except MemoryError:

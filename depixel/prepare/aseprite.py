@@ -8,21 +8,23 @@ which is how :func:`depixel.prepare.image.load_image` and ``load_frames`` read a
 read by :mod:`.aseprite_format`, the frames composited by :mod:`.aseprite_compose`
 (docs/inputs.md, "Aseprite files"). The canvas counts against ``max_pixels``, the frames
 against ``max_frames`` and, all of them read, their pixels in all against ``max_pixels``,
-as for any animation.
+as for any animation. :func:`tag_frames` gives the frames a tag plays, in its order.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import InputError
 from ..limits import DEFAULT_MAX_FRAMES, DEFAULT_MAX_PIXELS
 from .aseprite_compose import aseprite_frames
 from .aseprite_format import AsepriteFile, Layer, PaletteEntry, Slice, SliceKey, Tag, is_aseprite, parse_aseprite
 from .image import ImageSource, _describe, read_source
 
 __all__ = ["Aseprite", "AsepriteFile", "Layer", "PaletteEntry", "Slice", "SliceKey", "Tag", "aseprite_frames",
-           "is_aseprite", "parse_aseprite", "read_aseprite"]
+           "is_aseprite", "parse_aseprite", "read_aseprite", "tag_frames"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,3 +59,22 @@ def read_aseprite(source: ImageSource, *, max_pixels: int | None = DEFAULT_MAX_P
     return Aseprite(width=ase.width, height=ase.height, mode=ase.mode, frames=tuple(frames), durations=ase.durations,
                     tags=ase.tags, palette=ase.palette, layers=ase.layers, slices=ase.slices,
                     pixel_ratio=ase.pixel_ratio)
+
+
+def tag_frames(ase: Aseprite | AsepriteFile | Sequence[Tag], tag: str, *, name: str = "<aseprite>") -> list[int]:
+    """The frames the tag ``tag`` plays, in the order of one pass of its direction (of an
+    :class:`Aseprite`, an :class:`AsepriteFile` or their ``tags``): ``forward`` first to
+    last, ``reverse`` last to first, ``pingpong`` there and back without repeating either
+    end (``[4, 5, 6, 5]``: looped, each frame is shown as Aseprite shows it), ``pingpong
+    reverse`` back and there. An unknown tag is one :class:`InputError` line naming the
+    tags there are (``name`` names the file)."""
+    tags = ase if isinstance(ase, Sequence) else ase.tags
+    found = next((item for item in tags if item.name == tag), None)
+    if found is None:
+        there = f"its tags: {', '.join(repr(item.name) for item in tags)}" if tags else "it has no tags"
+        raise InputError(f"{name}: no tag {tag!r}; {there}", parameter="tag")
+    ahead = list(range(found.first, found.last + 1))
+    order = ahead[::-1] if found.direction in ("reverse", "pingpong reverse") else ahead
+    if found.direction.startswith("pingpong"):
+        order += order[-2:0:-1]
+    return order

@@ -18,13 +18,16 @@ from __future__ import annotations
 import dataclasses
 import io
 import struct
+from collections.abc import Iterator
 
 import numpy as np
 
 from ..errors import InputError
 from ..limits import check_frames, check_frames_pixels, check_pixels
-from .image import _bomb_error, _is_bomb, _quiet_pillow
+from .pillow import bomb_error, is_bomb, quiet_pillow
 
+#: how a GIF starts
+SIGNATURES = (b"GIF87a", b"GIF89a")
 #: disposal methods (GIF89a, Graphic Control Extension): 2 clears the frame's area, 3 restores it
 RESTORE_BACKGROUND, RESTORE_PREVIOUS = 2, 3
 
@@ -59,8 +62,10 @@ def parse_gif(data: bytes, name: str, max_frames: int | None = None) -> GifFile:
     """Walk the blocks of a GIF (no pixel decoded); more than ``max_frames`` images are refused
     as soon as they are found. The file may end after a complete image without its trailer;
     anything else malformed is an :class:`InputError`."""
-    if not data.startswith((b"GIF87a", b"GIF89a")) or len(data) < 13:
+    if not data.startswith(SIGNATURES):
         raise InputError(f"{name}: not a GIF file")
+    if len(data) < 13:
+        raise InputError(f"{name}: not an image (a GIF signature without the header that follows it)")
     width, height, flags = struct.unpack_from("<HHB", data, 6)
     if width == 0 or height == 0:
         raise InputError(f"{name}: image has zero size")
@@ -122,20 +127,21 @@ def _sub_blocks(data: bytes, pos: int) -> tuple[list[bytes], int]:
         pos += 1 + size
 
 
-def check_gif(gif: GifFile, name: str, max_pixels: int | None) -> None:
+def check_gif(gif: GifFile, name: str, max_pixels: int | None, whole: bool = True) -> None:
     """The pixel limits, before anything is decoded: the screen and every image within
-    ``max_pixels``, and the screen × images too (as :func:`depixel.prepare.image.load_frames`
-    counts)."""
+    ``max_pixels``, and, for the ``whole`` animation, the screen × images too (as
+    :func:`depixel.prepare.image.load_frames` counts)."""
     check_pixels(name, gif.width, gif.height, max_pixels)
-    check_frames_pixels(name, len(gif.frames), len(gif.frames) * gif.width * gif.height, max_pixels)
+    if whole:
+        check_frames_pixels(name, len(gif.frames), len(gif.frames) * gif.width * gif.height, max_pixels)
     for frame in gif.frames:
         check_pixels(name, frame.width, frame.height, max_pixels)
 
 
-def composite(gif: GifFile, name: str) -> list[np.ndarray]:
-    """Every frame as a browser shows it: ``(H, W, 4) uint8`` RGBA each (module docstring)."""
+def composite(gif: GifFile, name: str) -> Iterator[np.ndarray]:
+    """Every frame as a browser shows it, in order, each decoded when asked for: ``(H, W, 4)
+    uint8`` RGBA each (module docstring)."""
     canvas = np.zeros((gif.height, gif.width, 4), np.uint8)
-    shown = []
     for frame in gif.frames:
         h = max(0, min(frame.height, gif.height - frame.y))  # the rectangle clipped to the screen
         w = max(0, min(frame.width, gif.width - frame.x))
@@ -146,12 +152,11 @@ def composite(gif: GifFile, name: str) -> list[np.ndarray]:
         drawn = np.ones(indices.shape, bool) if frame.transparent is None else indices != frame.transparent
         area = canvas[rows, cols]
         area[drawn] = colours.take(indices[drawn], axis=0)
-        shown.append(canvas.copy())
+        yield canvas.copy()
         if frame.disposal == RESTORE_BACKGROUND:
             area[...] = 0
         elif before is not None:
             area[...] = before
-    return shown
 
 
 def _colour_table(palette: bytes) -> np.ndarray:
@@ -178,12 +183,12 @@ def decode_indices(frame: GifFrame, name: str) -> np.ndarray:
            + b"," + struct.pack("<HHHHB", 0, 0, frame.width, frame.height, 0x40 if frame.interlaced else 0)
            + frame.data + b";")
     try:
-        with _quiet_pillow(), Image.open(io.BytesIO(one)) as img:
+        with quiet_pillow(), Image.open(io.BytesIO(one)) as img:
             img.load()
             return np.asarray(img, dtype=np.uint8)
     except MemoryError:
         raise InputError(f"{name}: not enough memory to decode a {frame.width}x{frame.height} image") from None
     except Exception as exc:  # Pillow raises OSError, SyntaxError, ValueError, ...
-        if _is_bomb(exc):
-            raise _bomb_error(name) from None
+        if is_bomb(exc):
+            raise bomb_error(name) from None
         raise InputError(f"{name}: truncated or corrupt image data") from None

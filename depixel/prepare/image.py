@@ -1,12 +1,12 @@
 """Stage 0 — input: any image Pillow reads, or an Aseprite file (:mod:`.aseprite`) → RGBA
-uint8 array (the YUV space is in :mod:`depixel.colour`)."""
+uint8 array (the YUV space is in :mod:`depixel.colour`). The frames of a GIF or an APNG are
+those a browser shows (composited by :mod:`.gif` and :mod:`.apng`, not by Pillow), so
+``--frames N`` and ``--animate`` read the same pictures."""
 from __future__ import annotations
 
-import contextlib
-import io
 import os
 import stat
-import warnings
+from collections.abc import Iterator
 from typing import BinaryIO
 
 import numpy as np
@@ -22,9 +22,8 @@ from ..limits import (  # noqa: F401 (DEFAULT_MAX_PIXELS, check_pixels: re-expor
     check_frames_pixels,
     check_pixels,
 )
-
-#: Modes with more than 8 bits per grey sample, scaled by hand (Pillow's convert clips them).
-_WIDE_GREY = ("I;16", "I;16B", "I;16L", "I;16N", "I", "F")
+from . import apng, gif
+from .pillow import bomb_error, is_bomb, mute_stderr_fd, open_image, quiet_pillow, to_rgba
 
 ImageSource = str | os.PathLike | bytes | bytearray | memoryview | BinaryIO
 
@@ -87,7 +86,21 @@ def _frames(source: ImageSource, max_pixels: int | None, only: int | None, max_f
         for index, rgba in aseprite_frames(ase, only, max_pixels, max_frames):
             yield index, rgba, {"duration": ase.durations[index]}  # as Pillow's info gives it
         return
-    with _quiet_pillow(), _open(data, name) as img:
+    if only is not None:
+        check_frame_index(name, only, max_frames)
+    # frame N decodes the N before it, but only all frames are counted in all
+    parsed = parse_animated(data, name, max_pixels, max_frames if only is None else None, whole=only is None)
+    if parsed is not None:
+        delays = [frame.delay for frame in parsed.frames]
+        if only is not None and only >= len(delays):
+            raise InputError(f"{name}: has {len(delays)} frame(s), no frame {only}")
+        for index, rgba in enumerate(composite(parsed, name)):
+            if only is None or index == only:
+                yield index, rgba, {"duration": delays[index]}
+            if index == only:
+                return
+        return
+    with quiet_pillow(), open_image(data, name) as img:
         width, height = img.size
         check_pixels(name, width, height, max_pixels)
         try:
@@ -97,14 +110,12 @@ def _frames(source: ImageSource, max_pixels: int | None, only: int | None, max_f
         if only is None:
             check_frames(name, n_frames, max_frames)
             check_frames_pixels(name, n_frames, n_frames * width * height, max_pixels)
-        else:
-            check_frame_index(name, only, max_frames)
-            if only >= n_frames:
+        elif only >= n_frames:
                 raise InputError(f"{name}: has {n_frames} frame(s), no frame {only}")
         total = 0
         for index in range(n_frames) if only is None else (only,):
             try:
-                with _mute_stderr_fd(img.format == "TIFF"):  # libtiff prints its complaints there
+                with mute_stderr_fd(img.format == "TIFF"):  # libtiff prints its complaints there
                     if index:
                         img.seek(index)  # the next frame after the previous one: no re-reading
                     # a page of a TIFF (or a frame of an APNG) has its own size: check it too
@@ -119,10 +130,10 @@ def _frames(source: ImageSource, max_pixels: int | None, only: int | None, max_f
             except MemoryError:
                 raise InputError(f"{name}: not enough memory to decode a {img.size[0]}x{img.size[1]} image") from None
             except Exception as exc:  # Pillow raises OSError, SyntaxError, ValueError, zlib.error, ...
-                if _is_bomb(exc):
-                    raise _bomb_error(name) from None
+                if is_bomb(exc):
+                    raise bomb_error(name) from None
                 raise InputError(f"{name}: truncated or corrupt image data") from None
-            yield index, _to_rgba(img, name), dict(img.info)
+            yield index, to_rgba(img, name), dict(img.info)
 
 
 def frame_count(source: ImageSource, max_frames: int | None = None, *, name: str | None = None) -> int:
@@ -134,14 +145,41 @@ def frame_count(source: ImageSource, max_frames: int | None = None, *, name: str
         from .aseprite_format import parse_aseprite  # noqa: PLC0415
 
         n_frames = parse_aseprite(data, name, None).n_frames
+    elif (parsed := parse_animated(data, name, None, max_frames, whole=False)) is not None:
+        n_frames = len(parsed.frames)
     else:
-        with _quiet_pillow(), _open(data, name) as img:
+        with quiet_pillow(), open_image(data, name) as img:
             try:
                 n_frames = int(getattr(img, "n_frames", 1))
             except Exception:
                 raise InputError(f"{name}: truncated or corrupt image data") from None
     check_frames(name, n_frames, max_frames)
     return n_frames
+
+
+def parse_animated(data: bytes, name: str, max_pixels: int | None, max_frames: int | None,
+                   whole: bool = True) -> gif.GifFile | apng.ApngFile | None:
+    """A GIF or an APNG walked (nothing decoded) and checked against the limits: its frames
+    within ``max_frames``, the canvas and each frame within ``max_pixels`` and, when the
+    ``whole`` animation is to be decoded, the frames' pixels in all too; None for any other
+    format. :func:`composite` gives its frames."""
+    if data.startswith(gif.SIGNATURES):
+        found = gif.parse_gif(data, name, max_frames)
+        gif.check_gif(found, name, max_pixels, whole)
+        return found
+    if apng.is_apng(data):
+        png = apng.parse_apng(data, name, max_frames)
+        apng.check_apng(png, name, max_pixels, whole)
+        return png
+    return None
+
+
+def composite(parsed: gif.GifFile | apng.ApngFile, name: str) -> Iterator[np.ndarray]:
+    """The frames of a GIF or an APNG of :func:`parse_animated` as a browser shows them, in
+    order, each decoded when asked for."""
+    if isinstance(parsed, gif.GifFile):
+        return gif.composite(parsed, name)
+    return apng.composite(parsed, name)
 
 
 def _is_aseprite(data: bytes) -> bool:
@@ -214,114 +252,6 @@ def _check_kind(name: str, mode: int, regular: bool) -> None:
         raise InputError(f"{name}: is not a regular file")
 
 
-@contextlib.contextmanager
-def _quiet_pillow():
-    """Pillow's warnings (corrupt EXIF, odd chunks) are not shown: the file either loads or
-    fails with one line. Its decompression-bomb warning, given from MAX_IMAGE_PIXELS on (it
-    only raises at twice that), becomes an error."""
-    from PIL import Image
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        warnings.simplefilter("error", Image.DecompressionBombWarning)
-        yield
-
-
-@contextlib.contextmanager
-def _mute_stderr_fd(active: bool):
-    """Point file descriptor 2 at the null device for the duration (C libraries that print
-    directly there); a no-op when not ``active`` or when fd 2 cannot be duplicated."""
-    try:
-        saved = os.dup(2) if active else None
-    except OSError:
-        saved = None
-    if saved is None:
-        yield
-        return
-    try:
-        with open(os.devnull, "wb") as null:
-            os.dup2(null.fileno(), 2)
-        yield
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
-
-
-def _is_bomb(exc: BaseException) -> bool:
-    from PIL import Image
-
-    return isinstance(exc, (Image.DecompressionBombError, Image.DecompressionBombWarning))
-
-
-def _bomb_error(name: str) -> InputError:
-    from PIL import Image
-
-    return InputError(f"{name}: header claims an absurd size, over {Image.MAX_IMAGE_PIXELS} pixels "
-                      "(decompression bomb guard)")
-
-
-def _open(data: bytes, name: str):
-    """Pillow image over ``data`` (header read, pixels not yet decoded); use as a context,
-    inside :func:`_quiet_pillow`."""
-    from PIL import Image  # Pillow is imported lazily: `depixel --help` should stay fast
-
-    try:
-        img = _open_png(data) if data.startswith(_PNG_SIGNATURE) else Image.open(io.BytesIO(data))
-    except Exception as exc:  # UnidentifiedImageError, or a header Pillow chokes on
-        if _is_bomb(exc):
-            raise _bomb_error(name) from None
-        raise InputError(f"{name}: not an image (no format Pillow reads recognises it)") from None
-    width, height = img.size
-    if width <= 0 or height <= 0:
-        img.close()
-        raise InputError(f"{name}: image has zero size")
-    return img
-
-
-_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-
-
-def _open_png(data: bytes):
-    """A PNG opened by Pillow's PNG reader itself: ``Image.open`` first imports the BMP, GIF,
-    JPEG and PPM readers too (~9 ms of every conversion process, most of it the ``subprocess``
-    module the JPEG reader imports). The same decompression-bomb guard as ``Image.open`` under
-    :func:`_quiet_pillow`: over ``MAX_IMAGE_PIXELS`` is refused."""
-    from PIL import Image, PngImagePlugin
-
-    img = PngImagePlugin.PngImageFile(io.BytesIO(data))
-    width, height = img.size
-    if Image.MAX_IMAGE_PIXELS is not None and width * height > Image.MAX_IMAGE_PIXELS:
-        img.close()
-        raise Image.DecompressionBombError(f"{width * height} pixels")
-    return img
-
-
-def _to_rgba(img, name: str = "<image>") -> np.ndarray:
-    """Convert any Pillow mode to RGBA uint8 (see docs/colour.md for the rules)."""
-    mode = img.mode
-    if mode in _WIDE_GREY:
-        raw = np.asarray(img)
-        arr = np.nan_to_num(raw.astype(np.float64), nan=0.0, posinf=0.0, neginf=0.0)
-        if mode == "F":
-            top = 1.0 if arr.max(initial=0) <= 1.0 else 255.0
-        else:
-            top = 65535.0 if mode.startswith("I;16") or arr.max(initial=0) > 255 else 255.0
-        grey = np.clip(np.round(arr / top * 255.0), 0, 255).astype(np.uint8)
-        alpha = np.full(grey.shape, 255, np.uint8)
-        key = img.info.get("transparency")
-        if isinstance(key, (int, float)) and not isinstance(key, bool):
-            alpha[raw == key] = 0  # a 16-bit grey PNG's tRNS key
-        return np.stack([grey, grey, grey, alpha], axis=-1)
-    if mode == "P" and "transparency" in img.info:
-        img = img.convert("PA")
-    elif mode == "La":  # premultiplied; Pillow only converts it to LA
-        img = img.convert("LA")
-    try:
-        return np.ascontiguousarray(np.asarray(img.convert("RGBA"), dtype=np.uint8))
-    except ValueError:
-        raise InputError(f"{name}: image mode {mode} cannot be converted to RGBA") from None
-
-
 def check_indexable(name: str, width: int, height: int) -> None:
     """Refuse an image too large for the pipeline's 32-bit indices (``limits.MAX_INDEXED_PIXELS``),
     whatever ``max_pixels`` allows."""
@@ -345,7 +275,7 @@ def as_rgba(image) -> np.ndarray:
             image.load()
         except Exception:
             raise InputError("<image>: truncated or corrupt image data") from None
-        return _to_rgba(image)
+        return to_rgba(image)
     arr = image_array(image)
     if arr.ndim == 2:
         arr = arr[..., None]

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..arrays import component_roots
-from ..errors import ParameterError
+from ..errors import InputError, ParameterError
 from .aseprite_format import Slice, Tag
 
 
@@ -139,6 +139,23 @@ def parse_grid(spec: str) -> tuple[tuple[int, int], tuple[int, int], tuple[int, 
     return (cell[0], cell[1]), (gaps[0], gaps[-1]), (corner[0], corner[1])
 
 
+#: ``sheet="auto"``: find the sprites (:func:`find_sprites`)
+AUTO = "auto"
+
+
+def sheet_spec(value: str) -> str:
+    """The ``sheet`` option normalized: ``"auto"``, or the grid :func:`parse_grid` reads
+    written the shortest way (``"32x32+2@1,1"``; ``"32x32+0"`` is ``"32x32"``), so that two
+    spellings of one grid are one option."""
+    if not isinstance(value, str):
+        raise ParameterError(f"sheet must be auto or a grid like 32x32+2, not {value!r}", parameter="sheet")
+    if value.strip().lower() == AUTO:
+        return AUTO
+    (w, h), (gx, gy), (ox, oy) = parse_grid(value)
+    gap = "" if gx == gy == 0 else f"+{gx}" if gx == gy else f"+{gx},{gy}"
+    return f"{w}x{h}{gap}" + (f"@{ox},{oy}" if ox or oy else "")
+
+
 def grid_sprites(rgba: np.ndarray, spec: str) -> Sheet:
     """The sprites of a grid of the cell size ``spec`` gives (:func:`parse_grid`): every
     whole cell on the sheet that holds something but background."""
@@ -153,6 +170,22 @@ def grid_sprites(rgba: np.ndarray, spec: str) -> Sheet:
     grid = Grid(cell, gap, offset, columns, rows)
     sprites = _cells(content_mask(rgba, background), grid)
     return Sheet(sprites, grid, background, describe(sprites, grid, background))
+
+
+def sheet_of(rgba: np.ndarray, spec: str | None, sheet_json=None, name: str = "<image>") -> Sheet:
+    """The sprites a sheet ``spec`` ("auto" or a grid, :func:`sheet_spec`) or a ``sheet_json``
+    (a :class:`~depixel.prepare.sheet_json.SheetJson`) finds on the sheet ``rgba``; a sheet with
+    none is an :class:`InputError`."""
+    height, width = rgba.shape[:2]
+    if sheet_json is not None:
+        sheet = sheet_json.sheet((width, height))
+    elif spec == "auto":
+        sheet = find_sprites(rgba)
+    else:
+        sheet = grid_sprites(rgba, str(spec))
+    if not sheet.sprites:
+        raise InputError(f"{name}: no sprites on the sheet (nothing but its background)")
+    return sheet
 
 
 def describe(sprites: tuple[Sprite, ...], grid: Grid | None, background: tuple[int, int, int, int] | None) -> str:

@@ -7,17 +7,20 @@ an array (``[{"filename": "name.png", "frame": {…}}, …]``); Aseprite adds ea
 frame without the file extension, made unique with ``-2``, ``-3``… A trimmed frame keeps
 where it sat in its untrimmed frame (``spriteSourceSize``, ``sourceSize``: ``Sprite.trim``);
 a rotated frame is refused (turn rotation off in the packer). Every problem is one
-:class:`InputError` line naming the file and the frame.
+:class:`InputError` line naming the file and the frame. :class:`SheetJson` is such a file
+as the ``sheet_json`` option holds it: read once, checked, and digested by its content.
 """
 from __future__ import annotations
 
 import json
 import os
 from collections.abc import Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
-from ..errors import InputError
+from ..errors import InputError, ParameterError, display_name
 from .aseprite_format import Slice, SliceKey, Tag
+from .image import read_source
 from .sheet import Sheet, Sprite
 
 #: Aseprite's JSON names of the tag directions → the Aseprite reader's
@@ -56,6 +59,49 @@ def parse_sheet_json(data: str | bytes | Mapping, size: tuple[int, int] | None =
     if tags:
         text += f", {len(tags)} tag{'' if len(tags) == 1 else 's'}"
     return Sheet(tuple(sprites), None, None, text, tags, slices)
+
+
+@dataclass(frozen=True)
+class SheetJson:
+    """A sheet's JSON file as the ``sheet_json`` option holds it: its bytes, checked when
+    made (a malformed file is one :class:`InputError` line at once), and the name messages
+    give it. Two are equal when their bytes are; a file's stamp digests :attr:`digest` (what
+    ``str()`` gives), so an edited JSON makes the outputs stale and a renamed one does not."""
+
+    name: str = field(compare=False)
+    data: bytes = field(repr=False)
+
+    def __post_init__(self) -> None:
+        parse_sheet_json(self.data, name=self.name)
+
+    @property
+    def digest(self) -> str:
+        """The first 16 hex digits of the SHA-256 of the bytes."""
+        import hashlib  # noqa: PLC0415 (~4 ms of OpenSSL: only when a sheet's JSON is given)
+
+        return hashlib.sha256(self.data).hexdigest()[:16]
+
+    def __str__(self) -> str:
+        return f"sheet-json:{self.digest}"
+
+    def sheet(self, size: tuple[int, int]) -> Sheet:
+        """The sprites it places on a sheet of ``size`` (width, height), which they must fit."""
+        return parse_sheet_json(self.data, size, name=self.name)
+
+
+def sheet_json_of(value: SheetJson | str | os.PathLike | bytes | Mapping | None) -> SheetJson | None:
+    """The ``sheet_json`` option normalized: a path is read (an :class:`InputError` naming
+    it if it cannot be), bytes are the file's, a mapping is the decoded document."""
+    if value is None or isinstance(value, SheetJson):
+        return value
+    if isinstance(value, (str, os.PathLike)):
+        return SheetJson(display_name(value), read_source(value))
+    if isinstance(value, (bytes, bytearray, memoryview)):
+        return SheetJson("<json>", bytes(value))
+    if isinstance(value, Mapping):
+        return SheetJson("<json>", json.dumps(value, sort_keys=True).encode("utf-8"))
+    raise ParameterError(f"sheet_json must be a path, the JSON's bytes or its decoded object, not "
+                         f"{type(value).__name__}", parameter="sheet_json")
 
 
 def _sprite(label: str, entry, size: tuple[int, int] | None, name: str, taken: set[str]) -> Sprite:

@@ -304,3 +304,16 @@ def check_finite(root, name: str) -> None:
             if not abs(float(text)) <= MAX_SVG_NUMBER:
                 raise RenderError(f"{name}: SVG {attr} {text[:24]} is too large a number (at most "
                                   f"{MAX_SVG_NUMBER:g})")
+
+
+def paste_pngs(pngs: list[tuple[int, int, bytes]], size: tuple[int, int]) -> bytes:
+    """A transparent PNG of ``size`` with each PNG pasted at its ``(x, y)`` (a sheet's sprites)."""
+    from PIL import Image  # noqa: PLC0415
+
+    canvas = Image.new("RGBA", size, (0, 0, 0, 0))
+    for x, y, png in pngs:
+        with Image.open(io.BytesIO(png)) as tile:
+            canvas.paste(tile.convert("RGBA"), (x, y))
+    buffer = io.BytesIO()
+    canvas.save(buffer, format="PNG")
+    return buffer.getvalue()

@@ -18,7 +18,10 @@ have them, always one after the other) are one block: one ``<g>`` in ``<defs>``,
 a frame, so unchanged art costs a few dozen bytes a frame. The drawing order inside each
 frame is its own SVG's, so the stacked layout and the smooth groups work as in the frame's
 SVG. Ids get the prefix of the frame they come from (``f2-outline-181425``), so they stay
-unique; the shared filter keeps its id.
+unique; the shared filters keep their ids. A smooth group's mask (what the shapes above it
+hide, :mod:`depixel.svg.hiding`) is named by what it holds, the shapes its ``<use>`` draw
+(known by their text, as shared shapes are), so frames whose groups are hidden alike share one
+mask, and it points to wherever those shapes are written.
 """
 from __future__ import annotations
 
@@ -31,6 +34,8 @@ from .svgtext import number
 XLINK_NS = "http://www.w3.org/1999/xlink"
 _ID = re.compile(r' id="([^"]*)"')
 _LABEL = re.compile(r' inkscape:label="([^"]*)"')
+_MASK = re.compile(r'<mask id="([^"]*)"')
+_HREF = re.compile(r'xlink:href="#([^"]*)"')
 
 
 @dataclasses.dataclass(frozen=True)
@@ -101,7 +106,10 @@ def compose(svgs: Sequence[str], durations: Sequence[float], plays: int = 0) -> 
     animation stays on its last frame. The SVGs must be of one size (the same ``<svg>`` tag)."""
     if not svgs or len(svgs) != len(durations):
         raise ValueError(f"{len(svgs)} frame SVGs for {len(durations)} durations")
-    frames = [split_svg(svg) for svg in svgs]
+    masks: dict[str, str] = {}  # a mask's content, its shapes by token → its id
+    tokens: dict[str, str] = {}  # a shape's key → the token masks draw it by
+    frame_keys: list[dict[str, str]] = []  # per frame: a shape's id → its key
+    frames = [_named_masks(split_svg(svg), masks, tokens, frame_keys) for svg in svgs]
     head = frames[0].head
     if any(f.head != head for f in frames):
         raise ValueError("the frames' SVGs differ in size")
@@ -133,8 +141,20 @@ def compose(svgs: Sequence[str], durations: Sequence[float], plays: int = 0) -> 
             own = f' inkscape:label="{label}"' if label != first_label else ""
             bodies[index].append(f'<use xlink:href="#{ident}"{own}/>\n')
     switches = display_animations([float(d) for d in durations], plays)
-    parts = ['<?xml version="1.0" encoding="UTF-8"?>\n', head.replace("<svg", f'<svg xmlns:xlink="{XLINK_NS}"', 1),
+    if "xmlns:xlink=" not in head:  # (a frame whose smooth groups are masked declares it already)
+        head = head.replace("<svg", f'<svg xmlns:xlink="{XLINK_NS}"', 1)
+    parts = ['<?xml version="1.0" encoding="UTF-8"?>\n', head,
              "\n", frames[0].title]
+    if masks:  # each mask once, drawing its shapes where they are written (the defs first)
+        written_as: dict[str, str] = {}  # a shape's token → an id it is written under
+        for text in [*defs, *(line for body in bodies for line in body)]:
+            for found in re.finditer(r' id="f(\d+)-([^"]*)"', text):
+                token = tokens.get(frame_keys[int(found.group(1)) - 1].get(found.group(2), ""))
+                if token is not None:  # (a shape some mask draws)
+                    written_as.setdefault(token, f"f{found.group(1)}-{found.group(2)}")
+        defs[len(filters):len(filters)] = [
+            _HREF.sub(lambda m: f'xlink:href="#{written_as[m.group(1)]}"',
+                      content.replace("<mask ", f'<mask id="{ident}" ', 1)) for content, ident in masks.items()]
     if defs:
         parts += ["<defs>\n", *defs, "</defs>\n"]
     for index, body in enumerate(bodies):
@@ -144,6 +164,48 @@ def compose(svgs: Sequence[str], durations: Sequence[float], plays: int = 0) -> 
                   switches[index], *body, "</g>\n"]
     parts.append("</svg>\n")
     return "".join(parts)
+
+
+def _named_masks(frame: FrameSvg, masks: dict[str, str], tokens: dict[str, str],
+                 frame_keys: list[dict[str, str]]) -> FrameSvg:
+    """``frame`` with its masks taken out of its ``<defs>`` into ``masks`` (their text with
+    each ``<use>`` pointing to the token of the shape it draws, a shape's key known by one
+    token in ``tokens``, and no id → the name every frame's groups use for that mask) and its
+    groups pointing to those names; its shapes' keys by id appended to ``frame_keys``."""
+    keys = _shape_keys(frame.nodes)
+    frame_keys.append(keys)
+    kept, renamed = [], {}
+    for line in frame.defs.splitlines(keepends=True):
+        if (mask := _MASK.match(line)) is None:
+            kept.append(line)
+            continue
+        content = _HREF.sub(lambda m: f'xlink:href="#{tokens.setdefault(keys[m.group(1)], f"s{len(tokens)}")}"',
+                            line.replace(f' id="{mask.group(1)}"', "", 1))
+        renamed[mask.group(1)] = masks.setdefault(content, f"mask-{len(masks) + 1}")
+    if not renamed:
+        return frame
+    pattern = re.compile(r'mask="url\(#([^)]*)\)"')
+    text = "".join(node.text for node in frame.nodes)
+    text = pattern.sub(lambda m: f'mask="url(#{renamed[m.group(1)]})"', text)
+    nodes = split_svg(f"{frame.head}\n{text}</svg>\n").nodes
+    return dataclasses.replace(frame, defs="".join(kept), nodes=nodes)
+
+
+def _shape_keys(nodes: Sequence[Node]) -> dict[str, str]:
+    """The key :func:`frame_items` gives each shape (an element without children), by its id."""
+    keys: dict[str, str] = {}
+    seen: dict[str, int] = {}
+    pending = list(reversed(nodes))
+    while pending:
+        node = pending.pop()
+        text = _ID.sub("", node.text)
+        if not node.children:
+            text = _LABEL.sub("", text)
+            if found := _ID.search(node.text):
+                keys[found.group(1)] = f"{seen.get(text, 0) + 1}\0{text}"
+        seen[text] = seen.get(text, 0) + 1
+        pending += reversed(node.children)
+    return keys
 
 
 def _prefixed(text: str, index: int) -> str:

@@ -33,12 +33,25 @@ S still lies under Q wherever Q borders S or a face above S, so hiding Q shows S
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from ..arrays import set_rows
 from ..vector import VectorImage
 from .boundaries import CUBIC, LINE
 from .stacking import FaceBoundaries
+
+
+class Segments(NamedTuple):
+    """The segments of a batch of loops: ``kind`` (n,) LINE/QUAD/CUBIC, control points
+    ``ctrl``/``ctrl2`` (n, 2, NaN where unused), ``end`` (n, 2), ``loop_ptr`` (loops + 1,)."""
+
+    kind: np.ndarray
+    ctrl: np.ndarray
+    ctrl2: np.ndarray
+    end: np.ndarray
+    loop_ptr: np.ndarray
 
 #: how far a lower shape's outline stays inside an upper face from that face's visible edge,
 #: in pixels: more than a render pixel's diagonal at 8x (0.18), so no render pixel at 8x
@@ -125,17 +138,17 @@ def segment_insets(guide: InsetGuide | None, inset_face: np.ndarray, he: np.ndar
     return margin, f_in, f_out
 
 
-def inset_runs(kind: np.ndarray, ctrl: np.ndarray, ctrl2: np.ndarray, end: np.ndarray, loop_ptr: np.ndarray,
-               margin: np.ndarray, f_in: np.ndarray, f_out: np.ndarray, grid: float | None
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The loops ``(kind, ctrl, ctrl2, end, loop_ptr)`` with every segment whose ``margin``
+def inset_runs(segments: Segments, margin: np.ndarray, f_in: np.ndarray, f_out: np.ndarray,
+               grid: float | None) -> Segments:
+    """The loops' ``segments`` with every segment whose ``margin``
     is positive moved that far to its right (into the shape: loops run with the shape on
     their right, y down) and joined to its neighbours (see the module docstring).
     ``f_in``/``f_out`` (n, 2): at the first/last segment of a run, the direction of the
     face's other edge at the run's start/end node."""
+    kind, ctrl, ctrl2, end, loop_ptr = segments
     inset = margin > 0
     if not np.logical_or.reduce(inset, initial=False):
-        return kind, ctrl, ctrl2, end, loop_ptr
+        return segments
     hidden, margin = margin < 0, np.maximum(margin, 0.0)
     n = kind.size
     n_loops = loop_ptr.size - 1
@@ -203,7 +216,7 @@ def inset_runs(kind: np.ndarray, ctrl: np.ndarray, ctrl2: np.ndarray, end: np.nd
     beyond = nxt.take(round_corner)
     set_rows(out_end, at.take(round_corner) + 2,
              _on_grid(end.take(round_corner, axis=0) + m.take(beyond, axis=0) * n0.take(beyond, axis=0), grid))
-    return out_kind, out_ctrl, out_ctrl2, out_end, pos.take(loop_ptr)
+    return Segments(out_kind, out_ctrl, out_ctrl2, out_end, pos.take(loop_ptr))
 
 
 def _part(kind: np.ndarray, p0: np.ndarray, c1: np.ndarray, c2: np.ndarray, p1: np.ndarray, a: np.ndarray,
@@ -270,12 +283,15 @@ def _corner(node: np.ndarray, along: np.ndarray, normal: np.ndarray, other: np.n
     return node + depth[:, None] * normal + shift[:, None] * along, shift
 
 
-def merge_lines(kind, ctrl, ctrl2, end, loop_ptr, margin, f_in, f_out, grid):
+def merge_lines(segments: Segments, margin: np.ndarray, f_in: np.ndarray, f_out: np.ndarray,
+                grid: float | None) -> tuple[Segments, np.ndarray, np.ndarray, np.ndarray]:
     """Merge consecutive lines that continue each other (cyclically in each loop) and have
-    the same inset ``margin`` (a merged line keeps the first one's ``f_in``)."""
+    the same inset ``margin`` (a merged line keeps the first one's ``f_in``): the segments
+    and their ``margin``, ``f_in``, ``f_out``."""
+    kind, ctrl, ctrl2, end, loop_ptr = segments
     n = kind.size
     if n == 0:
-        return kind, ctrl, ctrl2, end, loop_ptr, margin, f_in, f_out
+        return segments, margin, f_in, f_out
     n_loops = loop_ptr.size - 1
     loop_of = np.arange(n_loops).repeat(loop_ptr[1:] - loop_ptr[:-1])
     first, last = loop_ptr.take(loop_of), loop_ptr.take(loop_of + 1)
@@ -292,7 +308,7 @@ def merge_lines(kind, ctrl, ctrl2, end, loop_ptr, margin, f_in, f_out, grid):
     merge = line & line.take(after) & (np.abs(ax * by - ay * bx) <= tol) & (ax * bx + ay * by > 0) & (after != k)
     merge &= margin == margin.take(after)
     if not np.logical_or.reduce(merge):
-        return kind, ctrl, ctrl2, end, loop_ptr, margin, f_in, f_out
+        return segments, margin, f_in, f_out
     carry = merge & ~np.isnan(f_in[:, 0])  # a run starting at a line merged into the next
     for _ in range(n):  # (along a chain of merged lines)
         if not np.logical_or.reduce(carry):
@@ -304,7 +320,7 @@ def merge_lines(kind, ctrl, ctrl2, end, loop_ptr, margin, f_in, f_out, grid):
     keep |= (kept_per_loop.take(loop_of) == 0) & at_last  # never drop every segment of a loop
     loop_ptr = loop_of.compress(keep).searchsorted(np.arange(loop_ptr.size)).astype(np.int64)
     ctrl, ctrl2, end, f_in, f_out = (a.compress(keep, axis=0) for a in (ctrl, ctrl2, end, f_in, f_out))
-    return kind.compress(keep), ctrl, ctrl2, end, loop_ptr, margin.compress(keep), f_in, f_out
+    return Segments(kind.compress(keep), ctrl, ctrl2, end, loop_ptr), margin.compress(keep), f_in, f_out
 
 
 def _meet(n_a: np.ndarray, n_b: np.ndarray) -> np.ndarray:

@@ -47,7 +47,7 @@ from ..frozen import compact_repr
 from ..vector import VectorImage
 from .boundaries import CUBIC, LINE, QUAD, BoundaryPieces, build_pieces
 from .holes import loops_to_keep, probe_keys
-from .insets import InsetGuide, inset_runs, merge_lines, segment_insets
+from .insets import InsetGuide, Segments, inset_runs, merge_lines, segment_insets
 from .loops import Loops, trace_loops
 from .simplify import simplify_pieces
 from .stacking import FaceBoundaries, FaceTopology
@@ -183,8 +183,8 @@ class OutlineShapes:
         del owner_face
         keep = loops_to_keep(loops, u, faces.nodes, self.probe_key, self.shape[1], self.layout == "stacked")
         kind, ctrl, ctrl2, end, loop_ptr = _segments_in_batches(self.image, self.pieces, loops, keep,
-                                                                faces.entry_edge.take(entry), u, inset, self.guide,
-                                                                self.grid)
+                                                                (faces.entry_edge.take(entry), u), inset,
+                                                                self.guide, self.grid)
         shape_rank = loops.owner.take(keep)
         bounds = np.concatenate((faces.rank.take(face), [np.iinfo(np.int64).max]))
         shape_ptr = np.asarray(shape_rank.searchsorted(bounds), np.int64)
@@ -282,13 +282,12 @@ LOOP_BATCH = 1 << 13
 
 
 def _segments_in_batches(image: VectorImage, pieces: BoundaryPieces, loops: Loops, keep: np.ndarray,
-                         halfedge_edge: np.ndarray, halfedge_from: np.ndarray, inset: np.ndarray,
-                         guide: InsetGuide | None, grid: float | None):
+                         halfedges: tuple[np.ndarray, np.ndarray], inset: np.ndarray, guide: InsetGuide | None,
+                         grid: float | None):
     """:func:`_loop_segments` of the kept loops, a batch of loops at a time."""
     sizes = loops.ptr[1:].take(keep) - loops.ptr[:-1].take(keep)
     bounds = batch_bounds(sizes, LOOP_BATCH) or [(0, 0)]  # no loop: one empty batch
-    parts = [_loop_segments(image, pieces, loops, keep[a:b], halfedge_edge, halfedge_from, inset, guide, grid)
-             for a, b in bounds]
+    parts = [_loop_segments(image, pieces, loops, keep[a:b], halfedges, inset, guide, grid) for a, b in bounds]
     if len(parts) == 1:
         return parts[0]
     kind, ctrl, ctrl2, end, ptrs = zip(*parts)
@@ -298,11 +297,13 @@ def _segments_in_batches(image: VectorImage, pieces: BoundaryPieces, loops: Loop
 
 
 def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, keep: np.ndarray,
-                   halfedge_edge: np.ndarray, halfedge_from: np.ndarray, inset: np.ndarray, guide: InsetGuide | None,
-                   grid: float | None):
-    """Segments of the kept loops, ``(kind, ctrl, end, loop_ptr)``: a straight cell edge is a
-    line, a run along a curve is its pieces, each written where the loop enters it, in the
-    loop's direction; the runs along a face that ``inset`` names pulled back into it."""
+                   halfedges: tuple[np.ndarray, np.ndarray], inset: np.ndarray, guide: InsetGuide | None,
+                   grid: float | None) -> Segments:
+    """Segments of the kept loops: a straight cell edge is a line, a run along a curve is
+    its pieces, each written where the loop enters it, in the loop's direction; the runs
+    along a face that ``inset`` names pulled back into it. ``halfedges``: each half-edge's
+    edge and the node it leaves."""
+    halfedge_edge, halfedge_from = halfedges
     cells = image.cells
     first = loops.ptr[:-1].take(keep)
     counts = loops.ptr[1:].take(keep) - first
@@ -373,9 +374,9 @@ def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, kee
         kind, seg_loop, margin = kind.compress(keep_seg), seg_loop.compress(keep_seg), margin.compress(keep_seg)
         ctrl, ctrl2, end, f_in, f_out = (a.compress(keep_seg, axis=0) for a in (ctrl, ctrl2, end, f_in, f_out))
     loop_ptr = seg_loop.searchsorted(np.arange(keep.size + 1)).astype(np.int64)
-    kind, ctrl, ctrl2, end, loop_ptr, margin, f_in, f_out = merge_lines(kind, ctrl, ctrl2, end, loop_ptr, margin,
-                                                                        f_in, f_out, grid)
-    return inset_runs(kind, ctrl, ctrl2, end, loop_ptr, margin, f_in, f_out, grid)
+    segments, margin, f_in, f_out = merge_lines(Segments(kind, ctrl, ctrl2, end, loop_ptr), margin, f_in, f_out,
+                                                grid)
+    return inset_runs(segments, margin, f_in, f_out, grid)
 
 
 def _on_grid(xy: np.ndarray, grid: float | None) -> np.ndarray:

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw
 
-from depixel.files.animation import animate
+import depixel
 from depixel.prepare.animation import read_animation
 
 HERE = Path(__file__).resolve().parent
@@ -44,7 +44,7 @@ def draw(svg: str, width: int) -> Image.Image:
 
 def main() -> None:
     animation = read_animation(FIXTURES / "heart_beat.gif")
-    svg = animate(animation)
+    svg = depixel.convert(animation, animate=True)
     h, w = animation.frames[0].shape[:2]
     n = len(animation.frames)
     sheet = Image.new("RGB", (n * (w * SCALE + GAP) + GAP, 2 * (h * SCALE + TITLE + GAP) + GAP), "white")

@@ -3,21 +3,23 @@
     python docs/img/sheet_figures.py
 
 A 3 × 2 sheet of five fixtures (one cell left empty) with 2-pixel transparent gutters: the
-sheet with the cells :func:`depixel.prepare.sheet.find_sprites` finds outlined, the SVG of
-:func:`depixel.files.sheet.convert_sheet` (a layer per sprite), and that SVG with one layer
-left alone.
+sheet with the cells ``--sheet auto`` finds outlined (:func:`depixel.cut_sheet`), the SVG
+``depixel convert sheet.png --sheet auto -o sheet.svg`` writes (a layer per sprite), and that
+SVG with one layer left alone.
 """
 from __future__ import annotations
 
 import re
+import tempfile
+from pathlib import Path
 
 import numpy as np
 from inputs_figures import FIXTURES, HERE, PANEL, nearest, row, svg_panel
-from PIL import ImageDraw
+from PIL import Image, ImageDraw
 
-from depixel.files.sheet import convert_sheet
+from depixel import cut_sheet
 from depixel.prepare.image import load_image
-from depixel.prepare.sheet import find_sprites
+from depixel_cli.main import main as command
 
 CELL, GAP = (18, 16), 2
 NAMES = ["ghost_rgba.png", "potion_rgba.png", "orb.png", "leaf_la.png", None, "heart_trns.png"]
@@ -37,9 +39,11 @@ def make_sheet() -> np.ndarray:
 
 def main() -> None:
     sheet = make_sheet()
-    found = find_sprites(sheet)
-    print(found.description)
-    svg = convert_sheet(sheet, found.sprites)
+    found = cut_sheet(sheet)
+    with tempfile.TemporaryDirectory() as folder:
+        Image.fromarray(sheet, "RGBA").save(Path(folder) / "sheet.png")
+        assert command(["convert", f"{folder}/sheet.png", "--sheet", "auto", "-o", f"{folder}/sheet.svg"]) == 0
+        svg = (Path(folder) / "sheet.svg").read_text()
     cells = nearest(sheet, PANEL)
     zoom = PANEL / sheet.shape[1]
     draw = ImageDraw.Draw(cells)

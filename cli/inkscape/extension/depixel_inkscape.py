@@ -7,6 +7,8 @@ URI or linked file; images inside selected groups count too) it runs the ``depix
 program, ``depixel convert IMAGE -o OUT.svg``, takes the drawing elements of the SVG it
 writes and puts them in a ``<g>`` that maps that SVG's viewBox onto the place of the
 bitmap: its x/y/width/height, ``preserveAspectRatio`` and transform, inside the same parent.
+With "Animation" (``--animate``) an animated bitmap's frames come as layers of that group,
+which is a layer itself where the bitmap was in one (or at the top).
 
 It never imports depixel: Inkscape's Python is often not the one depixel is installed in,
 so the program is looked for (dialog setting, ``$DEPIXEL``, the command recorded by
@@ -57,6 +59,7 @@ FLAGS = (
     ("simplify", "--simplify", 0.25, "Simplify"),
     ("pixel_size", "--pixel-size", "auto", "Pixel size"),
     ("transparent", "--transparent", "", "Backdrop"),
+    ("animate", "--animate", False, "Animation"),  # a flag without a value
 )
 
 #: Ancestors under which an image is not drawn where it stands (a selected group may hold one).
@@ -79,6 +82,8 @@ class DepixelizeEffect(inkex.EffectExtension):
         pars.add_argument("--backdrop_colour", default="#ffffff", help="colour removed with --backdrop colour")
         pars.add_argument("--keep_bitmap", type=inkex.Boolean, default=False,
                           help="keep the bitmap, hidden, below the shapes")
+        pars.add_argument("--animate", type=inkex.Boolean, default=False,
+                          help="every frame of an animated bitmap, a layer each")
         pars.add_argument("--depixel", default="", help="the depixel program (empty: found automatically)")
 
     def effect(self) -> None:
@@ -211,11 +216,14 @@ def convert_flags(options) -> list[str]:
         "simplify": options.simplify,
         "pixel_size": options.pixel_size.strip().lower() or "auto",
         "transparent": {"keep": "", "auto": "auto", "colour": options.backdrop_colour.strip()}[options.backdrop],
+        "animate": bool(options.animate),
     }
     flags = []
     for option, flag, default, _ in FLAGS:
         value = values[option]
-        if value != default:
+        if isinstance(value, bool):
+            flags += [flag] if value else []
+        elif value != default:
             flags += [flag, f"{value:g}" if isinstance(value, float) else str(value)]
     return flags
 

@@ -18,6 +18,7 @@ from lxml import etree
 SVG_NS = "http://www.w3.org/2000/svg"
 XLINK_HREF = "{http://www.w3.org/1999/xlink}href"
 INKSCAPE_LABEL = "{http://www.inkscape.org/namespaces/inkscape}label"
+GROUPMODE = "{http://www.inkscape.org/namespaces/inkscape}groupmode"
 
 #: Elements of depixel's SVG that are not drawing (document data).
 NOT_DRAWING = {"title", "desc", "metadata"}
@@ -60,6 +61,10 @@ def replace_image(image, drawing, used_ids: set, keep_bitmap: bool) -> None:
     elif image.get("id"):
         outer.set("id", image.get("id"))  # clones and links to the bitmap now show the shapes
     outer.set(INKSCAPE_LABEL, f"{image.get(INKSCAPE_LABEL) or image.get('id') or 'bitmap'} (depixel)")
+    parent = image.getparent()
+    if any(e.get(GROUPMODE) == "layer" for e in elements) and \
+            (parent.getparent() is None or parent.get(GROUPMODE) == "layer"):
+        outer.set(GROUPMODE, "layer")  # an animation's frames are layers: so is what holds them, as Inkscape lists
     for name in ("class", "opacity", "visibility", "display") + SPACE_DEPENDENT:
         if image.get(name) is not None:
             outer.set(name, image.get(name))
@@ -80,7 +85,6 @@ def replace_image(image, drawing, used_ids: set, keep_bitmap: bool) -> None:
     for element in elements:
         group.append(element)
 
-    parent = image.getparent()
     outer.tail = image.tail  # the document's line breaks stay as they were
     if keep_bitmap:
         parent.insert(parent.index(image) + 1, outer)

@@ -147,6 +147,34 @@ def test_bevelled_apex_marks_both_ends_of_the_bevel():
         assert np.abs(apexes - point).max(axis=1).min() <= 1.0, point
 
 
+#: a pyramid with a three-pixel top, its left side a 45° staircase and its right side a
+#: steeper one (two rows a step): the top's right end is a bevel's far end
+LOPSIDED_APEX = art("""
+.................
+.........###.....
+........####.....
+.......######....
+......#######....
+.....#########...
+....##########...
+...############..
+..#############..
+.................
+""")
+
+
+def test_a_bevel_found_from_one_end_marks_its_far_end_too():
+    """The runs grown from a node depend on where they start, so a bevel can match from one
+    of its ends only: here from (10, 1), where the 45° side's run takes in the top's first
+    pixel, then the 1.77 px run to the top's right end (11.75, 1.25) and the steep side.
+    Read from (11.75, 1.25) the other way, no bevel starts there; it is a corner because it
+    is the far end of the one found (left unmarked, the top's right end would be rounded)."""
+    splines = splines_of(LOPSIDED_APEX)
+    found = corner_points(splines, detect_corners(splines).runs)
+    apex = {p for p in found if p[1] < 3}
+    assert apex == {(10.0, 1.0), (11.75, 1.25)}, sorted(found)
+
+
 def test_octagon_has_no_corners():
     # straight sides of 8 px joined by 45° staircases of 3 px: every vertex turns by 45°,
     # which is rounded, as in the paper
