@@ -208,3 +208,24 @@ def test_workers_take_packs_and_a_file_that_kills_its_worker_fails_alone(tmp_pat
             assert outcome.error is None and outcome.written == [job.output]
             alone = convert_file(job.source, tmp_path / "alone.svg")
             assert job.output.read_bytes() == alone.read_bytes(), job.source.name
+
+
+def test_auto_jobs_counts_a_packs_pass_not_one_small_image(tmp_path):
+    """A worker holds a pass of up to PASS_IMAGES images at once: -j auto plans its memory for
+    that many of the largest image (up to PASS_PIXELS), not for one."""
+    from PIL import Image
+
+    from depixel.limits import PEAK_BYTES_PER_PIXEL, WORKER_BASELINE_BYTES
+    from depixel.pipeline import PASS_IMAGES, PASS_PIXELS
+    from depixel_cli.convert import batch
+    from depixel_cli.convert import run as batch_run
+
+    if batch_run.cores() < 2:
+        pytest.skip("one core: -j auto is 1 whatever the memory")
+    w, h = Image.open(FIXTURES / "heart.png").size
+    jobs = [batch.Job(FIXTURES / "heart.png", tmp_path / f"{i}.svg", None) for i in range(8)]
+    one = WORKER_BASELINE_BYTES + PEAK_BYTES_PER_PIXEL * w * h
+    a_pass = WORKER_BASELINE_BYTES + PEAK_BYTES_PER_PIXEL * min(PASS_PIXELS, PASS_IMAGES * w * h)
+    assert a_pass > one
+    assert batch_run.auto_jobs(jobs, memory=2 * one, asked=2)[0] == 1  # two single images fit, not two passes
+    assert batch_run.auto_jobs(jobs, memory=2 * a_pass, asked=2)[0] == 2

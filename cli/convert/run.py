@@ -286,8 +286,9 @@ def largest_image(jobs: list[Job]) -> tuple[int, Path | None]:
 def auto_jobs(jobs: list[Job], memory: int | None = None, asked: int | None = None) -> tuple[int, str | None]:
     """``-j auto`` (``asked`` None): one worker per core; ``-j N``: N. Either way no more
     workers than files, nor than the available memory holds when each converts the largest
-    image (PEAK_BYTES_PER_PIXEL per pixel, measured): an explicit count is capped by the same
-    estimate. Returns the count and, when memory is what limits it, a note saying so."""
+    image (PEAK_BYTES_PER_PIXEL per pixel, measured), or a pass of as many such images as a
+    pack's pass holds: an explicit count is capped by the same estimate. Returns the count
+    and, when memory is what limits it, a note saying so."""
     count = max(1, min(cores() if asked is None else asked, len(jobs)))
     if count == 1:
         return 1, None
@@ -295,7 +296,10 @@ def auto_jobs(jobs: list[Job], memory: int | None = None, asked: int | None = No
     pixels, where = largest_image(jobs)
     if memory is None or where is None:
         return count, None
-    need = WORKER_BASELINE_BYTES + PEAK_BYTES_PER_PIXEL * pixels
+    from depixel.pipeline import PASS_IMAGES, PASS_PIXELS  # noqa: PLC0415
+
+    # a worker converts a pack's images in one pass, which holds them all at once
+    need = WORKER_BASELINE_BYTES + PEAK_BYTES_PER_PIXEL * max(pixels, min(PASS_PIXELS, PASS_IMAGES * pixels))
     fits = max(1, memory // need)
     if fits >= count:
         return count, None
