@@ -57,26 +57,27 @@ def corpus_images(corpus: Path) -> dict[str, np.ndarray]:
     return images
 
 
-def svg_hash(rgba: np.ndarray, stage: str, layout: str = "stacked", simplify: float = DEFAULT_SIMPLIFY,
-             result: depixel.Result | None = None) -> str:
-    """The SHA-256 of the SVG of ``rgba`` (of its ``result`` when computed already)."""
-    result = depixelize(rgba, Params(), stage=stage) if result is None else result
-    svg = to_svg(result.vector, layout=layout, simplify=simplify)
+def svg_hash(rgba: np.ndarray, stage: str, layout: str = "stacked", simplify: float = DEFAULT_SIMPLIFY) -> str:
+    svg = to_svg(depixelize(rgba, Params(), stage=stage).vector, layout=layout, simplify=simplify)
     return hashlib.sha256(svg.encode("utf-8")).hexdigest()
 
 
 def packed_hashes(images: dict[str, np.ndarray], stage: str, layout: str, simplify: float, size: int
                   ) -> dict[str, str]:
-    """:func:`svg_hash` of every image, the pipelines run ``size`` images at a time in one pass
-    (:func:`depixel.pipeline.depixelize_many`): each must be the bytes of the image alone."""
+    """:func:`svg_hash` of every image, ``size`` images at a time in one pass
+    (:func:`depixel.api.passes`: the pipelines by :func:`depixel.pipeline.depixelize_many`,
+    the outlines' simplification together), as a batch runs them: each must be the bytes of
+    the image alone."""
+    from depixel.options import ConvertOptions
+
+    options = ConvertOptions.build(Params(), stage=stage, layout=layout, simplify=simplify)
     names = list(images)
     out = {}
     for first in range(0, len(names), size):
         pack = names[first:first + size]
-        for name, result in zip(pack, depixel.pipeline.depixelize_many([images[n] for n in pack], Params(), stage)):
-            if isinstance(result, Exception):
-                raise result
-            out[name] = svg_hash(images[name], stage, layout, simplify, result)
+        with depixel.api.passes([images[n] for n in pack], options, ["svg"]):
+            for name in pack:
+                out[name] = svg_hash(images[name], stage, layout, simplify)
     return out
 
 
@@ -88,7 +89,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--record", action="store_true", help="store the current hashes instead of comparing")
     parser.add_argument("--corpus", type=Path, default=DEFAULT_CORPUS, help="folder with paper/ and frames/")
     parser.add_argument("--packed", type=int, default=0, metavar="N",
-                        help="run the pipelines N images at a time in one pass (depixelize_many): same hashes")
+                        help="N images at a time in one pass (depixel.api.passes), as a batch: same hashes")
     parser.add_argument("--hashes", type=Path, default=HASHES, help=f"hash file (default {HASHES.relative_to(ROOT)})")
     args = parser.parse_args(argv)
     if not args.corpus.is_dir():

@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import io
 import os
-from collections.abc import Callable, Mapping
-from contextlib import AbstractContextManager
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from contextlib import ExitStack
 from dataclasses import replace
 from functools import partial
 from typing import TYPE_CHECKING
@@ -212,7 +212,7 @@ def conversions(image, formats: Mapping[str, str | None], options: ConvertOption
             still = replace(options, output=replace(options.output, animate=False))
             convert_frame = partial(conversions, options=still, name=name, title=title, lossy=lossy,
                                     on_prepared=on_prepared)
-            with _in_passes(image.frames, still, lossy):  # the frames' pipelines together
+            with _in_passes(image.frames, still, formats, lossy):  # the frames' pipelines together
                 return animated(image, formats, options, convert_frame, name=name)
         image = image.frames[0]
     elif options.output.animate and int(getattr(image, "n_frames", 1)) > 1:
@@ -309,7 +309,7 @@ def sheet_conversions(rgba: np.ndarray, sheet: Sheet, formats: Mapping[str, str 
         runs.setdefault("flat" if fmt == "pdf" else output.shading, {})["png" if fmt == "png" else "svg"] = None
     layers: dict[str, list[Placed]] = {shading: [] for shading in runs}
     pngs: list[tuple[int, int, bytes]] = []
-    with _in_passes([rgba[sprite.box] for sprite in sheet.sprites], options, lossy):  # their pipelines together
+    with _in_passes([rgba[sprite.box] for sprite in sheet.sprites], options, formats, lossy):  # together
         for sprite in sheet.sprites:
             for n, (shading, made) in enumerate(runs.items()):
                 blobs = conversions(rgba[sprite.box], made, replace(options, output=replace(alone, shading=shading)),
@@ -331,18 +331,33 @@ def sheet_conversions(rgba: np.ndarray, sheet: Sheet, formats: Mapping[str, str 
     return done
 
 
-def _in_passes(images, options: ConvertOptions, lossy: str | None) -> AbstractContextManager:
-    """:func:`depixel.pipeline.ahead` of ``images`` prepared as :func:`conversions` will
-    prepare each: within it their pipelines run together, some at a time, each image's
-    output the bytes it has alone (a sheet's sprites, an animation's frames). An image that
-    cannot be prepared is left to its conversion, which reports it."""
+def _in_passes(images, options: ConvertOptions, formats: Iterable[str], lossy: str | None) -> ExitStack:
+    """:func:`passes` of ``images`` prepared as :func:`conversions` will prepare each (an image
+    that cannot be prepared is left to its conversion, which reports it)."""
     prepared = []
     for image in images:
         try:
             prepared.append(prepared_input(image, options.prepare, lossy=lossy, max_pixels=None).rgba)
         except Exception:  # its conversion reports it
             continue
-    return ahead(prepared, options.params, options.output.stage)
+    return passes(prepared, options, formats)
+
+
+def passes(prepared: Sequence[np.ndarray], options: ConvertOptions, formats: Iterable[str]) -> ExitStack:
+    """Within it, the conversions of the ``prepared`` pixels with these options run their
+    pipelines together, some at a time (:func:`depixel.pipeline.ahead`), and, where one of
+    ``formats`` is drawn from the SVG, simplify their outlines together
+    (:func:`depixel.svg.passes.shapes_ahead`): each output the bytes it has alone (a batch's
+    files, a sheet's sprites, an animation's frames)."""
+    from .svg.passes import shapes_ahead  # noqa: PLC0415
+
+    stack = ExitStack()
+    output = options.output
+    then = None
+    if any(fmt != "png" or output.shading == "flat" for fmt in formats):  # (a smooth PNG is no SVG)
+        then = stack.enter_context(shapes_ahead(output.layout, 10.0**-output.precision, output.simplify))
+    stack.enter_context(ahead(prepared, options.params, output.stage, then=then))
+    return stack
 
 
 def _check_png_size(size: tuple[int, int], scale: float, max_output_pixels: int | None, name: str) -> None:

@@ -8,7 +8,7 @@ calls them in order, stops at the requested stage and times each one.
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, NamedTuple, cast
@@ -100,7 +100,7 @@ PASS_PIXELS = 1 << 16
 
 @contextmanager
 def ahead(images: Sequence, params: Params = Params(), stage: str = "optimized", size: int = PASS_IMAGES,
-          pixels: int = PASS_PIXELS) -> Iterator[None]:
+          pixels: int = PASS_PIXELS, then: Callable[[list[VectorImage]], None] | None = None) -> Iterator[None]:
     """Within the block, :func:`depixelize` of one of ``images`` (the same pixels, params and
     stage) returns its result computed by :func:`depixelize_many` with the images next to it,
     at most ``size`` images and ``pixels`` pixels at a time (a pass holds all its products at
@@ -108,7 +108,8 @@ def ahead(images: Sequence, params: Params = Params(), stage: str = "optimized",
     A pass runs when the first of its images is asked for; each result is returned once. So
     a batch's files, a sheet's sprites, an animation's frames are each converted by their own
     code, and only their pipelines run together. An image that failed in its pass is
-    converted when asked, as without this block. What was not taken is dropped at its end."""
+    converted when asked, as without this block. What was not taken is dropped at its end.
+    ``then``: told the vector images of each pass as it ends (the SVG writer's pass)."""
     keys: list[tuple] = []
     groups: list[list[tuple]] = []
     total = 0
@@ -126,12 +127,15 @@ def ahead(images: Sequence, params: Params = Params(), stage: str = "optimized",
         keys.append(key)
         _AHEAD[key] = rgba
         _GROUP[key] = groups[-1]
+        if then is not None:
+            _THEN[key] = then
     try:
         yield
     finally:
         for key in keys:
             _AHEAD.pop(key, None)
             _GROUP.pop(key, None)
+            _THEN.pop(key, None)
 
 
 def _taken(key: tuple) -> Result | None:
@@ -140,7 +144,8 @@ def _taken(key: tuple) -> Result | None:
     if isinstance(found, np.ndarray):  # its pass has not run: run it
         group = [k for k in _GROUP.get(key, [key]) if k == key or isinstance(_AHEAD.get(k), np.ndarray)]
         images = [found if k == key else _AHEAD[k] for k in group]
-        for k, result in zip(group, depixelize_many(images, key[2], key[3])):
+        results = depixelize_many(images, key[2], key[3])
+        for k, result in zip(group, results):
             _GROUP.pop(k, None)
             if k == key:
                 found = result if isinstance(result, Result) else None
@@ -148,6 +153,8 @@ def _taken(key: tuple) -> Result | None:
                 _AHEAD[k] = result
             else:
                 del _AHEAD[k]  # converted (and failing) when asked
+        if (then := _THEN.get(key)) is not None:
+            then([result.vector for result in results if isinstance(result, Result)])
     return found if isinstance(found, Result) else None
 
 
@@ -155,6 +162,7 @@ def _taken(key: tuple) -> Result | None:
 #: (its pixels) or its result; and each image's pass (the keys of its group)
 _AHEAD: dict[tuple, Result | np.ndarray] = {}
 _GROUP: dict[tuple, list[tuple]] = {}
+_THEN: dict[tuple, Callable[[list[VectorImage]], None]] = {}
 
 
 class _Begun(NamedTuple):

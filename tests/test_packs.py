@@ -229,3 +229,24 @@ def test_auto_jobs_counts_a_packs_pass_not_one_small_image(tmp_path):
     assert a_pass > one
     assert batch_run.auto_jobs(jobs, memory=2 * one, asked=2)[0] == 1  # two single images fit, not two passes
     assert batch_run.auto_jobs(jobs, memory=2 * a_pass, asked=2)[0] == 2
+
+
+def test_outlines_simplified_together_give_each_image_its_own_svg(monkeypatch):
+    """Within api.passes the SVG writer takes each image's outlines begun in its pass (the
+    pieces of the pass's images simplified as one set); each SVG is the image's alone, at the
+    default tolerance, another layout and tolerance, and with no simplification."""
+    import depixel.svg.outlines as outlines
+    from depixel.api import passes
+    from depixel.options import ConvertOptions
+
+    images = _images()
+    taken = []
+    begun = outlines.begun
+    monkeypatch.setattr(outlines, "begun", lambda *a: taken.append(r := begun(*a)) or r)
+    for keywords in ({}, {"layout": "cutout", "simplify": 0.1}, {"simplify": 0}):
+        alone = [depixel.convert(image, **keywords) for image in images]
+        taken.clear()
+        with passes(images, ConvertOptions.build(**keywords), ["svg"]):
+            together = [depixel.convert(image, **keywords) for image in images]
+        assert together == alone
+        assert all(r is not None for r in taken) and len(taken) == len(images)

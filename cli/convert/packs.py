@@ -17,9 +17,9 @@ from contextlib import ExitStack, contextmanager
 
 import numpy as np
 
-from depixel.api import prepared_input
+from depixel.api import passes, prepared_input
 from depixel.files.convert import InputFile
-from depixel.pipeline import PASS_IMAGES, PASS_PIXELS, ahead
+from depixel.pipeline import PASS_IMAGES
 from depixel.prepare.image import load_image
 from depixel.prepare.inputs import lossy_format
 
@@ -44,14 +44,13 @@ def run_pack(pack: tuple[Job, ...]) -> list[Outcome]:
 
 @contextmanager
 def packed(jobs: Sequence[Job]) -> Iterator[None]:
-    """Within the block, the jobs' pipelines are computed already, those that can be read and
-    prepared here, in passes of at most :data:`~depixel.pipeline.PASS_PIXELS` pixels (the
-    others are left to their jobs)."""
+    """Within the block, the pipelines of the jobs that can be read and prepared here run in
+    passes, their SVG outlines simplified together (:func:`depixel.api.passes`; the others
+    are left to their jobs)."""
     images = [rgba for job in jobs if (rgba := _prepared(job)) is not None]
     with ExitStack() as stack:
         if len(images) > 1:
-            options = jobs[0].options.convert
-            stack.enter_context(ahead(images, options.params, options.output.stage, PASS_IMAGES, PASS_PIXELS))
+            stack.enter_context(passes(images, jobs[0].options.convert, jobs[0].options.formats))
         yield
 
 
