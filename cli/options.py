@@ -203,8 +203,8 @@ def from_args(kind, args: argparse.Namespace, **given):
 
 def convert_options(args: argparse.Namespace) -> ConvertOptions:
     """The :class:`depixel.options.ConvertOptions` of a conversion's arguments."""
-    return ConvertOptions(params_from_args(args), from_args(PrepareOptions, args), from_args(OutputOptions, args),
-                          from_args(Limits, args))
+    output = from_args(OutputOptions, args, tag=args.tag if args.animate else None)  # (a still's tag picks frames)
+    return ConvertOptions(params_from_args(args), from_args(PrepareOptions, args), output, from_args(Limits, args))
 
 
 def params_from_args(args: argparse.Namespace) -> Params:

@@ -2,8 +2,9 @@
 
 :func:`convert` takes an image (numpy array or PIL image) and returns SVG text;
 :func:`convert_bytes` returns the bytes of an SVG, PNG or PDF file; with ``animate=True`` both
-take an :class:`~depixel.prepare.animation.Animation` too (:func:`animated`). PNG and PDF go through
-cairosvg, which is imported only when one of them is asked for (:mod:`depixel.render.raster`).
+take an :class:`~depixel.prepare.animation.Animation` too
+(:func:`~depixel.render.animation.animated`). PNG and PDF go through cairosvg, which is
+imported only when one of them is asked for (:mod:`depixel.render.raster`).
 File to file (:func:`~depixel.files.convert.convert_file`, :func:`~depixel.files.convert.render_file`)
 is :mod:`depixel.files.convert`. The keyword functions make one
 :class:`~depixel.options.ConvertOptions` of their keywords and pass it to :func:`conversions`.
@@ -97,7 +98,8 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
             simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
             transparent: Colour | str | None = None, transparent_everywhere: bool = False,
             shading: str = "smooth", animate: bool = False, sheet: str | None = None,
-            sheet_json: SheetJson | str | None = None, max_frames: int | None = DEFAULT_MAX_FRAMES) -> str:
+            sheet_json: SheetJson | str | None = None, max_frames: int | None = DEFAULT_MAX_FRAMES,
+            tag: str | None = None) -> str:
     """Depixelize an image (``(H, W[, C])`` array, PIL image or :class:`PreparedImage`) → SVG text.
 
     ``scale`` sets the SVG's width/height as a multiple of the input's size (or ``width`` or
@@ -114,7 +116,8 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
     laid exactly over the input. Images over ``max_pixels`` pixels are refused (``None``:
     no limit; an animation's frames count in all). ``animate=True`` converts an
     :class:`~depixel.prepare.animation.Animation` (:func:`depixel.read_animation`) into one
-    animated SVG, a layer a frame (docs/animation.md); a still image is its one frame.
+    animated SVG, a layer a frame (docs/animation.md); a still image is its one frame;
+    ``tag`` plays one tag of an Aseprite file's animation (:meth:`Animation.tagged`).
     ``sheet`` ("auto", or a grid "32x32+2@1,1") or ``sheet_json`` (the path,
     bytes or decoded object of an Aseprite or TexturePacker JSON) take the image as a sprite
     sheet: each sprite is converted alone and is one layer of the SVG, at its place
@@ -124,7 +127,7 @@ def convert(image, params: Params = Params(), *, stage: str = "optimized", scale
                                    width=width, height=height, max_pixels=max_pixels, layout=layout,
                                    simplify=simplify, pixel_size=pixel_size, denoise=denoise, transparent=transparent,
                                    transparent_everywhere=transparent_everywhere, shading=shading, animate=animate,
-                                   sheet=sheet, sheet_json=sheet_json, max_frames=max_frames)
+                                   sheet=sheet, sheet_json=sheet_json, max_frames=max_frames, tag=tag)
     return conversions(image, {"svg": None}, options, title=title)["svg"].decode("utf-8")
 
 
@@ -169,7 +172,7 @@ def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: 
                   simplify: float = DEFAULT_SIMPLIFY, pixel_size: PixelSize = AUTO, denoise: bool | None = None,
                   transparent: Colour | str | None = None, transparent_everywhere: bool = False,
                   animate: bool = False, sheet: str | None = None, sheet_json: SheetJson | str | None = None,
-                  max_frames: int | None = DEFAULT_MAX_FRAMES) -> bytes:
+                  max_frames: int | None = DEFAULT_MAX_FRAMES, tag: str | None = None) -> bytes:
     """Like :func:`convert`, returning the bytes of an SVG, PNG or PDF file.
 
     ``shading="smooth"`` renders PNG output with the paper's smooth renderer and gives the
@@ -177,15 +180,15 @@ def convert_bytes(image, fmt: str = "svg", params: Params = Params(), *, stage: 
     filter; PNG that SVG rasterized). A PDF has the flat bands (cairosvg draws no filters).
     A PNG of more than ``max_output_pixels`` pixels is refused before it is rendered.
     ``animate=True``: an animation's SVG, or its PNG as an animated PNG (APNG) of the frames'
-    renders (their pixels in all within ``max_output_pixels``); no PDF. A sheet's PNG is each
-    sprite's PNG at its place.
+    renders (their pixels in all within ``max_output_pixels``); no PDF; ``tag``: one tag's, as
+    :func:`convert`. A sheet's PNG is each sprite's PNG at its place.
     """
     options = ConvertOptions.build(params, stage=stage, scale=scale, background=background, shading=shading,
                                    precision=precision, width=width, height=height, max_pixels=max_pixels,
                                    max_output_pixels=max_output_pixels, layout=layout, simplify=simplify,
                                    pixel_size=pixel_size, denoise=denoise, transparent=transparent,
                                    transparent_everywhere=transparent_everywhere, animate=animate, sheet=sheet,
-                                   sheet_json=sheet_json, max_frames=max_frames)
+                                   sheet_json=sheet_json, max_frames=max_frames, tag=tag)
     return conversions(image, {fmt: None}, options, name=name, title=title)[fmt]
 
 
@@ -198,10 +201,16 @@ def conversions(image, formats: Mapping[str, str | None], options: ConvertOption
     messages, ``title`` is the SVG's title, ``lossy`` the lossy format the pixels came from
     (:func:`prepared_input`); ``on_prepared`` is told what the preparation found. With
     ``options.output.animate``, ``image`` may be an :class:`Animation`: each format holds
-    every frame (:func:`animated`); an animation of one frame, or a still, is that frame."""
+    every frame (:func:`~depixel.render.animation.animated`); an animation of one frame, or a still, is that frame.
+    With ``options.output.tag``, the Animation's tag is played (:meth:`Animation.tagged`)."""
     for fmt in formats:
         validate.choice("format", fmt, FORMATS)
         check_animated_format(fmt, options)
+    if options.output.tag is not None:
+        if not isinstance(image, Animation):
+            raise ParameterError("tag plays a tag of an Aseprite file: give the Animation depixel.read_animation(path) "
+                                 "reads (it holds the file's tags)", parameter="tag")
+        image = image.tagged(options.output.tag, name=name)
     if isinstance(image, Animation):
         if not options.output.animate:
             raise ParameterError("an Animation is converted whole with animate=True (or convert one of its "
@@ -209,7 +218,7 @@ def conversions(image, formats: Mapping[str, str | None], options: ConvertOption
         if len(image.frames) > 1:
             from .render.animation import animated  # noqa: PLC0415
 
-            still = replace(options, output=replace(options.output, animate=False))
+            still = replace(options, output=replace(options.output, animate=False, tag=None))
             convert_frame = partial(conversions, options=still, name=name, title=title, lossy=lossy,
                                     on_prepared=on_prepared)
             with _in_passes(image.frames, still, formats, lossy):  # the frames' pipelines together

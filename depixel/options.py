@@ -51,6 +51,8 @@ class OutputOptions:
     #: or the sprites an Aseprite/TexturePacker JSON file places (a path, its bytes or decoded
     #: object: a SheetJson once made)
     sheet_json: SheetJson | str | None = added(None)
+    #: with animate: the Aseprite tag whose frames play, in its direction and repeat count (None: every frame)
+    tag: str | None = added(None)
 
     def __post_init__(self) -> None:
         normal: dict[str, object] = {"stage": validate.choice("stage", self.stage, STAGES),
@@ -78,6 +80,11 @@ class OutputOptions:
             if normal["animate"]:
                 raise ParameterError("animate plays the frames of an animated file; a sheet's sprites are written "
                                      "as layers or files (give animate or a sheet, not both)", parameter="animate")
+        if self.tag is not None and not isinstance(self.tag, str):
+            raise ParameterError(f"tag must be the name of a tag (a str), not {self.tag!r}", parameter="tag")
+        if self.tag is not None and not normal["animate"]:
+            raise ParameterError("tag plays an Aseprite tag's frames as one animation: give animate=True too (one "
+                                 "frame of it: frame=N, depixel.tag_frames lists them)", parameter="tag")
         for name, value in normal.items():
             object.__setattr__(self, name, value)
 

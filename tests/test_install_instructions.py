@@ -15,8 +15,8 @@ FROM_AN_INDEX = re.compile(r"""pip install\s+(?:-\S+\s+)*["']?depixel(?:\[[\w,]+
 #: Where users read instructions: the docs (docs/design.md records decisions, and names the
 #: extras it rejected), the README, and every message of the library, the command and the
 #: Inkscape extension.
-PLACES = sorted({*ROOT.glob("docs/*.md"), ROOT / "README.md", *ROOT.glob("depixel/**/*.py"), *ROOT.glob("cli/**/*.py")}
-                - {ROOT / "docs" / "design.md"})
+PLACES = sorted({*ROOT.glob("docs/*.md"), *ROOT.glob("docs/ci/*"), ROOT / "README.md", *ROOT.glob("depixel/**/*.py"),
+                 *ROOT.glob("cli/**/*.py")} - {ROOT / "docs" / "design.md"})
 
 
 @pytest.mark.parametrize("path", PLACES, ids=lambda p: str(p.relative_to(ROOT)))

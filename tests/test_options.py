@@ -131,7 +131,10 @@ EXAMPLES = {"stage": "cells", "scale": 2.0, "width": 8, "height": 8, "precision"
             "simplify": 0.0, "shading": "flat", "background": (255, 0, 0), "pixel_size": (1, 1), "denoise": True,
             "transparent": (255, 255, 255), "transparent_everywhere": True, "max_pixels": 4096,
             "max_output_pixels": 65536, "max_frames": 3, "animate": True, "sheet": "16x16+1",
-            "sheet_json": SheetJson("a.json", b'{"frames": {"a.png": {"frame": {"x": 0, "y": 0, "w": 2, "h": 2}}}}')}
+            "sheet_json": SheetJson("a.json", b'{"frames": {"a.png": {"frame": {"x": 0, "y": 0, "w": 2, "h": 2}}}}'),
+            "tag": "walk"}
+#: the options an example needs beside it (a tag plays an animation)
+ALONG = {"tag": {"animate": True}}
 #: options a keyword function has no use for: an SVG renders no PNG (a sheet's sprites count as frames)
 NOT_TAKEN = {"convert": {"max_output_pixels"}, "convert_bytes": set(), "convert_file": set()}
 OPTION_FIELDS = [item for part in (OutputOptions, PrepareOptions, Limits) for item in dataclasses.fields(part)]
@@ -174,7 +177,7 @@ def test_every_keyword_reaches_the_options_object(function, monkeypatch, tmp_pat
     for item in OPTION_FIELDS:
         if item.name in NOT_TAKEN[function]:
             continue
-        call[function](**{item.name: EXAMPLES[item.name]})
+        call[function](**{item.name: EXAMPLES[item.name]}, **ALONG.get(item.name, {}))
         part = next(p for p in (made[-1].output, made[-1].prepare, made[-1].limits)
                     if item.name in {f.name for f in dataclasses.fields(p)})
         assert getattr(part, item.name) == EXAMPLES[item.name], f"{function}({item.name}=...) did not reach it"
@@ -221,16 +224,16 @@ def digest_of(output: OutputOptions) -> str:
 
 def test_a_new_option_field_is_in_the_digest_without_being_named_there(fixed_version):
     @dataclasses.dataclass(frozen=True)
-    class WithTag(OutputOptions):
-        tag: str | None = None  # an option as the next issue adds it
+    class WithLabel(OutputOptions):
+        label: str | None = None  # an option as the next issue adds it
 
     @dataclasses.dataclass(frozen=True)
     class WithGrain(OutputOptions):
         grain: int = added(0)  # one added after the stamp's format: left out while at its default
 
     default = digest_of(OutputOptions())
-    assert digest_of(WithTag(tag="a")) != digest_of(WithTag(tag="b"))  # digested, never named
-    assert digest_of(WithTag()) != default  # a plain field is digested at its default too
+    assert digest_of(WithLabel(label="a")) != digest_of(WithLabel(label="b"))  # digested, never named
+    assert digest_of(WithLabel()) != default  # a plain field is digested at its default too
     assert digest_of(WithGrain()) == default  # stamps written before it stay up to date
     assert digest_of(WithGrain(grain=2)) not in (default, digest_of(WithGrain(grain=3)))
 
@@ -248,8 +251,8 @@ def test_the_command_line_builds_the_same_options_as_the_keywords():
         "convert", "a.png", "--stage", "splines", "--width", "64", "--precision", "3", "--layout", "cutout",
         "--simplify", "0", "--shading", "flat", "--background", "white", "--pixel-size", "4", "--no-denoise",
         "--transparent", "auto", "--transparent-everywhere", "--max-pixels", "99", "--max-output-pixels", "98",
-        "--max-frames", "7", "--iterations", "2", "--animate"])
+        "--max-frames", "7", "--iterations", "2", "--animate", "--tag", "walk"])
     assert convert_options(args) == ConvertOptions.build(
         depixel.Params().replace(iterations=2), stage="splines", width=64, precision=3, layout="cutout", simplify=0,
         shading="flat", background="white", pixel_size=4, denoise=False, transparent="auto",
-        transparent_everywhere=True, max_pixels=99, max_output_pixels=98, max_frames=7, animate=True)
+        transparent_everywhere=True, max_pixels=99, max_output_pixels=98, max_frames=7, animate=True, tag="walk")

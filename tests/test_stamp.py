@@ -66,12 +66,13 @@ def test_png_stamp_chunk_is_a_valid_chunk():
 
 
 def test_an_old_stamp_is_depixels_but_never_current(tmp_path):
-    """A stamp from before issue 35 (options only): replaceable, never up to date."""
+    """A stamp from before issue 35 (options only): never up to date, and whether it was
+    edited cannot be told (OLD: kept unless forced, issue 45)."""
     source, output = tmp_path / "a.png", tmp_path / "a.svg"
     source.write_bytes((FIXTURES / "heart.png").read_bytes())
     output.write_text("<?xml version='1.0'?>\n<!-- depixel-options:fedcba9876543210 -->\n<svg/>")
     assert stamps.parse(output.read_bytes()) == stamps.Stamp("fedcba9876543210", None, None)
-    assert stamps.status(source, output, "fedcba9876543210") == stamps.STALE
+    assert stamps.status(source, output, "fedcba9876543210") == stamps.OLD
 
 
 def test_identity_matches_by_mtime_else_by_bytes(tmp_path):

@@ -26,6 +26,7 @@ from depixel.prepare.image import ImageSource, frame_count
 from depixel.prepare.inputs import PreparedImage
 
 from ..options import error_message
+from .tags import output_tags, tagged
 
 
 @dataclass(frozen=True, eq=False)  # never compared: eq would cost ~1 ms a start to create
@@ -37,7 +38,7 @@ class Options:
     formats: tuple[str, ...]  # svg, png or pdf: one output of each per input (and frame)
     frames: str | int  # "first", "all" or a frame index
     force: bool  # reconvert outputs that are up to date, and overwrite those that are not depixel's or edited
-    tag: str | None = None  # an Aseprite tag: its frames ("all"), or the first it plays
+    tag: str | None = None  # an Aseprite tag: its frames ("all") or the first it plays; with animate, the one played
     #: an output named by ``-o``: converted even when up to date; one that is not depixel's
     #: (or was edited) is an error without ``force``, not a note
     explicit: bool = False
@@ -52,9 +53,9 @@ class Job:
     output: Path  # its first output; for -o FILE with frames="all", the name the frame names derive from
     options: Options
     frames: int = 1  # frames of the input, known when frames="all"
-    #: (frame, format, path, sprite) of every output, as named when planned (--out-dir, beside
-    #: the input, --name; sprite: a sheet's sprite, or None); empty for -o FILE, whose outputs
-    #: derive from ``output``
+    #: (frame, format, path, part) of every output, as named when planned (--out-dir, beside
+    #: the input, --name; part: a sheet's sprite or an animation's tag, or None); empty for
+    #: -o FILE, whose outputs derive from ``output``
     targets: tuple[tuple[int, str, Path, str | None], ...] = ()
 
 
@@ -69,6 +70,7 @@ class Outcome:
     written: list[Path] = field(default_factory=list)
     up_to_date: list[Path] = field(default_factory=list)
     kept: list[Path] = field(default_factory=list)  # existing outputs depixel did not write (no stamp)
+    old: list[Path] = field(default_factory=list)  # those of ``kept`` stamped before edits could be told
     edited: list[Path] = field(default_factory=list)  # existing outputs changed since depixel wrote them
     planned: list[Path] = field(default_factory=list)  # --dry-run: the outputs that would be written
     seconds: dict[Path, float] = field(default_factory=dict)  # each written output's share of the work
@@ -89,7 +91,7 @@ def current_traceback() -> str:
 
 
 def frame_targets(job: Job) -> list[tuple[int, str, Path, str | None]]:
-    """(frame index, format, output path, sprite) of every output of a job."""
+    """(frame index, format, output path, sprite or tag) of every output of a job."""
     if job.targets:
         return list(job.targets)
     opt, fmt = job.options, job.options.formats[0]
@@ -102,8 +104,8 @@ def chosen_frames(source: ImageSource, options: Options, name: str) -> list[int]
     """The frames of ``source`` to convert: ``--frames first`` the first, ``N`` frame N,
     ``all`` every one (counted from the header, at most ``max_frames``); with ``--tag``, the
     frames of that Aseprite tag (``all``: each once, in the file's order; ``first``: the
-    first it plays)."""
-    if options.tag is not None:
+    first it plays; an animation is one output: ``[0]``)."""
+    if options.tag is not None and not options.convert.output.animate:
         from depixel.prepare.aseprite import is_aseprite, parse_aseprite, tag_frames  # noqa: PLC0415 (~15 ms)
         from depixel.prepare.image import read_source  # noqa: PLC0415
 
@@ -130,10 +132,14 @@ def numbered(output: Path, frames: list[int]) -> list[Path]:
 
 def listed(job: Job) -> Job:
     """A ``-o FILE`` job with its frames known: counted (``--frames all``) or the tag's, which
-    are named by :func:`numbered` (its outputs then planned like a batch's)."""
+    are named by :func:`numbered` (its outputs then planned like a batch's); with ``animate``,
+    an output per tag (:func:`~depixel_cli.convert.tags.output_tags`)."""
     opt = job.options
     if job.targets:
         return job
+    if opt.convert.output.animate:
+        return replace(job, targets=output_tags(job.source, job.output, opt.tag, opt.formats[0], True,
+                                                display_name(job.source)))
     if opt.tag is not None:
         frames = chosen_frames(job.source, opt, display_name(job.source))
         fmt = opt.formats[0]
@@ -163,7 +169,7 @@ def run_job(job: Job) -> Outcome:
             out.written, out.seconds, out.sizes = result.written, result.seconds, result.sizes
             out.notes.extend(note for note in result.notes if note not in out.notes)
             for target, now in result.kept.items():
-                (out.edited if now == stamps.EDITED else out.kept).append(target)
+                keep(out, target, now)
             if result.changed:
                 out.changed = f"{display_name(job.source)}: {files.CHANGED}"
             if out.written:
@@ -183,20 +189,33 @@ def run_job(job: Job) -> Outcome:
     return out
 
 
-#: Why an existing output is kept, by what it is (a stamp.UNSTAMPED or EDITED output).
+#: Why an existing output is kept, by what it is (a stamp.UNSTAMPED, OLD or EDITED output).
 KEPT_BECAUSE = {"kept": "not written by depixel (it has no depixel stamp)",
+                "old": "written by a depixel too old to tell whether it was edited since (its stamp has no "
+                       "body digest)",
                 "edited": "edited since depixel wrote it (it no longer matches its stamp)"}
 
 
 def kept_line(kind: str, target: Path) -> str:
-    """Why the output ``target`` was kept (``kind``: kept or edited) and what overwrites it."""
+    """Why the output ``target`` was kept (``kind``: kept, old or edited) and what overwrites it."""
     return f"{display_name(target)}: {KEPT_BECAUSE[kind]}; kept, --force overwrites it"
 
 
 def kept_lines(out: Outcome) -> list[tuple[str, str]]:
-    """(kind, :func:`kept_line`) for every output of ``out`` that was kept."""
-    return [(kind, kept_line(kind, target)) for kind, targets in (("kept", out.kept), ("edited", out.edited))
-            for target in targets]
+    """(kind, :func:`kept_line`) for every output of ``out`` that was kept (an old stamp's
+    kind is kept, its line says why)."""
+    return [(kind, kept_line("old" if target in out.old else kind, target))
+            for kind, targets in (("kept", out.kept), ("edited", out.edited)) for target in targets]
+
+
+def keep(out: Outcome, target: Path, now: str) -> None:
+    """Record the existing output ``target`` as kept, by what it is (a stamp.KEPT status)."""
+    if now == stamps.EDITED:
+        out.edited.append(target)
+    else:
+        out.kept.append(target)
+        if now == stamps.OLD:
+            out.old.append(target)
 
 
 def frames_note(data: bytes, name: str, options: Options) -> list[str]:
@@ -213,21 +232,21 @@ def frames_note(data: bytes, name: str, options: Options) -> list[str]:
 
 def _outputs_to_make(job: Job, out: Outcome) -> list[files.Target]:
     """The outputs to convert; the others are added to ``out.up_to_date`` (made from this
-    input with these options), ``out.kept`` (not depixel's) or ``out.edited`` (changed since
-    depixel wrote them)."""
+    input with these options), ``out.kept`` (not depixel's, or stamped before edits could be
+    told) or ``out.edited`` (changed since depixel wrote them)."""
     opt = job.options
     todo: list[files.Target] = []
-    for frame, fmt, path, sprite in frame_targets(job):
-        target = files.file_target(path, opt.convert, fmt=fmt, frame=frame, sprite=sprite)
+    sheet = opt.convert.output.is_sheet
+    for frame, fmt, path, part in frame_targets(job):
+        target = files.file_target(path, opt.convert if sheet else tagged(opt.convert, part), fmt=fmt, frame=frame,
+                                   sprite=part if sheet else None)
         if _same_file(path, job.source):  # said as the writer says it, before any work
             raise OutputError(f"{display_name(path)}: is the input file; refusing to overwrite it")
         now = stamps.NEW if opt.force else files.output_status(job.source, target)
         if now == stamps.CURRENT and not opt.explicit:
             out.up_to_date.append(path)
-        elif now == stamps.UNSTAMPED:
-            out.kept.append(path)
-        elif now == stamps.EDITED:
-            out.edited.append(path)
+        elif now in stamps.KEPT:
+            keep(out, path, now)
         else:
             todo.append(target)
     return todo
@@ -238,22 +257,6 @@ def _same_file(a: Path, b: Path) -> bool:
         return os.path.samefile(a, b)
     except (OSError, ValueError):
         return False
-
-
-def preview(job: Job) -> Outcome:
-    """``--dry-run``: what :func:`run_job` would do, writing nothing (the outputs it would
-    write are ``planned``)."""
-    out = Outcome(job.source, job.output)
-    try:
-        whole = job.options.frames == "all" or job.options.convert.output.animate
-        frame_count(job.source, job.options.convert.limits.max_frames if whole else None)
-        job = listed(job)  # the header is read: an unreadable input fails
-        out.planned = [target.path for target in _outputs_to_make(job, out)]
-        if job.options.explicit and (out.kept or out.edited):
-            out.error = kept_lines(out)[0][1]
-    except DepixelError as exc:
-        out.error = error_message(exc)
-    return out
 
 
 def already_done(job: Job) -> Outcome | None:
@@ -348,7 +351,8 @@ def summary(outcomes: list[Outcome], seconds: float, interrupted: bool = False, 
                     for p in o.written]
         outputs += [{"output": str(p), "input": str(o.source), "status": "to-convert"} for p in o.planned]
         outputs += [{"output": str(p), "input": str(o.source), "status": "up-to-date"} for p in o.up_to_date]
-        outputs += [{"output": str(p), "input": str(o.source), "status": kind, "reason": KEPT_BECAUSE[kind]}
+        outputs += [{"output": str(p), "input": str(o.source), "status": kind,
+                     "reason": KEPT_BECAUSE["old" if p in o.old else kind]}
                     for kind, targets in (("kept", o.kept), ("edited", o.edited)) for p in targets]
         if o.error or o.state != DONE:
             status = "failed" if o.error else o.state
@@ -372,14 +376,17 @@ def summary(outcomes: list[Outcome], seconds: float, interrupted: bool = False, 
     }
 
 
-def totals_line(outcomes: list[Outcome], seconds: float, interrupted: bool = False, dry_run: bool = False) -> str:
+def totals_line(outcomes: list[Outcome], seconds: float, interrupted: bool = False, dry_run: bool = False,
+                extra: list[str] | None = None) -> str:
     """The summary line every batch ends with: ``N files: a converted, b up to date, c kept,
-    d failed in S s``, with the edited, changed, abandoned and not started ones when there are."""
+    d failed in S s``, with the edited, changed, abandoned and not started ones when there are,
+    and ``extra`` parts (``--prune``'s ``N removed``) after the failed."""
     counts = [category(o) for o in outcomes]
     parts = [f"{counts.count('converted')} {'to convert' if dry_run else 'converted'}",
              f"{counts.count('up to date')} up to date", f"{counts.count('kept')} kept"]
     parts += [f"{counts.count(name)} {name}" for name in ("edited", "changed") if name in counts]
     parts.append(f"{counts.count('failed')} failed")
+    parts += extra or []
     if interrupted or INTERRUPTED in counts or CANCELLED in counts:  # a --dask batch also stops without a signal
         parts.append(f"{counts.count(INTERRUPTED)} abandoned, {counts.count(CANCELLED)} not started"
                      + (" (interrupted)" if interrupted else ""))

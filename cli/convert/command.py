@@ -36,11 +36,12 @@ from .batch import (
     Options,
     Outcome,
     kept_lines,
-    preview,
     summary,
     totals_line,
 )
+from .dry_run import preview
 from .inputs import DEFAULT_NAME, SHEET_NAME, expand_inputs, make_folders, name_template, plan
+from .prune import Pruned, prune_batch, with_pruned
 from .run import Progress, Repeats, auto_jobs, cores, run
 from .sheets import add_sheet_options, check_sheet_options
 from .stream import convert_stream
@@ -176,6 +177,10 @@ def add_parser(sub, name: str, help: str) -> None:
                        help="reconvert every file, and overwrite outputs that depixel did not write or that were "
                             "edited since (default: skip outputs made from the same input with the same options, "
                             "keep the others)")
+    batch.add_argument("--prune", action="store_true",
+                       help="with --out-dir DIR: remove the outputs there whose inputs are gone (files depixel wrote, "
+                            "unedited, of the run's formats; -r: in all subfolders), so that DIR mirrors its "
+                            "inputs; give the --name and --format of the runs that made DIR")
     batch.add_argument("-n", "--dry-run", action="store_true",
                        help="list what would be converted, what is up to date and what would be kept, on stdout; "
                             "write nothing")
@@ -221,14 +226,19 @@ def run_convert(args: argparse.Namespace) -> int:
         outcomes = _convert_batch(args, options)
     seconds = time.perf_counter() - start
     interrupted = signals.signum is not None
+    pruned: Pruned | None = getattr(args, "pruned", None)
     if args.json:
-        print_stdout(json.dumps(summary(outcomes, seconds, interrupted, args.dry_run), indent=2))
+        print_stdout(json.dumps(with_pruned(summary(outcomes, seconds, interrupted, args.dry_run), pruned,
+                                            args.dry_run), indent=2))
     if (args.output is None and not args.quiet) or interrupted:  # every batch, in a terminal or a log
-        print(f"depixel: {totals_line(outcomes, seconds, interrupted, args.dry_run)}", file=sys.stderr)
+        extra = [] if pruned is None else pruned.totals(args.dry_run)
+        print(f"depixel: {totals_line(outcomes, seconds, interrupted, args.dry_run, extra)}", file=sys.stderr)
     if interrupted:
         return 128 + signals.signum
     # a file not done in a batch that was not interrupted: a --dask batch stopped (no worker, scheduler lost)
-    return Exit.FAILED if any(o.error or o.edited or o.changed or o.state != DONE for o in outcomes) else Exit.OK
+    failed = pruned is not None and pruned.failed()
+    return Exit.FAILED if failed or any(o.error or o.edited or o.changed or o.state != DONE for o in outcomes) else \
+        Exit.OK
 
 
 def _check_destination(args: argparse.Namespace) -> tuple[str, ...]:
@@ -247,6 +257,8 @@ def _check_destination(args: argparse.Namespace) -> tuple[str, ...]:
                      "each: give one of them")
     if args.dry_run and (args.output == "-" or "-" in args.inputs):
         parser.error("--dry-run looks at output files: not with - (stdin or stdout)")
+    if args.prune and args.out_dir is None:
+        parser.error("--prune removes the outputs in --out-dir DIR whose inputs are gone: give --out-dir DIR")
     if args.out_dir is not None and args.out_dir.exists() and not args.out_dir.is_dir():
         parser.error(f"--out-dir {display_name(args.out_dir)}: is a file, not a folder")
     if args.dask is not None and args.output is not None:
@@ -281,6 +293,8 @@ def _convert_batch(args: argparse.Namespace, options: Options) -> list[Outcome]:
     if args.dry_run:  # no folder made, nothing written
         outcomes = failed + [Outcome(Path(arg), error=text) for arg, text in problems] + [preview(j) for j in jobs]
         _list_planned(outcomes, args)
+    args.pruned = prune_batch(args, options.formats, found, problems, jobs, failed)  # before: it needs no output
+    if args.dry_run:
         return outcomes
     jobs, unmade = make_folders(jobs)
     failed += unmade + [Outcome(Path(arg), error=text) for arg, text in problems]

@@ -18,6 +18,7 @@ from depixel.prepare.image import load_image
 
 from ..options import error_message
 from .batch import Job, Options, Outcome, chosen_frames, numbered
+from .tags import file_part, played_tags, written_twice
 
 #: File extensions taken from folders and globs (explicitly named files are always tried).
 IMAGE_SUFFIXES = frozenset({".png", ".gif", ".bmp", ".webp", ".tga", ".tif", ".tiff", ".ppm", ".pgm",
@@ -121,7 +122,7 @@ def _glob_base(pattern: str) -> Path:
 
 
 #: the fields of ``--name TEMPLATE`` (docs/cli.md)
-NAME_FIELDS = ("stem", "suffix", "frame", "sprite")
+NAME_FIELDS = ("stem", "suffix", "frame", "sprite", "tag")
 DEFAULT_NAME = "{stem}"
 #: the default name with ``--sheet`` or ``--sheet-json``: a file per sprite
 SHEET_NAME = "{stem}-{sprite}"
@@ -130,13 +131,6 @@ SHEET_NAME = "{stem}-{sprite}"
 def uses(name: str, field: str) -> bool:
     """Whether the template ``name`` places ``{field}``."""
     return any(found == field for _, found, _, _ in string.Formatter().parse(name))
-
-
-def file_part(sprite: str) -> str:
-    """A sprite's name as part of a file name: a folder separator (TexturePacker's
-    ``hero/walk_01``) becomes ``_``, as does a leading dot."""
-    text = sprite.replace("/", "_").replace("\\", "_")
-    return "_" + text[1:] if text.startswith(".") else text
 
 
 def name_template(text: str) -> str:
@@ -152,7 +146,7 @@ def name_template(text: str) -> str:
             raise ValueError(f"{text!r}: unknown field {{{field}}}; use {fields}")
         if field is not None and (spec or conversion):
             raise ValueError(f"{text!r}: the fields take no format ({{{field}}} as it is); use {fields}")
-    sample = text.format(stem="a", suffix="png", frame="000", sprite="r0c0")
+    sample = text.format(stem="a", suffix="png", frame="000", sprite="r0c0", tag="walk")
     if "/" in sample or "\\" in sample:
         raise ValueError(f"{text!r}: a name, not a folder (outputs go to --out-dir DIR or beside their input)")
     if not sample.strip(". "):
@@ -161,23 +155,32 @@ def name_template(text: str) -> str:
 
 
 def output_targets(source: Path, folder: Path, options: Options, frames: list[int], name: str = DEFAULT_NAME,
-                   sprites: tuple[str, ...] = ()) -> tuple[tuple[int, str, Path, str | None], ...]:
-    """(frame, format, path, sprite) of every output of ``source`` in ``folder``: ``name``
+                   parts: tuple[str, ...] = ()) -> tuple[tuple[int, str, Path, str | None], ...]:
+    """(frame, format, path, part) of every output of ``source`` in ``folder``: ``name``
     filled in (``{stem}``, ``{suffix}`` the input's extension without the dot, ``{frame}``
-    the frame number, 000, 001, …, ``{sprite}`` each of a sheet's ``sprites``) plus each
-    format's extension. Several frames and no ``{frame}`` in the name: ``name-000.svg``,
-    ``name-001.svg``, … (:func:`~depixel_cli.convert.batch.numbered`)."""
+    the frame number, 000, 001, …, ``{sprite}`` each of a sheet's sprites, ``{tag}`` each
+    tag an animation plays, or ``--tag``'s: ``parts``) plus each format's extension. Several
+    frames and no ``{frame}`` in the name: ``name-000.svg``, ``name-001.svg``, …
+    (:func:`~depixel_cli.convert.batch.numbered`). A name that comes out empty for this input
+    (``{suffix}`` of a file without extension) raises ValueError: a hidden ``.svg`` is never
+    what was meant."""
     digits = max(3, len(str(max(frames))))
+    field = "sprite" if options.convert.output.is_sheet else "tag"
+    fixed = {"sprite": "", "tag": "" if options.tag is None else file_part(options.tag)}
     targets = []
     for fmt in options.formats:
-        for sprite in sprites or (None,):
+        for part in parts or (None,):
             named = [(frame, name.format(stem=source.stem, suffix=source.suffix[1:], frame=f"{frame:0{digits}d}",
-                                         sprite="" if sprite is None else file_part(sprite))) for frame in frames]
+                                         **(fixed if part is None else fixed | {field: file_part(part)})))
+                     for frame in frames]
+            if not named[0][1].strip(". "):
+                raise ValueError(f"{display_name(source)}: --name {name!r} names nothing for it (it has no "
+                                 "extension); e.g. --name '{stem}-{suffix}'")
             if len(frames) > 1 and not uses(name, "frame"):
                 paths = numbered(folder / f"{named[0][1]}.{fmt}", frames)
             else:
                 paths = [folder / f"{stem}.{fmt}" for _, stem in named]
-            targets += [(frame, fmt, path, sprite) for frame, path in zip(frames, paths)]
+            targets += [(frame, fmt, path, part) for frame, path in zip(frames, paths)]
     return tuple(sorted(targets, key=lambda target: target[0]))  # frame by frame, formats as given
 
 
@@ -188,7 +191,9 @@ def plan(found: list[tuple[Path, Path]], out_dir: Path | None, options: Options,
 
     With ``frames="all"`` (or a tag) the frames of each input are counted here, so the names
     compared are the real ones (an animation gives ``name-000.svg``, … and a still image
-    ``name.svg``); a sheet whose name places ``{sprite}`` is cut here, one output a sprite.
+    ``name.svg``); a sheet whose name places ``{sprite}`` is cut here, one output a sprite;
+    with ``--animate``, an Aseprite file's tags are read here, one output a tag (``name``
+    without ``{tag}``: ``name-{tag}``).
     Inputs whose outputs would be another input or another input's output fail here; the
     first input (in the order given) keeps the name.
     """
@@ -199,13 +204,20 @@ def plan(found: list[tuple[Path, Path]], out_dir: Path | None, options: Options,
         folder = path.parent if out_dir is None else out_dir / rel.parent
         try:
             frames = chosen_frames(path, options, display_name(path))
-            sprites = sprite_names(path, options, frames[0]) if uses(name, "sprite") else ()
+            parts = sprite_names(path, options, frames[0]) if uses(name, "sprite") else \
+                played_tags(path, options.tag, options.convert.output.animate, display_name(path))
         except DepixelError as exc:
             failed.append(Outcome(path, folder / f"{path.stem}.{options.formats[0]}", error=error_message(exc)))
             continue
-        targets = output_targets(path, folder, options, frames, name, sprites)
+        tags = bool(parts) and not options.convert.output.is_sheet
+        try:
+            targets = output_targets(path, folder, options, frames, name if not tags or uses(name, "tag") else
+                                     f"{name}-{{tag}}", parts)
+        except ValueError as exc:
+            failed.append(Outcome(path, folder / f"{path.stem}.{options.formats[0]}", error=str(exc)))
+            continue
         job = Job(path, targets[0][2], options, len(frames), targets)
-        twice = _written_twice(targets)
+        twice = written_twice(targets, "tags" if tags else "sprites")
         if twice is not None:
             failed.append(Outcome(path, job.output, error=f"{display_name(path)}: {twice}"))
             continue
@@ -237,18 +249,6 @@ def sprite_names(path: Path, options: Options, frame: int) -> tuple[str, ...]:
 
     output = options.convert.output
     return tuple(sprite.name for sprite in sheet_of(rgba, output.sheet, output.sheet_json, name).sprites)
-
-
-def _written_twice(targets: tuple[tuple[int, str, Path, str | None], ...]) -> str | None:
-    """Why two outputs of one input would be one file (two sprites whose names differ only
-    in a folder separator), or None."""
-    seen: dict[Path, str | None] = {}
-    for _, _, path, sprite in targets:
-        if path in seen:
-            return (f"sprites {seen[path]!r} and {sprite!r} would both be written to {display_name(path)}; "
-                    "name them apart with --name")
-        seen[path] = sprite
-    return None
 
 
 def make_folders(jobs: list[Job]) -> tuple[list[Job], list[Outcome]]:

@@ -1,10 +1,12 @@
 """``depixel convert``'s options for sprite sheets and Aseprite files: ``--sheet``,
-``--sheet-json``, ``--tag`` (docs/inputs.md, "Sprite sheets" and "Aseprite files").
+``--sheet-json``, ``--tag`` (docs/inputs.md, "Sprite sheets" and "Aseprite files"; docs/animation.md,
+"Aseprite tags").
 
 Its own module so that the command's module stays the command; the library does the work
 (:func:`depixel.prepare.sheet.sheet_of`, :func:`depixel.api.sheet_conversions`,
 :func:`depixel.prepare.aseprite.tag_frames`), the batch names the outputs
-(:mod:`depixel_cli.convert.inputs`: ``{sprite}``, :func:`depixel_cli.convert.batch.chosen_frames`).
+(:mod:`depixel_cli.convert.inputs`: ``{sprite}``, :func:`depixel_cli.convert.batch.chosen_frames`;
+an animation's tags: :mod:`depixel_cli.convert.tags`).
 """
 from __future__ import annotations
 
@@ -50,8 +52,10 @@ def add_sheet_options(parser: argparse.ArgumentParser) -> None:
                              "beside the sheet (hash or array); each sprite named after its frame, without the "
                              "extension")
     sheets.add_argument("--tag", metavar="NAME",
-                        help="an Aseprite file's tag: its frames with --frames all (each once, named by frame "
-                             "number), else the first frame it plays")
+                        help="an Aseprite file's tag: with --animate, one file that plays it as Aseprite does (its "
+                             "direction and repeat count; without --tag, --animate writes a file per tag, "
+                             "{stem}-{tag}.svg, or FILE-{tag}.svg for -o FILE); with --frames all, its frames "
+                             "(each once, named by frame number); else the first frame it plays")
 
 
 def check_sheet_options(args: argparse.Namespace) -> None:
@@ -67,6 +71,9 @@ def check_sheet_options(args: argparse.Namespace) -> None:
         parser.error("--name's {sprite} names the sprites of --sheet or --sheet-json: give one of them")
     if args.tag is not None and sheet:
         parser.error("--tag picks frames of an Aseprite file; a sheet's sprites are cut from one frame")
+    if args.name is not None and uses(args.name, "tag") and args.tag is None and not args.animate:
+        parser.error("--name's {tag} names the outputs of an Aseprite file's tags: give --animate (a file per tag) "
+                     "or --tag NAME")
     if args.tag is not None and args.frames not in ("first", "all"):
         parser.error("--frames N numbers the file's frames and --tag picks a tag's: give one of them")
 

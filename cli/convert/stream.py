@@ -20,11 +20,13 @@ from .batch import (
     chosen_frames,
     current_traceback,
     frames_note,
+    keep,
     kept_lines,
     numbered,
     record_prepared,
 )
 from .sheets import converted
+from .tags import output_tags, tagged
 
 
 def convert_stream(source: str, output: str, options: Options) -> Outcome:
@@ -49,9 +51,12 @@ def to_stdout(source: files.InputFile, options: Options, out: Outcome) -> None:
     """``-o -``: one frame's SVG, PNG or PDF on stdout, unstamped."""
     frame = chosen_frames(source.data, options, source.name)[0]
     fmt, limits = options.formats[0], options.convert.limits
+    image: np.ndarray | Animation
     if options.convert.output.animate:
-        image: np.ndarray | Animation = read_animation(source.data, limits.max_pixels, max_frames=limits.max_frames,
-                                                       name=source.name)
+        image = whole = read_animation(source.data, limits.max_pixels, max_frames=limits.max_frames, name=source.name)
+        if whole.tags and options.tag is None:
+            out.notes.append(f"{source.name}: has tags ({', '.join(repr(tag.name) for tag in whole.tags)}); -o - "
+                             "plays every frame (--tag NAME plays one)")
     else:
         image = load_image(source.data, limits.max_pixels, frame, max_frames=limits.max_frames, name=source.name)
     blob = converted(image, source, fmt, options.convert, out)
@@ -61,13 +66,18 @@ def to_stdout(source: files.InputFile, options: Options, out: Outcome) -> None:
 
 
 def stream_to_files(source: files.InputFile, output: Path, options: Options, out: Outcome) -> None:
-    """stdin to ``-o FILE`` (every frame's file with ``--frames all``), all or none."""
+    """stdin to ``-o FILE`` (every frame's file with ``--frames all``, every tag's with
+    ``--animate``), all or none."""
     chosen = chosen_frames(source.data, options, source.name)
     frames = zip(chosen, numbered(output, chosen)) if options.frames == "all" else [(chosen[0], output)]
-    targets = [files.file_target(path, options.convert, fmt=options.formats[0], frame=frame) for frame, path in frames]
+    fmt, animate = options.formats[0], options.convert.output.animate
+    tags = output_tags(source.data, output, options.tag, fmt, animate, source.name) if animate else ()
+    targets = [files.file_target(path, tagged(options.convert, tag), fmt=fmt) for _, _, path, tag in tags] or \
+        [files.file_target(path, options.convert, fmt=fmt, frame=frame) for frame, path in frames]
     for target in targets:
         now = stamps.NEW if options.force else stamps.replaceable(target.path)
-        (out.kept if now == stamps.UNSTAMPED else out.edited if now == stamps.EDITED else []).append(target.path)
+        if now in stamps.KEPT:
+            keep(out, target.path, now)
     if out.kept or out.edited:
         out.error = kept_lines(out)[0][1]
         return
@@ -78,6 +88,6 @@ def stream_to_files(source: files.InputFile, output: Path, options: Options, out
     out.written, out.seconds, out.sizes = result.written, result.seconds, result.sizes
     out.notes.extend(result.notes)
     for path, now in result.kept.items():
-        (out.edited if now == stamps.EDITED else out.kept).append(path)
+        keep(out, path, now)
     if out.kept or out.edited:
         out.error = kept_lines(out)[0][1]

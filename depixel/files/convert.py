@@ -84,7 +84,7 @@ def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: P
                  transparent: Colour | str | None = None, transparent_everywhere: bool = False,
                  on_prepared: Callable[[PreparedImage], None] | None = None,
                  max_frames: int | None = DEFAULT_MAX_FRAMES, animate: bool = False, sheet: str | None = None,
-                 sheet_json: SheetJson | str | None = None) -> Path:
+                 sheet_json: SheetJson | str | None = None, tag: str | None = None) -> Path:
     """Convert one image file (one frame of it) to an SVG, PNG or PDF file; returns the output path.
 
     The output is written atomically and never replaces ``source``. SVG and PNG output have
@@ -96,7 +96,8 @@ def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: P
     converted raises :class:`InputError` once the output is written (of the version read,
     stamped as such: never up to date). ``animate=True`` writes every frame of an animated
     GIF, APNG, WebP or Aseprite file into one animated SVG or PNG (docs/animation.md); a
-    still image is its one frame; ``frame`` must then stay 0. ``sheet``/``sheet_json`` write
+    still image is its one frame; ``frame`` must then stay 0; ``tag`` plays one tag of an
+    Aseprite file as Aseprite plays it (None: every frame). ``sheet``/``sheet_json`` write
     a sprite sheet with a layer per sprite (:func:`depixel.convert`); the stamp digests the
     JSON's content.
     """
@@ -105,7 +106,7 @@ def convert_file(source: str | os.PathLike, output: str | os.PathLike, params: P
                                    pixel_size=pixel_size, denoise=denoise, transparent=transparent,
                                    transparent_everywhere=transparent_everywhere, max_pixels=max_pixels,
                                    max_output_pixels=max_output_pixels, max_frames=max_frames, animate=animate,
-                                   sheet=sheet, sheet_json=sheet_json)
+                                   sheet=sheet, sheet_json=sheet_json, tag=tag)
     target = file_target(output, options, fmt=fmt, frame=frame)
     result = convert_frames(InputFile.read(source), [target], options,
                             on_prepared=None if on_prepared is None else lambda frame, target, p: on_prepared(p))
@@ -163,7 +164,7 @@ class Written:
     """What :func:`convert_frames` did."""
 
     written: list[Path] = dataclasses.field(default_factory=list)
-    #: outputs that became someone else's while they were converted: stamp.UNSTAMPED or EDITED
+    #: outputs that became someone else's while they were converted: stamp.UNSTAMPED, EDITED or OLD
     kept: dict[Path, str] = dataclasses.field(default_factory=dict)
     seconds: dict[Path, float] = dataclasses.field(default_factory=dict)  # each output's share of the work
     sizes: dict[Path, int] = dataclasses.field(default_factory=dict)  # bytes of each output
@@ -181,6 +182,7 @@ class Target(NamedTuple):  # (a NamedTuple: ~0.05 ms to define at each start, a 
     frame: int
     digest: str
     sprite: str | None = None  # one sprite of a sheet (its name); None: the whole image (a sheet: a layer each)
+    tag: str | None = None  # the Aseprite tag an animation plays (its options' tag); None: every frame
 
 
 def file_target(output: str | os.PathLike, options: ConvertOptions, *, fmt: str | None = None,
@@ -195,7 +197,7 @@ def file_target(output: str | os.PathLike, options: ConvertOptions, *, fmt: str 
                              parameter="frame")
     if sprite is not None and not options.output.is_sheet:
         raise ParameterError("a sprite's output needs the sheet's options (sheet or sheet_json)", parameter="sprite")
-    return Target(Path(output), fmt, frame, options_digest(options, fmt, frame, sprite), sprite)
+    return Target(Path(output), fmt, frame, options_digest(options, fmt, frame, sprite), sprite, options.output.tag)
 
 
 def options_digest(options: ConvertOptions, fmt: str, frame: int, sprite: str | None = None) -> str:
@@ -224,8 +226,8 @@ def convert_frames(source: InputFile, targets: Sequence[Target], options: Conver
     ``every_frame``: the input is an animation converted whole (its frames decoded in order,
     checked against ``max_frames`` and, in all, ``max_pixels``; PNG frames' pixels in all
     against ``max_output_pixels``, before each is converted). With ``options.output.animate``
-    the targets (of frame 0) each hold every frame (:func:`depixel.api.animated`), within
-    the same limits. Without ``overwrite``, an
+    the targets (of frame 0) each hold every frame, or their tag's (``Target.tag``: the file
+    is read once for all its tags; :func:`depixel.api.animated`), within the same limits. Without ``overwrite``, an
     output that became unstamped or edited while converting is kept. ``token``: the run's
     (:mod:`depixel.files.output`). The outputs are stamped with the input's identity as read;
     whether it changed meanwhile is in the result."""
@@ -233,14 +235,7 @@ def convert_frames(source: InputFile, targets: Sequence[Target], options: Conver
     by_frame: dict[int, list[Target]] = {}
     for target in targets:
         by_frame.setdefault(target.frame, []).append(target)
-    frames: Iterable[tuple[int, np.ndarray | Animation]]
-    if options.output.animate:
-        frames = [(0, read_animation(source.data, limits.max_pixels, max_frames=limits.max_frames, name=name))]
-    elif every_frame:
-        frames = load_frames(source.data, limits.max_pixels, max_frames=limits.max_frames, name=name)
-    else:
-        frames = ((frame, load_image(source.data, limits.max_pixels, frame, max_frames=limits.max_frames, name=name))
-                  for frame in by_frame)
+    frames = decoded_frames(source, by_frame, options, every_frame)
     done = Written()
     staged: dict[Path, outputs.Staged | None] = {}  # None: a device, written in place
     pngs = sum(target.fmt == "png" and target.sprite is None for target in targets)  # (a sheet's sprites': _converted)
@@ -269,12 +264,28 @@ def convert_frames(source: InputFile, targets: Sequence[Target], options: Conver
         done.changed = source.changed()
         if not overwrite:
             done.kept = {path: now for path in staged
-                         if (now := stamps.replaceable(path)) in (stamps.UNSTAMPED, stamps.EDITED)}
+                         if (now := stamps.replaceable(path)) in stamps.KEPT}
         done.written = [path for path in staged if path not in done.kept]
         outputs.commit([item for path in done.written if (item := staged.pop(path)) is not None])
     finally:
         outputs.discard([item for item in staged.values() if item is not None])
     return done
+
+
+def decoded_frames(source: InputFile, frames: Iterable[int], options: ConvertOptions,
+                   every_frame: bool = False) -> Iterable[tuple[int, np.ndarray | Animation]]:
+    """What a conversion of ``source`` with ``options`` decodes, ``(index, (H, W, 4) uint8
+    RGBA)`` a frame: ``frames``, each decoded from the start, or with ``every_frame`` all of
+    them in order (checked against the limits in all); with ``options.output.animate`` the
+    whole :class:`Animation` as frame 0. A file that cannot be decoded raises
+    :class:`InputError` (``--dry-run`` decodes them to report it as the conversion would)."""
+    name, limits = source.name, options.limits
+    if options.output.animate:
+        return [(0, read_animation(source.data, limits.max_pixels, max_frames=limits.max_frames, name=name))]
+    if every_frame:
+        return load_frames(source.data, limits.max_pixels, max_frames=limits.max_frames, name=name)
+    return ((frame, load_image(source.data, limits.max_pixels, frame, max_frames=limits.max_frames, name=name))
+            for frame in frames)
 
 
 def _converted(rgba: np.ndarray | Animation, source: InputFile, wanted: Sequence[Target], options: ConvertOptions,
@@ -287,10 +298,15 @@ def _converted(rgba: np.ndarray | Animation, source: InputFile, wanted: Sequence
     title = None if source.path is None else source.path.name
     lossy = lossy_format(source.data)
     if not options.output.is_sheet or isinstance(rgba, Animation):  # (the options refuse animate with a sheet)
-        drafts = {target.fmt: stamps.text(target.digest, source.identity) for target in wanted}
-        blobs = conversions(rgba, drafts, options, name=source.name, title=title, lossy=lossy,
-                            on_prepared=on_prepared)
-        return [stamps.embed(blobs[target.fmt], target.fmt, target.digest, source.identity) for target in wanted]
+        by_tag: dict[tuple[str | None, str], bytes] = {}
+        for tag in dict.fromkeys(target.tag for target in wanted):  # an animation's tags, each played apart
+            drafts = {t.fmt: stamps.text(t.digest, source.identity) for t in wanted if t.tag == tag}
+            tagged = options if tag == options.output.tag else \
+                dataclasses.replace(options, output=dataclasses.replace(options.output, tag=tag))
+            played = conversions(rgba, drafts, tagged, name=source.name, title=title, lossy=lossy,
+                                 on_prepared=on_prepared)
+            by_tag.update(((tag, fmt), blob) for fmt, blob in played.items())
+        return [stamps.embed(by_tag[t.tag, t.fmt], t.fmt, t.digest, source.identity) for t in wanted]
     from ..prepare.sheet import sheet_of  # noqa: PLC0415 (~10 ms of imports: only for a sheet)
 
     sheet = sheet_of(rgba, options.output.sheet, options.output.sheet_json, source.name)
@@ -333,8 +349,8 @@ def _converted(rgba: np.ndarray | Animation, source: InputFile, wanted: Sequence
 def output_status(source: str | os.PathLike, target: Target) -> str:
     """What the existing output ``target`` is for a conversion of ``source``: ``stamp.NEW``,
     ``CURRENT`` (made from this input with these options: up to date), ``STALE`` (depixel's,
-    unchanged since: safe to replace), ``UNSTAMPED`` (not depixel's) or ``EDITED`` (changed
-    since depixel wrote it)."""
+    unchanged since: safe to replace), ``UNSTAMPED`` (not depixel's), ``EDITED`` (changed
+    since depixel wrote it) or ``OLD`` (stamped before edits could be told)."""
     return stamps.status(source, target.path, target.digest)
 
 

@@ -14,12 +14,13 @@ input's identity as it was read; BODY is the digest of the file's own bytes with
   the input's size and mtime, or its bytes when only the mtime moved (a ``touch``, a checkout);
 * one depixel wrote and nobody changed since (``STALE``: overwritten when the input or an
   option changed);
-* one edited since (``EDITED``: its body no longer matches), or not depixel's at all
-  (``UNSTAMPED``: no stamp; a tool that strips comments drops it too): both are kept unless
-  the user forces it.
+* one edited since (``EDITED``: its body no longer matches, whether or not its input and
+  options are the ones it was made from), or not depixel's at all (``UNSTAMPED``: no stamp;
+  a tool that strips comments drops it too): both are kept unless the user forces it.
 
 An output written from standard input has no ``input=`` part (it is never current); a stamp
-from before this format has neither part (depixel's, but its edits cannot be told: STALE).
+from before this format has neither part (``OLD``: depixel's, but whether it was edited
+cannot be told, so it is kept unless the user forces it, as an edit would be).
 """
 from __future__ import annotations
 
@@ -50,7 +51,9 @@ _PATTERN = re.compile(rb"depixel-options:([0-9a-f]{16})(?:;input=([0-9]{1,20}),(
                       rb"(?:;body=([0-9a-f]{16}))?")
 _PNG = b"\x89PNG\r\n\x1a\n"
 #: What an existing output is, for a conversion about to write it (:func:`status`).
-NEW, CURRENT, STALE, UNSTAMPED, EDITED = "new", "current", "stale", "unstamped", "edited"
+NEW, CURRENT, STALE, UNSTAMPED, EDITED, OLD = "new", "current", "stale", "unstamped", "edited", "old"
+#: The existing outputs a conversion keeps unless forced: not depixel's, edited, or too old to tell.
+KEPT = (UNSTAMPED, EDITED, OLD)
 
 
 @dataclass(frozen=True)
@@ -188,8 +191,10 @@ def read(path: str | os.PathLike) -> Stamp | None:
 
 def status(source: str | os.PathLike, output: str | os.PathLike, options: str) -> str:
     """What the existing ``output`` is for a conversion of ``source`` with the options stamp
-    ``options``: NEW (no file, or a device written in place), CURRENT, STALE, UNSTAMPED or
-    EDITED (the module's docstring). Only a file that would be overwritten is read whole."""
+    ``options``: NEW (no file, or a device written in place), CURRENT, STALE, UNSTAMPED,
+    EDITED or OLD (the module's docstring). A file is read whole only when its first and last
+    4 KiB hold a stamp: a current one must also be as depixel wrote it (an edit made while
+    the input stayed the same is EDITED, not CURRENT)."""
     try:
         if not stat.S_ISREG(os.stat(output).st_mode):
             return NEW
@@ -198,14 +203,17 @@ def status(source: str | os.PathLike, output: str | os.PathLike, options: str) -
     found = read(output)
     if found is None:
         return UNSTAMPED
-    if found.options == options and found.identity is not None and found.identity.matches(source):
+    now = replaceable(output)
+    if now == STALE and found.options == options and found.identity is not None and \
+            found.identity.matches(source):
         return CURRENT
-    return replaceable(output)
+    return now
 
 
 def replaceable(output: str | os.PathLike) -> str:
     """Whether an existing ``output`` may be replaced: NEW (none, or a device), STALE (as
-    depixel wrote it, or a stamp too old to tell), UNSTAMPED or EDITED."""
+    depixel wrote it), UNSTAMPED, EDITED, or OLD (a stamp without a body digest: whether it
+    was edited cannot be told)."""
     try:
         if not stat.S_ISREG(os.stat(output).st_mode):
             return NEW
@@ -217,4 +225,6 @@ def replaceable(output: str | os.PathLike) -> str:
     found = parse(blob)
     if found is None:
         return UNSTAMPED
-    return STALE if found.body is None or intact(blob) else EDITED
+    if found.body is None:
+        return OLD
+    return STALE if intact(blob) else EDITED

@@ -84,7 +84,7 @@ def _frames(source: ImageSource, max_pixels: int | None, only: int | None, max_f
 
         ase = parse_aseprite(data, name, max_pixels)
         for index, rgba in aseprite_frames(ase, only, max_pixels, max_frames):
-            yield index, rgba, {"duration": ase.durations[index]}  # as Pillow's info gives it
+            yield index, rgba, {"duration": ase.durations[index], "tags": ase.tags}  # as Pillow's info, and tags
         return
     if only is not None:
         check_frame_index(name, only, max_frames)

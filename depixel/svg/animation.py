@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import dataclasses
 import re
-from collections.abc import Collection, Sequence
+from collections.abc import Collection, Iterator, Sequence
 
 from .svgtext import number
 
@@ -191,9 +191,10 @@ def _named_masks(frame: FrameSvg, masks: dict[str, str], tokens: dict[str, str],
     return dataclasses.replace(frame, defs="".join(kept), nodes=nodes)
 
 
-def _shape_keys(nodes: Sequence[Node]) -> dict[str, str]:
-    """The key :func:`frame_items` gives each shape (an element without children), by its id."""
-    keys: dict[str, str] = {}
+def _keyed(nodes: Sequence[Node]) -> Iterator[tuple[Node, str]]:
+    """Every element of a frame (groups and their children, depth first) with its key: its
+    text without ids (a shape's without its label too) and how many times that text came
+    before it in the frame (:func:`frame_items`)."""
     seen: dict[str, int] = {}
     pending = list(reversed(nodes))
     while pending:
@@ -201,11 +202,15 @@ def _shape_keys(nodes: Sequence[Node]) -> dict[str, str]:
         text = _ID.sub("", node.text)
         if not node.children:
             text = _LABEL.sub("", text)
-            if found := _ID.search(node.text):
-                keys[found.group(1)] = f"{seen.get(text, 0) + 1}\0{text}"
         seen[text] = seen.get(text, 0) + 1
+        yield node, f"{seen[text]}\0{text}"
         pending += reversed(node.children)
-    return keys
+
+
+def _shape_keys(nodes: Sequence[Node]) -> dict[str, str]:
+    """The key of each shape (an element without children) of a frame, by its id."""
+    return {found.group(1): key for node, key in _keyed(nodes)
+            if not node.children and (found := _ID.search(node.text))}
 
 
 def _prefixed(text: str, index: int) -> str:
@@ -231,19 +236,12 @@ def frame_items(frames: Sequence[Sequence[Node]]) -> tuple[list[list[tuple[str, 
     users: dict[str, set[int]] = {}
     labels: dict[str, set[str]] = {}
     for index, nodes in enumerate(frames):
-        seen: dict[str, int] = {}
         frame_keys: dict[int, str] = {}
-        pending = list(reversed(nodes))
-        while pending:
-            node = pending.pop()
-            text = _ID.sub("", node.text)
+        for node, key in _keyed(nodes):
             if not node.children:
-                text = _LABEL.sub("", text)
-                labels.setdefault(text, set()).add(_label(node.text))
-            seen[text] = seen.get(text, 0) + 1
-            frame_keys[id(node)] = key = f"{seen[text]}\0{text}"
+                labels.setdefault(key.partition("\0")[2], set()).add(_label(node.text))
+            frame_keys[id(node)] = key
             users.setdefault(key, set()).add(index)
-            pending += reversed(node.children)
         keys.append(frame_keys)
 
     def flat(node: Node, index: int) -> list[tuple[str, str]]:
