@@ -11,8 +11,7 @@ to the depixel module (or function) that made it (a helper's, ``arrays`` and the
 caller). Array operators and indexing (``a + b``,
 ``a[i]``) raise no profiler event and are not counted, so the counts are a lower bound of the
 calls that pay numpy's fixed cost; they move the same way when a stage makes fewer, larger calls.
-What is converted is ``depixel.convert(array)`` with the default options (the SVG text); with
-``--packed`` the preparation (nothing to do on 1x art) is left out.
+What is converted is ``depixel.convert(array)`` with the default options (the SVG text).
 """
 from __future__ import annotations
 
@@ -45,8 +44,8 @@ def _is_numpy(func) -> bool:
 
 def count(images: list[np.ndarray], by_function: bool = False, packed: int = 0) -> Counter[str]:
     """numpy calls made by depixel's code while converting ``images``, keyed by module or function;
-    with ``packed``, the pipelines of that many images at a time in one pass
-    (:func:`depixel.pipeline.depixelize_many`, as a folder batch runs them), each then written."""
+    with ``packed``, that many images at a time in one pass (:func:`depixel.api.passes`, as a
+    folder batch runs them: their pipelines and their outlines' simplification together)."""
     counts: Counter[str] = Counter()
     cut = len(DEPIXEL_DIR) + 1
 
@@ -67,11 +66,14 @@ def count(images: list[np.ndarray], by_function: bool = False, packed: int = 0) 
                 counts[key(caller)] += 1
 
     if packed:
+        from depixel.options import ConvertOptions
+
         for first in range(0, len(images), packed):
             sys.setprofile(hook)
             try:
-                for result in depixel.pipeline.depixelize_many(images[first:first + packed]):
-                    depixel.to_svg(result.vector)  # type: ignore[union-attr]
+                with depixel.api.passes(images[first:first + packed], ConvertOptions(), ["svg"]):
+                    for image in images[first:first + packed]:
+                        depixel.convert(image)
             finally:
                 sys.setprofile(None)
         return counts
