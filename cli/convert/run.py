@@ -85,27 +85,25 @@ def run(jobs: list[Job], workers: int, report, signals, progress: Progress | Non
         finally:
             signals.raising = False
 
-    if len(todo) <= 1:  # (one file: no pack, and none of their modules)
-        for index in todo:
+    def one_by_one(indices: list[int]) -> None:
+        """Convert ``jobs[i]`` for each of ``indices`` in this process, in turn."""
+        for index in indices:
             if signals.signum is not None:
                 finished(Finished(index, cancelled=True))
                 continue
             started(index)
             result = here(jobs[index])
             finished(Finished(index, interrupted=True) if result is None else Finished(index, result))
+
+    if len(todo) <= 1:  # (one file: no pack, and none of their modules)
+        one_by_one(todo)
         return [outcomes[i] for i in range(len(jobs))]
     from .packs import packs, run_pack  # noqa: PLC0415
 
     if workers <= 1:
         for pack in packs(len(todo)):
             with ahead_of([jobs[todo[i]] for i in pack], signals):
-                for index in (todo[i] for i in pack):
-                    if signals.signum is not None:
-                        finished(Finished(index, cancelled=True))
-                        continue
-                    started(index)
-                    result = here(jobs[index])
-                    finished(Finished(index, interrupted=True) if result is None else Finished(index, result))
+                one_by_one([todo[i] for i in pack])
     else:
         signals.raising = False
         # each worker takes packs of files (their pipelines in one pass, cli/convert/packs.py),
