@@ -19,11 +19,14 @@ locality      ``--edits`` seeded one-pixel edits on each of five sprites: render
               ``shape_checks.py locality``), and curved edges farther than 4.5 px drawn with other
               numbers at the SVG's 0.01 px.
 speed         per paper sprite the CPU time of ``depixel.convert(array)`` (min of ``--repeats``),
-              alternated image by image with the peer (libdepixelize's ``splines-opt`` through
-              ``--peer``, default /tmp/ldpx-harness/ldpx_harness, its median of 3; see
-              ../shared/tools/libdepixelize/README.md); the medians and their ratio; a 256x224
-              frame; the whole ``depixel convert`` process against ``python -c "import numpy,
-              PIL.Image"`` (median of ``--runs``).
+              alternated image by image with the peer's CPU time (libdepixelize's ``splines-opt``
+              through ``--peer``, default /tmp/ldpx-harness/ldpx_harness, its median of 3 calls'
+              process CPU; see ../shared/tools/libdepixelize/README.md); the medians and their
+              ratio; a 256x224 frame; the CPU time of the whole ``depixel convert`` process against
+              ``python -c "import numpy, PIL.Image"`` (median of ``--runs``).
+batch         the paper sprites as one folder (``depixel convert DIR --out-dir OUT -j 1``): CPU ms
+              a sprite, all of it counted (decode, write, stamps) less one process start, against
+              the peer's tracing CPU a sprite; ``--rounds`` rounds alternated with the peer.
 
 Needs ../shared/corpus (``--corpus``); the renders use cairosvg.
 """
@@ -37,6 +40,8 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import argparse  # noqa: E402
 import io  # noqa: E402
 import json  # noqa: E402
+import resource  # noqa: E402
+import shutil  # noqa: E402
 import statistics  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
@@ -190,10 +195,20 @@ def locality_section(corpus: Path, names: list[str], edits: int) -> None:
 
 
 def peer_ms(peer: str, path: Path, out: Path) -> float:
-    """The peer's median tracing time (ms) of one image, as its harness reports it."""
+    """The peer's tracing CPU time (ms) of one image: the median of 3 calls, the process CPU
+    time its harness reports (the last two columns: median, min), not the wall time, which
+    counts the other jobs of a shared machine too."""
     line = subprocess.run([peer, "splines-opt", str(path), str(out), "3"], capture_output=True, text=True,
                           check=True).stdout.split("\t")
-    return float(line[2])
+    return float(line[-2])
+
+
+def child_cpu(command: list[str], env: dict[str, str] | None = None) -> float:
+    """CPU seconds (user + system) of running ``command`` to its end."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    subprocess.run(command, check=True, env=env, capture_output=True)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
 
 
 def depixel_ms(rgba: np.ndarray, repeats: int) -> float:
@@ -239,18 +254,52 @@ def speed_section(corpus: Path, peer: str, repeats: int, runs: int) -> None:
         seconds: dict[str, list[float]] = {k: [] for k in commands}
         for _ in range(runs):
             for label, command in commands.items():
-                start = time.perf_counter()
-                subprocess.run(command, check=True, env=env, capture_output=True)
-                seconds[label].append(time.perf_counter() - start)
+                seconds[label].append(child_cpu(command, env))
     convert, floor = (statistics.median(seconds[k]) for k in commands)
-    print(f"whole process {paths[0].name}: {convert * 1e3:.0f} ms against {floor * 1e3:.0f} ms "
+    print(f"whole process {paths[0].name}: {convert * 1e3:.0f} ms CPU against {floor * 1e3:.0f} ms "
           f"(ratio {convert / floor:.2f})")
+
+
+def batch_section(corpus: Path, peer: str, rounds: int) -> None:
+    """The paper sprites as one folder, ``depixel convert DIR --out-dir OUT -j 1``: the CPU time
+    of the whole process (decode, conversion, writing, stamps) less one process start (the
+    CPU of ``python -c "import depixel_cli.main, ..."``: the interpreter, numpy, Pillow, depixel and
+    the command's modules), per sprite; against the peer's tracing CPU per sprite (the harness's
+    median of 3 calls a sprite; their mean, the batch's like, and median). Rounds alternate."""
+    paths = sorted((corpus / "paper").glob("*.png"))
+    print(f"\n== batch: {len(paths)} paper sprites as one folder, -j 1, CPU ms a sprite (one start subtracted)")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    start_command = [sys.executable, "-c", "import depixel_cli.main, depixel_cli.convert.command"]
+    have_peer = Path(peer).is_file()
+    ours, starts, peer_mean, peer_median = [], [], [], []
+    with tempfile.TemporaryDirectory() as tmp:
+        for _ in range(rounds):
+            out = Path(tmp) / "out"
+            shutil.rmtree(out, ignore_errors=True)
+            ours.append(child_cpu([sys.executable, "-m", "depixel", "convert", str(corpus / "paper"), "--out-dir",
+                                   str(out), "-j", "1", "-q"], env))
+            starts.append(child_cpu(start_command, env))
+            if have_peer:
+                each = [peer_ms(peer, path, Path(tmp) / "peer.svg") for path in paths]
+                peer_mean.append(statistics.fmean(each))
+                peer_median.append(statistics.median(each))
+    start = statistics.median(starts)
+    per_sprite = [(cpu - start) / len(paths) * 1e3 for cpu in ours]
+    each_round = ", ".join(f"{x:.1f}" for x in per_sprite)
+    line = (f"depixel {statistics.median(per_sprite):.1f} ms a sprite (rounds {each_round}; "
+            f"batch {statistics.median(ours):.2f} s, start {start * 1e3:.0f} ms)")
+    if have_peer:
+        mean, median = statistics.median(peer_mean), statistics.median(peer_median)
+        ratio = statistics.median(a / b for a, b in zip(per_sprite, peer_mean))
+        line += (f"; peer {mean:.1f} ms a sprite (mean; median {median:.1f}); ratio to the mean {ratio:.2f}, "
+                 f"to the median {statistics.median(per_sprite) / median:.2f}")
+    print(line)
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("sections", nargs="*", choices=["energy", "equivariance", "locality", "speed"],
-                        default=["energy", "equivariance", "locality", "speed"])
+    parser.add_argument("sections", nargs="*", choices=["energy", "equivariance", "locality", "speed", "batch"],
+                        default=["energy", "equivariance", "locality", "speed", "batch"])
     parser.add_argument("--corpus", type=Path, default=DEFAULT_CORPUS)
     parser.add_argument("--base", help="another source tree to compare the energies with")
     parser.add_argument("--sprites", default=",".join(EIGHT), help="sprites of the equivariance section")
@@ -258,6 +307,7 @@ def main() -> int:
     parser.add_argument("--peer", default="/tmp/ldpx-harness/ldpx_harness")
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--runs", type=int, default=11)
+    parser.add_argument("--rounds", type=int, default=3, help="rounds of the batch section")
     args = parser.parse_args()
     if not (args.corpus / "paper").is_dir():
         parser.error(f"no corpus at {args.corpus} (--corpus DIR with paper/ and frames/)")
@@ -269,6 +319,8 @@ def main() -> int:
         locality_section(args.corpus, FIVE, args.edits)
     if "speed" in args.sections:
         speed_section(args.corpus, args.peer, args.repeats, args.runs)
+    if "batch" in args.sections:
+        batch_section(args.corpus, args.peer, args.rounds)
     return 0
 
 

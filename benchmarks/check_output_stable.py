@@ -9,6 +9,7 @@ against the output it started from::
     python benchmarks/check_output_stable.py --stage cells --record   # before optimizing
     python benchmarks/check_output_stable.py --stage cells            # after: exit 1 on any change
     python benchmarks/check_output_stable.py --layout cutout --simplify 0   # other SVG options
+    python benchmarks/check_output_stable.py --stage optimized --packed 16  # batches in one pass: same bytes
 
 Images under ``../shared`` are skipped (with a note) when that folder is absent.
 """
@@ -61,6 +62,25 @@ def svg_hash(rgba: np.ndarray, stage: str, layout: str = "stacked", simplify: fl
     return hashlib.sha256(svg.encode("utf-8")).hexdigest()
 
 
+def packed_hashes(images: dict[str, np.ndarray], stage: str, layout: str, simplify: float, size: int
+                  ) -> dict[str, str]:
+    """:func:`svg_hash` of every image, ``size`` images at a time in one pass
+    (:func:`depixel.api.passes`: the pipelines by :func:`depixel.pipeline.depixelize_many`,
+    the outlines' simplification together), as a batch runs them: each must be the bytes of
+    the image alone."""
+    from depixel.options import ConvertOptions
+
+    options = ConvertOptions.build(Params(), stage=stage, layout=layout, simplify=simplify)
+    names = list(images)
+    out = {}
+    for first in range(0, len(names), size):
+        pack = names[first:first + size]
+        with depixel.api.passes([images[n] for n in pack], options, ["svg"]):
+            for name in pack:
+                out[name] = svg_hash(images[name], stage, layout, simplify)
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--stage", choices=depixel.STAGES, default="cells")
@@ -68,6 +88,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--simplify", type=float, default=DEFAULT_SIMPLIFY, help="tolerance of to_svg (0: exact)")
     parser.add_argument("--record", action="store_true", help="store the current hashes instead of comparing")
     parser.add_argument("--corpus", type=Path, default=DEFAULT_CORPUS, help="folder with paper/ and frames/")
+    parser.add_argument("--packed", type=int, default=0, metavar="N",
+                        help="N images at a time in one pass (depixel.api.passes), as a batch: same hashes")
     parser.add_argument("--hashes", type=Path, default=HASHES, help=f"hash file (default {HASHES.relative_to(ROOT)})")
     args = parser.parse_args(argv)
     if not args.corpus.is_dir():
@@ -77,8 +99,9 @@ def main(argv: list[str] | None = None) -> int:
     key = args.stage
     if (args.layout, args.simplify) != ("stacked", DEFAULT_SIMPLIFY):
         key = f"{args.stage}/{args.layout}/{args.simplify:g}"
-    current = {name: svg_hash(rgba, args.stage, args.layout, args.simplify)
-               for name, rgba in inputs(args.corpus).items()}
+    images = inputs(args.corpus)
+    current = packed_hashes(images, args.stage, args.layout, args.simplify, args.packed) if args.packed else \
+        {name: svg_hash(rgba, args.stage, args.layout, args.simplify) for name, rgba in images.items()}
     table = json.loads(args.hashes.read_text()) if args.hashes.exists() else {}
     if args.record:
         table[key] = current

@@ -14,16 +14,16 @@ converted alone and put back at its place (:func:`sheet_conversions`).
 from __future__ import annotations
 
 import io
-import os
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from contextlib import ExitStack
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from . import validate
-from .colour import Colour, as_colour
-from .errors import ParameterError, display_name
+from .colour import Colour
+from .errors import ParameterError
 from .limits import (
     DEFAULT_MAX_FRAMES,
     DEFAULT_MAX_OUTPUT_PIXELS,
@@ -33,11 +33,10 @@ from .limits import (
 )
 from .options import ConvertOptions, OutputOptions, PrepareOptions
 from .params import Params
-from .pipeline import depixelize
+from .pipeline import ahead, depixelize
 from .prepare.animation import Animation
-from .prepare.backdrop import over_colour
-from .prepare.image import ImageSource, Pixels, as_rgba, check_indexable, check_pixels, image_array, load_image
-from .prepare.inputs import AUTO, PixelSize, PreparedImage, pil_lossy, prepare
+from .prepare.image import Pixels, as_rgba, check_pixels_given
+from .prepare.inputs import AUTO, PixelSize, PreparedImage, flatten, load, pil_lossy, prepare
 from .render.overlay import overlay_raster, overlay_svg
 from .svg.swatches import Style
 from .svg.writer import DEFAULT_PRECISION, DEFAULT_SIMPLIFY, SHADINGS, SIGMA_RATIO, to_svg
@@ -51,45 +50,6 @@ if TYPE_CHECKING:  # a sheet's modules are imported when a sheet is converted (~
 FORMATS = ("svg", "png", "pdf", "eps")
 __all__ = ["FORMATS", "SHADINGS", "conversions", "convert", "convert_bytes", "cut_sheet", "encode",
            "flatten", "load", "prepare_input", "prepared_input", "sheet_conversions"]
-
-
-def _pixels(image: object, name: str = "<image>", max_pixels: int | None = DEFAULT_MAX_PIXELS) -> None:
-    """Refuse what is not an image in memory (a file name gets a pointer to the file
-    functions) and images over ``max_pixels``, before any conversion copies them."""
-    if isinstance(image, (str, os.PathLike)):
-        raise ParameterError(f"{display_name(image)}: convert takes pixels (a numpy array or a PIL image), "
-                             "not a file name; use depixel.convert_file(path, output) or "
-                             "depixel.api.load(path)", parameter="image")
-    if isinstance(image, (bytes, bytearray, memoryview)):
-        raise ParameterError("convert takes pixels (a numpy array or a PIL image), not file bytes; "
-                             "decode them with depixel.api.load(data)", parameter="image")
-    size = image.size if hasattr(image, "mode") and hasattr(image, "size") else image_array(image).shape[1::-1]
-    if len(size) == 2:
-        check_pixels(name, int(size[0]), int(size[1]), validate.limit("max_pixels", max_pixels))
-        check_indexable(name, int(size[0]), int(size[1]))
-
-
-def flatten(image: Pixels, colour: Colour | str) -> np.ndarray:
-    """Composite an image over an opaque colour → ``(H, W, 4) uint8`` with alpha 255.
-
-    Useful before converting art whose semi-transparent edges should blend into a known
-    background instead of becoming separate translucent shapes.
-    """
-    rgb = as_colour(colour)
-    if rgb is None:
-        raise ParameterError("background must be a colour name or an (r, g, b) triple, not None",
-                             parameter="background")
-    _pixels(image, max_pixels=None)
-    return over_colour(as_rgba(image), rgb)
-
-
-def load(source: ImageSource, *, frame: int = 0, background: Colour | str | None = None,
-         max_pixels: int | None = DEFAULT_MAX_PIXELS) -> np.ndarray:
-    """Read an image file (path, bytes or binary file) → ``(H, W, 4) uint8`` RGBA,
-    flattened over ``background`` when given."""
-    colour = as_colour(background)
-    rgba = load_image(source, max_pixels=max_pixels, frame=frame)
-    return rgba if colour is None else flatten(rgba, colour)
 
 
 def convert(image: Pixels | PreparedImage, params: Params = Params(), *, stage: str = "optimized", scale: float = 1.0,
@@ -157,7 +117,7 @@ def prepared_input(image: Pixels | PreparedImage, options: PrepareOptions, *, lo
     (None: not checked), then prepared; a :class:`PreparedImage` is returned as it is."""
     if isinstance(image, PreparedImage):
         return image
-    _pixels(image, max_pixels=max_pixels)
+    check_pixels_given(image, max_pixels=max_pixels)
     return prepare(image, options, lossy=lossy or pil_lossy(image))
 
 
@@ -243,7 +203,8 @@ def conversions(image: Pixels | PreparedImage | Animation, formats: Mapping[str,
                 return conversions(frames.get(frame.tobytes(), frame), made, still, name=name, title=title,
                                    lossy=lossy, on_prepared=on_prepared)
 
-            return animated(image, formats, options, convert_frame, name=name)
+            with _in_passes(image.frames, still, formats, lossy):  # the frames' pipelines together
+                return animated(image, formats, options, convert_frame, name=name)
         image = image.frames[0]
     elif options.output.animate and int(getattr(image, "n_frames", 1)) > 1:
         raise ParameterError("a PIL image is one frame: read an animated file with depixel.read_animation(path) "
@@ -251,7 +212,7 @@ def conversions(image: Pixels | PreparedImage | Animation, formats: Mapping[str,
                              parameter="image")
     params, output, limits = options.params, options.output, options.limits
     if not isinstance(image, PreparedImage):
-        _pixels(image, name, limits.max_pixels)
+        check_pixels_given(image, name, limits.max_pixels)
     if output.is_sheet:
         if isinstance(image, PreparedImage):
             raise ParameterError("a sheet is cut from its pixels: give the image, not a PreparedImage",
@@ -308,7 +269,7 @@ def cut_sheet(image: Pixels, sheet: str | None = None, *, sheet_json: SheetJson 
     or decoded object). A :class:`~depixel.prepare.sheet.Sheet`: ``sprites`` (each ``name``,
     ``x``, ``y``, ``width``, ``height``, ``box``: ``rgba[sprite.box]`` is its crop), and one
     line that says what was found, ``description``."""
-    _pixels(image, name, validate.limit("max_pixels", max_pixels))
+    check_pixels_given(image, name, validate.limit("max_pixels", max_pixels))
     output = OutputOptions(sheet=sheet if sheet is not None or sheet_json is not None else "auto",
                            sheet_json=sheet_json)
     from .prepare.sheet import sheet_of  # noqa: PLC0415
@@ -351,16 +312,17 @@ def sheet_conversions(rgba: np.ndarray, sheet: Sheet, formats: Mapping[str, str 
         runs.setdefault(_drawn(fmt, output), {})["png" if fmt == "png" else "svg"] = None
     layers: dict[tuple[str, bool], list[Placed]] = {drawn: [] for drawn in runs}
     pngs: list[tuple[int, int, bytes]] = []
-    for sprite, image in zip(sheet.sprites, prepared):
-        for n, (drawn, made) in enumerate(runs.items()):
-            drawing = replace(alone, output=replace(alone.output, shading=drawn[0], swatches=drawn[1]))
-            blobs = conversions(image, made, drawing, name=f"{name} sprite {sprite.name}",
-                                on_prepared=None if n else on_prepared)
-            if "svg" in blobs:
-                svg = blobs["svg"].decode("utf-8")
-                layers[drawn].append(Placed(sprite.name, svg, sprite.x, sprite.y, sprite.width, sprite.height))
-            if "png" in blobs:
-                pngs.append((round(sprite.x * scale), round(sprite.y * scale), blobs["png"]))
+    with _in_passes(prepared, alone, formats, lossy):  # the sprites' pipelines together
+        for sprite, image in zip(sheet.sprites, prepared):
+            for n, (drawn, made) in enumerate(runs.items()):
+                drawing = replace(alone, output=replace(alone.output, shading=drawn[0], swatches=drawn[1]))
+                blobs = conversions(image, made, drawing, name=f"{name} sprite {sprite.name}",
+                                    on_prepared=None if n else on_prepared)
+                if "svg" in blobs:
+                    svg = blobs["svg"].decode("utf-8")
+                    layers[drawn].append(Placed(sprite.name, svg, sprite.x, sprite.y, sprite.width, sprite.height))
+                if "png" in blobs:
+                    pngs.append((round(sprite.x * scale), round(sprite.y * scale), blobs["png"]))
     done: dict[str, bytes] = {}
     for fmt, keywords in formats.items():
         if fmt == "png":
@@ -386,6 +348,35 @@ def _named_alike(prepared: Sequence[PreparedImage], options: ConvertOptions) -> 
     output = options.output
     names = shared_names([p.rgba for p in prepared], Style(palette=output.palette, palette_map=output.palette_map))
     return replace(options, output=replace(output, palette=names))
+
+
+def _in_passes(images, options: ConvertOptions, formats: Iterable[str], lossy: str | None) -> ExitStack:
+    """:func:`passes` of ``images`` prepared as :func:`conversions` will prepare each (an image
+    that cannot be prepared is left to its conversion, which reports it)."""
+    prepared = []
+    for image in images:
+        try:
+            prepared.append(prepared_input(image, options.prepare, lossy=lossy, max_pixels=None).rgba)
+        except Exception:  # its conversion reports it
+            continue
+    return passes(prepared, options, formats)
+
+
+def passes(prepared: Sequence[np.ndarray], options: ConvertOptions, formats: Iterable[str]) -> ExitStack:
+    """Within it, the conversions of the ``prepared`` pixels with these options run their
+    pipelines together, some at a time (:func:`depixel.pipeline.ahead`), and, where one of
+    ``formats`` is drawn from the SVG, simplify their outlines together
+    (:func:`depixel.svg.passes.shapes_ahead`): each output the bytes it has alone (a batch's
+    files, a sheet's sprites, an animation's frames)."""
+    from .svg.passes import shapes_ahead  # noqa: PLC0415
+
+    stack = ExitStack()
+    output = options.output
+    then = None
+    if any(fmt != "png" or output.shading == "flat" for fmt in formats):  # (a smooth PNG is no SVG)
+        then = stack.enter_context(shapes_ahead(output.layout, 10.0**-output.precision, output.simplify))
+    stack.enter_context(ahead(prepared, options.params, output.stage, then=then))
+    return stack
 
 
 def _check_page(fmt: str, size: tuple[int, int], scale: float, output: OutputOptions, name: str) -> None:

@@ -10,7 +10,10 @@ from __future__ import annotations
 import os
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import ExitStack, contextmanager
 from pathlib import Path
+from typing import cast
 
 from depixel.errors import display_name
 from depixel.files.output import remove_created
@@ -82,24 +85,61 @@ def run(jobs: list[Job], workers: int, report, signals, progress: Progress | Non
         finally:
             signals.raising = False
 
-    if workers <= 1 or len(todo) <= 1:
-        for index in todo:
+    def one_by_one(indices: list[int]) -> None:
+        """Convert ``jobs[i]`` for each of ``indices`` in this process, in turn."""
+        for index in indices:
             if signals.signum is not None:
                 finished(Finished(index, cancelled=True))
                 continue
             started(index)
             result = here(jobs[index])
             finished(Finished(index, interrupted=True) if result is None else Finished(index, result))
+
+    if len(todo) <= 1:  # (one file: no pack, and none of their modules)
+        one_by_one(todo)
+        return [outcomes[i] for i in range(len(jobs))]
+    from .packs import packs, run_pack  # noqa: PLC0415
+
+    if workers <= 1:
+        for pack in packs(len(todo)):
+            with ahead_of([jobs[todo[i]] for i in pack], signals):
+                one_by_one([todo[i] for i in pack])
     else:
         signals.raising = False
+        # each worker takes packs of files (their pipelines in one pass, cli/convert/packs.py),
+        # small enough that the last ones keep every worker busy
+        groups = [[todo[i] for i in pack] for pack in packs(len(todo), workers)]
+        alone: list[int] = []  # files of a pack whose worker died on every try: each again alone
 
-        def renumbered(done: Finished) -> None:  # run_jobs numbers the jobs of ``todo``
-            finished(Finished(todo[done.index], done.result, done.died, done.retried, done.interrupted,
-                              done.cancelled))
+        def unpacked(done: Finished) -> None:  # run_jobs numbers the packs
+            group = groups[done.index]
+            if done.died and len(group) > 1:
+                alone.extend(group)
+                return
+            for k, index in enumerate(group):
+                finished(Finished(index, None if done.result is None else done.result[k], done.died, done.retried,
+                                  done.interrupted, done.cancelled))
+
+        def clean(pack: tuple[Job, ...]) -> None:
+            for job in pack:
+                remove_temporary_files(job)
+
+        def here_all(pack: tuple[Job, ...]) -> list[Outcome] | None:
+            with ahead_of(list(pack), signals):
+                outcomes = [here(job) for job in pack]
+            return None if None in outcomes else cast("list[Outcome]", outcomes)
 
         # while the fork server imports depixel, this process converts small files itself
-        run_jobs([jobs[i] for i in todo], workers, run_job, renumbered, signals, cleanup=remove_temporary_files,
-                 started=lambda i: started(todo[i]), meanwhile=Meanwhile(here, small))
+        run_jobs([tuple(jobs[i] for i in group) for group in groups], workers, run_pack, unpacked, signals,
+                 cleanup=clean, started=lambda i: started(groups[i][0]),
+                 meanwhile=Meanwhile(here_all, lambda pack: all(map(small, pack))))
+        if alone:  # a file that kills its worker fails alone
+            def renumbered(done: Finished) -> None:  # run_jobs numbers the jobs of ``alone``
+                finished(Finished(alone[done.index], done.result, done.died, done.retried, done.interrupted,
+                                  done.cancelled))
+
+            run_jobs([jobs[i] for i in alone], workers, run_job, renumbered, signals, cleanup=remove_temporary_files,
+                     started=lambda i: started(alone[i]))
     return [outcomes[i] for i in range(len(jobs))]
 
 
@@ -169,6 +209,25 @@ class Repeats:
                 for text, n in self.counts.items() if n > 1]
 
 
+@contextmanager
+def ahead_of(pack: list[Job], signals) -> Iterator[None]:
+    """:func:`packed`: the pack's pipelines in one pass first (a signal abandons the pass at
+    once; then no job finds its result ahead, and they are cancelled)."""
+    from ..pool import Interrupted  # noqa: PLC0415
+    from .packs import packed  # noqa: PLC0415
+
+    with ExitStack() as stack:
+        if len(pack) > 1 and signals.signum is None:
+            signals.raising = True
+            try:
+                stack.enter_context(packed(pack))
+            except Interrupted:
+                pass
+            finally:
+                signals.raising = False
+        yield
+
+
 def small(job: Job) -> bool:
     """Whether the main process may convert ``job`` itself: at most LOCAL_MAX_PIXELS."""
     size = header_size(job.source)
@@ -225,8 +284,9 @@ def largest_image(jobs: list[Job]) -> tuple[int, Path | None]:
 def auto_jobs(jobs: list[Job], memory: int | None = None, asked: int | None = None) -> tuple[int, str | None]:
     """``-j auto`` (``asked`` None): one worker per core; ``-j N``: N. Either way no more
     workers than files, nor than the available memory holds when each converts the largest
-    image (PEAK_BYTES_PER_PIXEL per pixel, measured): an explicit count is capped by the same
-    estimate. Returns the count and, when memory is what limits it, a note saying so."""
+    image (PEAK_BYTES_PER_PIXEL per pixel, measured), or a pass of as many such images as a
+    pack's pass holds: an explicit count is capped by the same estimate. Returns the count
+    and, when memory is what limits it, a note saying so."""
     count = max(1, min(cores() if asked is None else asked, len(jobs)))
     if count == 1:
         return 1, None
@@ -234,7 +294,10 @@ def auto_jobs(jobs: list[Job], memory: int | None = None, asked: int | None = No
     pixels, where = largest_image(jobs)
     if memory is None or where is None:
         return count, None
-    need = WORKER_BASELINE_BYTES + PEAK_BYTES_PER_PIXEL * pixels
+    from depixel.pipeline import PASS_IMAGES, PASS_PIXELS  # noqa: PLC0415
+
+    # a worker converts a pack's images in one pass, which holds them all at once
+    need = WORKER_BASELINE_BYTES + PEAK_BYTES_PER_PIXEL * max(pixels, min(PASS_PIXELS, PASS_IMAGES * pixels))
     fits = max(1, memory // need)
     if fits >= count:
         return count, None

@@ -119,7 +119,7 @@ class Energy:
     point two ways, from a to the member and from the member to b, so the three spans of a
     trial take two ``arctan2`` (the most costly operation of a large step) instead of six."""
 
-    def __init__(self, splines: SplineSet, excluded: np.ndarray):
+    def __init__(self, splines: SplineSet, excluded: np.ndarray, protected: np.ndarray | None = None):
         self.prev, self.nxt = splines.neighbours()
         self.end = (self.prev < 0) | (self.nxt < 0)
         self.halves = ~excluded.T  # (2, P) halves (first, second) of each slot's span counted in E_s
@@ -128,7 +128,8 @@ class Energy:
         # frames' relaxation: 25,000-30,000 page faults, ~8,600 with the buffer)
         self._distances = np.empty(0)
         self.splines = splines  # protected points are found per class, not held for every slot
-        self.junctions = Junctions(splines)  # the T-junction ends that follow the slots' moves
+        self.protected = protected  # unless given for every slot (P, 3, 2): curves without a cell graph
+        self.junctions = Junctions(splines, protected)  # the T-junction ends that follow the slots' moves
 
     def prepare(self, members: np.ndarray) -> Group:
         a, b = self.prev.take(members), self.nxt.take(members)
@@ -140,7 +141,9 @@ class Energy:
         # member-b, b-b2: those leaving the slots a2, a, member, b) and the split corners at the
         # five nodes a2..b2 (the same set read either way along the curve); computed once a slot
         # where that is no more work (nor memory) than five a member (a sprite's one preparation)
-        if self.splines.n_slots <= 5 * members.size:
+        if self.protected is not None:
+            points = self.protected.take(slots.T, axis=0)
+        elif self.splines.n_slots <= 5 * members.size:
             points = protected_points(self.splines).take(slots.T, axis=0)
         else:
             points = protected_points(self.splines, slots.T)
@@ -287,6 +290,12 @@ class Energy:
 
     def total(self, ctrl: np.ndarray, anchor: np.ndarray) -> float:
         """The energy of all the curves: E_s of every span plus E_p of every slot."""
+        return self.totals(ctrl, anchor, np.array([0, ctrl.shape[0]]))[0]
+
+    def totals(self, ctrl: np.ndarray, anchor: np.ndarray, parts: np.ndarray) -> list[float]:
+        """:meth:`total` of each part of the slots that ``parts`` (S+1,) cuts (the curves of
+        images side by side, :mod:`depixel.optimize.pack`): each sum runs over that part's
+        terms alone, in order, as it would on its own."""
         p = (~self.end).nonzero()[0]
         a, b = self.prev.take(p), self.nxt.take(p)
         # the points gathered from x and y rows: (N, 2) views whose columns are rows, so that the
@@ -294,8 +303,11 @@ class Energy:
         planes = np.ascontiguousarray(ctrl.T)
         spans = span(planes.take(a, axis=1).T, planes.take(p, axis=1).T, planes.take(b, axis=1).T,
                      self.end.take(a)[:, None], self.end.take(b)[:, None])
-        smooth = smoothness(spans, self.halves.take(p, axis=1).T).sum()
-        return float(smooth + positional(ctrl, anchor).sum())
+        smooth = smoothness(spans, self.halves.take(p, axis=1).T)
+        place = positional(ctrl, anchor)
+        inner = p.searchsorted(parts)
+        return [float(smooth[inner[i]:inner[i + 1]].sum() + place[parts[i]:parts[i + 1]].sum())
+                for i in range(parts.size - 1)]
 
 
 def _span_tips(knots: np.ndarray, ends: np.ndarray, trial: np.ndarray) -> np.ndarray:

@@ -21,7 +21,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..arrays import either, ranges, set_rows
+from ..arrays import either, ranges, set_rows, unique
 from ..curves.bspline import flatten_edges_planes
 from ..curves.drawing import Drawing
 from ..curves.splines import SplineSet
@@ -284,6 +284,7 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
     back = np.zeros(len(positions), np.int64)  # rounds each node has gone back
     on_curve = np.zeros(len(positions), bool)
     on_curve[splines.curve_nodes] = True
+    history: _History | None = None  # the moves as tables, made when the first node goes back
     for round_ in range(rounds):
         if round_:
             current = splines.drawing(positions)  # the same curved edges as the reference, in the same order
@@ -327,39 +328,62 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
         nodes = revert.nonzero()[0]
         if round_ == rounds - 1:
             back[nodes] = len(moves)
-        _walk_back(positions, start, nodes.compress(on_curve.take(nodes)), back, moves)
+        if history is None:
+            history = _History(moves)
+        _walk_back(positions, start, nodes.compress(on_curve.take(nodes)), back, history)
         other = nodes.compress(~on_curve.take(nodes))
         set_rows(positions, other, start.take(other, axis=0))
     return positions, splines.drawing(positions)
 
 
+class _History:
+    """The relaxation's record of moves (:class:`Moves`, a round each) as tables over the nodes
+    that moved: where each sat before each round it moved in, and the latest round up to
+    each round in which it moved, so that :func:`_walk_back` finds a node's place in a few
+    calls whatever the number of rounds."""
+
+    def __init__(self, moves: Sequence[Moves]) -> None:
+        rounds = len(moves)
+        sizes = np.array([m.nodes.size for m in moves], np.int64)
+        nodes = np.concatenate([m.nodes for m in moves]) if moves else np.zeros(0, np.int64)
+        self.movers = unique(nodes)  # sorted
+        self.before = np.concatenate([m.before for m in moves]) if moves else np.zeros((0, 2))
+        # (R, U) the row of each mover in the concatenated record of each round, -1 where it
+        # did not move (a node twice in a round, which the relaxation never records: the
+        # last, as a plain assignment keeps it)
+        self.row = np.full((rounds, self.movers.size), -1, np.int64)
+        which = np.arange(rounds).repeat(sizes)
+        self.row[which, self.movers.searchsorted(nodes)] = np.arange(nodes.size)
+        # (R, U) the latest round up to each round in which the mover moved (-1: none)
+        latest = np.where(self.row >= 0, np.arange(rounds)[:, None], -1)
+        self.latest = np.maximum.accumulate(latest, axis=0) if rounds else latest
+
+
 def _walk_back(positions: np.ndarray, start: np.ndarray, nodes: np.ndarray, back: np.ndarray,
-               moves: Sequence[Moves]) -> None:
-    """Put each of the curve ``nodes`` where it was before the latest round of ``moves`` it
-    moved in and has not gone back past yet (``back`` counts each node's rounds gone back; in
-    place); one that moved in none of them, at ``start``. A node k rounds back sits where it
-    was after round R − k; the rounds it did not move in are passed over, so a node found
-    next to a bad cell always goes somewhere else (or is at its start already)."""
-    rounds = len(moves)
-    pending = nodes
-    while pending.size:
-        level = back.take(pending)
-        done = level >= rounds
-        finished = pending.compress(done)
-        set_rows(positions, finished, start.take(finished, axis=0))
-        pending, level = pending.compress(~done), level.compress(~done)
-        found = np.zeros(pending.size, bool)
-        for k in np.bincount(level).nonzero()[0].tolist():  # the levels present, ascending (no sort)
-            which = (level == k).nonzero()[0]
-            undo = moves[rounds - 1 - k]
-            index = np.full(len(positions), -1)
-            index[undo.nodes] = np.arange(undo.nodes.size)
-            row = index.take(pending.take(which))
-            went = row >= 0
-            set_rows(positions, pending.take(which.compress(went)), undo.before.take(row.compress(went), axis=0))
-            found[which.compress(went)] = True
-        back[pending] += 1
-        pending = pending.compress(~found)
+               history: _History) -> None:
+    """Put each of the curve ``nodes`` where it was before the latest round of the
+    relaxation (``history``) it moved in and has not gone back past yet (``back`` counts each
+    node's rounds gone back; in place); one that moved in none of them, at ``start``. A node
+    k rounds back sits where it was after round R − k; the rounds it did not move in are
+    passed over, so a node found next to a bad cell always goes somewhere else (or is at its
+    start already)."""
+    rounds, movers = history.row.shape[0], history.movers
+    level = back.take(nodes)
+    at = np.minimum(movers.searchsorted(nodes), max(movers.size - 1, 0))  # the node among the movers
+    limit = rounds - 1 - level  # the latest round it may go back to the place before
+    round_ = np.full(nodes.size, -1, np.int64)
+    ok = (limit >= 0) & (movers.take(at, mode="clip") == nodes) if movers.size else np.zeros(nodes.size, bool)
+    if ok.any():
+        round_[ok] = history.latest.ravel().take(limit.compress(ok) * movers.size + at.compress(ok))
+    found = round_ >= 0
+    gone = nodes.compress(~found)  # to its start (rounds gone back: all of them)
+    set_rows(positions, gone, start.take(gone, axis=0))
+    back[gone] = np.maximum(level.compress(~found), rounds)
+    if found.any():
+        round_, at = round_.compress(found), at.compress(found)
+        row = history.row.ravel().take(round_ * movers.size + at)
+        set_rows(positions, nodes.compress(found), history.before.take(row, axis=0))
+        back[nodes.compress(found)] = rounds - round_
 
 
 def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -9,6 +9,8 @@ not move with the member is computed here once per relaxation.
 """
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 
 from ..curves.splines import SplineSet
@@ -30,7 +32,7 @@ class Junctions:
     """The T-junction ends of a SplineSet: which slot's span each is snapped onto, and the
     fixed parts of its curve's first span."""
 
-    def __init__(self, splines: SplineSet):
+    def __init__(self, splines: SplineSet, protected: np.ndarray | None = None):
         prev, nxt = splines.neighbours()
         self.end = (prev < 0) | (nxt < 0)
         ends, through = splines.snap_pairs()
@@ -53,8 +55,10 @@ class Junctions:
         # its protected points: the centres beside the edges end-c1 and c1-c2 (each stored with
         # the lower slot of its pair) and the split corners at the three nodes, (T, 7, 2): the
         # same whichever way the curve runs
-        centres = protected_points(splines, np.stack([np.minimum(ends, self.c1), np.minimum(self.c1, self.c2)], 1))
-        corners = protected_points(splines, np.stack([ends, self.c1, self.c2], 1))[:, :, 2]
+        # (``protected``: every slot's, given where the curves have no cell graph of their own)
+        points = partial(protected_points, splines) if protected is None else partial(protected.take, axis=0)
+        centres = points(np.stack([np.minimum(ends, self.c1), np.minimum(self.c1, self.c2)], 1))
+        corners = points(np.stack([ends, self.c1, self.c2], 1))[:, :, 2]
         protected = np.concatenate([centres[:, :, :2].reshape(ends.size, 4, 2), corners], axis=1)
         self.protected_xy = np.ascontiguousarray(protected.transpose(2, 1, 0))  # (2, 7, T)
         self.end_c2 = self.end.take(self.c2)  # the joint of C1 and C2 is C2 itself

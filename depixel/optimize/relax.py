@@ -72,14 +72,32 @@ def relax(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: 
     Open-curve ends and the slots at ``corners`` (N,) bool stay fixed; ``excluded`` (P, 2)
     marks the span halves left out of E_s. The rounds stop early once no slot would be weighed
     again (the rounds left would move nothing)."""
+    model, anchor, done = relax_rounds(splines, start, corners, excluded, params)
+    return done._replace(energy_before=model.total(anchor, anchor), energy_after=model.total(done.ctrl, anchor))
+
+
+def relax_rounds(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: np.ndarray,
+                 params: Params = Params(), parts: np.ndarray | None = None,
+                 protected: np.ndarray | None = None) -> tuple[Energy, np.ndarray, Relaxed]:
+    """:func:`relax`'s rounds: the energy model, the control points before relaxing (the
+    anchors) and the result without its energies (NaN).
+
+    ``parts`` (S+1,) cuts the slots into the curves of S images laid side by side, each in its
+    own coordinates (:mod:`depixel.optimize.pack`): each part's rounds are those it would have
+    alone (a part stops where it would have stopped: a round none of whose members is weighed
+    leaves it as it is, its T-junction ends not snapped again). ``protected`` (P, 3, 2): the
+    :func:`depixel.optimize.fidelity.protected_points` of every slot, when ``splines`` has no
+    cell graph of its own to find them in."""
     prev, nxt = splines.neighbours()
     end = (prev < 0) | (nxt < 0)
     movable = ~end & ~corners[splines.curve_nodes]
-    model = Energy(splines, excluded)
+    model = Energy(splines, excluded, protected)
     ctrl = splines.controls_for(start)  # T-junction ends snapped onto their curves
     anchor = ctrl.copy()
-    energy_before = model.total(ctrl, anchor)
     members = movable.nonzero()[0]
+    # each member's part; each slot's part's length, to spread a part's verdict to its slots
+    part_of = None if parts is None else parts.searchsorted(members, side="right") - 1
+    lengths = None if parts is None else np.diff(parts)
     chunks = [(part.start, model.prepare(members[part])) for part in batch_slices(members.size, PREPARE_ONCE)]
     radius = np.full(members.size, params.radius)
     # staying's clearances (M, 2), NaN where not known: they change only when a slot within two
@@ -114,6 +132,11 @@ def relax(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: 
         target += here
         set_rows(ctrl, slots, target.T)
         ctrl = splines.snap(ctrl)  # ends that sit on a moved curve follow it
+        if part_of is not None and lengths is not None:  # parts with no member weighed sit this round out
+            busy = np.zeros(lengths.size, bool)
+            busy[part_of.take(rows)] = True
+            if not busy.all():
+                np.copyto(ctrl, before, where=~busy.repeat(lengths)[:, None])
         moved = either_differs(ctrl, before)
         shrunk = rows.compress(gain <= 0.0)
         smaller = np.maximum(radius.take(shrunk) * 0.5, MIN_RADIUS)
@@ -126,7 +149,7 @@ def relax(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: 
         went = members.compress(moved.take(members))
         if went.size:
             rounds.append(Moves(splines.curve_nodes.take(went), before.take(went, axis=0)))
-    return Relaxed(ctrl, movable, energy_before, model.total(ctrl, anchor), rounds)
+    return model, anchor, Relaxed(ctrl, movable, np.nan, np.nan, rounds)
 
 
 def either_differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:

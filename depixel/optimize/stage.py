@@ -27,7 +27,7 @@ from ..vector import VectorImage
 from .corners import Corners, excluded_halves
 from .fidelity import keep_centres_inside
 from .harmonic import follow, harmonic_map
-from .relax import relax
+from .relax import Relaxed, relax
 from .straight import place_staircases, straight_runs
 
 
@@ -69,9 +69,23 @@ def optimize_splines(splines: SplineSet, corners: Corners, params: Params = Para
     constant slope, relax the curve nodes (all but the corners and the straight runs),
     then move the other nodes by a harmonic map, then walk back moves that pushed a pixel
     centre out."""
+    start, fixed, excluded = relaxation_inputs(splines, corners, params)
+    return finish(splines, corners, start, relax(splines, start, fixed, excluded, params), params)
+
+
+def relaxation_inputs(splines: SplineSet, corners: Corners, params: Params = Params()
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What the relaxation starts from: the node positions with the corners and the
+    staircases placed (N, 2), the nodes it keeps fixed (N,) (the corners and the straight
+    runs) and the span halves left out of E_s (P, 2)."""
     start = place_staircases(splines, corners.place(splines), params)
-    fixed = corners.nodes | straight_runs(splines, params)
-    relaxed = relax(splines, start, fixed, excluded_halves(splines, corners.nodes), params)
+    return start, corners.nodes | straight_runs(splines, params), excluded_halves(splines, corners.nodes)
+
+
+def finish(splines: SplineSet, corners: Corners, start: np.ndarray, relaxed: Relaxed,
+           params: Params = Params()) -> OptimizedSplines:
+    """:func:`optimize_splines` after the relaxation (``relaxed``, from the node positions
+    ``start``): the harmonic map and the walk-back (apart, for :mod:`depixel.optimize.pack`)."""
     positions = start.copy()
     set_rows(positions, splines.curve_nodes.compress(relaxed.movable), relaxed.ctrl.compress(relaxed.movable, axis=0))
     energy_before, energy_after, moves = relaxed.energy_before, relaxed.energy_after, relaxed.rounds

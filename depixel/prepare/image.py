@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any, BinaryIO, TypeAlias
 
 import numpy as np
 
-from ..errors import InputError, display_name
+from ..errors import InputError, ParameterError, display_name
 from ..limits import (  # noqa: F401 (DEFAULT_MAX_PIXELS, check_pixels: re-exported)
     DEFAULT_MAX_FRAMES,
     DEFAULT_MAX_PIXELS,
@@ -321,3 +321,21 @@ def image_array(image: object) -> np.ndarray:
     except (ValueError, TypeError) as exc:
         reason = "rows of different lengths" if "inhomogeneous" in str(exc) else str(exc).splitlines()[0]
         raise InputError(f"not an image array ({reason}); expected (H, W) or (H, W, C) numbers") from None
+
+
+def check_pixels_given(image: object, name: str = "<image>", max_pixels: int | None = DEFAULT_MAX_PIXELS) -> None:
+    """Refuse what is not an image in memory (a file name gets a pointer to the file
+    functions) and images over ``max_pixels``, before any conversion copies them."""
+    if isinstance(image, (str, os.PathLike)):
+        raise ParameterError(f"{display_name(image)}: convert takes pixels (a numpy array or a PIL image), "
+                             "not a file name; use depixel.convert_file(path, output) or "
+                             "depixel.api.load(path)", parameter="image")
+    if isinstance(image, (bytes, bytearray, memoryview)):
+        raise ParameterError("convert takes pixels (a numpy array or a PIL image), not file bytes; "
+                             "decode them with depixel.api.load(data)", parameter="image")
+    size = image.size if hasattr(image, "mode") and hasattr(image, "size") else image_array(image).shape[1::-1]
+    if len(size) == 2:
+        from ..validate import limit  # noqa: PLC0415
+
+        check_pixels(name, int(size[0]), int(size[1]), limit("max_pixels", max_pixels))
+        check_indexable(name, int(size[0]), int(size[1]))

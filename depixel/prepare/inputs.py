@@ -42,7 +42,7 @@ from ..colour import Colour, as_colour, parse_colour
 from ..errors import ParameterError
 from ..frozen import added, compact_repr
 from .backdrop import Backdrop, hex_code, make_transparent, over_colour
-from .image import Pixels, as_rgba
+from .image import DEFAULT_MAX_PIXELS, ImageSource, Pixels, as_rgba, check_pixels_given, load_image
 from .noisy import noise_hint
 from .palette import LEFTOVER_BLOCK, distinct_colours, snap_colours
 from .pixelgrid import AUTO, MAX_FACTOR, block_medians, find_grid, reduce_blocks
@@ -317,3 +317,25 @@ def lossy_format(data: bytes) -> str | None:
 def _factor_text(pair: tuple[int, int]) -> str:
     return f"{pair[0]}×" if pair[0] == pair[1] else f"{pair[0]}×{pair[1]}"
 
+
+def flatten(image: Pixels, colour: Colour | str) -> np.ndarray:
+    """Composite an image over an opaque colour → ``(H, W, 4) uint8`` with alpha 255.
+
+    Useful before converting art whose semi-transparent edges should blend into a known
+    background instead of becoming separate translucent shapes.
+    """
+    rgb = as_colour(colour)
+    if rgb is None:
+        raise ParameterError("background must be a colour name or an (r, g, b) triple, not None",
+                             parameter="background")
+    check_pixels_given(image, max_pixels=None)
+    return over_colour(as_rgba(image), rgb)
+
+
+def load(source: ImageSource, *, frame: int = 0, background: Colour | str | None = None,
+         max_pixels: int | None = DEFAULT_MAX_PIXELS) -> np.ndarray:
+    """Read an image file (path, bytes or binary file) → ``(H, W, 4) uint8`` RGBA,
+    flattened over ``background`` when given."""
+    colour = as_colour(background)
+    rgba = load_image(source, max_pixels=max_pixels, frame=frame)
+    return rgba if colour is None else flatten(rgba, colour)

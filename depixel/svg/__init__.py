@@ -2,12 +2,13 @@
 
 :mod:`.outlines` builds the shapes (:mod:`.boundaries`, :mod:`.loops`, :mod:`.holes`, :mod:`.insets`,
 :mod:`.stacking`), :mod:`.simplify` and :mod:`.curvefit` replace the exact spline by fewer
-cubics within a tolerance, :mod:`.writer` and :mod:`.svgtext` write the text (the smooth shading's
-groups: :mod:`.smoothgroups`, :mod:`.markup`, :mod:`.hiding`), :mod:`.swatches` how the shapes are
-painted (palette swap, Inkscape swatches). :mod:`.layers`
-puts several documents into one as layers (a sheet), :mod:`.animation` frames into one animated SVG.
+cubics within a tolerance (:mod:`.passes`: many images' at once), :mod:`.writer` and
+:mod:`.svgtext` write the text (the smooth shading's groups: :mod:`.smoothgroups`,
+:mod:`.markup`, :mod:`.hiding`), :mod:`.swatches` how the shapes are painted (palette swap,
+Inkscape swatches). :mod:`.layers` puts several documents into one as layers (a sheet),
+:mod:`.animation` frames into one animated SVG.
 """
 
 #: its modules, each imported on first use (``depixel/__init__.py``)
 __all__ = ["animation", "boundaries", "breaks", "curvefit", "hiding", "holes", "insets", "layers", "loops", "markup",
-           "outlines", "reference", "simplify", "smoothgroups", "stacking", "svgtext", "swatches", "writer"]
+           "outlines", "passes", "reference", "simplify", "smoothgroups", "stacking", "svgtext", "swatches", "writer"]

@@ -27,6 +27,7 @@ them (:func:`piece_breaks`), so where its numbering started does not matter.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -158,6 +159,19 @@ class Breaks:
             count = count.repeat(inner)
             far &= (rank == (count - 1) // 2) | (rank == count // 2)
         cut[place.compress(far)] = True
+
+
+def joined_breaks(parts: Sequence[Breaks]) -> Breaks:
+    """The :class:`Breaks` of several images' pieces as one, each image's segments after the
+    one before's (its straight runs renumbered so)."""
+    out = Breaks.__new__(Breaks)
+    offsets = np.cumsum([0] + [b.fixed.size for b in parts])
+    out.ptr = np.concatenate([b.ptr[:-1] + offsets[i] for i, b in enumerate(parts)] + [offsets[-1:]])
+    out.start, out.end = (np.concatenate([getattr(b, name) for b in parts], axis=1) for name in ("start", "end"))
+    out.fixed, out.joint = (np.concatenate([getattr(b, name) for b in parts]) for name in ("fixed", "joint"))
+    labels = np.cumsum([0] + [int(b.run.max(initial=-1)) + 1 for b in parts])
+    out.run = np.concatenate([np.where(b.run >= 0, b.run + labels[i], -1) for i, b in enumerate(parts)])
+    return out
 
 
 def piece_breaks(pieces: BoundaryPieces) -> tuple[BoundaryPieces, Breaks]:

@@ -49,6 +49,7 @@ from .boundaries import CUBIC, LINE, QUAD, BoundaryPieces, build_pieces
 from .holes import loops_to_keep, probe_keys
 from .insets import InsetGuide, Segments, inset_runs, merge_lines, segment_insets
 from .loops import Loops, trace_loops
+from .passes import begun
 from .simplify import simplify_pieces
 from .stacking import FaceBoundaries, FaceTopology
 
@@ -135,10 +136,13 @@ class OutlineShapes:
         self.image, self.layout, self.grid = image, layout, grid
         self.shape = image.cells.shape
         stacked = layout == "stacked"
-        topo = FaceTopology(image, stacked)
-        pieces = build_pieces(image, topo.junction, grid)
-        if simplify > 0:
-            pieces = simplify_pieces(pieces, image, simplify, grid=grid)
+        if (ahead := begun(image, layout, grid, simplify)) is not None:  # simplified with others (passes.py)
+            topo, pieces = ahead
+        else:
+            topo = FaceTopology(image, stacked)
+            pieces = build_pieces(image, topo.junction, grid)
+            if simplify > 0:
+                pieces = simplify_pieces(pieces, image, simplify, grid=grid)
         self.pieces = pieces
         member_key = topo.members(_edge_costs(image, pieces) if stacked else None)
         # sorted keys owner * (F + 1) + member of the (owner, member) pairs: base F + 1, so that

@@ -8,6 +8,8 @@ end are the layout both work in.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from ..arrays import batch_slices, nan_to_zero
@@ -281,3 +283,20 @@ def parts(polylines: np.ndarray) -> np.ndarray:
     parts[:2] = polylines[:, :, :-1]
     parts[2:] = polylines[:, :, 1:]
     return parts
+
+
+def joined(exacts: Sequence[Exact], protected: Sequence[Protected]) -> tuple[Exact, Protected]:
+    """The exact segments and the protected points of several images' pieces as one set, each
+    image's segments after the one before's (its protected points' segments renumbered so):
+    every array of the same rows, concatenated."""
+    exact = Exact.__new__(Exact)
+    for name in ("start", "end", "tan_start", "tan_end", "length", "arc", "tolerance"):
+        setattr(exact, name, np.concatenate([getattr(e, name) for e in exacts]))
+    exact.parts = np.concatenate([e.parts for e in exacts], axis=1)
+    exact.part_start, exact.part_end = exact.parts[:2], exact.parts[2:]
+    offsets = np.cumsum([0] + [e.end.shape[0] for e in exacts])
+    points = Protected.__new__(Protected)
+    points.xy = np.concatenate([p.xy for p in protected], axis=1)
+    points.dist = np.concatenate([p.dist for p in protected])
+    points.seg = np.concatenate([p.seg + offsets[i] for i, p in enumerate(protected)])
+    return exact, points

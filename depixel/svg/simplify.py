@@ -37,6 +37,8 @@ its checks, on whole batches of runs, are :mod:`depixel.svg.curvefit`.
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from ..arrays import batch_bounds, in_sorted, unique
@@ -60,36 +62,65 @@ def simplify_pieces(pieces: BoundaryPieces, image: VectorImage, tolerance: float
     """
     if tolerance <= 0 or pieces.kind.size == 0:
         return pieces
+    pieces, refs = references(pieces, image, tolerance, clearance)
+    return assemble(pieces, *simplified_ranges(refs, tolerance, clearance, grid))
+
+
+class References(NamedTuple):
+    """What the fits of some pieces are made and checked against."""
+
+    ptr: np.ndarray  # (P+1,) the pieces' segments, as BoundaryPieces.ptr
+    kind: np.ndarray  # (K,) the segments' kinds
+    breaks: Breaks
+    exact: Exact
+    protected: Protected
+
+
+def references(pieces: BoundaryPieces, image: VectorImage, tolerance: float, clearance: float
+               ) -> tuple[BoundaryPieces, References]:
+    """The pieces with their closed ones started at a place of their own
+    (:func:`piece_breaks`), and what their fits are checked against: their :class:`Breaks`,
+    exact segments and protected points."""
     pieces, breaks = piece_breaks(pieces)
     exact = Exact(pieces, tolerance)
-    fits = _Fits(exact, Protected(pieces, image, exact, tolerance + clearance), pieces.ptr, tolerance, clearance,
-                 grid)
-    lo, hi = _merge(fits, breaks, *_with_single_segments(*_top_down(fits, breaks), breaks.fixed))
+    return pieces, References(pieces.ptr, pieces.kind, breaks, exact,
+                              Protected(pieces, image, exact, tolerance + clearance))
+
+
+def simplified_ranges(refs: References, tolerance: float, clearance: float, grid: float | None,
+                      speculative: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The ranges [lo, hi) of exact segments (sorted) that become one curve each, their kinds
+    and controls, for the pieces of ``refs`` (one image's, or several's one after another:
+    every range lies in one piece and is fitted alone). ``speculative``:
+    :data:`SPECULATIVE_SEGMENTS` unless larger."""
+    fits = _Fits(refs.exact, refs.protected, refs.ptr, tolerance, clearance, grid)
+    breaks = refs.breaks
+    lo, hi = _merge(fits, breaks, *_with_single_segments(*_top_down(fits, breaks, speculative), breaks.fixed))
     curve = hi - lo > 1  # (a single segment is kept as it is)
     lo, hi = lo[curve], hi[curve]
-    kind, c1, c2, _, _ = fits.get(lo, hi)
-    line_lo, line_hi = _bent_straight_runs(pieces, breaks)
+    kinds, c1, c2, _, _ = fits.get(lo, hi)
+    line_lo, line_hi = _bent_straight_runs(refs.ptr, refs.kind, breaks)
     if line_lo.size:
         nan = np.full((line_lo.size, 2), np.nan)
         order = np.concatenate([lo, line_lo]).argsort(kind="stable")
         lo, hi = np.concatenate([lo, line_lo])[order], np.concatenate([hi, line_hi])[order]
-        kind = np.concatenate([kind, np.full(line_lo.size, LINE, np.uint8)])[order]
+        kinds = np.concatenate([kinds, np.full(line_lo.size, LINE, np.uint8)])[order]
         c1, c2 = np.concatenate([c1, nan])[order], np.concatenate([c2, nan])[order]
-    return _assemble(pieces, lo, hi, kind, c1, c2)
+    return lo, hi, kinds, c1, c2
 
 
-def _bent_straight_runs(pieces: BoundaryPieces, breaks: Breaks) -> Ranges:
+def _bent_straight_runs(ptr: np.ndarray, kind: np.ndarray, breaks: Breaks) -> Ranges:
     """The ranges [lo, hi) of the straight runs (:class:`Breaks`) with a quadratic, each to be
     written as one line (a closed piece starts at a run's start, :func:`piece_breaks`, so no
-    run goes on through a piece's start here)."""
+    run goes on through a piece's start here); the pieces' ``ptr`` and segment ``kind``."""
     run = breaks.run
     piece_start = np.zeros(run.size, bool)
-    piece_start[pieces.ptr[:-1].compress(pieces.ptr[1:] > pieces.ptr[:-1])] = True
+    piece_start[ptr[:-1].compress(ptr[1:] > ptr[:-1])] = True
     begins = (run >= 0) & (piece_start | (run != np.roll(run, 1)))
     starts = begins.nonzero()[0]
     stops = np.concatenate([(begins | (run < 0)).nonzero()[0], [run.size]])
     ends = stops.take(stops.searchsorted(starts, side="right"))
-    quads = np.concatenate([[0], np.cumsum(pieces.kind == QUAD)])
+    quads = np.concatenate([[0], np.cumsum(kind == QUAD)])
     bent = quads.take(ends) > quads.take(starts)
     return starts.compress(bent), ends.compress(bent)
 
@@ -107,7 +138,7 @@ LONG = 8
 MAX_RUN = 12
 
 
-def _top_down(fits: _Fits, breaks: Breaks) -> Ranges:
+def _top_down(fits: _Fits, breaks: Breaks, speculative: int = 0) -> Ranges:
     """The ranges that fit: every stretch (:meth:`Breaks.stretches`) if it fits, else its
     parts (:meth:`Breaks.split`) that fit, and so on; a range of more than :data:`MAX_RUN`
     segments is cut without a try."""
@@ -119,7 +150,7 @@ def _top_down(fits: _Fits, breaks: Breaks) -> Ranges:
     tried = [hi - lo <= MAX_RUN for lo, hi, _ in levels]
     every = (np.concatenate([lo[t] for (lo, _, _), t in zip(levels, tried)]),
              np.concatenate([hi[t] for (_, hi, _), t in zip(levels, tried)]))
-    whole = int((every[1] - every[0]).sum()) <= SPECULATIVE_SEGMENTS
+    whole = int((every[1] - every[0]).sum()) <= max(SPECULATIVE_SEGMENTS, speculative)
     kept = [(levels[0][0][:0], levels[0][1][:0])]
     asked = np.ones(levels[0][0].size, bool)  # the ranges of a level whose run did not fit
     for depth, (lo, hi, _) in enumerate(levels[:-1]):
@@ -222,7 +253,7 @@ def _range_keys(lo: np.ndarray, hi: np.ndarray, ptr: np.ndarray) -> np.ndarray:
     return lo.astype(np.int64) * (int(ptr[-1]) + 1) + hi
 
 
-def _assemble(pieces: BoundaryPieces, lo: np.ndarray, hi: np.ndarray, kinds: np.ndarray, c1s: np.ndarray,
+def assemble(pieces: BoundaryPieces, lo: np.ndarray, hi: np.ndarray, kinds: np.ndarray, c1s: np.ndarray,
               c2s: np.ndarray) -> BoundaryPieces:
     """The pieces with each range [lo, hi) replaced by its curve (``kinds``, controls ``c1s``, ``c2s``)."""
     n = pieces.kind.size
