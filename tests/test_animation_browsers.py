@@ -147,10 +147,10 @@ def test_frames_are_those_chromium_decodes(kind, tmp_path):
     page = tmp_path / "decode.html"
     page.write_text(DECODE_PAGE.replace("DATA", base64.b64encode(data).decode())
                     .replace("TYPE", "image/gif" if kind == "gif" else "image/apng"))
-    command = [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-               "--no-first-run", f"--user-data-dir={tmp_path}/profile", "--virtual-time-budget=10000", "--dump-dom",
-               page.as_uri()]
-    for _ in range(3):  # the decoding runs beside the page's virtual time: a loaded machine may need another go
+    for attempt in range(1, 6):  # the decoding runs beside the page's virtual time: a loaded machine may need
+        command = [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                   "--no-first-run", f"--user-data-dir={tmp_path}/profile{attempt}",
+                   f"--virtual-time-budget={10000 * attempt}", "--dump-dom", page.as_uri()]  # another, longer go
         dom = subprocess.run(command, check=True, capture_output=True, text=True, timeout=120).stdout
         found = re.search(r'<pre id="frames">([^<]*)</pre>', dom)
         if found or "<title>error" in dom:
