@@ -141,8 +141,9 @@ FOUR_WAY = """
 
 
 def _own_face_uncovered(image: np.ndarray) -> dict[tuple[int, ...], int]:
-    """Per stacked shape (by colour): the render pixels its own face covers wholly (the
-    cutout layout's shape of that face) that the shape itself does not."""
+    """Per stacked shape (its place and colour): the render pixels its own face covers
+    wholly (the cutout layout's shape of that face) of which the shape covers less than
+    half (rounding costs a level or two)."""
     h, w = image.shape[:2]
     vector = depixelize(image).vector
     stacked, cutout = build_outlines(vector, grid=0.01), build_outlines(vector, layout="cutout", grid=0.01)
@@ -150,7 +151,7 @@ def _own_face_uncovered(image: np.ndarray) -> dict[tuple[int, ...], int]:
     for s in range(len(stacked)):
         c = int((cutout.face == stacked.face[s]).nonzero()[0][0])
         own, shape = _alone(cutout, c, h, w), _alone(stacked, s, h, w)
-        found[tuple(int(v) for v in stacked.rgba[s][:3])] = int(((own == 1) & (shape < 1)).sum())
+        found[(s, *(int(v) for v in stacked.rgba[s][:3]))] = int(((own == 1) & (shape < 0.5)).sum())
     return found
 
 

@@ -123,7 +123,7 @@ class InsetGuide:
         d = towards - p
         short = np.hypot(d[:, 0], d[:, 1]) < 1e-9
         d[short] = (q - p)[short]
-        return _unit(d)
+        return unit(d)
 
 
 def segment_insets(guide: InsetGuide | None, q: np.ndarray, owner: np.ndarray, x: np.ndarray,
@@ -164,16 +164,15 @@ def segment_insets(guide: InsetGuide | None, q: np.ndarray, owner: np.ndarray, x
     return RunMarks(margin, f_in, f_out)
 
 
-def inset_runs(segments: Segments, marks: RunMarks, grid: float | None) -> Segments:
+def inset_runs(segments: Segments, marks: RunMarks,
+               grid: float | None) -> tuple[Segments, np.ndarray, np.ndarray]:
     """The loops with every segment whose margin is positive moved that far to its right
     (into the shape: loops run with the shape on their right, y down) and joined to its
-    neighbours (see the module docstring)."""
+    neighbours (see the module docstring); per segment, the run it belongs to (lines to and
+    from its nodes included) or -1, and per run its margin."""
     kind, ctrl, ctrl2, end, loop_ptr = segments
     margin, f_in, f_out = marks
     inset = margin > 0
-    if not np.logical_or.reduce(inset, initial=False):
-        return segments
-    hidden, margin = margin < 0, np.maximum(margin, 0.0)
     n = kind.size
     n_loops = loop_ptr.size - 1
     loop_of = np.arange(n_loops).repeat(loop_ptr[1:] - loop_ptr[:-1])
@@ -181,11 +180,14 @@ def inset_runs(segments: Segments, marks: RunMarks, grid: float | None) -> Segme
     first, last = loop_ptr.take(loop_of), loop_ptr.take(loop_of + 1) - 1
     prev = np.where(k == first, last, k - 1)
     nxt = np.where(k == last, first, k + 1)
+    if not np.logical_or.reduce(inset, initial=False):
+        return segments, np.full(n, -1, np.int64), np.zeros(0)
+    hidden, margin = margin < 0, np.maximum(margin, 0.0)
     start = end.take(prev, axis=0)
     line, cubic = kind == LINE, kind == CUBIC
     lead = np.where(line[:, None], end, ctrl)  # the point the segment leaves its start towards
     trail = np.where(line[:, None], start, np.where(cubic[:, None], ctrl2, ctrl))  # and arrives from
-    t0, t1 = _unit(lead - start, end - start), _unit(end - trail, end - start)
+    t0, t1 = unit(lead - start, end - start), unit(end - trail, end - start)
     n0, n1 = _right(t0), _right(t1)
     m = margin[:, None]
     ins_prev, ins_next = inset.take(prev), inset.take(nxt)
@@ -211,9 +213,9 @@ def inset_runs(segments: Segments, marks: RunMarks, grid: float | None) -> Segme
     a = start_ahead / np.maximum(degree * first_leg, 1e-12)
     b = 1.0 - end_back / np.maximum(degree * last_leg, 1e-12)
     p0, c1, c2, p1 = _part(kind, start, ctrl, ctrl2, end, a, b)
-    s0 = _right(_unit(np.where(line[:, None], p1, c1) - p0, p1 - p0))
-    s1 = _right(_unit(p1 - np.where(line[:, None], p0, np.where(cubic[:, None], c2, c1)), p1 - p0))
-    s_mid = _right(_unit(c2 - c1, p1 - p0))
+    s0 = _right(unit(np.where(line[:, None], p1, c1) - p0, p1 - p0))
+    s1 = _right(unit(p1 - np.where(line[:, None], p0, np.where(cubic[:, None], c2, c1)), p1 - p0))
+    s_mid = _right(unit(c2 - c1, p1 - p0))
     new_ctrl = c1 + m * np.where(cubic[:, None], _meet(s0, s_mid), _meet(s0, s1))
     new_ctrl2 = c2 + m * _meet(s_mid, s1)
     # lines added: before a run (from its start node to its inset), after a run (back to its
@@ -228,21 +230,46 @@ def inset_runs(segments: Segments, marks: RunMarks, grid: float | None) -> Segme
     out_ctrl, out_ctrl2 = np.full((total, 2), np.nan), np.full((total, 2), np.nan)
     out_end = np.empty((total, 2))
     out_kind[at] = kind
-    set_rows(out_end, at, np.where(inset[:, None], _on_grid(new_end, grid), end))
-    set_rows(out_ctrl, at, np.where((inset & ~line)[:, None], _on_grid(new_ctrl, grid), ctrl))
-    set_rows(out_ctrl2, at, np.where((inset & cubic)[:, None], _on_grid(new_ctrl2, grid), ctrl2))
+    set_rows(out_end, at, np.where(inset[:, None], on_grid(new_end, grid), end))
+    set_rows(out_ctrl, at, np.where((inset & ~line)[:, None], on_grid(new_ctrl, grid), ctrl))
+    set_rows(out_ctrl2, at, np.where((inset & cubic)[:, None], on_grid(new_ctrl2, grid), ctrl2))
     into = lead_in.nonzero()[0]
-    set_rows(out_end, pos.take(into), _on_grid(start_at.take(into, axis=0), grid))
+    set_rows(out_end, pos.take(into), on_grid(start_at.take(into, axis=0), grid))
     back = lead_out.nonzero()[0]
     set_rows(out_end, at.take(back) + 1, end.take(back, axis=0))
     moved = (run_start & hidden.take(prev)).nonzero()[0]
-    set_rows(out_end, at.take(prev.take(moved)), _on_grid(start_at.take(moved, axis=0), grid))
+    set_rows(out_end, at.take(prev.take(moved)), on_grid(start_at.take(moved, axis=0), grid))
     round_corner = bevel.nonzero()[0]
-    set_rows(out_end, at.take(round_corner) + 1, _on_grid(joint.take(round_corner, axis=0), grid))
+    set_rows(out_end, at.take(round_corner) + 1, on_grid(joint.take(round_corner, axis=0), grid))
     beyond = nxt.take(round_corner)
     set_rows(out_end, at.take(round_corner) + 2,
-             _on_grid(end.take(round_corner, axis=0) + m.take(beyond, axis=0) * n0.take(beyond, axis=0), grid))
-    return Segments(out_kind, out_ctrl, out_ctrl2, out_end, pos.take(loop_ptr))
+             on_grid(end.take(round_corner, axis=0) + m.take(beyond, axis=0) * n0.take(beyond, axis=0), grid))
+    out = Segments(out_kind, out_ctrl, out_ctrl2, out_end, pos.take(loop_ptr))
+    return (out, *_labels(margin, run_start, run_end, loop_of, at,
+                          ((pos[:-1], lead_in), (at + 1, lead_out), (at + 1, bevel), (at + 2, bevel)), total))
+
+
+def _labels(margin: np.ndarray, run_start: np.ndarray, run_end: np.ndarray, loop_of: np.ndarray, at: np.ndarray,
+            lines: tuple, total: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per output segment, the run it belongs to (-1: none), the lines ``lines`` added to
+    the runs included (``(where, after which segments)``), and per run the least margin
+    along it: what :func:`depixel.svg.runfit.fit_runs` may redraw. Segments land at ``at``;
+    a run that goes on past its loop's start is left as it is."""
+    out_run = np.full(total, -1, np.int64)
+    start_of, end_of = run_start.nonzero()[0], run_end.nonzero()[0]
+    if start_of.size == 0 or end_of.size == 0:
+        return out_run, np.zeros(start_of.size)
+    end_of = end_of.take(np.minimum(end_of.searchsorted(start_of), end_of.size - 1))  # its first end after
+    whole = (end_of >= start_of) & (loop_of.take(end_of) == loop_of.take(start_of))
+    rid = np.cumsum(run_start) - 1
+    ok = np.maximum(rid, 0)
+    mine = (margin > 0) & (rid >= 0) & whole.take(ok) & (np.arange(margin.size) <= end_of.take(ok))
+    out_run[at.compress(mine)] = rid.compress(mine)
+    for where, of in lines:
+        out_run[where.compress(of & mine)] = rid.compress(of & mine)
+    least = np.full(start_of.size, np.inf)
+    np.minimum.at(least, rid.compress(mine), margin.compress(mine))
+    return out_run, np.where(np.isfinite(least), least, 0.0)
 
 
 def _part(kind: np.ndarray, p0: np.ndarray, c1: np.ndarray, c2: np.ndarray, p1: np.ndarray, a: np.ndarray,
@@ -285,7 +312,7 @@ def _joints(point: np.ndarray, t_a: np.ndarray, n_a: np.ndarray, m_a: np.ndarray
     # the bisector into the shape: n_a + n_b, or where they cancel (a hairpin), along the
     # difference of the directions, which points the same way at any reflex turn and the
     # opposite way at any convex one
-    u = _unit(n_a + n_b + np.where(reflex, 1.0, -1.0)[:, None] * (t_a - t_b), n_a)
+    u = unit(n_a + n_b + np.where(reflex, 1.0, -1.0)[:, None] * (t_a - t_b), n_a)
     m = (m_a[:, 0] + m_b[:, 0]) / 2
     bevel = reflex & (cos <= SHARP)
     reach = np.where(reflex, m / np.maximum(half_cos, 0.5),
@@ -360,7 +387,7 @@ def _right(d: np.ndarray) -> np.ndarray:
     return np.stack((-d[:, 1], d[:, 0]), axis=1)
 
 
-def _unit(direction: np.ndarray, fallback: np.ndarray | None = None) -> np.ndarray:
+def unit(direction: np.ndarray, fallback: np.ndarray | None = None) -> np.ndarray:
     """(n, 2) unit vectors along ``direction``, along ``fallback`` where it has no length;
     zero where neither has."""
     d = direction
@@ -371,5 +398,5 @@ def _unit(direction: np.ndarray, fallback: np.ndarray | None = None) -> np.ndarr
     return d / length[:, None]
 
 
-def _on_grid(xy: np.ndarray, grid: float | None) -> np.ndarray:
+def on_grid(xy: np.ndarray, grid: float | None) -> np.ndarray:
     return xy if grid is None else (xy / grid).round() * grid

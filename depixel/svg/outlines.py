@@ -50,6 +50,7 @@ from .boundaries import CUBIC, LINE, QUAD, BoundaryPieces, build_pieces
 from .holes import loops_to_keep, probe_keys
 from .insets import InsetGuide, RunMarks, Segments, inset_runs, merge_lines, segment_insets
 from .loops import Loops, trace_loops
+from .runfit import fit_runs
 from .simplify import simplify_pieces
 from .stacking import FaceBoundaries, FaceTopology
 
@@ -380,8 +381,9 @@ def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, kee
         kind, seg_loop, margin = kind.compress(keep_seg), seg_loop.compress(keep_seg), margin.compress(keep_seg)
         ctrl, ctrl2, end, f_in, f_out = (a.compress(keep_seg, axis=0) for a in (ctrl, ctrl2, end, f_in, f_out))
     loop_ptr = seg_loop.searchsorted(np.arange(keep.size + 1)).astype(np.int64)
-    return inset_runs(*merge_lines(Segments(kind, ctrl, ctrl2, end, loop_ptr), RunMarks(margin, f_in, f_out), grid),
-                      grid)
+    segments, run, run_margin = inset_runs(*merge_lines(Segments(kind, ctrl, ctrl2, end, loop_ptr),
+                                                        RunMarks(margin, f_in, f_out), grid), grid)
+    return fit_runs(segments, run, run_margin, grid)
 
 
 def _on_grid(xy: np.ndarray, grid: float | None) -> np.ndarray:
