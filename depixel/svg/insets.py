@@ -97,13 +97,6 @@ class InsetGuide:
         self.leave = self.leave_key.argsort(kind="stable")
         self.leave_key = self.leave_key.take(self.leave)
 
-    def edge(self, face: np.ndarray, node: np.ndarray, arriving: bool) -> np.ndarray:
-        """(n,) the cell edge by which ``face``'s boundary arrives at ``node`` (``arriving``),
-        or by which it leaves."""
-        keys, order = (self.arrive_key, self.arrive) if arriving else (self.leave_key, self.leave)
-        entry = order.take(np.minimum(keys.searchsorted(face.astype(np.int64) * self.n_nodes + node), keys.size - 1))
-        return self.faces.entry_edge.take(entry)
-
     def touches(self, face: np.ndarray, node: np.ndarray) -> np.ndarray:
         """(n,) whether ``face``'s boundary passes through ``node``."""
         key = face.astype(np.int64) * self.n_nodes + node
@@ -112,7 +105,9 @@ class InsetGuide:
     def turn(self, face: np.ndarray, node: np.ndarray, arriving: bool) -> np.ndarray:
         """(n, 2) unit direction in which ``face``'s boundary leaves ``node`` along the edge
         by which it arrives there (``arriving``), or by which it leaves."""
-        edge = self.edge(face, node, arriving)
+        keys, order = (self.arrive_key, self.arrive) if arriving else (self.leave_key, self.leave)
+        entry = order.take(np.minimum(keys.searchsorted(face.astype(np.int64) * self.n_nodes + node), keys.size - 1))
+        edge = self.faces.entry_edge.take(entry)
         image = self.image
         u, v = image.cells.edges.take(edge, axis=0).T
         at_u = u == node

@@ -22,7 +22,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from .svgtext import number
-from .writer import INKSCAPE_NS, SVG_HEADER, _escape
+from .writer import INKSCAPE_NS, SVG_HEADER, XLINK, _escape
 
 _SVG_OPEN = re.compile(r"<svg\b[^>]*>")
 _VIEWBOX = re.compile(r"""\sviewBox\s*=\s*["']([^"']*)["']""")
@@ -64,12 +64,13 @@ def compose_layers(layers: Sequence[Placed], width: int, height: int, *, scale: 
                    title: str | None = None, precision: int = 6) -> str:
     """One SVG of ``width`` × ``height`` user units (shown ``scale`` times that size) holding
     each of ``layers`` as an Inkscape layer at its place, in order (the first drawn first)."""
-    head = (f'{SVG_HEADER}<svg xmlns="http://www.w3.org/2000/svg" xmlns:inkscape="{INKSCAPE_NS}" version="1.1" '
+    contents = [_content(layer.svg, layer.name) for layer in layers]
+    xlink = XLINK if any("xlink:" in content for content, _ in contents) else ""  # (the smooth shading's masks)
+    head = (f'{SVG_HEADER}<svg xmlns="http://www.w3.org/2000/svg" xmlns:inkscape="{INKSCAPE_NS}"{xlink} version="1.1" '
             f'width="{number(width * scale, 3)}" height="{number(height * scale, 3)}" '
             f'viewBox="0 0 {width} {height}">\n')
     parts = [head + (f"<title>{_escape(title)}</title>\n" if title else "")]
-    for layer, ident in zip(layers, layer_ids([layer.name for layer in layers])):
-        content, box = _content(layer.svg, layer.name)
+    for layer, ident, (content, box) in zip(layers, layer_ids([layer.name for layer in layers]), contents):
         content = _REFERENCES.sub(r"\g<0>" + ident + "-", content)  # (ident: letters, digits, - and _)
         transform = f"translate({number(layer.x, precision)},{number(layer.y, precision)})"
         if box != (0.0, 0.0, layer.width, layer.height):

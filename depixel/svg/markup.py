@@ -109,8 +109,8 @@ class Smooth:
                 f'<feGaussianBlur stdDeviation="{number(sigma, 6)}"/>'
                 '<feComponentTransfer><feFuncA type="table" tableValues="1 1"/></feComponentTransfer>'
                 '<feComposite in2="SourceAlpha" operator="in"/></filter>\n'
-                + (cover_filter() if self.masks else "")
-                + "".join(mask(ident, self.shape, cover) for ident, cover in self.masks)
+                + (cover_filter(self.shape) if self.masks else "")
+                + "".join(mask(ident, cover) for ident, cover in self.masks)
                 + '</defs>\n')
 
 
