@@ -97,12 +97,15 @@ def cover_filter(shape: tuple[int, int]) -> str:
             f'<rect id="{KEEP_ID}" x="-1" y="-1" width="{w + 2}" height="{h + 2}" fill="#fff"/>\n')
 
 
-def mask(ident: str, covering: list[str]) -> str:
-    """A ``<mask>`` that keeps everything but the shapes ``covering`` (their ids). Its region
-    is the default, the masked group's bounding box and a tenth more on each side: the
-    group's bands lie inside it."""
+def mask(ident: str, shape: tuple[int, int], covering: list[str]) -> str:
+    """A ``<mask>`` that keeps everything but the shapes ``covering`` (their ids). It spans
+    the image and a pixel more (cairosvg fades a mask at its region's edge: the default
+    region, the masked group's box and a tenth more, changed 352 render pixels of
+    ``icon_disk`` by up to 112 levels)."""
+    h, w = shape
     uses = "".join(f'<use xlink:href="#{c}"/>' for c in covering)
-    return f'<mask id="{ident}"><use xlink:href="#{KEEP_ID}"/><g filter="url(#{COVER_ID})">{uses}</g></mask>\n'
+    return (f'<mask id="{ident}" maskUnits="userSpaceOnUse" x="-1" y="-1" width="{w + 2}" height="{h + 2}">'
+            f'<use xlink:href="#{KEEP_ID}"/><g filter="url(#{COVER_ID})">{uses}</g></mask>\n')
 
 
 #: the id of the white rectangle over the image that the masks keep (in ``<defs>``)

@@ -110,7 +110,7 @@ class Smooth:
                 '<feComponentTransfer><feFuncA type="table" tableValues="1 1"/></feComponentTransfer>'
                 '<feComposite in2="SourceAlpha" operator="in"/></filter>\n'
                 + (cover_filter(self.shape) if self.masks else "")
-                + "".join(mask(ident, cover) for ident, cover in self.masks)
+                + "".join(mask(ident, self.shape, cover) for ident, cover in self.masks)
                 + '</defs>\n')
 
 
