@@ -121,3 +121,24 @@ def test_art_does_not_glow_into_a_similar_backdrop():
         assert departs[clear].max() <= 2, (name, departs[clear].max())
         centre = got[SCALE // 2 :: SCALE, SCALE // 2 :: SCALE][..., :3]
         assert np.abs(centre[dark] - np.array(BACKDROP["S"][:3])).max() <= 2, name
+
+
+#: the shoe with a white buckle inside it: the buckle borders the pink alone, so the pink
+#: shape covers it whole, and the mask needs the pink's ``<use>`` alone
+BUCKLE = dict(SHOE, W=(255, 255, 255, 255))
+BUCKLE_ART = SHOE_ART.replace("KKKPPPPPPKKKKK\nKKKPPPPPPGGGGG", "KKKPPWWPPKKKKK\nKKKPPPPPPGGGGG", 1)
+
+
+def test_a_mask_leaves_out_a_shape_inside_another_it_lists():
+    """The buckle would be a second ``<use>`` (seen red when every covering shape is listed),
+    and the render is the same: still no ring."""
+    assert "PPWWPP" in BUCKLE_ART
+    vector = depixelize(art(BUCKLE_ART, BUCKLE)).vector
+    svg = to_svg(vector)
+    masks = svg[svg.index("<mask "):svg.rindex("</mask>")]
+    assert '-f830c8"' in masks and 'xlink:href="#shape-ffffff"' not in masks  # (the pink: an outline now)
+    assert 'id="shape-ffffff"' in svg
+    got, flat = resvg(svg), resvg(to_svg(vector, shading="flat"))
+    black = (flat == (0, 0, 0, 255)).all(axis=2)
+    black[:, 6 * SCALE:] = False
+    assert got[black][:, :3].max() <= 8

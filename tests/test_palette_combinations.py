@@ -21,6 +21,7 @@ from depixel.errors import ParameterError, RenderError
 from depixel.prepare.animation import Animation
 from depixel.prepare.gpl import Palette, PaletteEntry, PaletteMap, read_palette
 from depixel.render.raster import render, render_rgba
+from depixel.svg.hiding import KEEP_ID
 from depixel.svg.swatches import SharedSwatches
 from depixel_cli.main import main
 from depixel_cli.options import Exit
@@ -67,7 +68,8 @@ def assert_ids_unique(svg: str) -> None:
 def test_masked_smooth_groups_render_the_same_with_swatches(name):
     image = load(FIXTURES / f"{name}.png")
     plain, svg = depixel.convert(image), depixel.convert(image, swatches=True)
-    covering = re.findall(r'<use xlink:href="#([^"]*)"/>', svg)  # what the masks draw: shapes on swatches
+    covering = [ident for ident in re.findall(r'<use xlink:href="#([^"]*)"/>', svg)
+                if ident != KEEP_ID]  # what the masks hide: shapes on swatches
     assert covering and all(re.search(rf'<path id="{c}"[^>]* fill="url\(#', svg) for c in covering)
     width = image.shape[1] * 8
     for draw in (lambda s: resvg(s, width), lambda s: render_rgba(s, width=width).astype(int)):

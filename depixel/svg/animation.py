@@ -157,7 +157,7 @@ def compose(svgs: Sequence[str], durations: Sequence[float], plays: int = 0) -> 
                     written_as.setdefault(token, f"f{found.group(1)}-{found.group(2)}")
         at = len(swatches.lines) + len(filters)
         defs[at:at] = [
-            _HREF.sub(lambda m: f'xlink:href="#{written_as[m.group(1)]}"',
+            _HREF.sub(lambda m: f'xlink:href="#{written_as.get(m.group(1), m.group(1))}"',
                       content.replace("<mask ", f'<mask id="{ident}" ', 1)) for content, ident in masks.items()]
     if defs:
         parts += ["<defs>\n", *defs, "</defs>\n"]
@@ -201,7 +201,8 @@ def _named_masks(frame: FrameSvg, masks: dict[str, str], tokens: dict[str, str],
         if (mask := _MASK.match(line)) is None:
             kept.append(line)
             continue
-        content = _HREF.sub(lambda m: f'xlink:href="#{tokens.setdefault(keys[m.group(1)], f"s{len(tokens)}")}"',
+        content = _HREF.sub(lambda m: m.group(0) if m.group(1) not in keys  # (the defs' white cover)
+                            else f'xlink:href="#{tokens.setdefault(keys[m.group(1)], f"s{len(tokens)}")}"',
                             line.replace(f' id="{mask.group(1)}"', "", 1))
         renamed[mask.group(1)] = masks.setdefault(content, f"mask-{len(masks) + 1}")
     if not renamed:

@@ -20,8 +20,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..arrays import ranges, unique
+from ..arrays import in_sorted, ranges, unique
 from .outlines import Outlines, OutlineShapes
+from .stacking import FaceBoundaries
 from .svgtext import number
 
 #: the id of the filter that makes a mask's covering shapes black
@@ -56,22 +57,56 @@ def covering_shapes(shapes: Outlines | OutlineShapes, starts: np.ndarray, ends: 
         lo, hi = member_ptr.take(own), member_ptr.take(own + 1)
         covered = shape_of.take(member_key.take(ranges(lo, hi - lo)) % (n + 1))
         covered = unique(covered.compress(covered > b))
-        out.append(covered.compress(opaque.take(covered)))
+        covered = covered.compress(opaque.take(covered))
+        out.append(covered.compress(~_inside_another(covered, face, member_key, n, shapes.faces)))  # type: ignore[union-attr]
     return out
 
 
-def cover_filter() -> str:
+def _inside_another(covered: np.ndarray, face: np.ndarray, member_key: np.ndarray, n: int,
+                    faces: FaceBoundaries) -> np.ndarray:
+    """(k,) whether each shape of ``covered`` lies wholly inside another of them: its face
+    is one that the other covers (a member of its shape) and borders no face drawn below the
+    other (or not opaque), so the other pulls back from none of its edges
+    (:mod:`depixel.svg.insets`) and its ``<use>`` already takes the whole area out of the
+    mask."""
+    if covered.size < 2:
+        return np.zeros(covered.size, bool)
+    own = face.take(covered)
+    # every (other, this) pair of the list: this face a member of the other's shape
+    key = np.repeat(own.astype(np.int64), own.size) * (n + 1) + np.tile(own, own.size)
+    hit = in_sorted(member_key, key).reshape(own.size, own.size)
+    np.fill_diagonal(hit, False)
+    rank = faces.rank.take(own)
+    for j in np.flatnonzero(np.logical_or.reduce(hit, axis=0)).tolist():
+        around = faces.entry_other[faces.entry_ptr[own[j]]:faces.entry_ptr[own[j] + 1]]
+        low = np.where((around >= 0) & faces.opaque.take(np.maximum(around, 0)),
+                       faces.rank.take(np.maximum(around, 0)), -1)
+        for i in np.flatnonzero(hit[:, j]).tolist():
+            hit[i, j] = bool(((around == own[i]) | (low > rank[i])).all())
+    return np.logical_or.reduce(hit, axis=0)
+
+
+def cover_filter(shape: tuple[int, int]) -> str:
     """The filter that draws a mask's covering shapes in black where they cover a render
-    pixel whole (alpha ``(coverage - COVER_FROM) / (1 - COVER_FROM)``)."""
+    pixel whole (alpha ``(coverage - COVER_FROM) / (1 - COVER_FROM)``), and the white
+    rectangle over the image that every mask keeps (:data:`KEEP_ID`)."""
+    h, w = shape
     slope = 1.0 / (1.0 - COVER_FROM)
     return (f'<filter id="{COVER_ID}"><feComponentTransfer in="SourceAlpha"><feFuncA type="linear" '
-            f'slope="{number(slope, 6)}" intercept="{number(1.0 - slope, 6)}"/></feComponentTransfer></filter>\n')
+            f'slope="{number(slope, 6)}" intercept="{number(1.0 - slope, 6)}"/></feComponentTransfer></filter>\n'
+            f'<rect id="{KEEP_ID}" x="-1" y="-1" width="{w + 2}" height="{h + 2}" fill="#fff"/>\n')
 
 
 def mask(ident: str, shape: tuple[int, int], covering: list[str]) -> str:
-    """A ``<mask>`` that keeps everything but the shapes ``covering`` (their ids)."""
+    """A ``<mask>`` that keeps everything but the shapes ``covering`` (their ids). It spans
+    the image and a pixel more (cairosvg fades a mask at its region's edge: the default
+    region, the masked group's box and a tenth more, changed 352 render pixels of
+    ``icon_disk`` by up to 112 levels)."""
     h, w = shape
     uses = "".join(f'<use xlink:href="#{c}"/>' for c in covering)
     return (f'<mask id="{ident}" maskUnits="userSpaceOnUse" x="-1" y="-1" width="{w + 2}" height="{h + 2}">'
-            f'<rect x="-1" y="-1" width="{w + 2}" height="{h + 2}" fill="#fff"/>'
-            f'<g filter="url(#{COVER_ID})">{uses}</g></mask>\n')
+            f'<use xlink:href="#{KEEP_ID}"/><g filter="url(#{COVER_ID})">{uses}</g></mask>\n')
+
+
+#: the id of the white rectangle over the image that the masks keep (in ``<defs>``)
+KEEP_ID = "keep"

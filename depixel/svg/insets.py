@@ -29,7 +29,10 @@ S still lies under Q wherever Q borders S or a face above S, so hiding Q shows S
 * **Corners.** Consecutive insets meet on the bisector of their corner, at the mean of
   their margins; at a convex corner (where the insets cross) at most a third of either
   curve's leg from the corner, nearer to it if need be; at a reflex turn of more than 120°
-  round the corner by two lines through the bisector's point at the margin.
+  round the corner by two lines through the bisector's point at the margin. Where the two
+  move into different faces with the shape's own face touching the node between them, each
+  run ends at the node as above instead: a joint would cut that corner of the shape's own
+  face, and the colour below would show there.
 """
 from __future__ import annotations
 
@@ -42,17 +45,6 @@ from ..vector import VectorImage
 from .boundaries import CUBIC, LINE
 from .stacking import FaceBoundaries
 
-
-class Segments(NamedTuple):
-    """The segments of a batch of loops: ``kind`` (n,) LINE/QUAD/CUBIC, control points
-    ``ctrl``/``ctrl2`` (n, 2, NaN where unused), ``end`` (n, 2), ``loop_ptr`` (loops + 1,)."""
-
-    kind: np.ndarray
-    ctrl: np.ndarray
-    ctrl2: np.ndarray
-    end: np.ndarray
-    loop_ptr: np.ndarray
-
 #: how far a lower shape's outline stays inside an upper face from that face's visible edge,
 #: in pixels: more than a render pixel's diagonal at 8x (0.18), so no render pixel at 8x
 #: or finer is touched by both edges, and less than half the width of a one-pixel line
@@ -60,6 +52,25 @@ MARGIN = 0.25
 #: a reflex turn between two inset segments is joined by a mitre while the cosine of the
 #: angle between their normals exceeds this (turns up to 120 degrees), else by two lines
 SHARP = -0.5
+
+
+class Segments(NamedTuple):
+    """Closed loops of segments: loop l is ``loop_ptr[l]:loop_ptr[l+1]`` (as in
+    :class:`~depixel.svg.outlines.Outlines`)."""
+
+    kind: np.ndarray  # (K,) uint8 LINE, QUAD or CUBIC
+    ctrl: np.ndarray  # (K, 2) first control point (NaN for a line)
+    ctrl2: np.ndarray  # (K, 2) second control point of a cubic (NaN otherwise)
+    end: np.ndarray  # (K, 2) end point
+    loop_ptr: np.ndarray  # (L+1,)
+
+
+class RunMarks(NamedTuple):
+    """Per segment, what the insets need (:func:`segment_insets`)."""
+
+    margin: np.ndarray  # (K,) how far it is pulled back; 0: not, the owner's own edge; -1: not, hidden
+    f_in: np.ndarray  # (K, 2) at a run's first segment, the pulled face's other edge at its start node (NaN)
+    f_out: np.ndarray  # (K, 2) at a run's last segment, that edge at its end node (NaN elsewhere)
 
 
 class InsetGuide:
@@ -86,6 +97,11 @@ class InsetGuide:
         self.leave = self.leave_key.argsort(kind="stable")
         self.leave_key = self.leave_key.take(self.leave)
 
+    def touches(self, face: np.ndarray, node: np.ndarray) -> np.ndarray:
+        """(n,) whether ``face``'s boundary passes through ``node``."""
+        key = face.astype(np.int64) * self.n_nodes + node
+        return self.arrive_key.take(np.minimum(self.arrive_key.searchsorted(key), self.arrive_key.size - 1)) == key
+
     def turn(self, face: np.ndarray, node: np.ndarray, arriving: bool) -> np.ndarray:
         """(n, 2) unit direction in which ``face``'s boundary leaves ``node`` along the edge
         by which it arrives there (``arriving``), or by which it leaves."""
@@ -102,22 +118,19 @@ class InsetGuide:
         d = towards - p
         short = np.hypot(d[:, 0], d[:, 1]) < 1e-9
         d[short] = (q - p)[short]
-        return _unit(d)
+        return unit(d)
 
 
-def segment_insets(guide: InsetGuide | None, inset_face: np.ndarray, he: np.ndarray, x: np.ndarray,
-                   y: np.ndarray, loop_of: np.ndarray, n_seg: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per segment of the loops' steps (half-edges ``he`` in loop order, from node ``x`` to
-    node ``y``, loop ``loop_of``, ``n_seg`` segments each, laid out in order): the margin
-    (0: not inset, the owner's own edge; -1: not inset, hidden under shapes above) and, at a
-    run's first and last segment, the direction of the face's other edge at the run's start
-    and end node (NaN elsewhere). ``inset_face``: per half-edge, the face an inset moves
-    into, or -1 (the owner's own edge) or -2 (another face's)."""
+def segment_insets(guide: InsetGuide | None, q: np.ndarray, owner: np.ndarray, x: np.ndarray,
+                   loop_of: np.ndarray, n_seg: np.ndarray) -> RunMarks:
+    """The :class:`RunMarks` of the segments of the loops' steps (half-edges in loop order,
+    each from node ``x``, loop ``loop_of``, ``n_seg`` segments each, laid out in order).
+    ``q``: per step, the face an inset moves into, or -1 (the owner's own edge) or -2
+    (another face's, hidden under the shapes above); ``owner``: the face of the step's shape."""
     total = int(n_seg.sum())
     f_in, f_out = np.full((total, 2), np.nan), np.full((total, 2), np.nan)
-    q = inset_face.take(he)
     if guide is None or not np.logical_or.reduce(q >= 0, initial=False):
-        return np.zeros(total), f_in, f_out
+        return RunMarks(np.zeros(total), f_in, f_out)
     k = np.arange(q.size)
     starts = np.concatenate(([True], loop_of[1:] != loop_of[:-1])).nonzero()[0]
     first = starts.take(np.searchsorted(starts, k, side="right") - 1)
@@ -126,30 +139,35 @@ def segment_insets(guide: InsetGuide | None, inset_face: np.ndarray, he: np.ndar
     seg_end = n_seg.cumsum()
     step = np.arange(q.size).repeat(n_seg)
     margin = np.where(q >= 0, guide.margin.take(np.maximum(q, 0)), np.where(q == -2, -1.0, 0.0)).take(step)
-    begin = ((q >= 0) & (q_prev < 0)).nonzero()[0]
+    # a run also ends at a node where the next step is pulled back into another face and the
+    # owner's own face lies between the two there (it touches the node): the outline goes
+    # back to the node in between, so that no joint of the two insets cuts the owner's face
+    cut = (q >= 0) & (q_prev >= 0) & (q != q_prev)
+    at = cut.nonzero()[0]
+    cut[at] = guide.touches(owner.take(at), x.take(at))
+    cut_next = cut.take(np.where(k == last, first, k + 1))
+    begin = ((q >= 0) & ((q_prev < 0) | cut)).nonzero()[0]
     set_rows(f_in, seg_end.take(begin) - n_seg.take(begin), guide.turn(q.take(begin), x.take(begin), True))
-    finish = ((q >= 0) & (q_next < 0)).nonzero()[0]
+    finish = ((q >= 0) & ((q_next < 0) | cut_next)).nonzero()[0]
     # the last segment written up to the step: its piece's last (or, where the loop starts
     # within that piece, written at its end, the loop's last)
     last_seg = seg_end.take(finish) - 1
     before_loop = last_seg < (seg_end - n_seg).take(first.take(finish))
     last_seg[before_loop] = seg_end.take(last.take(finish.compress(before_loop))) - 1
+    y = x.take(np.where(k == last, first, k + 1))  # where each step ends
     set_rows(f_out, last_seg, guide.turn(q.take(finish), y.take(finish), False))
-    return margin, f_in, f_out
+    return RunMarks(margin, f_in, f_out)
 
 
-def inset_runs(segments: Segments, margin: np.ndarray, f_in: np.ndarray, f_out: np.ndarray,
-               grid: float | None) -> Segments:
-    """The loops' ``segments`` with every segment whose ``margin``
-    is positive moved that far to its right (into the shape: loops run with the shape on
-    their right, y down) and joined to its neighbours (see the module docstring).
-    ``f_in``/``f_out`` (n, 2): at the first/last segment of a run, the direction of the
-    face's other edge at the run's start/end node."""
+def inset_runs(segments: Segments, marks: RunMarks,
+               grid: float | None) -> tuple[Segments, np.ndarray, np.ndarray]:
+    """The loops with every segment whose margin is positive moved that far to its right
+    (into the shape: loops run with the shape on their right, y down) and joined to its
+    neighbours (see the module docstring); per segment, the run it belongs to (lines to and
+    from its nodes included) or -1, and per run its margin."""
     kind, ctrl, ctrl2, end, loop_ptr = segments
+    margin, f_in, f_out = marks
     inset = margin > 0
-    if not np.logical_or.reduce(inset, initial=False):
-        return segments
-    hidden, margin = margin < 0, np.maximum(margin, 0.0)
     n = kind.size
     n_loops = loop_ptr.size - 1
     loop_of = np.arange(n_loops).repeat(loop_ptr[1:] - loop_ptr[:-1])
@@ -157,11 +175,14 @@ def inset_runs(segments: Segments, margin: np.ndarray, f_in: np.ndarray, f_out: 
     first, last = loop_ptr.take(loop_of), loop_ptr.take(loop_of + 1) - 1
     prev = np.where(k == first, last, k - 1)
     nxt = np.where(k == last, first, k + 1)
+    if not np.logical_or.reduce(inset, initial=False):
+        return segments, np.full(n, -1, np.int64), np.zeros(0)
+    hidden, margin = margin < 0, np.maximum(margin, 0.0)
     start = end.take(prev, axis=0)
     line, cubic = kind == LINE, kind == CUBIC
     lead = np.where(line[:, None], end, ctrl)  # the point the segment leaves its start towards
     trail = np.where(line[:, None], start, np.where(cubic[:, None], ctrl2, ctrl))  # and arrives from
-    t0, t1 = _unit(lead - start, end - start), _unit(end - trail, end - start)
+    t0, t1 = unit(lead - start, end - start), unit(end - trail, end - start)
     n0, n1 = _right(t0), _right(t1)
     m = margin[:, None]
     ins_prev, ins_next = inset.take(prev), inset.take(nxt)
@@ -171,9 +192,11 @@ def inset_runs(segments: Segments, margin: np.ndarray, f_in: np.ndarray, f_out: 
     first_leg, last_leg = np.hypot(*(lead - start).T), np.hypot(*(end - trail).T)
     joint, bevel, back_a, back_b = _joints(end, t1, n1, m, t0.take(nxt, axis=0), n0.take(nxt, axis=0),
                                            m.take(nxt, axis=0), np.minimum(last_leg, first_leg.take(nxt)) / 3)
-    bevel &= inset & ins_next
-    run_end = inset & ~ins_next
-    run_start = inset & ~ins_prev
+    # a run ends where the next segment is not inset, or where it starts a run of its own (a
+    # cut: the face's other edge known at both)
+    run_end = inset & (~ins_next | ~np.isnan(f_out[:, 0]))
+    run_start = inset & (~ins_prev | ~np.isnan(f_in[:, 0]))
+    bevel &= inset & ~run_end
     end_at, end_back = _corner(end, -t1, n1, f_out, m, last_leg / 3)
     start_at, start_ahead = _corner(start, t0, n0, f_in, m, first_leg / 3)
     end_back = np.where(run_end, end_back, np.where(bevel, 0.0, back_a))
@@ -185,9 +208,9 @@ def inset_runs(segments: Segments, margin: np.ndarray, f_in: np.ndarray, f_out: 
     a = start_ahead / np.maximum(degree * first_leg, 1e-12)
     b = 1.0 - end_back / np.maximum(degree * last_leg, 1e-12)
     p0, c1, c2, p1 = _part(kind, start, ctrl, ctrl2, end, a, b)
-    s0 = _right(_unit(np.where(line[:, None], p1, c1) - p0, p1 - p0))
-    s1 = _right(_unit(p1 - np.where(line[:, None], p0, np.where(cubic[:, None], c2, c1)), p1 - p0))
-    s_mid = _right(_unit(c2 - c1, p1 - p0))
+    s0 = _right(unit(np.where(line[:, None], p1, c1) - p0, p1 - p0))
+    s1 = _right(unit(p1 - np.where(line[:, None], p0, np.where(cubic[:, None], c2, c1)), p1 - p0))
+    s_mid = _right(unit(c2 - c1, p1 - p0))
     new_ctrl = c1 + m * np.where(cubic[:, None], _meet(s0, s_mid), _meet(s0, s1))
     new_ctrl2 = c2 + m * _meet(s_mid, s1)
     # lines added: before a run (from its start node to its inset), after a run (back to its
@@ -202,21 +225,46 @@ def inset_runs(segments: Segments, margin: np.ndarray, f_in: np.ndarray, f_out: 
     out_ctrl, out_ctrl2 = np.full((total, 2), np.nan), np.full((total, 2), np.nan)
     out_end = np.empty((total, 2))
     out_kind[at] = kind
-    set_rows(out_end, at, np.where(inset[:, None], _on_grid(new_end, grid), end))
-    set_rows(out_ctrl, at, np.where((inset & ~line)[:, None], _on_grid(new_ctrl, grid), ctrl))
-    set_rows(out_ctrl2, at, np.where((inset & cubic)[:, None], _on_grid(new_ctrl2, grid), ctrl2))
+    set_rows(out_end, at, np.where(inset[:, None], on_grid(new_end, grid), end))
+    set_rows(out_ctrl, at, np.where((inset & ~line)[:, None], on_grid(new_ctrl, grid), ctrl))
+    set_rows(out_ctrl2, at, np.where((inset & cubic)[:, None], on_grid(new_ctrl2, grid), ctrl2))
     into = lead_in.nonzero()[0]
-    set_rows(out_end, pos.take(into), _on_grid(start_at.take(into, axis=0), grid))
+    set_rows(out_end, pos.take(into), on_grid(start_at.take(into, axis=0), grid))
     back = lead_out.nonzero()[0]
     set_rows(out_end, at.take(back) + 1, end.take(back, axis=0))
     moved = (run_start & hidden.take(prev)).nonzero()[0]
-    set_rows(out_end, at.take(prev.take(moved)), _on_grid(start_at.take(moved, axis=0), grid))
+    set_rows(out_end, at.take(prev.take(moved)), on_grid(start_at.take(moved, axis=0), grid))
     round_corner = bevel.nonzero()[0]
-    set_rows(out_end, at.take(round_corner) + 1, _on_grid(joint.take(round_corner, axis=0), grid))
+    set_rows(out_end, at.take(round_corner) + 1, on_grid(joint.take(round_corner, axis=0), grid))
     beyond = nxt.take(round_corner)
     set_rows(out_end, at.take(round_corner) + 2,
-             _on_grid(end.take(round_corner, axis=0) + m.take(beyond, axis=0) * n0.take(beyond, axis=0), grid))
-    return Segments(out_kind, out_ctrl, out_ctrl2, out_end, pos.take(loop_ptr))
+             on_grid(end.take(round_corner, axis=0) + m.take(beyond, axis=0) * n0.take(beyond, axis=0), grid))
+    out = Segments(out_kind, out_ctrl, out_ctrl2, out_end, pos.take(loop_ptr))
+    return (out, *_labels(margin, run_start, run_end, loop_of, at,
+                          ((pos[:-1], lead_in), (at + 1, lead_out), (at + 1, bevel), (at + 2, bevel)), total))
+
+
+def _labels(margin: np.ndarray, run_start: np.ndarray, run_end: np.ndarray, loop_of: np.ndarray, at: np.ndarray,
+            lines: tuple, total: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per output segment, the run it belongs to (-1: none), the lines ``lines`` added to
+    the runs included (``(where, after which segments)``), and per run the least margin
+    along it: what :func:`depixel.svg.runfit.fit_runs` may redraw. Segments land at ``at``;
+    a run that goes on past its loop's start is left as it is."""
+    out_run = np.full(total, -1, np.int64)
+    start_of, end_of = run_start.nonzero()[0], run_end.nonzero()[0]
+    if start_of.size == 0 or end_of.size == 0:
+        return out_run, np.zeros(start_of.size)
+    end_of = end_of.take(np.minimum(end_of.searchsorted(start_of), end_of.size - 1))  # its first end after
+    whole = (end_of >= start_of) & (loop_of.take(end_of) == loop_of.take(start_of))
+    rid = np.cumsum(run_start) - 1
+    ok = np.maximum(rid, 0)
+    mine = (margin > 0) & (rid >= 0) & whole.take(ok) & (np.arange(margin.size) <= end_of.take(ok))
+    out_run[at.compress(mine)] = rid.compress(mine)
+    for where, of in lines:
+        out_run[where.compress(of & mine)] = rid.compress(of & mine)
+    least = np.full(start_of.size, np.inf)
+    np.minimum.at(least, rid.compress(mine), margin.compress(mine))
+    return out_run, np.where(np.isfinite(least), least, 0.0)
 
 
 def _part(kind: np.ndarray, p0: np.ndarray, c1: np.ndarray, c2: np.ndarray, p1: np.ndarray, a: np.ndarray,
@@ -259,7 +307,7 @@ def _joints(point: np.ndarray, t_a: np.ndarray, n_a: np.ndarray, m_a: np.ndarray
     # the bisector into the shape: n_a + n_b, or where they cancel (a hairpin), along the
     # difference of the directions, which points the same way at any reflex turn and the
     # opposite way at any convex one
-    u = _unit(n_a + n_b + np.where(reflex, 1.0, -1.0)[:, None] * (t_a - t_b), n_a)
+    u = unit(n_a + n_b + np.where(reflex, 1.0, -1.0)[:, None] * (t_a - t_b), n_a)
     m = (m_a[:, 0] + m_b[:, 0]) / 2
     bevel = reflex & (cos <= SHARP)
     reach = np.where(reflex, m / np.maximum(half_cos, 0.5),
@@ -283,15 +331,15 @@ def _corner(node: np.ndarray, along: np.ndarray, normal: np.ndarray, other: np.n
     return node + depth[:, None] * normal + shift[:, None] * along, shift
 
 
-def merge_lines(segments: Segments, margin: np.ndarray, f_in: np.ndarray, f_out: np.ndarray,
-                grid: float | None) -> tuple[Segments, np.ndarray, np.ndarray, np.ndarray]:
+def merge_lines(segments: Segments, marks: RunMarks, grid: float | None) -> tuple[Segments, RunMarks]:
     """Merge consecutive lines that continue each other (cyclically in each loop) and have
-    the same inset ``margin`` (a merged line keeps the first one's ``f_in``): the segments
-    and their ``margin``, ``f_in``, ``f_out``."""
+    the same margin, unless a run ends between them (a merged line keeps the first one's
+    ``f_in``)."""
     kind, ctrl, ctrl2, end, loop_ptr = segments
+    margin, f_in, f_out = marks
     n = kind.size
     if n == 0:
-        return segments, margin, f_in, f_out
+        return segments, marks
     n_loops = loop_ptr.size - 1
     loop_of = np.arange(n_loops).repeat(loop_ptr[1:] - loop_ptr[:-1])
     first, last = loop_ptr.take(loop_of), loop_ptr.take(loop_of + 1)
@@ -306,9 +354,9 @@ def merge_lines(segments: Segments, margin: np.ndarray, f_in: np.ndarray, f_out:
     ax, ay = end[:, 0] - start[:, 0], end[:, 1] - start[:, 1]
     bx, by = following[:, 0] - end[:, 0], following[:, 1] - end[:, 1]
     merge = line & line.take(after) & (np.abs(ax * by - ay * bx) <= tol) & (ax * bx + ay * by > 0) & (after != k)
-    merge &= margin == margin.take(after)
+    merge &= (margin == margin.take(after)) & np.isnan(f_out[:, 0]) & np.isnan(f_in.take(after, axis=0)[:, 0])
     if not np.logical_or.reduce(merge):
-        return segments, margin, f_in, f_out
+        return segments, marks
     carry = merge & ~np.isnan(f_in[:, 0])  # a run starting at a line merged into the next
     for _ in range(n):  # (along a chain of merged lines)
         if not np.logical_or.reduce(carry):
@@ -320,7 +368,7 @@ def merge_lines(segments: Segments, margin: np.ndarray, f_in: np.ndarray, f_out:
     keep |= (kept_per_loop.take(loop_of) == 0) & at_last  # never drop every segment of a loop
     loop_ptr = loop_of.compress(keep).searchsorted(np.arange(loop_ptr.size)).astype(np.int64)
     ctrl, ctrl2, end, f_in, f_out = (a.compress(keep, axis=0) for a in (ctrl, ctrl2, end, f_in, f_out))
-    return Segments(kind.compress(keep), ctrl, ctrl2, end, loop_ptr), margin.compress(keep), f_in, f_out
+    return Segments(kind.compress(keep), ctrl, ctrl2, end, loop_ptr), RunMarks(margin.compress(keep), f_in, f_out)
 
 
 def _meet(n_a: np.ndarray, n_b: np.ndarray) -> np.ndarray:
@@ -334,7 +382,7 @@ def _right(d: np.ndarray) -> np.ndarray:
     return np.stack((-d[:, 1], d[:, 0]), axis=1)
 
 
-def _unit(direction: np.ndarray, fallback: np.ndarray | None = None) -> np.ndarray:
+def unit(direction: np.ndarray, fallback: np.ndarray | None = None) -> np.ndarray:
     """(n, 2) unit vectors along ``direction``, along ``fallback`` where it has no length;
     zero where neither has."""
     d = direction
@@ -345,5 +393,5 @@ def _unit(direction: np.ndarray, fallback: np.ndarray | None = None) -> np.ndarr
     return d / length[:, None]
 
 
-def _on_grid(xy: np.ndarray, grid: float | None) -> np.ndarray:
+def on_grid(xy: np.ndarray, grid: float | None) -> np.ndarray:
     return xy if grid is None else (xy / grid).round() * grid

@@ -122,7 +122,7 @@ class Smooth:
                 f'<feGaussianBlur stdDeviation="{number(sigma, 6)}"/>'
                 '<feComponentTransfer><feFuncA type="table" tableValues="1 1"/></feComponentTransfer>'
                 '<feComposite in2="SourceAlpha" operator="in"/></filter>\n'
-                + (cover_filter() if self.masks else "")
+                + (cover_filter(self.shape) if self.masks else "")
                 + "".join(mask(ident, self.shape, cover) for ident, cover in self.masks)
                 + '</defs>\n')
 

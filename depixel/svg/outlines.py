@@ -39,6 +39,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -47,9 +48,10 @@ from ..frozen import compact_repr
 from ..vector import VectorImage
 from .boundaries import CUBIC, LINE, QUAD, BoundaryPieces, build_pieces
 from .holes import loops_to_keep, probe_keys
-from .insets import InsetGuide, Segments, inset_runs, merge_lines, segment_insets
+from .insets import InsetGuide, RunMarks, Segments, inset_runs, merge_lines, segment_insets
 from .loops import Loops, trace_loops
 from .passes import begun
+from .runfit import fit_runs
 from .simplify import simplify_pieces
 from .stacking import FaceBoundaries, FaceTopology
 
@@ -184,11 +186,10 @@ class OutlineShapes:
                                                   self.member_key)
         u = faces.entry_from.take(entry)
         loops = trace_loops(faces.rank.take(owner_face), u, faces.entry_to.take(entry), points=faces.nodes)
-        del owner_face
         keep = loops_to_keep(loops, u, faces.nodes, self.probe_key, self.shape[1], self.layout == "stacked")
-        kind, ctrl, ctrl2, end, loop_ptr = _segments_in_batches(self.image, self.pieces, loops, keep,
-                                                                (faces.entry_edge.take(entry), u), inset,
-                                                                self.guide, self.grid)
+        kind, ctrl, ctrl2, end, loop_ptr = _segments_in_batches(
+            self.image, self.pieces, loops, keep, _HalfEdges(faces.entry_edge.take(entry), u, inset, owner_face),
+            self.guide, self.grid)
         shape_rank = loops.owner.take(keep)
         bounds = np.concatenate((faces.rank.take(face), [np.iinfo(np.int64).max]))
         shape_ptr = np.asarray(shape_rank.searchsorted(bounds), np.int64)
@@ -285,34 +286,39 @@ DENSE_MEMBERS = 16
 LOOP_BATCH = 1 << 13
 
 
+class _HalfEdges(NamedTuple):
+    """Per boundary half-edge of a batch's loops (what ``loops.halfedges`` index)."""
+
+    edge: np.ndarray  # its cell edge
+    start: np.ndarray  # the node it leaves
+    inset: np.ndarray  # the face its run is pulled back into, or -1 / -2 (:func:`_batch_entries`)
+    owner: np.ndarray  # the face of the shape it bounds
+
+
 def _segments_in_batches(image: VectorImage, pieces: BoundaryPieces, loops: Loops, keep: np.ndarray,
-                         halfedges: tuple[np.ndarray, np.ndarray], inset: np.ndarray, guide: InsetGuide | None,
-                         grid: float | None):
+                         halfedges: _HalfEdges, guide: InsetGuide | None, grid: float | None) -> Segments:
     """:func:`_loop_segments` of the kept loops, a batch of loops at a time."""
     sizes = loops.ptr[1:].take(keep) - loops.ptr[:-1].take(keep)
     bounds = batch_bounds(sizes, LOOP_BATCH) or [(0, 0)]  # no loop: one empty batch
-    parts = [_loop_segments(image, pieces, loops, keep[a:b], halfedges, inset, guide, grid) for a, b in bounds]
+    parts = [_loop_segments(image, pieces, loops, keep[a:b], halfedges, guide, grid) for a, b in bounds]
     if len(parts) == 1:
         return parts[0]
     kind, ctrl, ctrl2, end, ptrs = zip(*parts)
     offsets = np.cumsum([0] + [p[-1] for p in ptrs[:-1]])
     loop_ptr = np.concatenate([ptrs[0][:1]] + [p[1:] + off for p, off in zip(ptrs, offsets)])
-    return np.concatenate(kind), np.concatenate(ctrl), np.concatenate(ctrl2), np.concatenate(end), loop_ptr
+    return Segments(np.concatenate(kind), np.concatenate(ctrl), np.concatenate(ctrl2), np.concatenate(end), loop_ptr)
 
 
 def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, keep: np.ndarray,
-                   halfedges: tuple[np.ndarray, np.ndarray], inset: np.ndarray, guide: InsetGuide | None,
-                   grid: float | None) -> Segments:
-    """Segments of the kept loops: a straight cell edge is a line, a run along a curve is
-    its pieces, each written where the loop enters it, in the loop's direction; the runs
-    along a face that ``inset`` names pulled back into it. ``halfedges``: each half-edge's
-    edge and the node it leaves."""
-    halfedge_edge, halfedge_from = halfedges
+                   halfedges: _HalfEdges, guide: InsetGuide | None, grid: float | None) -> Segments:
+    """Segments of the kept loops: a straight cell edge is a line, a run along a curve is its
+    pieces, each written where the loop enters it, in the loop's direction; the runs along a
+    face that ``halfedges.inset`` names pulled back into it."""
     cells = image.cells
     first = loops.ptr[:-1].take(keep)
     counts = loops.ptr[1:].take(keep) - first
     he = loops.halfedges.take(ranges(first, counts))
-    edge, x = halfedge_edge.take(he), halfedge_from.take(he)
+    edge, x = halfedges.edge.take(he), halfedges.start.take(he)
     # edge k's nodes are at 2k and 2k + 1 of the flat (E, 2) array (a column's take copies
     # the whole column first; gathered rows would leave strided columns)
     u, v = cells.edges.ravel().take(2 * edge), cells.edges.ravel().take(2 * edge + 1)
@@ -364,12 +370,13 @@ def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, kee
         ctrl2 = np.full((total, 2), np.nan)
         span = np.full(total, -1, np.int64)
     seg_loop = loop_of.take(step)
-    margin, f_in, f_out = segment_insets(guide, inset, he, x, y, loop_of, n_seg)
+    margin, f_in, f_out = segment_insets(guide, halfedges.inset.take(he), halfedges.owner.take(he), x, loop_of, n_seg)
     # where a loop goes on along its curve through a junction, the two halves of the span
     # there (the end of one piece, the start of the next) are that one span
     whole = ((span[:-1] >= 0) & (span[:-1] == span[1:]) & (seg_loop[:-1] == seg_loop[1:])
                            & (kind[:-1] == QUAD) & (kind[1:] == QUAD)
-                           & (margin[:-1] == margin[1:])).nonzero()[0]  # (straight halves merge as lines)
+                           & (margin[:-1] == margin[1:]) & np.isnan(f_out[:-1, 0])
+                           & np.isnan(f_in[1:, 0])).nonzero()[0]  # (straight halves merge as lines)
     if whole.size:
         ctrl[whole + 1] = pieces.span_ctrl(span[whole])
         keep_seg = np.ones(total, bool)
@@ -378,9 +385,9 @@ def _loop_segments(image: VectorImage, pieces: BoundaryPieces, loops: Loops, kee
         kind, seg_loop, margin = kind.compress(keep_seg), seg_loop.compress(keep_seg), margin.compress(keep_seg)
         ctrl, ctrl2, end, f_in, f_out = (a.compress(keep_seg, axis=0) for a in (ctrl, ctrl2, end, f_in, f_out))
     loop_ptr = seg_loop.searchsorted(np.arange(keep.size + 1)).astype(np.int64)
-    segments, margin, f_in, f_out = merge_lines(Segments(kind, ctrl, ctrl2, end, loop_ptr), margin, f_in, f_out,
-                                                grid)
-    return inset_runs(segments, margin, f_in, f_out, grid)
+    segments, run, run_margin = inset_runs(*merge_lines(Segments(kind, ctrl, ctrl2, end, loop_ptr),
+                                                        RunMarks(margin, f_in, f_out), grid), grid)
+    return fit_runs(segments, run, run_margin, grid)
 
 
 def _on_grid(xy: np.ndarray, grid: float | None) -> np.ndarray:

@@ -1,0 +1,202 @@
+"""Pulled-back runs drawn with fewer segments (part of :mod:`depixel.svg.insets`).
+
+A run of a stacked outline pulled back into an upper face Q (:mod:`depixel.svg.insets`) is
+hidden under Q: its only job is to stay a margin inside Q's visible edge, and to leave and
+reach the nodes at its ends along the bisectors of Q's corners there. Its exact shape does
+not show, so it need not follow every segment of the boundary it is pulled back from, nor
+take a line of its own to each node. Each run, with the lines that lead into and out of it,
+is replaced by one curve where one fits (two where the lines are kept): the quadratic
+through the meeting point of its end tangents, else the least-squares cubic with those
+tangents (Schneider's fit, chord-length parameters), kept only where it lies within
+:data:`FIT` of the margin of the path it replaces, both ways (every sample of each within
+that distance of the other's). So the curve keeps its start and end, its directions there
+(the bisector at a node), and stays between 0.6 and 1.4 margins from Q's visible edge.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..arrays import ranges, set_rows
+from ..curves.bspline import cubic_weights
+from .boundaries import CUBIC, LINE, QUAD
+from .insets import Segments, on_grid, unit
+
+#: how far the curve of a run may depart from the path it replaces, as a fraction of the
+#: run's margin (the margin is more than a render pixel's diagonal at 8x, so the curve stays
+#: farther from the visible edge than that pixel's size at 0.6 margins of 0.25 px)
+FIT = 0.5
+#: samples along each segment of a run, and along its new curve
+SAMPLES, CURVE_SAMPLES = 9, 33
+
+
+def fit_runs(segments: Segments, run: np.ndarray, margin: np.ndarray, grid: float | None) -> Segments:
+    """The loops with each run of two or more segments (``run``: per segment, the run it
+    belongs to, in loop order and not across a loop's start, or -1; ``margin``: per run)
+    replaced by one curve where one fits, else each half of it, and so on down to
+    :data:`DEPTH` halvings (see the module docstring)."""
+    kind, ctrl, ctrl2, end, loop_ptr = segments
+    n = kind.size
+    ids, lo, count = np.unique(run, return_index=True, return_counts=True)
+    wanted = (ids >= 0) & (count >= 2)
+    if n == 0 or not np.logical_or.reduce(wanted):
+        return segments
+    ids, lo, count = ids.compress(wanted), lo.compress(wanted), count.compress(wanted)
+    loop_of = np.arange(loop_ptr.size - 1).repeat(loop_ptr[1:] - loop_ptr[:-1])
+    k = np.arange(n)
+    first, last = loop_ptr.take(loop_of), loop_ptr.take(loop_of + 1) - 1
+    cubics = _as_cubic(end.take(np.where(k == first, last, k - 1), axis=0), kind, ctrl, ctrl2, end)
+    tol = FIT * margin.take(ids)
+    done_lo, done_count, done = [], [], []
+    for _ in range(DEPTH + 1):
+        fitted, curve, quad = _fit(cubics, lo, count, tol, grid)
+        done_lo.append(lo.compress(fitted))
+        done_count.append(count.compress(fitted))
+        done.append((curve.compress(fitted, axis=0), quad.compress(fitted)))
+        split = ~fitted & (count >= 4)  # (halves of two segments or more)
+        half = count.compress(split) // 2
+        lo = np.concatenate((lo.compress(split), lo.compress(split) + half))
+        count = np.concatenate((half, count.compress(split) - half))
+        tol = np.concatenate((tol.compress(split), tol.compress(split)))
+        if lo.size == 0:
+            break
+    lo, count = np.concatenate(done_lo), np.concatenate(done_count)
+    curve = np.concatenate([c for c, _ in done], axis=0)
+    quad = np.concatenate([q for _, q in done])
+    if lo.size == 0:
+        return segments
+    # each fitted range's last segment becomes its curve, the others go
+    kind, ctrl, ctrl2 = kind.copy(), ctrl.copy(), ctrl2.copy()
+    at = lo + count - 1
+    kind[at] = np.where(quad, QUAD, CUBIC)
+    # (a quadratic's control: where the elevated legs point, 3/2 of the first leg)
+    set_rows(ctrl, at, np.where(quad[:, None], curve[:, 0] + 1.5 * (curve[:, 1] - curve[:, 0]), curve[:, 1]))
+    set_rows(ctrl, at, on_grid(ctrl.take(at, axis=0), grid))
+    set_rows(ctrl2, at, np.where(quad[:, None], np.nan, curve[:, 2]))
+    keep = np.ones(n, bool)
+    keep[ranges(lo, count - 1)] = False
+    kept = np.bincount(loop_of.compress(keep), minlength=loop_ptr.size - 1)
+    loop_ptr = np.concatenate(([0], kept.cumsum())).astype(np.int64)
+    return Segments(kind.compress(keep), ctrl.compress(keep, axis=0), ctrl2.compress(keep, axis=0),
+                    end.compress(keep, axis=0), loop_ptr)
+
+
+#: a run whose curve does not fit is halved and each half tried, at most this many times
+DEPTH = 2
+
+
+def _fit(cubics: np.ndarray, lo: np.ndarray, count: np.ndarray, tol: np.ndarray,
+         grid: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For each range [lo, lo + count) of the segments (``cubics``: each as a cubic's
+    points): whether one curve with its start, end and end tangents lies within ``tol`` of
+    it, that curve as a cubic's points (its controls on the grid) and whether it is a
+    quadratic."""
+    seg = ranges(lo, count)
+    owner = np.arange(lo.size).repeat(count)
+    parts = cubics.take(seg, axis=0)
+    w = np.stack(cubic_weights(np.linspace(0.0, 1.0, SAMPLES)))  # (4, SAMPLES)
+    path = np.einsum("kt,nkd->ntd", w, parts).reshape(-1, 2)
+    path_owner = owner.repeat(SAMPLES)
+    firsts, lasts = cubics.take(lo, axis=0), cubics.take(lo + count - 1, axis=0)
+    p0, p3 = firsts[:, 0], lasts[:, 3]
+    t0 = unit(firsts[:, 1] - p0, unit(firsts[:, 2] - p0, p3 - p0))
+    t3 = unit(p3 - lasts[:, 2], unit(p3 - lasts[:, 1], p3 - p0))
+    u = _chord_parameters(path, path_owner, lo.size)
+    # the quadratic through the meeting point of the end tangents, where they meet ahead
+    cross = t0[:, 0] * t3[:, 1] - t0[:, 1] * t3[:, 0]
+    d = p3 - p0
+    meets = np.abs(cross) > 1e-9
+    safe = np.where(meets, cross, 1.0)
+    a = np.where(meets, (d[:, 0] * t3[:, 1] - d[:, 1] * t3[:, 0]) / safe, -1.0)  # along t0 from p0
+    b = np.where(meets, (d[:, 1] * t0[:, 0] - d[:, 0] * t0[:, 1]) / safe, -1.0)  # back along t3 from p3
+    q = on_grid(p0 + a[:, None] * t0, grid)
+    quad = np.stack((p0, p0 + 2.0 / 3.0 * (q - p0), p3 + 2.0 / 3.0 * (q - p3), p3), axis=1)
+    quad_ok = (a > 0) & (b > 0) & _close(quad, path, path_owner, tol)
+    # else the least-squares cubic with those end tangents, or that cubic with shorter legs
+    # (least squares is not the least largest distance: a run's straight middle between two
+    # leads draws its legs out too far)
+    c1, c2 = _least_squares(p0, p3, t0, t3, path, path_owner, u, lo.size)
+    cubic = np.stack((p0, on_grid(c1, grid), on_grid(c2, grid), p3), axis=1)
+    cubic_ok = ~quad_ok
+    cubic_ok[cubic_ok] = _close(cubic.compress(cubic_ok, axis=0), *_rows(path, path_owner, cubic_ok), tol[cubic_ok])
+    for scale in LEGS:
+        left = ~quad_ok & ~cubic_ok
+        if not np.logical_or.reduce(left):
+            break
+        shorter = np.stack((p0, on_grid(p0 + scale * (c1 - p0), grid), on_grid(p3 + scale * (c2 - p3), grid), p3),
+                           axis=1)
+        ok = np.zeros(lo.size, bool)
+        ok[left] = _close(shorter.compress(left, axis=0), *_rows(path, path_owner, left), tol[left])
+        cubic = np.where(ok[:, None, None], shorter, cubic)
+        cubic_ok |= ok
+    return quad_ok | cubic_ok, np.where(quad_ok[:, None, None], quad, cubic), quad_ok
+
+
+#: the shorter legs tried where the least-squares cubic does not fit, as fractions of its
+LEGS = (0.75, 0.5, 0.35)
+
+
+def _rows(path: np.ndarray, owner: np.ndarray, chosen: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The samples of the ranges ``chosen`` (a mask), their owners renumbered among them."""
+    take = chosen.take(owner)
+    return path.compress(take, axis=0), (np.cumsum(chosen) - 1).take(owner.compress(take))
+
+
+def _as_cubic(start: np.ndarray, kind: np.ndarray, ctrl: np.ndarray, ctrl2: np.ndarray,
+              end: np.ndarray) -> np.ndarray:
+    """(n, 4, 2) each segment as a cubic Bézier's points (degree elevated)."""
+    line, quad = (kind == LINE)[:, None], (kind == QUAD)[:, None]
+    c1 = np.where(line, start + (end - start) / 3.0, np.where(quad, start + 2.0 / 3.0 * (ctrl - start), ctrl))
+    c2 = np.where(line, end + (start - end) / 3.0, np.where(quad, end + 2.0 / 3.0 * (ctrl - end), ctrl2))
+    return np.stack((start, c1, c2, end), axis=1)
+
+
+def _chord_parameters(path: np.ndarray, owner: np.ndarray, n: int) -> np.ndarray:
+    """Each sample's chord-length parameter along its run (0 at the first, 1 at the last),
+    summed over the run from its own start."""
+    step = np.zeros(owner.size)
+    same = owner[1:] == owner[:-1]
+    step[1:] = np.where(same, np.hypot(*(path[1:] - path[:-1]).T), 0.0)
+    total = np.cumsum(step)
+    start = np.concatenate(([0], np.flatnonzero(~same) + 1))
+    run_start = total.take(start).repeat(np.diff(np.concatenate((start, [owner.size]))))
+    along = total - run_start
+    length = np.bincount(owner, weights=step, minlength=n)
+    return along / np.maximum(length.take(owner), 1e-12)
+
+
+def _least_squares(p0: np.ndarray, p3: np.ndarray, t0: np.ndarray, t3: np.ndarray, path: np.ndarray,
+                   owner: np.ndarray, u: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The controls ``p0 + alpha t0`` and ``p3 - beta t3`` of the cubic nearest the samples
+    ``path`` at parameters ``u`` (least squares); a third of the chord where that fails."""
+    b0, b1, b2, b3 = cubic_weights(u)
+    a1 = t0.take(owner, axis=0) * b1[:, None]
+    a2 = -t3.take(owner, axis=0) * b2[:, None]
+    r = path - p0.take(owner, axis=0) * (b0 + b1)[:, None] - p3.take(owner, axis=0) * (b2 + b3)[:, None]
+
+    def total(x: np.ndarray) -> np.ndarray:
+        return np.bincount(owner, weights=x, minlength=n)
+
+    m11, m12, m22 = total((a1 * a1).sum(1)), total((a1 * a2).sum(1)), total((a2 * a2).sum(1))
+    r1, r2 = total((a1 * r).sum(1)), total((a2 * r).sum(1))
+    det = m11 * m22 - m12 * m12
+    good = np.abs(det) > 1e-12
+    alpha = np.where(good, (r1 * m22 - r2 * m12) / np.where(good, det, 1.0), -1.0)
+    beta = np.where(good, (m11 * r2 - m12 * r1) / np.where(good, det, 1.0), -1.0)
+    third = np.hypot(*(p3 - p0).T) / 3.0
+    bad = (alpha <= 1e-6) | (beta <= 1e-6)
+    alpha, beta = np.where(bad, third, alpha), np.where(bad, third, beta)
+    return p0 + alpha[:, None] * t0, p3 - beta[:, None] * t3
+
+
+def _close(curve: np.ndarray, path: np.ndarray, owner: np.ndarray, tol: np.ndarray) -> np.ndarray:
+    """(n,) whether each cubic ``curve`` (n, 4, 2) and its range's samples ``path`` lie
+    within ``tol`` of each other both ways (the curve sampled densely)."""
+    w = np.stack(cubic_weights(np.linspace(0.0, 1.0, CURVE_SAMPLES)))
+    points = np.einsum("kt,nkd->ntd", w, curve)  # (n, CURVE_SAMPLES, 2)
+    gap = np.hypot(*(points.take(owner, axis=0) - path[:, None, :]).transpose(2, 0, 1))  # (samples, CURVE_SAMPLES)
+    n = curve.shape[0]
+    path_worst = np.zeros(n)
+    np.maximum.at(path_worst, owner, gap.min(axis=1))
+    curve_near = np.full((n, CURVE_SAMPLES), np.inf)
+    np.minimum.at(curve_near, owner, gap)
+    return (path_worst <= tol) & (curve_near.max(axis=1) <= tol)
