@@ -95,7 +95,7 @@ def test_the_closeness_test_answers_as_hypot_does_on_its_boundary():
     more sample at tol·(1 ± a few ulps) in a random direction, where the squared distance and
     ``hypot`` round either way (and a NaN in one range): the answer is the definition's."""
     rng = np.random.default_rng(7)
-    n, t = 2000, runfit.CURVE_SAMPLES
+    n = 2000
     curve = np.zeros((n, 4, 2))
     tol = rng.uniform(0.05, 0.5, n)
     angle = rng.uniform(0, 2 * np.pi, n)
@@ -107,5 +107,29 @@ def test_the_closeness_test_answers_as_hypot_does_on_its_boundary():
     expected = _close_by_hypot(curve, path, owner, tol)
     squared = (extra ** 2).sum(axis=1) <= tol ** 2
     assert (squared != expected).sum() > 10  # the boundary cases: the squared distance would answer otherwise
-    assert np.array_equal(runfit._close(curve, path, owner, tol), expected)
+    assert np.array_equal(runfit._close(curve, path, owner, np.tile([0.0, 1.0], n), tol), expected)
     assert not expected[1]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_closeness_test_answers_as_every_pair_measured_whatever_the_parameters(seed):
+    """Random curves and paths along them (a few samples pushed off, some ranges folded back
+    on themselves), the path samples' parameters true, shuffled or constant: the samples
+    measured against the curve samples around their parameter first, the answer is still that
+    of every pair."""
+    rng = np.random.default_rng(seed)
+    n, per = 300, 20
+    curve = rng.uniform(0, 6, (n, 4, 2))
+    along = np.sort(rng.uniform(0, 1, (n, per)), axis=1)
+    along[:, 0], along[:, -1] = 0.0, 1.0
+    weights = np.stack(runfit.cubic_weights(along.reshape(-1)))  # (4, n * per)
+    path = np.einsum("kn,nkd->nd", weights, curve.repeat(per, axis=0))
+    path += rng.normal(0, 0.02, path.shape) * (rng.uniform(size=(path.shape[0], 1)) < 0.1)
+    folded = rng.uniform(size=n) < 0.2  # these ranges' paths run back over their first half
+    path.reshape(n, per, 2)[folded, per // 2:] = path.reshape(n, per, 2)[folded, per // 2 - 1::-1]
+    owner = np.arange(n).repeat(per)
+    tol = rng.uniform(0.05, 0.4, n)
+    expected = _close_by_hypot(curve, path, owner, tol)
+    assert 0 < expected.sum() < n
+    for u in (along.reshape(-1), rng.permutation(along.reshape(-1)), np.full(n * per, 0.5)):
+        assert np.array_equal(runfit._close(curve, path, owner, u, tol), expected)
