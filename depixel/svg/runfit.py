@@ -112,38 +112,30 @@ def _fit(cubics: np.ndarray, lo: np.ndarray, count: np.ndarray, tol: np.ndarray,
     b = np.where(meets, (d[:, 1] * t0[:, 0] - d[:, 0] * t0[:, 1]) / safe, -1.0)  # back along t3 from p3
     q = on_grid(p0 + a[:, None] * t0, grid)
     quad = np.stack((p0, p0 + 2.0 / 3.0 * (q - p0), p3 + 2.0 / 3.0 * (q - p3), p3), axis=1)
-    quad_ok = (a > 0) & (b > 0) & _close(quad, path, path_owner, u, tol)
     # else the least-squares cubic with those end tangents, or that cubic with shorter legs
     # (least squares is not the least largest distance: a run's straight middle between two
-    # leads draws its legs out too far)
+    # leads draws its legs out too far); every candidate measured in one pass (each range's
+    # answer is its own), the first that fits taken
     c1, c2 = _least_squares(p0, p3, t0, t3, path, path_owner, u, lo.size)
     cubic = np.stack((p0, on_grid(c1, grid), on_grid(c2, grid), p3), axis=1)
-    cubic_ok = ~quad_ok
-    cubic_ok[cubic_ok] = _close(cubic.compress(cubic_ok, axis=0), *_rows(path, path_owner, u, cubic_ok),
-                                tol[cubic_ok])
-    for scale in LEGS:
-        left = ~quad_ok & ~cubic_ok
-        if not np.logical_or.reduce(left):
-            break
-        shorter = np.stack((p0, on_grid(p0 + scale * (c1 - p0), grid), on_grid(p3 + scale * (c2 - p3), grid), p3),
-                           axis=1)
-        ok = np.zeros(lo.size, bool)
-        ok[left] = _close(shorter.compress(left, axis=0), *_rows(path, path_owner, u, left), tol[left])
-        cubic = np.where(ok[:, None, None], shorter, cubic)
-        cubic_ok |= ok
+    shorter = [np.stack((p0, on_grid(p0 + scale * (c1 - p0), grid), on_grid(p3 + scale * (c2 - p3), grid), p3), axis=1)
+               for scale in LEGS]
+    tries = len(LEGS) + 2
+    n = lo.size
+    ok = _close(np.concatenate([quad, cubic] + shorter), np.tile(path, (tries, 1)),
+                (path_owner + n * np.arange(tries)[:, None]).reshape(-1), np.tile(u, tries),
+                np.tile(tol, tries)).reshape(tries, n)
+    quad_ok = (a > 0) & (b > 0) & ok[0]
+    cubic_ok = ~quad_ok & ok[1]
+    for curve, fits in zip(shorter, ok[2:]):
+        fits = fits & ~quad_ok & ~cubic_ok
+        cubic = np.where(fits[:, None, None], curve, cubic)
+        cubic_ok |= fits
     return quad_ok | cubic_ok, np.where(quad_ok[:, None, None], quad, cubic), quad_ok
 
 
 #: the shorter legs tried where the least-squares cubic does not fit, as fractions of its
 LEGS = (0.75, 0.5, 0.35)
-
-
-def _rows(path: np.ndarray, owner: np.ndarray, u: np.ndarray, chosen: np.ndarray
-          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The samples of the ranges ``chosen`` (a mask), their owners renumbered among them,
-    and their parameters ``u``."""
-    take = chosen.take(owner)
-    return path.compress(take, axis=0), (np.cumsum(chosen) - 1).take(owner.compress(take)), u.compress(take)
 
 
 def _as_cubic(start: np.ndarray, kind: np.ndarray, ctrl: np.ndarray, ctrl2: np.ndarray,
