@@ -70,6 +70,7 @@ def test_a_pass_places_every_node_and_draws_every_curve_as_alone_to_the_last_bit
     for first in range(0, len(items), 16):
         for one, joined in zip(alone[first:first + 16], pack.optimize_many(items[first:first + 16])):
             assert one is not None
+            assert np.array_equal(joined.initial, one.initial)
             assert np.array_equal(joined.positions, one.positions)
             for field in ("points", "edges", "controls", "ctrl"):
                 assert np.array_equal(getattr(joined.drawing, field), getattr(one.drawing, field)), field
