@@ -85,8 +85,9 @@ def _close_by_hypot(curve, path, owner, tol):
     gap = np.hypot(*(points[owner] - path[:, None, :]).transpose(2, 0, 1))
     n = curve.shape[0]
     path_worst, curve_near = np.zeros(n), np.full((n, runfit.CURVE_SAMPLES), np.inf)
-    np.maximum.at(path_worst, owner, gap.min(axis=1))
-    np.minimum.at(curve_near, owner, gap)
+    with np.errstate(invalid="ignore"):  # a NaN distance: its range does not fit
+        np.maximum.at(path_worst, owner, gap.min(axis=1))
+        np.minimum.at(curve_near, owner, gap)
     return (path_worst <= tol) & (curve_near.max(axis=1) <= tol)
 
 

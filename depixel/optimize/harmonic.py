@@ -199,14 +199,9 @@ def conjugate_gradients(apply: Callable[[np.ndarray, np.ndarray], None], rhs: np
         bounds = np.unique(parts).tolist()  # an image with no unknowns has no part
         if len(bounds) > 2:
             return _conjugate_parts(apply, rhs, bounds)
-    state = np.zeros((2,) + rhs.shape)  # x, r
+    state, directions, change, product = _buffers(rhs)
     x, r = state
-    r[...] = rhs
-    directions = np.empty_like(state)  # p, A p
     p, ap = directions
-    p[...] = rhs
-    change = np.empty_like(state)
-    product = np.empty_like(rhs)
     k = rhs.shape[0]
     step = np.empty((2, k, 1))  # the per-row factors (s, -s), written in place: no array built per iteration
     ratio = np.empty((k, 1))
@@ -230,6 +225,16 @@ def conjugate_gradients(apply: Callable[[np.ndarray, np.ndarray], None], rhs: np
     return x
 
 
+def _buffers(rhs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The conjugate gradients' arrays for ``rhs`` (K, M): x and r (x = 0, r = rhs), p and A p
+    (p = rhs), a buffer for their changes, one for products."""
+    state = np.zeros((2,) + rhs.shape)
+    state[1] = rhs
+    directions = np.empty_like(state)
+    directions[0] = rhs
+    return state, directions, np.empty_like(state), np.empty_like(rhs)
+
+
 def row_dots(a: np.ndarray, b: np.ndarray, product: np.ndarray | None = None) -> list[float]:
     """The dot products of the rows of ``a`` and ``b`` (K, M), by numpy's pairwise sum
     (``product`` (K, M): a buffer to work in). An in-order sum (``cumsum``) was 3–6× slower
@@ -245,14 +250,9 @@ def _conjugate_parts(apply: Callable[[np.ndarray, np.ndarray], None], rhs: np.nd
     spread over its columns, and a part that has converged (or run out of iterations) takes
     steps of zero from then on (x + 0·p is x: x and r are never −0). The numbers of each part
     are those of its system solved alone."""
-    state = np.zeros((2,) + rhs.shape)  # x, r
+    state, directions, change, product = _buffers(rhs)
     x, r = state
-    r[...] = rhs
-    directions = np.empty_like(state)  # p, A p
     p, ap = directions
-    p[...] = rhs
-    change = np.empty_like(state)
-    product = np.empty_like(rhs)
     widths = np.diff(bounds)
     step = np.empty((2,) + rhs.shape)
     rr = part_dots(r, r, product, bounds)  # (K, S)
