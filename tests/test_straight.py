@@ -125,23 +125,26 @@ THIN_LINE = """
 """
 
 
-def line_width(params: Params) -> np.ndarray:
-    """The drawn width of the dark line of :data:`THIN_LINE` at its inner rows 4–7: the mean x of
-    its right side's curve points in each row less that of its left side."""
-    image = art(THIN_LINE, THIN)
+def side_points(image: np.ndarray, params: Params, pixels_a: np.ndarray, pixels_b: np.ndarray) -> np.ndarray:
+    """(K, 2) points of the optimized curves (9 a curved edge, the straight edges' ends) on
+    the cell edges between a pixel of ``pixels_a`` and one of ``pixels_b`` (flat indices)."""
     vector = depixelize(image, params).vector
     cells = vector.cells
     u, v = cells.edges[:, 0], cells.edges[:, 1]
     curve = flatten_edges(vector.points[u], vector.controls, vector.points[v], 8)
     straight = np.stack([vector.points[u], vector.points[v]], axis=1)
-    w = image.shape[1]
     pixels = cells.edge_pixels
-    sides = []
-    for other in (w * np.arange(11) + 2, w * np.arange(11) + 4):  # column 2 (left), column 4 (right)
-        dark = w * np.arange(11) + 3
-        edges = (np.isin(pixels, dark).any(axis=1) & np.isin(pixels, other).any(axis=1)).nonzero()[0]
-        points = np.concatenate([curve[e] if vector.curved[e] else straight[e] for e in edges])
-        sides.append(points)
+    edges = (np.isin(pixels, pixels_a).any(axis=1) & np.isin(pixels, pixels_b).any(axis=1)).nonzero()[0]
+    return np.concatenate([curve[e] if vector.curved[e] else straight[e] for e in edges])
+
+
+def line_width(params: Params) -> np.ndarray:
+    """The drawn width of the dark line of :data:`THIN_LINE` at its inner rows 4–7: the mean x of
+    its right side's curve points in each row less that of its left side."""
+    image = art(THIN_LINE, THIN)
+    w = image.shape[1]
+    dark = w * np.arange(11) + 3
+    sides = [side_points(image, params, dark, w * np.arange(11) + column) for column in (2, 4)]  # left, right
     width = []
     for row in range(4, 8):
         xs = [side[(side[:, 1] > row + 0.1) & (side[:, 1] < row + 0.9), 0].mean() for side in sides]
@@ -202,16 +205,8 @@ JUNCTION_LINE = """
 def light_line_top(params: Params) -> np.ndarray:
     """The highest point (least y) of the light line's top side in each of its columns 2–11."""
     image = art(JUNCTION_LINE, JUNCTION)
-    vector = depixelize(image, params).vector
-    cells = vector.cells
-    u, v = cells.edges[:, 0], cells.edges[:, 1]
-    curve = flatten_edges(vector.points[u], vector.controls, vector.points[v], 8)
-    straight = np.stack([vector.points[u], vector.points[v]], axis=1)
     w = image.shape[1]
-    pixels = cells.edge_pixels
-    line, above = 3 * w + np.arange(2, 14), 2 * w + np.arange(w)
-    edges = (np.isin(pixels, line).any(axis=1) & np.isin(pixels, above).any(axis=1)).nonzero()[0]
-    points = np.concatenate([curve[e] if vector.curved[e] else straight[e] for e in edges])
+    points = side_points(image, params, 3 * w + np.arange(2, 14), 2 * w + np.arange(w))
     return np.array([points[(points[:, 0] > x) & (points[:, 0] < x + 1), 1].min() for x in range(2, 12)])
 
 
