@@ -75,21 +75,37 @@ def test_judge_figures_on_corpus_sample(stage, judged):
 CROWDED = ["vikings_olaf", "sma_toad", "smw_mario"]
 
 
-@needs_corpus
-@pytest.mark.skipif(not JUDGE.is_file(), reason="../shared/tools/judge.py not present")
-def test_no_threads_and_no_holes_on_crowded_sprites(tmp_path):
+#: sprites whose only threads were at thin lenses (depixel/svg/lenses.py; 2, 3, 1 and 1
+#: conflation pixels at 8x with the lenses drawn above the contrasting face)
+LENSES = ["sbm4_02", "vista_cursor", "win31_ports", "sbm1_03"]
+
+
+def _judged(names: list[str], tmp_path, *options: str) -> list[dict]:
     pairs = []
-    for name in CROWDED:
+    for name in names:
         src = CORPUS / f"{name}.png"
         svg = tmp_path / f"{name}.svg"
         svg.write_text(to_svg(depixelize(load_image(src)).vector))
         pairs.append(f"{src}\t{svg}")
     listing = tmp_path / "pairs.tsv"
     listing.write_text("\n".join(pairs) + "\n")
-    out = subprocess.run([sys.executable, str(JUDGE), "--pairs", str(listing), "--layers"], capture_output=True,
+    out = subprocess.run([sys.executable, str(JUDGE), "--pairs", str(listing), *options], capture_output=True,
                          text=True, timeout=600)
     rows = [json.loads(line) for line in out.stdout.splitlines() if line.strip()]
-    assert len(rows) == len(CROWDED), out.stderr
-    for row in rows:
+    assert len(rows) == len(names), out.stderr
+    return rows
+
+
+@needs_corpus
+@pytest.mark.skipif(not JUDGE.is_file(), reason="../shared/tools/judge.py not present")
+def test_no_threads_and_no_holes_on_crowded_sprites(tmp_path):
+    for row in _judged(CROWDED, tmp_path, "--layers"):
         assert row["conflation_px"] <= 2, row
         assert row["holes"] == 0, row
+
+
+@needs_corpus
+@pytest.mark.skipif(not JUDGE.is_file(), reason="../shared/tools/judge.py not present")
+def test_no_threads_at_thin_lenses_on_the_corpus(tmp_path):
+    for row in _judged(LENSES, tmp_path):
+        assert row["conflation_px"] == 0, row

@@ -125,23 +125,26 @@ THIN_LINE = """
 """
 
 
-def line_width(params: Params) -> np.ndarray:
-    """The drawn width of the dark line of :data:`THIN_LINE` at its inner rows 4–7: the mean x of
-    its right side's curve points in each row less that of its left side."""
-    image = art(THIN_LINE, THIN)
+def side_points(image: np.ndarray, params: Params, pixels_a: np.ndarray, pixels_b: np.ndarray) -> np.ndarray:
+    """(K, 2) points of the optimized curves (9 a curved edge, the straight edges' ends) on
+    the cell edges between a pixel of ``pixels_a`` and one of ``pixels_b`` (flat indices)."""
     vector = depixelize(image, params).vector
     cells = vector.cells
     u, v = cells.edges[:, 0], cells.edges[:, 1]
     curve = flatten_edges(vector.points[u], vector.controls, vector.points[v], 8)
     straight = np.stack([vector.points[u], vector.points[v]], axis=1)
-    w = image.shape[1]
     pixels = cells.edge_pixels
-    sides = []
-    for other in (w * np.arange(11) + 2, w * np.arange(11) + 4):  # column 2 (left), column 4 (right)
-        dark = w * np.arange(11) + 3
-        edges = (np.isin(pixels, dark).any(axis=1) & np.isin(pixels, other).any(axis=1)).nonzero()[0]
-        points = np.concatenate([curve[e] if vector.curved[e] else straight[e] for e in edges])
-        sides.append(points)
+    edges = (np.isin(pixels, pixels_a).any(axis=1) & np.isin(pixels, pixels_b).any(axis=1)).nonzero()[0]
+    return np.concatenate([curve[e] if vector.curved[e] else straight[e] for e in edges])
+
+
+def line_width(params: Params) -> np.ndarray:
+    """The drawn width of the dark line of :data:`THIN_LINE` at its inner rows 4–7: the mean x of
+    its right side's curve points in each row less that of its left side."""
+    image = art(THIN_LINE, THIN)
+    w = image.shape[1]
+    dark = w * np.arange(11) + 3
+    sides = [side_points(image, params, dark, w * np.arange(11) + column) for column in (2, 4)]  # left, right
     width = []
     for row in range(4, 8):
         xs = [side[(side[:, 1] > row + 0.1) & (side[:, 1] < row + 0.9), 0].mean() for side in sides]
@@ -183,3 +186,45 @@ def test_a_node_stays_inside_a_straight_run_that_goes_on_or_reaches_its_curve_en
     q = splines.cells.nodes / 4.0
     side = (q[:, 0] == 4.0) & (q[:, 1] >= 4.0) & (q[:, 1] <= 8.0)  # the black line's left side
     assert straight_runs(splines)[side].all()
+
+
+#: a one-pixel light line (row 3) under a black one (row 2) that bends up diagonally at
+#: column 12 onto dark pixels, where the light line's top side goes on against dark grey: a
+#: T-junction at (12, 3) on a straight side (win31_setup's box, cut down)
+JUNCTION = {"a": (192, 192, 192, 255), "b": (255, 255, 255, 255), "c": (128, 128, 128, 255), "d": (0, 0, 0, 255)}
+JUNCTION_LINE = """
+    aabbbbbbbaaccdddcc
+    ccaaaaaaaaacdccacc
+    ddddddddddddccacca
+    ccaaaaaaaaaaaaccca
+    aabbbbbbbbbbbccccc
+    ccaaaaaaaaaaaccccc
+"""
+
+
+def light_line_top(params: Params) -> np.ndarray:
+    """The highest point (least y) of the light line's top side in each of its columns 2–11."""
+    image = art(JUNCTION_LINE, JUNCTION)
+    w = image.shape[1]
+    points = side_points(image, params, 3 * w + np.arange(2, 14), 2 * w + np.arange(w))
+    return np.array([points[(points[:, 0] > x) & (points[:, 0] < x + 1), 1].min() for x in range(2, 12)])
+
+
+def test_a_straight_side_stays_straight_up_to_a_t_junction_where_a_curve_bends_off_it():
+    """The black line's bottom side bends up at (12, 3) while the light line's top side goes
+    on straight past it: the junction node is kept, so the light line keeps its width up to
+    it. Without that (red: ``_junction_slots`` returning nothing) the relaxation rounded the
+    bend from (12, 3) back over the last column, 0.19 px up."""
+    top = light_line_top(Params())
+    assert np.abs(top - 3.0).max() <= 0.1, top
+    splines = depixelize(art(JUNCTION_LINE, JUNCTION)).optimized.splines
+    q = splines.cells.nodes / 4.0
+    assert straight_runs(splines)[(q[:, 0] == 12.0) & (q[:, 1] == 3.0)].all()
+
+
+def test_without_the_junction_rule_the_side_bends_before_the_junction(monkeypatch):
+    from depixel.optimize import straight
+
+    monkeypatch.setattr(straight, "_junction_slots", lambda w, branch, params: w.slots[:0])
+    top = light_line_top(Params())
+    assert np.abs(top - 3.0).max() > 0.15, top

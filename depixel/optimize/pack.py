@@ -45,40 +45,38 @@ def optimize_many(items: Sequence[tuple[SplineSet, Corners]], params: Params = P
 
         return [optimize_splines(*items[0], params)]
     curves = [splines for splines, _ in items]
+    # per image: a T-junction on a straight side is found by its nodes' places
+    # (optimize/straight.py), which the images' joined curves share
+    starts, fixed, excluded = zip(*(relaxation_inputs(splines, corners, params) for splines, corners in items))
     cells = join_cells([splines.cells for splines in curves])
     joined, slots, nodes = join(curves, cells)
-    # the corners, the staircases and the straight runs found node by node and slot by slot
-    # along each curve: on the joined curves as on each image's
-    corners = Corners(np.concatenate([c.square for _, c in items]), np.concatenate([c.runs for _, c in items]))
-    start, fixed, excluded = relaxation_inputs(joined, corners, params)
-    model, anchor, done = relax_rounds(joined, start, fixed, excluded,
+    start = np.concatenate(starts)
+    model, anchor, done = relax_rounds(joined, start, np.concatenate(fixed), np.concatenate(excluded),
                                        params, slots, np.concatenate([protected_points(splines) for splines in curves]))
     before, after = model.totals(anchor, anchor, slots), model.totals(done.ctrl, anchor, slots)
     del model, anchor
     history = History.joined(done.rounds, nodes)
-    positions, drawing = settle(joined, start, done.ctrl, done.movable, corners.nodes, history, params)
+    positions, drawing = settle(joined, start, done.ctrl, done.movable,
+                                np.concatenate([corners.nodes for _, corners in items]), history, params)
     # each image's drawing: its nodes', its slots' and its curved edges' rows (the curved
     # edges in slot order, so each image's one after another)
     of_edge = cells.edge_bounds.searchsorted(drawing.edges, side="right") - 1
     curved = of_edge.searchsorted(np.arange(len(items) + 1))
     out = []
-    for i, (splines, own) in enumerate(items):
+    for i, (splines, corners) in enumerate(items):
         rows, part, edges = slice(int(nodes[i]), int(nodes[i + 1])), slice(int(slots[i]), int(slots[i + 1])), \
             slice(int(curved[i]), int(curved[i + 1]))
         ctrl = None if drawing.ctrl is None else drawing.ctrl[part].copy()
         mine = Drawing(drawing.points[rows].copy(), drawing.edges[edges] - int(cells.edge_bounds[i]),
                        drawing.controls[edges].copy(), ctrl)
-        out.append(OptimizedSplines(splines, own, start[rows].copy(), positions[rows].copy(), before[i], after[i],
-                                    mine))
+        out.append(OptimizedSplines(splines, corners, starts[i], positions[rows].copy(), before[i], after[i], mine))
     return out
 
 
 def join(curves: Sequence[SplineSet], cells: JoinedCells) -> tuple[SplineSet, np.ndarray, np.ndarray]:
     """The curves of several SplineSets as one, each in its own coordinates, and the (S+1,)
     bounds of each one's slots and nodes in it. Its cells are their ``cells`` joined (what the
-    corners' and staircases' placing, the straight runs, the harmonic map and the walk-back
-    read: the nodes in quarter pixels, the edges, the pixels; anything else reading them
-    fails loudly) and it has
+    harmonic map and the walk-back read; anything else reading them fails loudly) and it has
     no pairing: only the curves, their nodes and their edges' numbers, which is what the
     relaxation reads."""
     slots = np.cumsum([0] + [s.n_slots for s in curves])

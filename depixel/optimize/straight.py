@@ -18,6 +18,12 @@ the corners (:mod:`depixel.optimize.corners`):
   a diagonal link, a T-junction end snapped onto a rounded curve), and straightening the
   curve between them tilts it: a one-pixel line beside it tapers (win31_setup's grey stripe).
   A curve that bends is relaxed as before, its straight parts too, so round shapes stay round.
+* **A T-junction on a straight side stays on it** (:func:`straight_runs` too): where a curve
+  ends on another, leaving along the straight run by which the other arrives (or leaves),
+  that run going on for ``run_reach`` or to its curve's end, the junction is a point of one
+  straight boundary even though the other curve bends off it there; relaxing the bend pulled
+  the node off the side and a one-pixel line along it widened by a quarter pixel before the
+  junction (win31_setup's light-grey box line, 1.0 to 1.27 px).
 
 A node lies on a **constant-slope staircase** when the quarter-pixel steps of its curve
 (cell node to cell node, exact integers) repeat with some period m ≥ 2 over the m steps
@@ -39,7 +45,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..arrays import batch_slices, set_rows
+from ..arrays import batch_slices, in_sorted, set_rows
 from ..curves.splines import SplineSet
 from ..params import Params
 
@@ -49,6 +55,10 @@ MIN_STEP = 0.35
 #: window entries (slots × nodes around each) handled at a time: bounds the memory whatever
 #: the number of slots and ``run_reach``
 WINDOW_BATCH = 1 << 18
+#: quarter-pixel coordinates and steps of cell nodes are below these (a node's place is one
+#: integer, ``x * _SPAN + y``; a step between consecutive nodes is at most 4 each way)
+_SPAN = 1 << 24
+_STEP = 8
 
 
 def place_staircases(splines: SplineSet, start: np.ndarray, params: Params = Params()) -> np.ndarray:
@@ -65,12 +75,15 @@ def place_staircases(splines: SplineSet, start: np.ndarray, params: Params = Par
 def straight_runs(splines: SplineSet, params: Params = Params()) -> np.ndarray:
     """(N,) bool: the nodes inside a straight run of their curve (every step the same, in
     quarter pixels) that goes on for ``run_reach`` or to the curve's end each way (the step
-    onto the end may differ): they stay where they are (module docstring). None with
-    ``params.straight_runs`` off."""
+    onto the end may differ), and the T-junctions on such a run where another curve goes on
+    along it: they stay where they are (module docstring). None with ``params.straight_runs``
+    off."""
     kept = np.zeros(len(splines.positions), bool)
     if params.straight_runs:
+        branch = _branches(splines)
         for window in _windows(splines, params):
             kept[splines.curve_nodes.take(_run_slots(window, params))] = True
+            kept[splines.curve_nodes.take(_junction_slots(window, branch, params))] = True
     return kept
 
 
@@ -116,27 +129,62 @@ def _run_slots(w: _Window, params: Params) -> np.ndarray:
     """The slots of ``w`` inside a straight run that goes on for ``run_reach`` or to the
     curve's end each way (:func:`straight_runs`)."""
     r = w.reach
-    length = np.sqrt(w.sx * w.sx + w.sy * w.sy) / 4.0
     # the run's step: the one ahead, or behind where the node ahead ends the curve (the step
     # onto an end may differ); a slot between two ends has no run
     end_ahead, end_behind = ~w.valid[r + 2], ~w.valid[r - 2]
     run_x = np.where(end_ahead, w.sx[r - 1], w.sx[r])
     run_y = np.where(end_ahead, w.sy[r - 1], w.sy[r])
-    kept = ~(end_ahead & end_behind)
-    for way in (1, -1):  # ahead: steps r, r + 1, …; behind: r - 1, r - 2, …
-        going, done = np.ones(w.slots.size, bool), np.zeros(w.slots.size, bool)
-        walked = np.zeros(w.slots.size)
-        for k in range(r):
-            step = r + k if way > 0 else r - 1 - k
-            far = step + 1 if way > 0 else step  # the node the step reaches
-            beyond = far + way  # and the one after it (none: the curve ends at the far node)
-            ends = w.valid[far] & ~(w.valid[beyond] if 0 <= beyond <= 2 * r else np.zeros_like(going))
-            same = (w.sx[step] == run_x) & (w.sy[step] == run_y)
-            walked += length[step]
-            done |= going & (ends | (same & (walked >= params.run_reach - 1e-9)))
-            going &= ~done & same & w.valid[far]
-        kept &= done
+    kept = ~(end_ahead & end_behind) & _goes_on(w, 1, run_x, run_y, params) & _goes_on(w, -1, run_x, run_y, params)
     return w.slots.compress(kept)
+
+
+def _junction_slots(w: _Window, branch: np.ndarray, params: Params) -> np.ndarray:
+    """The slots of ``w`` where another curve ends (a T-junction) and leaves along the
+    straight run by which this curve arrives there (or, backwards, leaves), that run going
+    on for ``run_reach`` or to the curve's end: the junction is a point of one straight
+    boundary, however this curve bends off it. ``branch``: sorted :func:`_step_keys` of the
+    other curves' first steps from their ends."""
+    r = w.reach
+    node = w.x[r] * _SPAN + w.y[r]  # (a node's quarter-pixel place identifies it)
+    behind = in_sorted(branch, _step_keys(node, w.sx[r - 1], w.sy[r - 1]))
+    behind &= _goes_on(w, -1, w.sx[r - 1], w.sy[r - 1], params)
+    ahead = in_sorted(branch, _step_keys(node, -w.sx[r], -w.sy[r])) & _goes_on(w, 1, w.sx[r], w.sy[r], params)
+    return w.slots.compress(behind | ahead)
+
+
+def _goes_on(w: _Window, way: int, run_x: np.ndarray, run_y: np.ndarray, params: Params) -> np.ndarray:
+    """(S,) bool: from each slot of ``w`` its curve goes on ``way`` (1: ahead, -1: behind) by
+    steps (``run_x``, ``run_y``) for ``run_reach`` or to the curve's end (the step onto the
+    end may differ)."""
+    r = w.reach
+    length = np.sqrt(w.sx * w.sx + w.sy * w.sy) / 4.0
+    going, done = np.ones(w.slots.size, bool), np.zeros(w.slots.size, bool)
+    walked = np.zeros(w.slots.size)
+    for k in range(r):  # ahead: steps r, r + 1, …; behind: r - 1, r - 2, …
+        step = r + k if way > 0 else r - 1 - k
+        far = step + 1 if way > 0 else step  # the node the step reaches
+        beyond = far + way  # and the one after it (none: the curve ends at the far node)
+        ends = w.valid[far] & ~(w.valid[beyond] if 0 <= beyond <= 2 * r else np.zeros_like(going))
+        same = (w.sx[step] == run_x) & (w.sy[step] == run_y)
+        walked += length[step]
+        done |= going & (ends | (same & (walked >= params.run_reach - 1e-9)))
+        going &= ~done & same & w.valid[far]
+    return done
+
+
+def _branches(splines: SplineSet) -> np.ndarray:
+    """Sorted :func:`_step_keys` of every open curve's first step from each of its ends."""
+    prev, nxt = splines.neighbours()
+    ends = ((prev < 0) ^ (nxt < 0)).nonzero()[0]  # (a curve of one slot has no step)
+    into = np.where(prev.take(ends) < 0, nxt.take(ends), prev.take(ends))
+    quarter = splines.cells.nodes.astype(np.int64)
+    at, to = quarter.take(splines.curve_nodes.take(ends), axis=0), quarter.take(splines.curve_nodes.take(into), axis=0)
+    return np.sort(_step_keys(at[:, 0] * _SPAN + at[:, 1], to[:, 0] - at[:, 0], to[:, 1] - at[:, 1]))
+
+
+def _step_keys(node: np.ndarray, sx: np.ndarray, sy: np.ndarray) -> np.ndarray:
+    """One integer per (node place, quarter-pixel step) (steps are within ±``_STEP``)."""
+    return (node * (2 * _STEP + 1) + sx + _STEP) * (2 * _STEP + 1) + sy + _STEP
 
 
 def _staircase_slots(w: _Window, params: Params) -> tuple[np.ndarray, np.ndarray]:

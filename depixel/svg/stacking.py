@@ -16,6 +16,7 @@ import numpy as np
 
 from ..arrays import batch_bounds, in_sorted, ranges, sums_by_key, unique
 from ..vector import VectorImage, faces_and_regions
+from .lenses import lenses_before, thin_lenses
 from .smoothgroups import smooth_groups
 
 #: shape roles, for the labels of an editor's layers panel
@@ -52,7 +53,7 @@ class FaceTopology:
         """``stacked``: the topology of the stacked layout (the faces each lies under), or of
         the cutout layout (each face alone)."""
         cells = image.cells
-        self.cells = cells
+        self.image, self.cells = image, cells
         self.stacked = stacked
         h, w = cells.shape
         labels, region = faces_and_regions(cells)
@@ -125,7 +126,7 @@ class FaceTopology:
         del left, right, boundary
         self.depth = self._depths(pairs)
         self.group = smooth_groups(cells, labels, self.face_region, self.drawn)
-        self.rank, self.face_of_rank = self._ranks(region)
+        self.rank, self.face_of_rank = self._ranks(region, pairs)
         self.role = self._roles(pairs)
         # the adjacency is kept only as the members it gives (stacked: the underlays, what
         # members() starts from)
@@ -196,13 +197,14 @@ class FaceTopology:
                 return depth
             np.minimum(depth, reach, out=depth)
 
-    def _ranks(self, region: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _ranks(self, region: np.ndarray, pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Drawing rank of every face, and the face of every rank: by depth, pockets last,
         then by region, larger faces first, then scanline order. The faces of a smooth group
         are ranked together, as one face of the group's least depth (a pocket if one of
         them is), largest area and first pixel, and among themselves by depth, pockets, area
         and first pixel: a face inside a filled hole of a shape is still drawn after it
-        (docs/design.md, "Smooth groups in the drawing order")."""
+        (docs/design.md, "Smooth groups in the drawing order"). Stacked: then each thin lens
+        just below the contrasting face it borders (:mod:`depixel.svg.lenses`)."""
         n = self.n_faces
         region_of = self.face_region
         region_depth = np.full(int(region.max()) + 1, n + 1, np.int64)
@@ -228,6 +230,10 @@ class FaceTopology:
         depth, pocket, area, first = outer
         order = np.lexsort((inner[3], -inner[2], inner[1], inner[0], first, -area, region_rank[region_of], pocket,
                             depth))
+        if self.stacked:
+            lens = thin_lenses(self.image, self.entry_ptr, self.entry_from, self.entry_to, self.entry_edge)
+            lens &= (self.group < 0) & ~pockets & self.opaque
+            order = lenses_before(order, pairs, lens, self.group, self.face_rgba[:, :3], self.opaque, self.area)
         rank = np.empty(n, np.int64)
         rank[order] = np.arange(n)
         return rank, order
