@@ -61,6 +61,21 @@ def test_any_grouping_gives_the_results_of_one_image_at_a_time():
                 assert depixel.to_svg(result.vector) == alone[i], (size, i)
 
 
+def test_a_pass_places_every_node_and_draws_every_curve_as_alone_to_the_last_bit():
+    """The harmonic map's linear systems solved as one (each image's its own part) and the
+    walk-back over the pass's record: positions and drawings equal, not merely their SVG
+    (whose 0.01 px rounding would hide a different last bit)."""
+    alone = [depixel.depixelize(image).optimized for image in _images()]
+    items = [(result.splines, result.corners) for result in alone if result is not None]
+    for first in range(0, len(items), 16):
+        for one, joined in zip(alone[first:first + 16], pack.optimize_many(items[first:first + 16])):
+            assert one is not None
+            assert np.array_equal(joined.initial, one.initial)
+            assert np.array_equal(joined.positions, one.positions)
+            for field in ("points", "edges", "controls", "ctrl"):
+                assert np.array_equal(getattr(joined.drawing, field), getattr(one.drawing, field)), field
+
+
 @needs_corpus
 def test_images_whose_rounds_stop_at_different_rounds_stop_where_they_would_alone():
     """The corpus's relaxations run all ten rounds; with forty, the invaders stop after 22 to
@@ -95,10 +110,10 @@ def test_when_the_pass_fails_each_image_is_optimized_alone(monkeypatch):
     expected = [depixel.to_svg(depixel.depixelize(image).vector) for image in images]
     joined = pack.join
 
-    def refuse_three(curves):
+    def refuse_three(curves, *rest):
         if len(curves) > 1:
             raise MemoryError
-        return joined(curves)
+        return joined(curves, *rest)
 
     monkeypatch.setattr(pack, "join", refuse_three)
     assert [depixel.to_svg(r.vector) for r in pipeline.depixelize_many(images)] == expected

@@ -77,3 +77,60 @@ def test_fewer_segments_and_still_no_threads(name, monkeypatch):
 def test_the_abutting_shapes_keep_no_thread_with_the_fit():
     image = art(ABUTTING)
     assert threads(image, to_svg(depixelize(image).vector)) == 0
+
+
+def _close_by_hypot(curve, path, owner, tol):
+    """The definition: every sample of each within ``tol`` of one of the other, ``hypot`` a pair."""
+    points = np.einsum("kt,nkd->ntd", runfit._CURVE_WEIGHTS, curve)
+    gap = np.hypot(*(points[owner] - path[:, None, :]).transpose(2, 0, 1))
+    n = curve.shape[0]
+    path_worst, curve_near = np.zeros(n), np.full((n, runfit.CURVE_SAMPLES), np.inf)
+    with np.errstate(invalid="ignore"):  # a NaN distance: its range does not fit
+        np.maximum.at(path_worst, owner, gap.min(axis=1))
+        np.minimum.at(curve_near, owner, gap)
+    return (path_worst <= tol) & (curve_near.max(axis=1) <= tol)
+
+
+def test_the_closeness_test_answers_as_hypot_does_on_its_boundary():
+    """Each range: a curve at one point (the origin, exactly), its path that point and one
+    more sample at tol·(1 ± a few ulps) in a random direction, where the squared distance and
+    ``hypot`` round either way (and a NaN in one range): the answer is the definition's."""
+    rng = np.random.default_rng(7)
+    n = 2000
+    curve = np.zeros((n, 4, 2))
+    tol = rng.uniform(0.05, 0.5, n)
+    angle = rng.uniform(0, 2 * np.pi, n)
+    reach = tol * (1 + rng.integers(-2, 3, n) * 2.0 ** -52)
+    extra = reach[:, None] * np.stack((np.cos(angle), np.sin(angle)), 1)
+    path = np.stack((np.zeros((n, 2)), extra), axis=1).reshape(-1, 2)
+    path[3, 0] = np.nan
+    owner = np.arange(n).repeat(2)
+    expected = _close_by_hypot(curve, path, owner, tol)
+    squared = (extra ** 2).sum(axis=1) <= tol ** 2
+    assert (squared != expected).sum() > 10  # the boundary cases: the squared distance would answer otherwise
+    assert np.array_equal(runfit._close(curve, path, owner, np.tile([0.0, 1.0], n), tol), expected)
+    assert not expected[1]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_closeness_test_answers_as_every_pair_measured_whatever_the_parameters(seed):
+    """Random curves and paths along them (a few samples pushed off, some ranges folded back
+    on themselves), the path samples' parameters true, shuffled or constant: the samples
+    measured against the curve samples around their parameter first, the answer is still that
+    of every pair."""
+    rng = np.random.default_rng(seed)
+    n, per = 300, 20
+    curve = rng.uniform(0, 6, (n, 4, 2))
+    along = np.sort(rng.uniform(0, 1, (n, per)), axis=1)
+    along[:, 0], along[:, -1] = 0.0, 1.0
+    weights = np.stack(runfit.cubic_weights(along.reshape(-1)))  # (4, n * per)
+    path = np.einsum("kn,nkd->nd", weights, curve.repeat(per, axis=0))
+    path += rng.normal(0, 0.02, path.shape) * (rng.uniform(size=(path.shape[0], 1)) < 0.1)
+    folded = rng.uniform(size=n) < 0.2  # these ranges' paths run back over their first half
+    path.reshape(n, per, 2)[folded, per // 2:] = path.reshape(n, per, 2)[folded, per // 2 - 1::-1]
+    owner = np.arange(n).repeat(per)
+    tol = rng.uniform(0.05, 0.4, n)
+    expected = _close_by_hypot(curve, path, owner, tol)
+    assert 0 < expected.sum() < n
+    for u in (along.reshape(-1), rng.permutation(along.reshape(-1)), np.full(n * per, 0.5)):
+        assert np.array_equal(runfit._close(curve, path, owner, u, tol), expected)

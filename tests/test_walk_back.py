@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from depixel.optimize.fidelity import Moves, _History, _walk_back
+from depixel.optimize.walkback import History, Moves, walk_back
 
 
 def _reference(positions, start, nodes, back, moves) -> None:
@@ -41,5 +41,5 @@ def test_nodes_go_back_to_the_place_before_their_latest_round_not_gone_back_past
     nodes = np.sort(rng.choice(n, size=int(rng.integers(1, n)), replace=False))
     expected, expected_back = here.copy(), back.copy()
     _reference(expected, start, nodes, expected_back, moves)
-    _walk_back(here, start, nodes, back, _History(moves))
+    walk_back(here, start, nodes, back, History(moves))
     assert np.array_equal(here, expected) and np.array_equal(back, expected_back)

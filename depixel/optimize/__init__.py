@@ -8,4 +8,5 @@ pixel centres inside their cells; :mod:`.stage` runs them (:class:`~depixel.opti
 """
 
 #: its modules, each imported on first use (``depixel/__init__.py``)
-__all__ = ["corners", "energy", "fidelity", "harmonic", "junctions", "pack", "relax", "stage", "straight", "trials"]
+__all__ = ["corners", "energy", "fidelity", "harmonic", "joined", "junctions", "pack", "relax", "stage", "straight",
+           "trials", "walkback"]

@@ -17,25 +17,18 @@ pixel's colour no longer shows where the pixel was, and the seam-free underlay o
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import NamedTuple
+from typing import cast
 
 import numpy as np
 
-from ..arrays import either, ranges, set_rows, unique
+from ..arrays import either, ranges, set_rows
 from ..curves.bspline import flatten_edges_planes
 from ..curves.drawing import Drawing
 from ..curves.splines import SplineSet
 from ..graph.cells import CellGraph, link_corners
 from ..vector import VectorImage
-
-
-class Moves(NamedTuple):
-    """What one round of the relaxation moved: the nodes and their places before it (the
-    record :func:`keep_centres_inside` walks back)."""
-
-    nodes: np.ndarray  # (K,) nodes of the slots that moved
-    before: np.ndarray  # (K, 2) their positions before the round
-
+from .joined import largest_image, pixel_centres, pixel_count
+from .walkback import History, Moves, walk_back
 
 #: stands for "no protected point" (far from every curve)
 FAR = 1e6
@@ -144,8 +137,7 @@ def _clearances(cells: CellGraph, drawings: tuple[Drawing, ...], pixels: np.ndar
     curved_edge[first_drawing.edges] = True
     control_row = np.zeros(n_edges, np.int64)  # where each curved edge's controls are
     control_row[first_drawing.edges] = np.arange(first_drawing.edges.size)
-    h, w = cells.shape
-    n_px = h * w
+    n_px = pixel_count(cells)
     wanted = np.ones(n_px, bool) if pixels is None else pixels
     # the pairs: each wanted pixel with each edge of its cell, read off the cell polygons
     # (the work follows the wanted pixels, often a few, not the edges of the image)
@@ -154,9 +146,8 @@ def _clearances(cells: CellGraph, drawings: tuple[Drawing, ...], pixels: np.ndar
     size = cells.cell_ptr.take(px + 1) - first
     edge = cells.cell_edges.take(ranges(first, size))
     pix = px.repeat(size)
-    rows, cols = np.divmod(px, w)  # per pixel, then spread over its pairs
-    cx, cy = (cols + 0.5).repeat(size), (rows + 0.5).repeat(size)
-    del rows, cols
+    cx, cy = pixel_centres(cells, px)  # per pixel, then spread over its pairs
+    cx, cy = cx.repeat(size), cy.repeat(size)
     # everything below as x and y columns, a pair at a time: numpy runs the rows of an
     # (N, 2) array two elements at a time
     start, stop = cells.edges.take(edge, axis=0).T.copy()
@@ -258,13 +249,15 @@ def _clearances(cells: CellGraph, drawings: tuple[Drawing, ...], pixels: np.ndar
 
 def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.ndarray, margin: float,
                         rounds: int = 8, drawing: Drawing | None = None,
-                        initial: Drawing | None = None, moves: Sequence[Moves] = ()) -> tuple[np.ndarray, Drawing]:
+                        initial: Drawing | None = None, moves: Sequence[Moves] | History = ()
+                        ) -> tuple[np.ndarray, Drawing]:
     """Walk back the moves around any cell whose pixel centre came closer than ``margin`` to
     its boundary (or left it), until none does. Moves made elsewhere on a curve (a T-junction
     end follows the curve it ends on, neighbours move together) can reach a cell the
     relaxation did not check. Only cells next to an edge whose geometry changed are measured.
 
-    ``moves``: the relaxation's rounds (:class:`depixel.optimize.relax.Moves`); the curve nodes
+    ``moves``: the relaxation's rounds (:class:`Moves`, or their :class:`History`: several images'
+    joined, :mod:`depixel.optimize.pack`, each node's rounds its image's); the curve nodes
     around a bad cell go back one round at a time (each round of the relaxation kept the
     curves clear, so a cell is usually fine again a round or two back, and the rest of the
     relaxation's work stays), the other nodes (moved by the harmonic map) to ``start``; in
@@ -277,14 +270,15 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
     positions = positions.copy()
     initial = splines.drawing(start) if initial is None else initial
     prev, nxt = splines.neighbours()
-    n_px = cells.shape[0] * cells.shape[1]
+    n_px = pixel_count(cells)
     floor = np.full(n_px, np.nan)  # min(margin, initial clearance), filled in where needed
     reference = initial  # geometry already verified (or initial), to find what changed since
     current = splines.drawing(positions) if drawing is None else drawing
     back = np.zeros(len(positions), np.int64)  # rounds each node has gone back
     on_curve = np.zeros(len(positions), bool)
     on_curve[splines.curve_nodes] = True
-    history: _History | None = None  # the moves as tables, made when the first node goes back
+    # the moves as tables, made when the first node goes back
+    history: History | None = moves if isinstance(moves, History) else None
     for round_ in range(rounds):
         if round_:
             current = splines.drawing(positions)  # the same curved edges as the reference, in the same order
@@ -296,7 +290,7 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
         pixels = beside[:-1]
         if not np.logical_or.reduce(pixels):
             return positions, current
-        if round_ == 0 and n_px <= TOGETHER_PIXELS:
+        if round_ == 0 and largest_image(cells) <= TOGETHER_PIXELS:
             # the initial drawing is measured with the first at the same pixels (one pass
             # over their pairs: most sprites have a centre below the margin, whose initial
             # clearance is then needed; a pixel's clearance does not depend on the others')
@@ -326,64 +320,14 @@ def keep_centres_inside(splines: SplineSet, start: np.ndarray, positions: np.nda
             on[near] = True
         revert[splines.curve_nodes.compress(on)] = True
         nodes = revert.nonzero()[0]
-        if round_ == rounds - 1:
-            back[nodes] = len(moves)
         if history is None:
-            history = _History(moves)
-        _walk_back(positions, start, nodes.compress(on_curve.take(nodes)), back, history)
+            history = History(cast("Sequence[Moves]", moves))
+        if round_ == rounds - 1:
+            back[nodes] = history.rounds_of(nodes)
+        walk_back(positions, start, nodes.compress(on_curve.take(nodes)), back, history)
         other = nodes.compress(~on_curve.take(nodes))
         set_rows(positions, other, start.take(other, axis=0))
     return positions, splines.drawing(positions)
-
-
-class _History:
-    """The relaxation's record of moves (:class:`Moves`, a round each) as tables over the nodes
-    that moved: where each sat before each round it moved in, and the latest round up to
-    each round in which it moved, so that :func:`_walk_back` finds a node's place in a few
-    calls whatever the number of rounds."""
-
-    def __init__(self, moves: Sequence[Moves]) -> None:
-        rounds = len(moves)
-        sizes = np.array([m.nodes.size for m in moves], np.int64)
-        nodes = np.concatenate([m.nodes for m in moves]) if moves else np.zeros(0, np.int64)
-        self.movers = unique(nodes)  # sorted
-        self.before = np.concatenate([m.before for m in moves]) if moves else np.zeros((0, 2))
-        # (R, U) the row of each mover in the concatenated record of each round, -1 where it
-        # did not move (a node twice in a round, which the relaxation never records: the
-        # last, as a plain assignment keeps it)
-        self.row = np.full((rounds, self.movers.size), -1, np.int64)
-        which = np.arange(rounds).repeat(sizes)
-        self.row[which, self.movers.searchsorted(nodes)] = np.arange(nodes.size)
-        # (R, U) the latest round up to each round in which the mover moved (-1: none)
-        latest = np.where(self.row >= 0, np.arange(rounds)[:, None], -1)
-        self.latest = np.maximum.accumulate(latest, axis=0) if rounds else latest
-
-
-def _walk_back(positions: np.ndarray, start: np.ndarray, nodes: np.ndarray, back: np.ndarray,
-               history: _History) -> None:
-    """Put each of the curve ``nodes`` where it was before the latest round of the
-    relaxation (``history``) it moved in and has not gone back past yet (``back`` counts each
-    node's rounds gone back; in place); one that moved in none of them, at ``start``. A node
-    k rounds back sits where it was after round R − k; the rounds it did not move in are
-    passed over, so a node found next to a bad cell always goes somewhere else (or is at its
-    start already)."""
-    rounds, movers = history.row.shape[0], history.movers
-    level = back.take(nodes)
-    at = np.minimum(movers.searchsorted(nodes), max(movers.size - 1, 0))  # the node among the movers
-    limit = rounds - 1 - level  # the latest round it may go back to the place before
-    round_ = np.full(nodes.size, -1, np.int64)
-    ok = (limit >= 0) & (movers.take(at, mode="clip") == nodes) if movers.size else np.zeros(nodes.size, bool)
-    if ok.any():
-        round_[ok] = history.latest.ravel().take(limit.compress(ok) * movers.size + at.compress(ok))
-    found = round_ >= 0
-    gone = nodes.compress(~found)  # to its start (rounds gone back: all of them)
-    set_rows(positions, gone, start.take(gone, axis=0))
-    back[gone] = np.maximum(level.compress(~found), rounds)
-    if found.any():
-        round_, at = round_.compress(found), at.compress(found)
-        row = history.row.ravel().take(round_ * movers.size + at)
-        set_rows(positions, nodes.compress(found), history.before.take(row, axis=0))
-        back[nodes.compress(found)] = rounds - round_
 
 
 def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..arrays import either, set_rows
 from ..curves.splines import SplineSet
+from .joined import JoinedCells, border_nodes
 
 #: unknowns from which the operator sums the neighbours by a padded table (:class:`_NeighbourSums`)
 #: rather than a scatter: the table's setup (two sorts) and its extra calls cost more on a
@@ -34,12 +35,14 @@ def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
     harmonic field has decayed to nothing there), which keeps full frames cheap. The
     solver is conjugate gradients in numpy (the system is symmetric positive definite),
     run to well below the output precision (:func:`conjugate_gradients`).
+
+    The curves of several images joined (:class:`depixel.optimize.joined.JoinedCells`) are
+    mapped as one system whose images' parts are solved apart (each its own iterations and
+    dot products): each image gets the numbers it gets alone.
     """
     cells = splines.cells
     n = len(start)
-    q = cells.nodes
-    h, w = cells.shape
-    border = (q[:, 0] == 0) | (q[:, 1] == 0) | (q[:, 0] == 4 * w) | (q[:, 1] == 4 * h)
+    border = border_nodes(cells)
     on_curve = np.zeros(n, dtype=bool)
     on_curve[splines.curve_nodes] = True
     if display is None:
@@ -104,7 +107,8 @@ def harmonic_map(splines: SplineSet, start: np.ndarray, positions: np.ndarray,
             np.multiply(diagonal, flat_x, out=flat)
             flat -= np.add(sums[:2 * m], sums[2 * m:], out=sums[:2 * m])
 
-    x = conjugate_gradients(apply, rhs)
+    parts = None if not isinstance(cells, JoinedCells) else index.take(cells.node_bounds[1:] - 1) + 1
+    x = conjugate_gradients(apply, rhs, None if parts is None else np.concatenate([[0], parts]))
     out = positions.copy()
     nodes = free.nonzero()[0]
     before = start.take(nodes, axis=0)  # (rows gathered: a column's take copies the whole column first)
@@ -176,7 +180,8 @@ def follow(display: np.ndarray, before: np.ndarray, after: np.ndarray) -> np.nda
     return out
 
 
-def conjugate_gradients(apply: Callable[[np.ndarray, np.ndarray], None], rhs: np.ndarray) -> np.ndarray:
+def conjugate_gradients(apply: Callable[[np.ndarray, np.ndarray], None], rhs: np.ndarray,
+                        parts: np.ndarray | None = None) -> np.ndarray:
     """Solve ``A x = rhs`` for a symmetric positive definite operator (``apply(x, out)``
     writes A x into ``out``), every row of ``rhs`` (K, M) at once, to a residual 1e-5 of the
     right-hand side's: on the paper corpus and the game frames the solution is then within
@@ -186,15 +191,17 @@ def conjugate_gradients(apply: Callable[[np.ndarray, np.ndarray], None], rhs: np
     Per iteration a fixed set of whole-array operations into preallocated buffers (the
     cost of a sprite's small system is the number of numpy calls, of a frame's the fresh
     memory): x and r are updated together as one (2, K, M) array, the per-row numbers are
-    Python floats (r − s·Ap is computed as r + (−s)·Ap, which rounds the same)."""
-    state = np.zeros((2,) + rhs.shape)  # x, r
+    Python floats (r − s·Ap is computed as r + (−s)·Ap, which rounds the same).
+
+    ``parts`` (S+1,): the bounds of independent systems among the columns (several images'
+    maps joined): each is solved as alone (:func:`_conjugate_parts`)."""
+    if parts is not None:
+        bounds = np.unique(parts).tolist()  # an image with no unknowns has no part
+        if len(bounds) > 2:
+            return _conjugate_parts(apply, rhs, bounds)
+    state, directions, change, product = _buffers(rhs)
     x, r = state
-    r[...] = rhs
-    directions = np.empty_like(state)  # p, A p
     p, ap = directions
-    p[...] = rhs
-    change = np.empty_like(state)
-    product = np.empty_like(rhs)
     k = rhs.shape[0]
     step = np.empty((2, k, 1))  # the per-row factors (s, -s), written in place: no array built per iteration
     ratio = np.empty((k, 1))
@@ -218,8 +225,61 @@ def conjugate_gradients(apply: Callable[[np.ndarray, np.ndarray], None], rhs: np
     return x
 
 
+def _buffers(rhs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The conjugate gradients' arrays for ``rhs`` (K, M): x and r (x = 0, r = rhs), p and A p
+    (p = rhs), a buffer for their changes, one for products."""
+    state = np.zeros((2,) + rhs.shape)
+    state[1] = rhs
+    directions = np.empty_like(state)
+    directions[0] = rhs
+    return state, directions, np.empty_like(state), np.empty_like(rhs)
+
+
 def row_dots(a: np.ndarray, b: np.ndarray, product: np.ndarray | None = None) -> list[float]:
     """The dot products of the rows of ``a`` and ``b`` (K, M), by numpy's pairwise sum
     (``product`` (K, M): a buffer to work in). An in-order sum (``cumsum``) was 3–6× slower
     per call, and its last bits did not show in any output (benchmarks/check_output_stable.py)."""
     return np.add.reduce(np.multiply(a, b, out=product), axis=1).tolist()
+
+
+def _conjugate_parts(apply: Callable[[np.ndarray, np.ndarray], None], rhs: np.ndarray, bounds: list[int]
+                     ) -> np.ndarray:
+    """:func:`conjugate_gradients` of the systems whose columns ``bounds`` (S+1,) cut ``rhs``
+    (K, M) into, the operator's whole-array steps shared: each part's dot products are its
+    own (:func:`part_dots`, numpy's pairwise sum of its columns alone), its factors are
+    spread over its columns, and a part that has converged (or run out of iterations) takes
+    steps of zero from then on (x + 0·p is x: x and r are never −0). The numbers of each part
+    are those of its system solved alone."""
+    state, directions, change, product = _buffers(rhs)
+    x, r = state
+    p, ap = directions
+    widths = np.diff(bounds)
+    step = np.empty((2,) + rhs.shape)
+    rr = part_dots(r, r, product, bounds)  # (K, S)
+    target = 1e-10 * np.maximum(rr.max(axis=0), 1e-30)
+    limit = 4 * widths + 10
+    for i in range(int(limit.max(initial=0))):
+        live = ~(rr.max(axis=0) <= target) & (i < limit)
+        if not live.any():
+            break
+        apply(p, ap)
+        s = np.where(live, rr / np.maximum(part_dots(p, ap, product, bounds), 1e-300), 0.0)
+        step[0] = s.repeat(widths, axis=1)
+        np.negative(step[0], out=step[1])
+        np.multiply(directions, step, out=change)
+        state += change
+        rr_new = part_dots(r, r, product, bounds)
+        p *= np.where(live, rr_new / np.maximum(rr, 1e-300), 0.0).repeat(widths, axis=1)
+        p += r
+        rr = np.where(live, rr_new, rr)
+    return x
+
+
+def part_dots(a: np.ndarray, b: np.ndarray, product: np.ndarray, bounds: list[int]) -> np.ndarray:
+    """(K, S) :func:`row_dots` of the columns of each part that ``bounds`` (S+1,) cut ``a`` and
+    ``b`` (K, M) into, each summed alone (the same numbers as the part's own array)."""
+    np.multiply(a, b, out=product)
+    out = np.empty((a.shape[0], len(bounds) - 1))
+    for j in range(len(bounds) - 1):
+        np.add.reduce(product[:, bounds[j]:bounds[j + 1]], axis=1, out=out[:, j])
+    return out

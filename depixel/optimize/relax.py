@@ -39,8 +39,8 @@ from ..arrays import batch_slices, row_any, row_count, row_min, set_rows
 from ..curves.splines import SplineSet
 from ..params import Params
 from .energy import MEMBER_ROW, PREPARE_ONCE, Energy, Group, knots_of, trial_points
-from .fidelity import Moves
 from .trials import TRIALS, trials
+from .walkback import Moves
 
 #: trials weighed together: bounds the memory of their spans (about 150 bytes a trial)
 #: whatever the number of slots
@@ -61,7 +61,7 @@ class Relaxed(NamedTuple):
     movable: np.ndarray  # (P,) bool: the slots that were free to move
     energy_before: float  # total energy before relaxing
     energy_after: float  # and after
-    rounds: list[Moves]  # each round's moves, first to last (to walk them back: fidelity)
+    rounds: list[Moves]  # each round's moves, first to last (to walk them back: walkback)
 
 
 def relax(splines: SplineSet, start: np.ndarray, corners: np.ndarray, excluded: np.ndarray,

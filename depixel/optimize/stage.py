@@ -14,6 +14,7 @@
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,6 +30,7 @@ from .fidelity import keep_centres_inside
 from .harmonic import follow, harmonic_map
 from .relax import Relaxed, relax
 from .straight import place_staircases, straight_runs
+from .walkback import History, Moves
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,17 +87,26 @@ def relaxation_inputs(splines: SplineSet, corners: Corners, params: Params = Par
 def finish(splines: SplineSet, corners: Corners, start: np.ndarray, relaxed: Relaxed,
            params: Params = Params()) -> OptimizedSplines:
     """:func:`optimize_splines` after the relaxation (``relaxed``, from the node positions
-    ``start``): the harmonic map and the walk-back (apart, for :mod:`depixel.optimize.pack`)."""
+    ``start``): the harmonic map and the walk-back (:func:`settle`)."""
+    positions, drawing = settle(splines, start, relaxed.ctrl, relaxed.movable, corners.nodes, relaxed.rounds, params)
+    return OptimizedSplines(splines, corners, start, positions, relaxed.energy_before, relaxed.energy_after, drawing)
+
+
+def settle(splines: SplineSet, start: np.ndarray, ctrl: np.ndarray, movable: np.ndarray, corners: np.ndarray,
+           moves: Sequence[Moves] | History, params: Params = Params()) -> tuple[np.ndarray, Drawing]:
+    """The final positions and their drawing from the relaxed control points ``ctrl`` of the
+    ``movable`` slots and the node positions ``start``: the harmonic map moves the other
+    nodes, the walk-back takes back the moves (``moves``, the relaxation's record) that
+    pushed a pixel centre out. Also of several images' curves joined
+    (:mod:`depixel.optimize.pack`: ``splines`` over :class:`~depixel.optimize.joined.JoinedCells`,
+    ``moves`` their joined :class:`~depixel.optimize.walkback.History`)."""
     positions = start.copy()
-    set_rows(positions, splines.curve_nodes.compress(relaxed.movable), relaxed.ctrl.compress(relaxed.movable, axis=0))
-    energy_before, energy_after, moves = relaxed.energy_before, relaxed.energy_after, relaxed.rounds
-    del relaxed  # the control points live on in the positions; free them for the steps below
+    set_rows(positions, splines.curve_nodes.compress(movable), ctrl.compress(movable, axis=0))
     # the relaxed curves are drawn once: the harmonic map needs their display points, the
     # revert's first round the whole drawing (the harmonic map moves no curve node); the
     # revert's initial drawing is drawn with them (one pass for both on a sprite)
     drawing, initial = splines.drawings(positions, start)
-    mapped = harmonic_map(splines, start, positions, corners.nodes, params.harmonic_reach, drawing.points)
+    mapped = harmonic_map(splines, start, positions, corners, params.harmonic_reach, drawing.points)
     drawing = drawing._replace(points=follow(drawing.points, positions, mapped))
-    positions, drawing = keep_centres_inside(splines, start, mapped, params.centre_clearance / 2,
-                                             params.revert_rounds, drawing, initial, moves)
-    return OptimizedSplines(splines, corners, start, positions, energy_before, energy_after, drawing)
+    return keep_centres_inside(splines, start, mapped, params.centre_clearance / 2, params.revert_rounds, drawing,
+                               initial, moves)

@@ -27,6 +27,8 @@ from .insets import Segments, on_grid, unit
 FIT = 0.5
 #: samples along each segment of a run, and along its new curve
 SAMPLES, CURVE_SAMPLES = 9, 33
+#: the cubic weights of the samples along a new curve (4, CURVE_SAMPLES)
+_CURVE_WEIGHTS = np.stack(cubic_weights(np.linspace(0.0, 1.0, CURVE_SAMPLES)))
 
 
 def fit_runs(segments: Segments, run: np.ndarray, margin: np.ndarray, grid: float | None) -> Segments:
@@ -110,35 +112,30 @@ def _fit(cubics: np.ndarray, lo: np.ndarray, count: np.ndarray, tol: np.ndarray,
     b = np.where(meets, (d[:, 1] * t0[:, 0] - d[:, 0] * t0[:, 1]) / safe, -1.0)  # back along t3 from p3
     q = on_grid(p0 + a[:, None] * t0, grid)
     quad = np.stack((p0, p0 + 2.0 / 3.0 * (q - p0), p3 + 2.0 / 3.0 * (q - p3), p3), axis=1)
-    quad_ok = (a > 0) & (b > 0) & _close(quad, path, path_owner, tol)
     # else the least-squares cubic with those end tangents, or that cubic with shorter legs
     # (least squares is not the least largest distance: a run's straight middle between two
-    # leads draws its legs out too far)
+    # leads draws its legs out too far); every candidate measured in one pass (each range's
+    # answer is its own), the first that fits taken
     c1, c2 = _least_squares(p0, p3, t0, t3, path, path_owner, u, lo.size)
     cubic = np.stack((p0, on_grid(c1, grid), on_grid(c2, grid), p3), axis=1)
-    cubic_ok = ~quad_ok
-    cubic_ok[cubic_ok] = _close(cubic.compress(cubic_ok, axis=0), *_rows(path, path_owner, cubic_ok), tol[cubic_ok])
-    for scale in LEGS:
-        left = ~quad_ok & ~cubic_ok
-        if not np.logical_or.reduce(left):
-            break
-        shorter = np.stack((p0, on_grid(p0 + scale * (c1 - p0), grid), on_grid(p3 + scale * (c2 - p3), grid), p3),
-                           axis=1)
-        ok = np.zeros(lo.size, bool)
-        ok[left] = _close(shorter.compress(left, axis=0), *_rows(path, path_owner, left), tol[left])
-        cubic = np.where(ok[:, None, None], shorter, cubic)
-        cubic_ok |= ok
+    shorter = [np.stack((p0, on_grid(p0 + scale * (c1 - p0), grid), on_grid(p3 + scale * (c2 - p3), grid), p3), axis=1)
+               for scale in LEGS]
+    tries = len(LEGS) + 2
+    n = lo.size
+    ok = _close(np.concatenate([quad, cubic] + shorter), np.tile(path, (tries, 1)),
+                (path_owner + n * np.arange(tries)[:, None]).reshape(-1), np.tile(u, tries),
+                np.tile(tol, tries)).reshape(tries, n)
+    quad_ok = (a > 0) & (b > 0) & ok[0]
+    cubic_ok = ~quad_ok & ok[1]
+    for curve, fits in zip(shorter, ok[2:]):
+        fits = fits & ~quad_ok & ~cubic_ok
+        cubic = np.where(fits[:, None, None], curve, cubic)
+        cubic_ok |= fits
     return quad_ok | cubic_ok, np.where(quad_ok[:, None, None], quad, cubic), quad_ok
 
 
 #: the shorter legs tried where the least-squares cubic does not fit, as fractions of its
 LEGS = (0.75, 0.5, 0.35)
-
-
-def _rows(path: np.ndarray, owner: np.ndarray, chosen: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The samples of the ranges ``chosen`` (a mask), their owners renumbered among them."""
-    take = chosen.take(owner)
-    return path.compress(take, axis=0), (np.cumsum(chosen) - 1).take(owner.compress(take))
 
 
 def _as_cubic(start: np.ndarray, kind: np.ndarray, ctrl: np.ndarray, ctrl2: np.ndarray,
@@ -188,15 +185,85 @@ def _least_squares(p0: np.ndarray, p3: np.ndarray, t0: np.ndarray, t3: np.ndarra
     return p0 + alpha[:, None] * t0, p3 - beta[:, None] * t3
 
 
-def _close(curve: np.ndarray, path: np.ndarray, owner: np.ndarray, tol: np.ndarray) -> np.ndarray:
+def _close(curve: np.ndarray, path: np.ndarray, owner: np.ndarray, u: np.ndarray, tol: np.ndarray) -> np.ndarray:
     """(n,) whether each cubic ``curve`` (n, 4, 2) and its range's samples ``path`` lie
-    within ``tol`` of each other both ways (the curve sampled densely)."""
-    w = np.stack(cubic_weights(np.linspace(0.0, 1.0, CURVE_SAMPLES)))
-    points = np.einsum("kt,nkd->ntd", w, curve)  # (n, CURVE_SAMPLES, 2)
-    gap = np.hypot(*(points.take(owner, axis=0) - path[:, None, :]).transpose(2, 0, 1))  # (samples, CURVE_SAMPLES)
-    n = curve.shape[0]
-    path_worst = np.zeros(n)
-    np.maximum.at(path_worst, owner, gap.min(axis=1))
-    curve_near = np.full((n, CURVE_SAMPLES), np.inf)
-    np.minimum.at(curve_near, owner, gap)
-    return (path_worst <= tol) & (curve_near.max(axis=1) <= tol)
+    within ``tol`` of each other both ways (the curve sampled densely): every sample of each
+    has one of the other within ``tol`` (``owner``: each sample's range, ascending, every
+    range with samples; ``u``: its chord-length parameter along the range).
+
+    Each path sample is measured first against the :data:`WINDOW` curve samples around its
+    parameter, where it almost always has its near one; a path sample with none there is
+    measured against all of its curve's, and a curve sample that no path sample found
+    against all of its range's path: the answer is that of every pair measured (each pair's
+    answer is :func:`_within`'s, whichever step measures it)."""
+    n, t = curve.shape[0], CURVE_SAMPLES
+    if n == 0:
+        return np.zeros(0, bool)
+    points = np.einsum("kt,nkd->dnt", _CURVE_WEIGHTS, curve)  # (2, n, CURVE_SAMPLES)
+    px, py = points[0].reshape(-1), points[1].reshape(-1)
+    x, y, reach = path[:, 0].copy(), path[:, 1].copy(), tol.take(owner)
+    first = np.clip(np.rint(u * (t - 1)).astype(np.int64) - WINDOW // 2, 0, t - WINDOW)
+    apart = np.zeros(n, bool)  # a path sample with no curve sample within tol
+    measured: list[tuple[np.ndarray, np.ndarray]] = []  # the pairs measured and their answers
+    # a few samples of every range first (most ranges tried do not fit, and a few samples
+    # off the curve show it), then the other samples of the ranges still in
+    probe = np.zeros(owner.size, bool)
+    probe[::PROBE] = True
+    for stage in range(2):
+        rows = probe.nonzero()[0] if stage == 0 else (~probe & ~apart.take(owner)).nonzero()[0]
+        window = (owner.take(rows) * t + first.take(rows))[:, None] + np.arange(WINDOW)
+        near = _within(px, py, x, y, reach, window, rows[:, None])
+        measured.append((window, near))
+        lost = rows.compress(~np.logical_or.reduce(near, axis=1))
+        if lost.size:  # against all of their curve's samples
+            pairs = (owner.take(lost) * t)[:, None] + np.arange(t)
+            near = _within(px, py, x, y, reach, pairs, lost[:, None])
+            measured.append((pairs, near))
+            apart[owner.take(lost.compress(~np.logical_or.reduce(near, axis=1)))] = True
+    if np.logical_and.reduce(apart):
+        return ~apart
+    # the curve samples with a path sample within tol, of the ranges still in
+    found = np.zeros(n * t, bool)
+    for pairs, near in measured:
+        keep = ~apart.take(pairs[:, 0] // t)
+        found[pairs.compress(keep, axis=0)[near.compress(keep, axis=0)]] = True
+    # those not found yet: against all of their range's path
+    missing = (~found.reshape(n, t) & ~apart[:, None]).nonzero()
+    if missing[0].size:
+        starts = owner.searchsorted(np.arange(n + 1))
+        counts = (starts[1:] - starts[:-1]).take(missing[0])
+        sample = ranges(starts.take(missing[0]), counts)
+        near = _within(px, py, x, y, reach, (missing[0] * t + missing[1]).repeat(counts), sample)
+        hit = np.logical_or.reduceat(near, np.concatenate(([0], counts.cumsum()[:-1])))
+        apart[missing[0].compress(~hit)] = True
+    return ~apart
+
+
+#: the curve samples around a path sample's parameter it is measured against first
+WINDOW = 7
+#: one path sample in this many is measured first
+PROBE = 8
+
+
+def _within(px: np.ndarray, py: np.ndarray, x: np.ndarray, y: np.ndarray, reach: np.ndarray, points: np.ndarray,
+            rows: np.ndarray) -> np.ndarray:
+    """Whether the curve samples ``points`` (indices into ``px``, ``py``) lie within ``reach``
+    of the path samples ``rows`` (indices into ``x``, ``y``, ``reach``; broadcast against
+    ``points``): where the ``hypot`` of their offsets is. The squared distance (twenty times
+    cheaper than ``hypot`` a pair) decides every pair more than a billionth of ``reach`` from
+    that boundary, ``hypot`` the rest, so the answer is ``hypot``'s (a NaN or infinite
+    coordinate leaves its sample no pair within reach: the range does not fit, as where
+    ``hypot``'s minimum is NaN)."""
+    dx = px.take(points)
+    dx -= x.take(rows)
+    dy = py.take(points)
+    dy -= y.take(rows)
+    gap = np.multiply(dx, dx)
+    gap += dy * dy
+    limit = np.square(reach.take(rows))
+    within = gap <= limit * (1.0 - 1e-9)
+    unsure = ~(within | (gap > limit * (1.0 + 1e-9)))  # near the boundary, or NaN
+    if np.logical_or.reduce(unsure, axis=None):
+        at = unsure.nonzero()
+        within[at] = np.hypot(dx[at], dy[at]) <= np.broadcast_to(reach.take(rows), unsure.shape)[at]
+    return within
