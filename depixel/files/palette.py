@@ -7,27 +7,34 @@ import os
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import display_name
 from ..options import ConvertOptions
 from ..prepare.animation import read_animation
-from ..prepare.aseprite_format import is_aseprite
-from ..prepare.gpl import Palette, format_gpl
 from ..prepare.image import ImageSource, Pixels, load_image, read_source
 from ..prepare.inputs import lossy_format
 from ..svg.swatches import Style, shared_names
 from .output import write_atomic
 
+if TYPE_CHECKING:
+    from ..prepare.gpl import Palette
+
 
 def with_input_palette(options: ConvertOptions, data: bytes, name: str = "<input>") -> ConvertOptions:
     """``options`` with the palette of an Aseprite input (``data``) naming the swatches when
     there are swatches and no palette does (its bytes' identity is in the stamp: nothing
-    else to digest)."""
-    if not options.output.swatches or options.output.palette is not None or not is_aseprite(data):
+    else to digest). The Aseprite and GIMP palette modules load only then: a plain conversion,
+    the usual one, does not pay for them."""
+    if not options.output.swatches or options.output.palette is not None:
         return options
-    from ..prepare.aseprite_format import parse_aseprite  # noqa: PLC0415
+    from ..prepare.aseprite_format import is_aseprite, parse_aseprite  # noqa: PLC0415
+    from ..prepare.gpl import Palette  # noqa: PLC0415
+
+    if not is_aseprite(data):
+        return options
 
     entries = parse_aseprite(data, name, options.limits.max_pixels).palette
     palette = Palette(entries, alpha=any(entry.rgba[3] != 255 for entry in entries))
@@ -74,5 +81,7 @@ def export_palette(source: ImageSource, output: str | os.PathLike, options: Conv
         images = [images[0][sprite.box] for sprite in sheet_of(images[0], out.sheet, out.sheet_json, name).sprites]
     palette = file_palette(images, options, title=None if path is None else path.stem, lossy=lossy_format(data))
     protect = () if path is None else (path,)
+    from ..prepare.gpl import format_gpl  # noqa: PLC0415
+
     write_atomic(output, format_gpl(palette), protect=protect)
     return Path(output)
