@@ -25,6 +25,15 @@ from ..graph.cells import CellGraph
 from ..prepare.backdrop import backdrop_mask
 from ..vector import linked_edges
 
+#: not in paper: two faces of a region stay in different groups when the visible boundary
+#: between them is at least this many pixel sides. At a single side (two dissimilar tones
+#: touching at one pixel side, a middle tone linking them all round) the paper's lines of
+#: sight are blocked along that side alone and both faces see each other through the middle
+#: tone; splitting the whole region there kept a crisp edge between a similar pair that
+#: the PNG renderer blends (``gaxe2_axbattler_02``: 296 stepped pixels inside a region
+#: against the PNG renderer's 188; docs/svg.md, "Smooth groups")
+CONTOUR_EDGES = 2
+
 
 def smooth_groups(cells: CellGraph, labels: np.ndarray, face_region: np.ndarray, drawn: np.ndarray) -> np.ndarray:
     """(F,) int64 smooth group of every face (numbered from 0); -1 for a face drawn flat
@@ -49,7 +58,7 @@ def smooth_groups(cells: CellGraph, labels: np.ndarray, face_region: np.ndarray,
     _, edges = sums_by_key(key, np.ones(key.size))
     first, second = np.divmod(pairs, n)
     joinable = shared > 0
-    conflict = shared < edges  # a visible edge between the two faces
+    conflict = edges - shared >= CONTOUR_EDGES  # a visible boundary between the two faces
     # longest shared boundary first; ties by the pair's key (deterministic)
     order = np.lexsort((pairs, -shared))
     order = order.compress(joinable.take(order))
