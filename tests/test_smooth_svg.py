@@ -207,10 +207,30 @@ def test_a_contact_of_one_pixel_side_does_not_split_the_region():
         assert not far[steps[:, 0], steps[:, 1]].any(), steps
 
 
+def test_a_single_pixel_at_a_one_side_contact_stays_apart():
+    """A single light pixel touching the dark grey at one side, the middle grey all round it
+    (one region): it is kept out of the dark grey's group, so the blur does not pull its
+    whole colour towards its dissimilar neighbour (gaxe_skeleton's dithered bones haloed):
+    its pixel centre keeps its colour. In the dark grey's group its centre went 53 levels
+    darker."""
+    rgba = art("""
+      DDDDDD
+      DDDDDD
+      MMMLMM
+      MMMMMM
+    """, CHAIN)
+    vector = depixelize(rgba).vector
+    topo = FaceTopology(vector)
+    single = topo.labels[2 * 6 + 3]
+    assert topo.area[single] == 1 and topo.group[single] != topo.group[topo.labels[0]]
+    got = centres(to_svg(vector), rgba.shape[:2])
+    assert np.abs(got[2, 3, :3] - 150).max() <= 16
+
+
 def test_smooth_groups_split_a_region_at_a_contour_and_keep_a_gradient_whole():
-    """A group never holds two faces with a visible boundary of two pixel sides or more
-    between them (``CONTOUR_EDGES``); the orb's six tones, each similar to the next, are one
-    group."""
+    """A group never holds two faces with a contour between them: a visible boundary of two
+    pixel sides or more (``CONTOUR_EDGES``), or any with a single pixel; the orb's six tones,
+    each similar to the next, are one group."""
     for rgba in (art(CHAIN_ART, CHAIN), load_image(FIXTURES / "orb.png")):
         topo = FaceTopology(depixelize(rgba).vector)
         left, right = topo.cells.edge_pixels.T
@@ -221,8 +241,9 @@ def test_smooth_groups_split_a_region_at_a_contour_and_keep_a_gradient_whole():
         visible = ~linked_edges(topo.cells)[inner]
         ga, gb = topo.group[a], topo.group[b]
         both = (ga >= 0) & (ga == gb) & visible & (a != b)
-        sides = np.unique(np.minimum(a, b)[both] * topo.n_faces + np.maximum(a, b)[both], return_counts=True)[1]
+        pair, sides = np.unique(np.minimum(a, b)[both] * topo.n_faces + np.maximum(a, b)[both], return_counts=True)
         assert (sides < CONTOUR_EDGES).all()
+        assert (topo.area[pair // topo.n_faces] > 1).all() and (topo.area[pair % topo.n_faces] > 1).all()
     orb = FaceTopology(depixelize(load_image(FIXTURES / "orb.png")).vector)
     tones = [(30 + 22 * k, 60 + 22 * k, 75 + 22 * k, 255) for k in range(6)]
     in_tones = np.array([tuple(c) in tones for c in orb.face_rgba.tolist()])
