@@ -15,6 +15,7 @@ from robust import SVG_NS, parse
 
 from depixel import Params, depixelize, load_image
 from depixel.svg.outlines import outline_shapes
+from depixel.svg.smoothgroups import CONTOUR_EDGES
 from depixel.svg.stacking import FaceTopology
 from depixel.svg.writer import DEFAULT_SIMPLIFY, SIGMA_RATIO, to_svg
 
@@ -171,8 +172,64 @@ def test_colour_does_not_cross_a_contour_in_the_svg(layout):
     assert (light - dark).min() >= 72  # (of 90: the contour is not smoothed)
 
 
+#: the tone chain of CHAIN, its dark and light greys touching at one pixel side alone (row 3,
+#: columns 4 | 5), the middle grey (two faces) linking them all round, as
+#: gaxe2_axbattler_02's #a06040 ~ #c08060 ~ #e0a080 do
+CORNER_ART = """
+DDDDDMMMMMM
+DDDDDMMMMMM
+DDDDDMMMMMM
+DDDDDLLLLLL
+MMMMMLLLLLL
+MMMMMLLLLLL
+MMMMMLLLLLL
+"""
+
+
+def test_a_contact_of_one_pixel_side_does_not_split_the_region():
+    """Where the two dissimilar tones of a chain touch at a single pixel side, the region
+    stays one smooth group (the paper's lines of sight are blocked along that side alone), so
+    the similar pairs around it blend in the SVG as in the PNG renderer: no stepped render
+    pixel away from the contact in either. Split there (two groups), the middle grey kept a
+    crisp edge against each side: dozens of steps."""
+    from depixel.render.shading import render_smooth
+
+    rgba = art(CORNER_ART, CHAIN)
+    h, w = rgba.shape[:2]
+    vector = depixelize(rgba).vector
+    topo = FaceTopology(vector)
+    assert topo.n_faces == 4 and len(set(topo.group.tolist())) == 1 and topo.group[0] >= 0
+    scale = 8
+    far = np.ones((h * scale, w * scale - 1), bool)
+    far[(3 - 2) * scale : (4 + 2) * scale, (5 - 2) * scale : (5 + 2) * scale] = False  # the contact
+    for rendered in (render(to_svg(vector), w * scale, h * scale), render_smooth(vector, scale)):
+        steps = stepped_pairs(rendered)
+        assert not far[steps[:, 0], steps[:, 1]].any(), steps
+
+
+def test_a_single_pixel_at_a_one_side_contact_stays_apart():
+    """A single light pixel touching the dark grey at one side, the middle grey all round it
+    (one region): it is kept out of the dark grey's group, so the blur does not pull its
+    whole colour towards its dissimilar neighbour (gaxe_skeleton's dithered bones haloed):
+    its pixel centre keeps its colour. In the dark grey's group its centre went 53 levels
+    darker."""
+    rgba = art("""
+      DDDDDD
+      DDDDDD
+      MMMLMM
+      MMMMMM
+    """, CHAIN)
+    vector = depixelize(rgba).vector
+    topo = FaceTopology(vector)
+    single = topo.labels[2 * 6 + 3]
+    assert topo.area[single] == 1 and topo.group[single] != topo.group[topo.labels[0]]
+    got = centres(to_svg(vector), rgba.shape[:2])
+    assert np.abs(got[2, 3, :3] - 150).max() <= 16
+
+
 def test_smooth_groups_split_a_region_at_a_contour_and_keep_a_gradient_whole():
-    """A group never holds two faces with a visible edge between them; the orb's six tones,
+    """A group never holds two faces with a contour between them: a visible boundary of two
+    pixel sides or more (``CONTOUR_EDGES``), or any with a single pixel; the orb's six tones,
     each similar to the next, are one group."""
     for rgba in (art(CHAIN_ART, CHAIN), load_image(FIXTURES / "orb.png")):
         topo = FaceTopology(depixelize(rgba).vector)
@@ -183,7 +240,10 @@ def test_smooth_groups_split_a_region_at_a_contour_and_keep_a_gradient_whole():
 
         visible = ~linked_edges(topo.cells)[inner]
         ga, gb = topo.group[a], topo.group[b]
-        assert not ((ga >= 0) & (ga == gb) & visible & (a != b)).any()
+        both = (ga >= 0) & (ga == gb) & visible & (a != b)
+        pair, sides = np.unique(np.minimum(a, b)[both] * topo.n_faces + np.maximum(a, b)[both], return_counts=True)
+        assert (sides < CONTOUR_EDGES).all()
+        assert (topo.area[pair // topo.n_faces] > 1).all() and (topo.area[pair % topo.n_faces] > 1).all()
     orb = FaceTopology(depixelize(load_image(FIXTURES / "orb.png")).vector)
     tones = [(30 + 22 * k, 60 + 22 * k, 75 + 22 * k, 255) for k in range(6)]
     in_tones = np.array([tuple(c) in tones for c in orb.face_rgba.tolist()])

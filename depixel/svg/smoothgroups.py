@@ -4,16 +4,18 @@ Part of stage 6 (:mod:`depixel.svg.stacking`), for the SVG's smooth shading (pap
 The paper blends the colours of a region (cells joined by invisible edges) and stops at
 every visible edge, the contour curves. An SVG blur cannot follow lines of sight, so the
 SVG applies the rule to whole faces: a *smooth group* is a set of faces of one region
-joined through invisible edges (similar colours) with no visible edge between two of its
-faces. A region whose chain of similar tones links two dissimilar faces that touch (a
-bone, a middle grey, the backdrop) is split there, so no blur crosses that contour. Not in
-the paper: the backdrop (:func:`depixel.prepare.backdrop.backdrop_mask`) joins no group, so
-the art never blends with it, however similar their colours (docs/rendering.md, "The
-backdrop"). The drawing order keeps the faces of a group together (:class:`depixel.svg.stacking.FaceTopology`),
-so a group is one ``<g>``.
+joined through invisible edges (similar colours) with no contour between two of its faces:
+a visible boundary two pixel sides long or more, or any with a single pixel
+(:data:`CONTOUR_EDGES`). A region whose chain of similar tones links two dissimilar faces
+that touch along a contour (a bone, a middle grey, the backdrop) is split there, so no blur
+crosses that contour. Not in the paper: the backdrop
+(:func:`depixel.prepare.backdrop.backdrop_mask`) joins no group, so the art never blends
+with it, however similar their colours (docs/rendering.md, "The backdrop"). The drawing
+order keeps the faces of a group together (:class:`depixel.svg.stacking.FaceTopology`), so
+a group is one ``<g>``.
 
 Groups are grown like Kruskal's spanning tree: the face pairs that share invisible edges,
-longest shared boundary first, join unless a visible edge lies between their groups. A face
+longest shared boundary first, join unless a contour lies between their groups. A face
 left alone is drawn flat.
 """
 from __future__ import annotations
@@ -24,6 +26,18 @@ from ..arrays import sums_by_key, unique
 from ..graph.cells import CellGraph
 from ..prepare.backdrop import backdrop_mask
 from ..vector import linked_edges
+
+#: not in paper: two faces of a region stay in different groups when the visible boundary
+#: between them is at least this many pixel sides, or when one of them is a single pixel.
+#: At a single side between larger faces (two dissimilar tones touching at one pixel side, a
+#: middle tone linking them all round) the paper's lines of sight are blocked along that side
+#: alone and both faces see each other through the middle tone; splitting the whole region
+#: there kept a crisp edge between a similar pair that the PNG renderer blends
+#: (``gaxe2_axbattler_02``: 296 stepped pixels inside a region against the PNG renderer's
+#: 188). A single pixel lies wholly within the blur's reach of that side, so joined it took
+#: on its dissimilar neighbour's colour (``gaxe_skeleton``'s dithered bones: halo 0.007 % ->
+#: 0.2 %; docs/svg.md, "Smooth groups")
+CONTOUR_EDGES = 2
 
 
 def smooth_groups(cells: CellGraph, labels: np.ndarray, face_region: np.ndarray, drawn: np.ndarray) -> np.ndarray:
@@ -49,7 +63,9 @@ def smooth_groups(cells: CellGraph, labels: np.ndarray, face_region: np.ndarray,
     _, edges = sums_by_key(key, np.ones(key.size))
     first, second = np.divmod(pairs, n)
     joinable = shared > 0
-    conflict = shared < edges  # a visible edge between the two faces
+    # a visible boundary between the two faces that keeps them apart
+    single = np.bincount(labels, minlength=n) == 1
+    conflict = (edges - shared >= CONTOUR_EDGES) | ((edges > shared) & (single.take(first) | single.take(second)))
     # longest shared boundary first; ties by the pair's key (deterministic)
     order = np.lexsort((pairs, -shared))
     order = order.compress(joinable.take(order))
