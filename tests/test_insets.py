@@ -172,3 +172,32 @@ def test_corpus_shapes_cover_their_own_faces():
     """smw_cape_mario_yoshi's brown outline lost a corner of its own face so (seen red)."""
     uncovered = _own_face_uncovered(load_image(CORPUS / "smw_cape_mario_yoshi.png"))
     assert set(uncovered.values()) == {0}, {k: v for k, v in uncovered.items() if v}
+
+
+def _sharp_wedge(margin: float) -> tuple[np.ndarray, np.ndarray]:
+    """A thin triangle (apex at the origin, 5.7°, legs of ~2 px), every side pulled back by
+    ``margin``, as :func:`insets.inset_runs` draws it: its three corners moved, and the legs'
+    length."""
+    from depixel.svg.boundaries import LINE
+
+    corners = np.array([[2.0, -0.1], [2.0, 0.1], [0.0, 0.0]])  # each segment ends at its corner
+    nan = np.full((3, 2), np.nan)
+    segments = insets.Segments(np.full(3, LINE, np.uint8), nan, nan, corners, np.array([0, 3]))
+    moved, _, _ = insets.inset_runs(segments, insets.RunMarks(np.full(3, margin), nan, nan), None)
+    return moved.end, np.hypot(2.0, 0.1)
+
+
+def test_a_sharp_convex_corner_turns_as_far_in_as_its_legs_allow():
+    """sbm4_01's grey face makes a ~12° corner over two black shapes; the black beneath is
+    pulled back along both of its edges, and the nearer its joint lies to the node, the more
+    black shows under the grey's anti-aliased tip (a conflation pixel, seen at 33 levels with
+    a third of the leg). The bisector's point at the margin lies 2.5 px out here, past the
+    legs, so the joint stops at half the leg: the most for which the joints at a line's two
+    ends never cross (red with a third)."""
+    moved, leg = _sharp_wedge(0.25)
+    apex = moved[2]
+    direction = np.array([2.0, -0.1]) / leg
+    assert apex[1] == pytest.approx(0.0, abs=1e-12)  # on the bisector
+    assert float(apex @ direction) == pytest.approx(leg / 2, rel=1e-9)
+    depth = direction[0] * apex[1] - direction[1] * apex[0]  # from the edge, into the wedge
+    assert 0 < depth < 0.25  # inside, as far from both edges as the legs allow (not the margin)

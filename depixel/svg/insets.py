@@ -27,8 +27,10 @@ S still lies under Q wherever Q borders S or a face above S, so hiding Q shows S
   depixelized boundary. A segment shortened at a run's end or at a convex corner is cut
   there first (de Casteljau), so the part kept is the same curve.
 * **Corners.** Consecutive insets meet on the bisector of their corner, at the mean of
-  their margins; at a convex corner (where the insets cross) at most a third of either
-  curve's leg from the corner, nearer to it if need be; at a reflex turn of more than 120°
+  their margins; at a convex corner (where the insets cross) at most half of either
+  curve's leg from the corner (the most for which the joints at the two ends of a line
+  never cross: the nearer the bisector's own point, the less of the corner's colour shows
+  under the face above), nearer to it if need be; at a reflex turn of more than 120°
   round the corner by two lines through the bisector's point at the margin. Where the two
   move into different faces with the shape's own face touching the node between them, each
   run ends at the node as above instead: a joint would cut that corner of the shape's own
@@ -187,11 +189,12 @@ def inset_runs(segments: Segments, marks: RunMarks,
     m = margin[:, None]
     ins_prev, ins_next = inset.take(prev), inset.take(nxt)
     # where each inset segment starts and ends, and how far along itself from its ends (an
-    # end of a run or of a convex corner moves at most a third of the segment's leg there)
+    # end of a run moves at most a third of the segment's leg there, a convex corner's joint
+    # at most half of it)
     degree = np.where(line, 1, np.where(cubic, 3, 2))
     first_leg, last_leg = np.hypot(*(lead - start).T), np.hypot(*(end - trail).T)
     joint, bevel, back_a, back_b = _joints(end, t1, n1, m, t0.take(nxt, axis=0), n0.take(nxt, axis=0),
-                                           m.take(nxt, axis=0), np.minimum(last_leg, first_leg.take(nxt)) / 3)
+                                           m.take(nxt, axis=0), np.minimum(last_leg, first_leg.take(nxt)) / 2)
     # a run ends where the next segment is not inset, or where it starts a run of its own (a
     # cut: the face's other edge known at both)
     run_end = inset & (~ins_next | ~np.isnan(f_out[:, 0]))
